@@ -1,0 +1,37 @@
+/* core: allocation helpers for core_groom. */
+#include "groom_types.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+core_status core_groom_alloc(core_groom *g, uint32_t nstrands, uint32_t nverts, core_err *err)
+{
+    memset(g, 0, sizeof *g);
+    if (nstrands == 0 || nverts < 2)
+        return core_fail(err, CORE_EINVAL, "groom needs at least 1 strand and 2 vertices per strand (got %u x %u)",
+                         nstrands, nverts);
+    size_t n, bytes;
+    if (!core_mul_size(nstrands, nverts, &n) || !core_mul_size(n, 3 * sizeof(float), &bytes))
+        return core_fail(err, CORE_ENOMEM, "groom of %u x %u vertices is too large", nstrands, nverts);
+    g->pos = calloc(1, bytes);
+    if (!g->pos) return core_fail(err, CORE_ENOMEM, "out of memory for %zu groom vertices", n);
+    g->nstrands = nstrands;
+    g->nverts = nverts;
+    return CORE_OK;
+}
+
+void core_groom_free(core_groom *g)
+{
+    free(g->pos);
+    memset(g, 0, sizeof *g);
+}
+
+core_status core_groom_copy(core_groom *dst, const core_groom *src, core_err *err)
+{
+    core_status st = core_groom_alloc(dst, src->nstrands, src->nverts, err);
+    if (st != CORE_OK) return st;
+    memcpy(dst->pos, src->pos, (size_t)src->nstrands * src->nverts * 3 * sizeof(float));
+    dst->ncolliders = src->ncolliders;
+    memcpy(dst->colliders, src->colliders, sizeof src->colliders);
+    return CORE_OK;
+}

@@ -1,0 +1,125 @@
+/* sim: the solver interface (parameters, backend function table) shared by all backends. */
+#ifndef SIM_SIM_H
+#define SIM_SIM_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "../core/core.h"
+#include "../core/groom_types.h"
+#include "../core/param.h"
+
+/* Physical and numerical parameters. Ranges and defaults are in sim_param_table();
+ * sim_params_default() fills the defaults. Applied by a backend at a step boundary. */
+typedef struct sim_params {
+    float dt;                 /* seconds per step (one frame) */
+    int32_t substeps;         /* solver substeps per step */
+    float gravity;            /* m/s^2 along -y (world) */
+    float wind_x, wind_y, wind_z; /* wind acceleration, m/s^2 (world) */
+    float damping;            /* s_d: DFTL velocity correction, [0,1] */
+    float global_stiffness;   /* s_g: pull toward rest pose in the root frame */
+    float local_stiffness;    /* s_l: pull toward rest shape in the parent's frame */
+    float stiffness_tip;      /* s_g and s_l at the tip as a fraction of their root value */
+    float repulsion;          /* SPH pressure coefficient k */
+    float viscosity;          /* SPH viscosity (friction between strands), 1/s */
+    float sph_radius;         /* SPH smoothing length h, m */
+    float rest_density;       /* SPH rest density as a multiple of the groom's rest-pose mean */
+    int32_t neighbor_cap;     /* SPH neighbours kept per particle (nearest first) */
+    bool shape;               /* global + local shape constraints on */
+    bool sph;                 /* hair-hair interaction on */
+    bool collisions;          /* character colliders on */
+} sim_params;
+
+/* Fills p with the defaults of sim_param_table(). Pure. */
+void sim_params_default(sim_params *p);
+
+/* The parameter table (static storage, never freed); *count receives its length. */
+const core_param_info *sim_param_table(size_t *count);
+
+/* Checks every field against the table (type, finite, range). Returns CORE_EINVAL naming the
+ * first bad field and why. Pure. */
+core_status sim_params_validate(const sim_params *p, core_err *err);
+
+/* Feature bits used by benchmarks and logs. */
+typedef enum sim_features {
+    SIM_FEAT_DFTL = 0,               /* inextensibility only */
+    SIM_FEAT_SHAPE = 1,              /* + shape constraints */
+    SIM_FEAT_SPH = 2                 /* + hair-hair interaction */
+} sim_features;
+
+typedef enum sim_backend_kind { SIM_BACKEND_AUTO = 0, SIM_BACKEND_CPU, SIM_BACKEND_VULKAN } sim_backend_kind;
+
+/* Creation options; zero means default. */
+typedef struct sim_desc {
+    sim_backend_kind backend; /* AUTO: see sim_create */
+    int threads;              /* CPU worker threads; 0 = number of online cores */
+    int device;               /* Vulkan physical device index; 0 = first suitable */
+} sim_desc;
+
+/* Counters a backend keeps; read with sim_get_stats. */
+typedef struct sim_stats {
+    uint64_t steps;           /* steps taken since create or reset */
+    double sim_time;          /* seconds simulated since create or reset */
+    uint64_t nan_resets;      /* strands restored to rest after a non-finite value */
+    double last_step_ms;      /* wall time of the last step */
+    /* optional per-stage breakdown of the last step in ms (0 when not measured) */
+    double stage_ms[8];
+    const char *stage_names[8];
+    int nstages;
+} sim_stats;
+
+typedef struct sim_vtable {
+    const char *name;
+    core_status (*create)(const sim_desc *desc, const core_groom *groom, const sim_params *params,
+                          void **out, core_err *err);
+    core_status (*set_params)(void *self, const sim_params *params, core_err *err);
+    void (*set_motion)(void *self, core_xform head);
+    core_status (*step)(void *self, core_err *err);
+    core_status (*read_positions)(void *self, float *xyz, core_err *err);
+    core_status (*write_state)(void *self, const float *xyz, const float *vel, core_err *err);
+    core_status (*read_state)(void *self, float *xyz, float *vel, core_err *err);
+    void (*reset)(void *self);
+    void (*get_stats)(void *self, sim_stats *out);
+    void (*destroy)(void *self);
+} sim_vtable;
+
+/* A solver instance: a backend table plus its state. */
+typedef struct sim {
+    const sim_vtable *vt;
+    void *self;
+    uint32_t nstrands, nverts;
+} sim;
+
+/* Creates a solver for groom (copied; the caller keeps ownership of groom) with params
+ * (validated). backend AUTO picks a hardware Vulkan device when present, else the CPU
+ * backend. On failure *s is zeroed and err says why. The sim is used from one thread at
+ * a time (the sim thread). */
+core_status sim_create(sim *s, const sim_desc *desc, const core_groom *groom, const sim_params *params,
+                       core_err *err);
+
+/* Validates and applies params from the next step on. Sim thread. */
+core_status sim_set_params(sim *s, const sim_params *params, core_err *err);
+
+/* Sets the head transform reached at the end of the next step; roots and colliders are
+ * interpolated from the previous one across its substeps. Sim thread. */
+void sim_set_motion(sim *s, core_xform head);
+
+/* Advances one step of params.dt. Sim thread. */
+core_status sim_step(sim *s, core_err *err);
+
+/* Copies positions out, strand-major xyz (3 * nstrands * nverts floats, caller-owned). */
+core_status sim_read_positions(sim *s, float *xyz, core_err *err);
+
+/* Reads or replaces the full state (positions and velocities, strand-major xyz). */
+core_status sim_read_state(sim *s, float *xyz, float *vel, core_err *err);
+core_status sim_write_state(sim *s, const float *xyz, const float *vel, core_err *err);
+
+/* Puts every strand back to its rest pose under the current head transform, zero velocity. */
+void sim_reset(sim *s);
+
+void sim_get_stats(sim *s, sim_stats *out);
+
+/* Frees everything; safe on a zeroed sim. */
+void sim_destroy(sim *s);
+
+#endif

@@ -1,0 +1,74 @@
+/* sim: the parameter table (ranges from the DFTL paper), defaults and validation. */
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sim.h"
+
+#define F(field, lo, hi, d, unit, help) \
+    { #field, CORE_PARAM_FLOAT, offsetof(sim_params, field), lo, hi, d, unit, help }
+#define I(field, lo, hi, d, unit, help) \
+    { #field, CORE_PARAM_INT, offsetof(sim_params, field), lo, hi, d, unit, help }
+#define B(field, d, help) \
+    { #field, CORE_PARAM_BOOL, offsetof(sim_params, field), 0, 1, d, "", help }
+
+static const core_param_info table[] = {
+    F(dt, 0.001, 0.05, 1.0 / 60.0, "s", "Simulated time per step (the paper uses 0.016 s)."),
+    I(substeps, 1, 16, 1, "", "Solver substeps per step; roots and colliders are interpolated across them."),
+    F(gravity, 0.0, 50.0, 9.81, "m/s^2", "Gravity along -y."),
+    F(wind_x, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, x component."),
+    F(wind_y, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, y component."),
+    F(wind_z, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, z component."),
+    F(damping, 0.0, 1.0, 0.9, "", "s_d: DFTL velocity correction; near 1 hides the serial solver's mass bias (paper: about 0.9)."),
+    F(global_stiffness, 0.0, 0.1, 0.04, "", "s_g: pull toward the rest pose in the root frame (paper: below 0.1)."),
+    F(local_stiffness, 0.0, 0.3, 0.2, "", "s_l: pull toward the rest shape in the parent vertex frame (paper: below 0.3)."),
+    F(stiffness_tip, 0.0, 1.0, 0.25, "", "Shape stiffness at the tip as a fraction of the root value (linear fade along the strand)."),
+    F(repulsion, 0.0, 0.5, 0.1, "", "SPH pressure coefficient k: repulsion between strands that gives the hair volume."),
+    F(viscosity, 0.0, 200.0, 10.0, "1/s", "SPH viscosity: friction between neighbouring strands."),
+    F(sph_radius, 0.001, 0.05, 0.008, "m", "SPH smoothing length h (also the hash-grid cell size)."),
+    F(rest_density, 0.1, 10.0, 1.0, "", "SPH rest density as a multiple of the groom's mean rest-pose density."),
+    I(neighbor_cap, 1, 64, 24, "", "SPH neighbours kept per particle, nearest first."),
+    B(shape, 1, "Global and local shape constraints."),
+    B(sph, 1, "Hair-hair interaction (SPH pressure and viscosity)."),
+    B(collisions, 1, "Collisions with the character's colliders."),
+};
+
+const core_param_info *sim_param_table(size_t *count)
+{
+    *count = sizeof table / sizeof table[0];
+    return table;
+}
+
+void sim_params_default(sim_params *p)
+{
+    for (size_t i = 0; i < sizeof table / sizeof table[0]; i++) {
+        char *field = (char *)p + table[i].offset;
+        switch (table[i].type) {
+        case CORE_PARAM_FLOAT: *(float *)field = (float)table[i].def; break;
+        case CORE_PARAM_INT: *(int32_t *)field = (int32_t)table[i].def; break;
+        case CORE_PARAM_BOOL: *(bool *)field = table[i].def != 0.0; break;
+        }
+    }
+}
+
+core_status sim_params_validate(const sim_params *p, core_err *err)
+{
+    for (size_t i = 0; i < sizeof table / sizeof table[0]; i++) {
+        const core_param_info *t = &table[i];
+        const char *field = (const char *)p + t->offset;
+        double v;
+        switch (t->type) {
+        case CORE_PARAM_FLOAT:
+            v = *(const float *)field;
+            if (!isfinite(v)) return core_fail(err, CORE_EINVAL, "parameter %s: value is not finite", t->name);
+            break;
+        case CORE_PARAM_INT: v = *(const int32_t *)field; break;
+        default: continue;
+        }
+        /* float fields are stored in single precision: allow the rounding of the bounds */
+        double slack = t->type == CORE_PARAM_FLOAT ? 1e-6 * fabs(t->max - t->min) : 0.0;
+        if (v < t->min - slack || v > t->max + slack)
+            return core_fail(err, CORE_EINVAL, "parameter %s: %g is outside [%g, %g]", t->name, v, t->min, t->max);
+    }
+    return CORE_OK;
+}

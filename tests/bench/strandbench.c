@@ -1,0 +1,15 @@
+/* strandbench: benchmark driver; the first argument picks the benchmark (solver by default). */
+#include <stdio.h>
+#include <string.h>
+
+#include "bench.h"
+
+int main(int argc, char **argv)
+{
+    if (argc > 1 && (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0)) {
+        puts("usage: strandbench [solver] [options]   solver benchmark (default; see strandbench solver --help)");
+        return 0;
+    }
+    if (argc > 1 && strcmp(argv[1], "solver") == 0) return bench_solver_main(argc - 1, argv + 1);
+    return bench_solver_main(argc, argv);
+}
