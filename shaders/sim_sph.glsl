@@ -1,0 +1,56 @@
+// shaders: buffers and helpers of the SPH stage (port of sim_cpu_sph.c): hash grid, stable
+// counting sort, capped nearest neighbours, density, pressure and viscosity.
+
+// Accelerations are h / (1/60 s)^2 per unit of the pressure term (host: F.kp).
+const uint SPH_MAX_CANDIDATES = 4096u; // candidates examined per particle before rows are skipped
+const uint SCAN_BLOCK = 512u;          // cells per scan workgroup
+
+layout(std430, set = 0, binding = 6) buffer GridBuf {
+    uint bmin[3];      // bounding box as order-preserving uint encodings of floats
+    uint bmax[3];
+    uint pad0[2];
+    vec4 origin;       // xyz: grid origin, w: cell size
+    vec4 inv;          // x: 1 / cell size
+    uvec4 dims;        // cells along x, y, z; w: total cells
+    uvec4 disp_cells;  // indirect dispatch over cells (SIM_VK_WG per workgroup)
+    uvec4 disp_blocks; // indirect dispatch over scan blocks; w: number of blocks
+} G;
+layout(std430, set = 0, binding = 7) buffer CountBuf { uint d[]; } COUNT;  // per cell; zero between passes
+layout(std430, set = 0, binding = 8) buffer StartBuf { uint d[]; } START;  // per cell + 1: first sorted slot
+layout(std430, set = 0, binding = 9) buffer BlockBuf { uint d[]; } BLOCK;  // per scan block
+layout(std430, set = 0, binding = 10) buffer CellOfBuf { uint d[]; } CELL_OF; // per particle
+layout(std430, set = 0, binding = 11) buffer OrderBuf { uint d[]; } ORDER;   // sorted slot -> particle
+layout(std430, set = 0, binding = 12) buffer SxBuf { vec4 d[]; } SX;         // sorted positions
+layout(std430, set = 0, binding = 13) buffer SvBuf { vec4 d[]; } SV;         // sorted velocities
+layout(std430, set = 0, binding = 14) buffer RhoBuf { float d[]; } RHO;      // per sorted slot
+layout(std430, set = 0, binding = 15) buffer PressBuf { float d[]; } PRESS;  // per sorted slot
+layout(std430, set = 0, binding = 16) buffer NbrBuf { uint d[]; } NBR;       // per sorted slot: cap slots
+layout(std430, set = 0, binding = 17) buffer NnbrBuf { uint d[]; } NNBR;     // per sorted slot
+
+// PC.arg0 == 1: the rest-density pass (positions from REST, zero velocities).
+vec3 sph_pos(uint i) { return PC.arg0 == 1u ? ldRest(i) : ldX(i); }
+vec3 sph_vel(uint i) { return PC.arg0 == 1u ? vec3(0.0) : ldV(i); }
+
+uint f2key(float f)
+{
+    uint u = floatBitsToUint(f);
+    return (u & 0x80000000u) != 0u ? ~u : u | 0x80000000u;
+}
+float key2f(uint k) { return uintBitsToFloat((k & 0x80000000u) != 0u ? k & 0x7fffffffu : ~k); }
+
+uint cell_coord(float p, float origin, float inv, uint dim)
+{
+    float f = (p - origin) * inv;
+    if (!(f > 0.0)) return 0u; // also NaN
+    return f >= float(dim - 1u) ? dim - 1u : uint(f);
+}
+
+uint cell_of_pos(vec3 p)
+{
+    uint cx = cell_coord(p.x, G.origin.x, G.inv.x, G.dims.x);
+    uint cy = cell_coord(p.y, G.origin.y, G.inv.x, G.dims.y);
+    uint cz = cell_coord(p.z, G.origin.z, G.inv.x, G.dims.z);
+    return (cz * G.dims.y + cy) * G.dims.x + cx;
+}
+
+uint slot_end(uint cell) { return START.d[cell]; } // START[ncells] = n
