@@ -9,7 +9,7 @@
 #define ROOT_LIFT 0.001f      /* roots sit this far outside the head ellipsoid, m */
 #define DRAPE_MARGIN 0.001f   /* vertices are kept this far outside every collider, m */
 #define LENGTH_JITTER 0.08f   /* per-strand length variation, fraction */
-#define COMB_DISTANCE 0.03f   /* arc length over which a strand turns toward its fall direction */
+#define COMB_DISTANCE 0.015f  /* arc length over which a strand turns toward its fall direction */
 #define STYLE_RAMP 0.02f      /* waves and curls fade in over this arc length from the root */
 #define WAVE_AMPLITUDE 0.008f
 #define WAVE_LENGTH (0.25f / 3.5f)
