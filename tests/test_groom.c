@@ -245,16 +245,19 @@ static void test_procedural_segment_lengths(void **state)
     }
 }
 
-/* Mean over strands of the summed turning angle between consecutive segments. */
-static double mean_turning(const core_groom *g)
+/* Mean over strands of the summed turning angle between consecutive segments; *max gets the largest. */
+static double mean_turning(const core_groom *g, double *max)
 {
     double sum = 0.0;
+    *max = 0.0;
     for (uint32_t s = 0; s < g->nstrands; s++) {
         for (uint32_t v = 1; v + 1 < g->nverts; v++) {
             core_vec3 a = core_v3_norm(core_v3_sub(vtx(g, s, v), vtx(g, s, v - 1)));
             core_vec3 b = core_v3_norm(core_v3_sub(vtx(g, s, v + 1), vtx(g, s, v)));
             float d = core_v3_dot(a, b);
-            sum += acos(d > 1.0f ? 1.0 : d < -1.0f ? -1.0 : (double)d);
+            double ang = acos(d > 1.0f ? 1.0 : d < -1.0f ? -1.0 : (double)d);
+            sum += ang;
+            if (ang > *max) *max = ang;
         }
     }
     return sum / g->nstrands;
@@ -263,18 +266,21 @@ static double mean_turning(const core_groom *g)
 static void test_procedural_styles_differ(void **state)
 {
     (void)state;
-    double turn[3];
+    double turn[3], kink[3];
     for (int style = 0; style < 3; style++) {
         core_err e;
         core_groom g;
         groom_desc desc = { .style = (groom_style)style, .nstrands = 500, .nverts = 48, .seed = 5 };
         assert_int_equal(groom_procedural(&desc, &g, &e), CORE_OK);
-        turn[style] = mean_turning(&g);
+        turn[style] = mean_turning(&g, &kink[style]);
         core_groom_free(&g);
     }
     assert_true(turn[GROOM_WAVY] > 1.3 * turn[GROOM_STRAIGHT]);
     assert_true(turn[GROOM_CURLY] > 2.0 * turn[GROOM_STRAIGHT]);
     assert_true(turn[GROOM_CURLY] > turn[GROOM_WAVY]);
+    /* straight and wavy strands bend smoothly (no kinks at the root or where they drape) */
+    assert_true(kink[GROOM_STRAIGHT] < 1.2217 /* 70 degrees */);
+    assert_true(kink[GROOM_WAVY] < 1.2217 /* 70 degrees */);
 }
 
 static void test_procedural_bad_desc(void **state)

@@ -9,8 +9,8 @@
 #define ROOT_LIFT 0.001f      /* roots sit this far outside the head ellipsoid, m */
 #define DRAPE_MARGIN 0.001f   /* vertices are kept this far outside every collider, m */
 #define LENGTH_JITTER 0.08f   /* per-strand length variation, fraction */
-#define COMB_DISTANCE 0.015f  /* arc length over which a strand turns toward its fall direction */
-#define STYLE_RAMP 0.02f      /* waves and curls fade in over this arc length from the root */
+#define COMB_RADIUS 0.015f    /* smallest bend radius while a strand turns toward its fall direction, m */
+#define STYLE_RAMP 0.04f      /* waves and curls fade in over this arc length from the root */
 #define WAVE_AMPLITUDE 0.008f
 #define WAVE_LENGTH (0.25f / 3.5f)
 #define CURL_RADIUS 0.01f
@@ -99,6 +99,17 @@ static core_vec3 drape(const strand_ctx *c, core_vec3 prev, core_vec3 p)
     return p;
 }
 
+/* Rotates unit d toward unit f by at most max_angle radians (about side when they are opposite). */
+static core_vec3 turn_toward(core_vec3 d, core_vec3 f, core_vec3 side, float max_angle)
+{
+    float cosang = core_v3_dot(d, f);
+    float angle = acosf(cosang > 1.0f ? 1.0f : cosang < -1.0f ? -1.0f : cosang);
+    if (angle <= max_angle) return f;
+    core_vec3 axis = core_v3_cross(d, f);
+    axis = core_v3_len(axis) > 1e-6f ? core_v3_norm(axis) : side;
+    return core_v3_norm(core_q_rotate(core_q_axis_angle(axis, max_angle), d));
+}
+
 static void grow_strand(const strand_ctx *c, float *pos)
 {
     uint32_t nv = c->g->nverts;
@@ -107,18 +118,24 @@ static void grow_strand(const strand_ctx *c, float *pos)
     core_vec3 dir = c->normal;
     core_vec3 n = core_v3_cross(dir, core_v3(0.0f, 1.0f, 0.0f));
     n = core_v3_len(n) > 1e-3f ? core_v3_norm(n) : core_v3(1.0f, 0.0f, 0.0f);
-    float k = c->seg / COMB_DISTANCE;
-    if (k > 1.0f) k = 1.0f;
+    float max_turn = c->seg / COMB_RADIUS;
     for (uint32_t i = 1; i < nv; i++) {
         float s = ((float)i - 0.5f) * c->seg;
         core_vec3 step = core_v3_norm(style_dir(c, dir, n, s));
-        core_vec3 p = drape(c, prev, core_v3_add(prev, core_v3_scale(step, c->seg)));
+        core_vec3 want = core_v3_add(prev, core_v3_scale(step, c->seg));
+        core_vec3 p = drape(c, prev, want);
+        core_vec3 push = core_v3_sub(p, want);
+        if (core_v3_len(push) > 1e-6f) { /* a collider deflected the strand: stop heading into it */
+            core_vec3 out = core_v3_norm(push);
+            float into = core_v3_dot(dir, out);
+            if (into < 0.0f) dir = core_v3_norm(core_v3_sub(dir, core_v3_scale(out, into)));
+        }
         pos[3 * i + 0] = p.x;
         pos[3 * i + 1] = p.y;
         pos[3 * i + 2] = p.z;
         prev = p;
         /* comb toward the fall direction, then carry the side vector along (parallel transport) */
-        dir = core_v3_norm(core_v3_add(dir, core_v3_scale(core_v3_sub(c->fall, dir), k)));
+        dir = turn_toward(dir, c->fall, n, max_turn);
         core_vec3 t = core_v3_sub(n, core_v3_scale(dir, core_v3_dot(n, dir)));
         if (core_v3_len(t) > 1e-4f) n = core_v3_norm(t);
         else n = core_v3_norm(core_v3_cross(dir, core_v3(1.0f, 0.0f, 0.0f)));
