@@ -31,6 +31,7 @@ typedef struct app_desc {
     double rate;               /* stream frames per second; 0 = 60 */
     double max_error;          /* default stream max position error, m; 0 = 1e-4 */
     int keyframe_interval;     /* frames between keyframes; 0 = 30 */
+    int client_buffer;         /* kernel send buffer per client, bytes; 0 = 256 KiB */
     bool no_net;               /* simulate and log only */
     uint64_t steps;            /* stop after this many steps; 0 = run until SIGINT/SIGTERM */
 } app_desc;

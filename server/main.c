@@ -34,6 +34,8 @@ static void usage(FILE *f)
             "  --rate HZ              frames per second streamed, 1..1000 (default %.0f; at most one per step)\n"
             "  --max-error M          default stream position error bound in metres, %g..%g (default %g)\n"
             "  --keyframe-interval N  frames between keyframes, 1..10000 (default %d)\n"
+            "  --client-buffer BYTES  kernel send buffer per client, 4096..67108864 (default 262144); a client\n"
+            "                         that reads slower than the stream skips frames once it is full\n"
             "  --no-net               simulate and log only (no sockets)\n"
             "Run\n"
             "  --steps N              exit after N simulation steps (default 0 = until SIGINT/SIGTERM)\n"
@@ -113,7 +115,7 @@ static int parse_args(int argc, char **argv, app_desc *d, bool *verts_given)
         }
         static const char *const with_value[] = { "--groom", "--strands", "--verts", "--seed", "--backend", "--device",
                                                   "--threads", "--listen", "--port", "--web", "--assets", "--rate",
-                                                  "--max-error", "--keyframe-interval", "--steps" };
+                                                  "--max-error", "--keyframe-interval", "--client-buffer", "--steps" };
         bool known = false;
         for (size_t k = 0; k < sizeof with_value / sizeof with_value[0]; k++) known = known || strcmp(flag, with_value[k]) == 0;
         if (!known) return bad(arg, NULL, "unknown option");
@@ -160,6 +162,8 @@ static int parse_args(int argc, char **argv, app_desc *d, bool *verts_given)
             if (!(rc = parse_f64(flag, value, PROTO_MIN_ERROR, PROTO_MAX_ERROR, &f))) d->max_error = f;
         } else if (strcmp(flag, "--keyframe-interval") == 0) {
             if (!(rc = parse_u64(flag, value, 1, 10000, &u))) d->keyframe_interval = (int)u;
+        } else if (strcmp(flag, "--client-buffer") == 0) {
+            if (!(rc = parse_u64(flag, value, 4096, 64u << 20, &u))) d->client_buffer = (int)u;
         } else if (strcmp(flag, "--steps") == 0) {
             if (!(rc = parse_u64(flag, value, 0, (unsigned long long)LLONG_MAX, &u))) d->steps = u;
         }

@@ -67,6 +67,7 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     if (!n->desc.max_message) n->desc.max_message = NET_DEFAULT_MAX_MESSAGE;
     if (n->desc.text_queue <= 0) n->desc.text_queue = NET_DEFAULT_TEXT_QUEUE;
     if (n->desc.ping_s <= 0) n->desc.ping_s = NET_DEFAULT_PING_S;
+    if (n->desc.sndbuf <= 0) n->desc.sndbuf = NET_DEFAULT_SNDBUF;
     const char *listen = d->listen && *d->listen ? d->listen : "127.0.0.1";
     if (strcmp(listen, "0.0.0.0") == 0 || strcmp(listen, "*") == 0) listen = NULL;
     n->listen = dup_or_null(listen);
@@ -97,7 +98,8 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     info.mounts = &n->mounts[0];
     info.user = n;
     info.retry_and_idle_policy = &n->retry;
-    info.options = LWS_SERVER_OPTION_VALIDATE_UTF8 | LWS_SERVER_OPTION_EXPLICIT_VHOSTS;
+    /* UTF-8 is checked per reassembled message in net_session.c (so the close is counted) */
+    info.options = LWS_SERVER_OPTION_EXPLICIT_VHOSTS;
     info.vhost_name = "strandcast";
     info.timeout_secs = 10;
     n->ctx = lws_create_context(&info);

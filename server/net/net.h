@@ -18,6 +18,7 @@
 #define NET_DEFAULT_MAX_MESSAGE (64 * 1024)
 #define NET_DEFAULT_TEXT_QUEUE 32
 #define NET_DEFAULT_PING_S 20
+#define NET_DEFAULT_SNDBUF (256 * 1024)
 #define NET_INBOX_MAX 8192         /* pending posts from other threads before posting fails */
 
 typedef struct net net;
@@ -55,6 +56,7 @@ typedef struct net_desc {
     size_t max_message;        /* largest client text message; default 64 KiB (bigger: close 1009) */
     int text_queue;            /* queued text messages per client; default 32 */
     int ping_s;                /* idle seconds before a ping; hang up ping_s + 10 s without a pong */
+    int sndbuf;                /* kernel send buffer per client (SO_SNDBUF), bytes; default 256 KiB */
     net_callbacks cb;
 } net_desc;
 

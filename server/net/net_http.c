@@ -7,29 +7,13 @@
 
 #define METRICS_MAX (32 * 1024)
 
-/* True when the comma-separated list names proto (tokens trimmed of blanks). */
-static bool list_has(const char *list, const char *proto)
-{
-    size_t plen = strlen(proto);
-    const char *p = list;
-    while (*p) {
-        while (*p == ' ' || *p == '\t' || *p == ',') p++;
-        const char *start = p;
-        while (*p && *p != ',') p++;
-        const char *end = p;
-        while (end > start && (end[-1] == ' ' || end[-1] == '\t')) end--;
-        if ((size_t)(end - start) == plen && memcmp(start, proto, plen) == 0) return true;
-    }
-    return false;
-}
-
 static int confirm_upgrade(net *n, struct lws *wsi, const char *upgrade)
 {
     if (!upgrade || strcmp(upgrade, "websocket") != 0) return 0;
     char list[256] = "";
     int len = lws_hdr_total_length(wsi, WSI_TOKEN_PROTOCOL);
     if (len > 0 && len < (int)sizeof list) lws_hdr_copy(wsi, list, sizeof list, WSI_TOKEN_PROTOCOL);
-    if (len > 0 && len < (int)sizeof list && list_has(list, n->subprotocol)) return 0;
+    if (len > 0 && len < (int)sizeof list && net_token_listed(list, n->subprotocol)) return 0;
     char body[384];
     char shown[64];
     snprintf(shown, sizeof shown, "%s", len <= 0 ? "(none)" : len < (int)sizeof list ? list : "(too long)");

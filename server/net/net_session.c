@@ -1,6 +1,7 @@
 /* net: WebSocket sessions: receive reassembly with a cap, text queues, newest-frame-wins sending. */
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
 
 #include "net_internal.h"
 
@@ -15,12 +16,14 @@ void net_session_close(net_session *s, int code, const char *reason)
     lws_callback_on_writable(s->wsi);
 }
 
-/* Closes from inside a receive callback: the caller returns -1 right after. */
-static int close_now(net *n, struct lws *wsi, int code, const char *reason)
+/* A protocol violation seen while receiving: the close goes out from WRITEABLE (after lws has
+ * flushed any partly written message; closing from the receive callback would drop the close
+ * frame when output is buffered), and whatever else arrives meanwhile is ignored. */
+static int close_now(net *n, net_session *s, int code, const char *reason)
 {
     atomic_fetch_add(&n->protocol_closes, 1);
-    lws_close_reason(wsi, (enum lws_close_status)code, (unsigned char *)reason, strlen(reason));
-    return -1;
+    net_session_close(s, code, reason);
+    return 0;
 }
 
 void net_session_enqueue(net *n, net_session *s, net_buf *b, unsigned flags)
@@ -63,7 +66,7 @@ static bool frame_pending(net *n, const net_session *s)
 
 void net_session_kick(net *n, net_session *s)
 {
-    if (s->closing || s->qlen > 0 || frame_pending(n, s)) lws_callback_on_writable(s->wsi);
+    if (s->closing ? s->close_code != 0 : s->qlen > 0 || frame_pending(n, s)) lws_callback_on_writable(s->wsi);
 }
 
 static void session_open(net *n, net_session *s, struct lws *wsi)
@@ -74,6 +77,8 @@ static void session_open(net *n, net_session *s, struct lws *wsi)
     s->qcap = n->desc.text_queue;
     s->q = calloc((size_t)s->qcap, sizeof *s->q);
     s->qflags = calloc((size_t)s->qcap, 1);
+    /* a fixed kernel send buffer bounds what a stalled client can hold (no autotuning) */
+    setsockopt(lws_get_socket_fd(wsi), SOL_SOCKET, SO_SNDBUF, &n->desc.sndbuf, sizeof n->desc.sndbuf);
     s->next = n->sessions;
     if (n->sessions) n->sessions->prev = s;
     n->sessions = s;
@@ -106,25 +111,28 @@ static void session_closed(net *n, net_session *s)
 
 static int session_receive(net *n, net_session *s, struct lws *wsi, const void *in, size_t len)
 {
+    if (s->closing) return 0;
     if (lws_frame_is_binary(wsi))
-        return close_now(n, wsi, LWS_CLOSE_STATUS_UNACCEPTABLE_OPCODE, "binary messages are not accepted; send JSON text");
+        return close_now(n, s, LWS_CLOSE_STATUS_UNACCEPTABLE_OPCODE, "binary messages are not accepted; send JSON text");
     if (lws_is_first_fragment(wsi)) s->rx_len = 0;
     if (len > n->desc.max_message - s->rx_len)
-        return close_now(n, wsi, LWS_CLOSE_STATUS_MESSAGE_TOO_LARGE, "message over the size limit");
+        return close_now(n, s, LWS_CLOSE_STATUS_MESSAGE_TOO_LARGE, "message over the size limit");
     if (s->rx_len + len > s->rx_cap) {
         size_t cap = s->rx_cap ? s->rx_cap : 1024;
         while (cap < s->rx_len + len) cap *= 2;
         if (cap > n->desc.max_message) cap = n->desc.max_message;
         char *rx = realloc(s->rx, cap);
-        if (!rx) return close_now(n, wsi, LWS_CLOSE_STATUS_UNEXPECTED_CONDITION, "out of memory");
+        if (!rx) return close_now(n, s, LWS_CLOSE_STATUS_UNEXPECTED_CONDITION, "out of memory");
         s->rx = rx;
         s->rx_cap = cap;
     }
     if (len) memcpy(s->rx + s->rx_len, in, len);
     s->rx_len += len;
     if (!lws_is_final_fragment(wsi) || lws_remaining_packet_payload(wsi) > 0) return 0;
+    if (!net_utf8_valid(s->rx, s->rx_len))
+        return close_now(n, s, LWS_CLOSE_STATUS_INVALID_PAYLOAD, "text message is not valid UTF-8");
     atomic_fetch_add(&n->messages_in, 1);
-    if (n->desc.cb.on_text && !s->closing) n->desc.cb.on_text(n->desc.cb.user, s->client, s->rx ? s->rx : "", s->rx_len);
+    if (n->desc.cb.on_text) n->desc.cb.on_text(n->desc.cb.user, s->client, s->rx ? s->rx : "", s->rx_len);
     s->rx_len = 0;
     return 0;
 }
@@ -173,8 +181,10 @@ static int send_frame(net *n, net_session *s, struct lws *wsi)
 static int session_writeable(net *n, net_session *s, struct lws *wsi)
 {
     if (s->closing) {
+        if (!s->close_code) return 0; /* lws is already closing it */
         const char *r = s->close_reason ? s->close_reason : "";
         lws_close_reason(wsi, (enum lws_close_status)s->close_code, (unsigned char *)r, strlen(r));
+        s->close_code = 0;
         return -1;
     }
     if (s->qlen > 0) {
