@@ -115,8 +115,10 @@ int rawws_close_code(int fd, int timeout_ms)
             }
             i += off + plen;
         }
-        memmove(buf, buf + i, len - i);
-        len -= i;
+        if (i) {
+            memmove(buf, buf + i, len - i);
+            len -= i;
+        }
         struct pollfd p = { fd, POLLIN, 0 };
         if (poll(&p, 1, 50) <= 0) continue;
         if (len + 65536 > cap) buf = realloc(buf, cap = len + 65536);
