@@ -156,6 +156,11 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
         for (uint32_t l = 0; l < c->nv; l++)
             for (int k = 0; k < 3; k++)
                 c->rest[k][(size_t)l * c->ns + s] = g->pos[3 * ((size_t)c->perm[s] * c->nv + l) + k];
+    for (size_t i = c->ns; i < n; i++) {
+        float dx = c->rest[0][i] - c->rest[0][i - c->ns], dy = c->rest[1][i] - c->rest[1][i - c->ns],
+              dz = c->rest[2][i] - c->rest[2][i - c->ns];
+        c->max_segment = fmaxf(c->max_segment, sqrtf(dx * dx + dy * dy + dz * dz));
+    }
     core_status st = sim_pool_init(&c->pool, desc ? desc->threads : 0, err);
     if (st != CORE_OK) {
         cpu_destroy(c);

@@ -8,6 +8,8 @@
 #define CHUNK 64
 /* Collision / rest-length alternations per vertex. */
 #define COLLISION_ITERATIONS 2
+/* Final alternating passes over overlapping colliders (concave crevices converge slowly). */
+#define CREVICE_PASSES 2
 
 /* Plain compares (not fmaxf/fminf, whose NaN rules block vectorization). */
 #define MAXF(a, b) ((a) > (b) ? (a) : (b))
@@ -242,46 +244,66 @@ static void level_advance(const chain_ctx *ctx, chunk_tmp *restrict t, size_t o,
         float nw = qw * rw - qx * rx - qy * ry - qz * rz;
         float iq = 1.0f / sqrtf(MAXF(nx * nx + ny * ny + nz * nz + nw * nw, 1e-30f));
         t->qx[s] = nx * iq, t->qy[s] = ny * iq, t->qz[s] = nz * iq, t->qw[s] = nw * iq;
-        t->bad[s] += (t->cx[s] - t->cx[s]) + (t->cy[s] - t->cy[s]) + (t->cz[s] - t->cz[s]);
+        /* NaN/inf in the position, the correction or the start position (which make the
+         * velocity non-finite) marks the strand */
+        t->bad[s] += (t->cx[s] - t->cx[s]) + (t->cy[s] - t->cy[s]) + (t->cz[s] - t->cz[s]) + (t->dx[s] - t->dx[s]) +
+                     (t->dy[s] - t->dy[s]) + (t->dz[s] - t->dz[s]) + (t->cox[s] - t->cox[s]) +
+                     (t->coy[s] - t->coy[s]) + (t->coz[s] - t->coz[s]);
         t->px[s] = t->cx[s], t->py[s] = t->cy[s], t->pz[s] = t->cz[s];
         t->ox[s] = t->cox[s], t->oy[s] = t->coy[s], t->oz[s] = t->coz[s];
         t->prx[s] = RX[s], t->pry[s] = RY[s], t->prz[s] = RZ[s];
     }
 }
 
-/* Bounding box of this level's positions in the chunk. */
+/* Bounding box of this level's positions and their parents in the chunk. */
 static void level_bounds(const chunk_tmp *t, size_t cnt, float lo[3], float hi[3])
 {
     float l0 = t->cx[0], l1 = t->cy[0], l2 = t->cz[0], h0 = l0, h1 = l1, h2 = l2;
-    for (size_t s = 1; s < cnt; s++) {
-        l0 = MINF(l0, t->cx[s]), l1 = MINF(l1, t->cy[s]), l2 = MINF(l2, t->cz[s]);
-        h0 = MAXF(h0, t->cx[s]), h1 = MAXF(h1, t->cy[s]), h2 = MAXF(h2, t->cz[s]);
+    for (size_t s = 0; s < cnt; s++) {
+        l0 = MINF(l0, MINF(t->cx[s], t->px[s])), h0 = MAXF(h0, MAXF(t->cx[s], t->px[s]));
+        l1 = MINF(l1, MINF(t->cy[s], t->py[s])), h1 = MAXF(h1, MAXF(t->cy[s], t->py[s]));
+        l2 = MINF(l2, MINF(t->cz[s], t->pz[s])), h2 = MAXF(h2, MAXF(t->cz[s], t->pz[s]));
     }
     lo[0] = l0, lo[1] = l1, lo[2] = l2, hi[0] = h0, hi[1] = h1, hi[2] = h2;
 }
 
 /* Alternates pushes out of the colliders with the rest-length projection so a vertex sliding
- * on a surface keeps close to its rest length; ends outside every collider. Colliders whose
- * box misses the chunk's box are skipped (a push only moves points out of a collider, so a
- * collider the box misses stays missed). */
+ * on a surface keeps close to its rest length; ends outside every collider.
+ * Culling: a vertex only ever moves within its parent's rest-length sphere or onto the
+ * surface of a collider it hit, so a collider whose box misses the chunk's box (grown by the
+ * segment length and by the boxes of the colliders already hit) cannot be reached. The chunks
+ * are the same for any thread count, so culling never changes results. */
 static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s0, size_t cnt)
 {
     float lo[3], hi[3];
     level_bounds(t, cnt, lo, hi);
+    const float grow = ctx->c->max_segment;
+    for (int d = 0; d < 3; d++) lo[d] -= grow, hi[d] += grow;
+    const bool finite = lo[0] == lo[0] && lo[1] == lo[1] && lo[2] == lo[2] && hi[0] == hi[0] && hi[1] == hi[1] &&
+                        hi[2] == hi[2];
     const sim_cpu_wcollider *hit[CORE_MAX_COLLIDERS];
+    bool taken[CORE_MAX_COLLIDERS] = { false };
     uint32_t nhit = 0;
-    for (uint32_t k = 0; k < ctx->nwc; k++) {
-        const sim_cpu_wcollider *w = &ctx->wc[k];
-        bool overlap = true;
-        for (int d = 0; d < 3; d++) overlap = overlap && lo[d] <= w->hi[d] && hi[d] >= w->lo[d];
-        if (overlap || !(lo[0] == lo[0] && hi[0] == hi[0])) hit[nhit++] = w;
+    for (bool grew = true; grew;) {
+        grew = false;
+        for (uint32_t k = 0; k < ctx->nwc; k++) {
+            const sim_cpu_wcollider *w = &ctx->wc[k];
+            bool overlap = true;
+            for (int d = 0; d < 3; d++) overlap = overlap && lo[d] <= w->hi[d] && hi[d] >= w->lo[d];
+            if (taken[k] || !(overlap || !finite)) continue;
+            taken[k] = true;
+            hit[nhit++] = w;
+            for (int d = 0; d < 3; d++) lo[d] = MINF(lo[d], w->lo[d]), hi[d] = MAXF(hi[d], w->hi[d]);
+            grew = true;
+        }
     }
     if (nhit == 0) return;
     for (int it = 0; it < COLLISION_ITERATIONS; it++) {
         for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
         level_refollow(ctx, t, o, s0, cnt);
     }
-    for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
+    for (int pass = 0; pass < CREVICE_PASSES; pass++) /* settle points in a crevice between colliders */
+        for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
 }
 
 static void chain_chunk(const chain_ctx *ctx, chunk_tmp *restrict t, size_t s0, size_t cnt, uint64_t *nan_count)
@@ -335,7 +357,9 @@ static void chain_job(void *vctx, int tid, int nt)
     const chain_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     size_t b, e;
-    sim_pool_range(c->ns, tid, nt, 16, &b, &e);
+    /* whole chunks per worker: the chunks (and their collider culling) are the same for any
+     * thread count, so results are bitwise identical */
+    sim_pool_range(c->ns, tid, nt, CHUNK, &b, &e);
     chunk_tmp t;
     for (size_t s = b; s < e; s += CHUNK) {
         size_t cnt = e - s < CHUNK ? e - s : CHUNK;

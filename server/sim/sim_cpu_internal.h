@@ -49,6 +49,7 @@ typedef struct sim_cpu {
     /* level-major SoA: index = level * ns + strand */
     float *x[3], *v[3], *a[3], *rest[3];
     float *sg, *sl;          /* per-level shape stiffness */
+    float max_segment;       /* longest rest segment */
     uint32_t *perm;          /* internal strand -> groom strand (roots in Morton order, so
                                 neighbouring strands are near each other) */
     uint32_t ncolliders;

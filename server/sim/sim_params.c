@@ -14,7 +14,7 @@
 
 static const core_param_info table[] = {
     F(dt, 0.001, 0.05, 1.0 / 60.0, "s", "Simulated time per step (the paper uses 0.016 s)."),
-    I(substeps, 1, 16, 1, "", "Solver substeps per step; roots and colliders are interpolated across them."),
+    I(substeps, 1, 16, 4, "", "Solver substeps per step; roots and colliders are interpolated across them. More substeps make the shape constraints stiffer against gravity."),
     F(gravity, 0.0, 50.0, 9.81, "m/s^2", "Gravity along -y."),
     F(wind_x, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, x component."),
     F(wind_y, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, y component."),
