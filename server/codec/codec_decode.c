@@ -1,0 +1,212 @@
+/* codec: the decoder (validate, parse tables, rANS-decode, predict, dequantise). */
+#include <stdlib.h>
+#include <string.h>
+
+#include "codec_rans.h"
+
+#define BAD UINT32_MAX
+
+/* Entropy decoding state of one frame. */
+typedef struct reader {
+    const codec_rans_tables *tabs;
+    const uint8_t *slots;
+    const uint8_t *data;   /* rANS bytes [pos, end) */
+    size_t pos, end;
+    uint32_t x[2];
+    uint32_t which;        /* state used by the next symbol */
+    const uint8_t *bdata;  /* raw bits [bpos, bend) */
+    size_t bpos, bend;
+    uint64_t acc;
+    uint32_t nacc;
+} reader;
+
+/* Next symbol of table t, or BAD (empty table, stream overrun). */
+static inline uint32_t get_sym(reader *r, uint32_t t)
+{
+    uint32_t x = r->x[r->which];
+    uint32_t slot = x & (CODEC_SCALE - 1u);
+    uint32_t s = r->slots[(size_t)t * CODEC_SCALE + slot];
+    if (s == 0xffu) return BAD;
+    x = r->tabs->freq[t][s] * (x >> CODEC_SCALE_BITS) + slot - r->tabs->start[t][s];
+    while (x < CODEC_RANS_L) {
+        if (r->pos >= r->end) return BAD;
+        x = (x << 8) | r->data[r->pos++];
+    }
+    r->x[r->which] = x;
+    r->which ^= 1u;
+    return s;
+}
+
+static inline uint32_t get_bits(reader *r, uint32_t nb)
+{
+    while (r->nacc < nb) {
+        uint64_t b = r->bpos < r->bend ? r->bdata[r->bpos] : 0u;
+        r->bpos++;
+        r->acc |= b << r->nacc;
+        r->nacc += 8;
+    }
+    uint32_t v = (uint32_t)(r->acc & ((1ull << nb) - 1u));
+    r->acc >>= nb;
+    r->nacc -= nb;
+    return v;
+}
+
+/* Next residual coded with table t; *tok receives its token. Returns false on a bad symbol. */
+static inline bool get_residual(reader *r, uint32_t t, int32_t *res, uint32_t *tok)
+{
+    uint32_t k = get_sym(r, t);
+    if (k == BAD) return false;
+    uint32_t z = k;
+    if (k >= CODEC_DIRECT) {
+        uint32_t e = (k - CODEC_DIRECT) / 2u + 4u;
+        z = ((2u | ((k - CODEC_DIRECT) & 1u)) << (e - 1u)) | get_bits(r, e - 1u);
+    }
+    *res = codec_unzigzag(z);
+    *tok = k;
+    return true;
+}
+
+static inline bool in_range(int32_t q)
+{
+    return q > -CODEC_MAX_QUANT && q < CODEC_MAX_QUANT;
+}
+
+void codec_decoder_init(codec_decoder *dec)
+{
+    if (dec) memset(dec, 0, sizeof *dec);
+}
+
+void codec_decoder_free(codec_decoder *dec)
+{
+    if (!dec) return;
+    free(dec->key_q);
+    free(dec->cur_q);
+    free(dec->slots);
+    memset(dec, 0, sizeof *dec);
+}
+
+static core_status reserve(codec_decoder *dec, size_t nq, core_err *err)
+{
+    if (!dec->slots) {
+        dec->slots = malloc((size_t)CODEC_NTABLES * CODEC_SCALE);
+        if (!dec->slots) return core_fail(err, CORE_ENOMEM, "codec: out of memory for decoder tables");
+    }
+    if (dec->cap >= nq) return CORE_OK;
+    int32_t *k = realloc(dec->key_q, nq * sizeof *k);
+    if (!k) return core_fail(err, CORE_ENOMEM, "codec: out of memory for %zu coordinates", nq);
+    dec->key_q = k;
+    int32_t *c = realloc(dec->cur_q, nq * sizeof *c);
+    if (!c) return core_fail(err, CORE_ENOMEM, "codec: out of memory for %zu coordinates", nq);
+    dec->cur_q = c;
+    dec->cap = nq;
+    return CORE_OK;
+}
+
+/* Decodes every strand of the frame into dec->cur_q. */
+static core_status decode_strands(codec_decoder *dec, const codec_frame_info *h, reader *r, core_err *err)
+{
+    const bool key = h->keyframe;
+    const uint32_t nv = h->nverts, nmodes = key ? CODEC_KEY_MODES : CODEC_DELTA_MODES;
+    const size_t per = (size_t)nv * 3u;
+    int32_t res;
+    uint32_t tok;
+    for (uint32_t j = 0; j < h->nstrands_sent; j++) {
+        int32_t *P = dec->cur_q + (size_t)j * per;
+        const int32_t *K = key ? NULL : dec->key_q + (size_t)j * per;
+        const int32_t *N = j ? P - per : NULL;
+        const int32_t *KN = (j && !key) ? K - per : NULL;
+        uint32_t mode = get_sym(r, CODEC_T_MODE);
+        if (mode == BAD || mode >= nmodes) goto bad_stream;
+        for (uint32_t a = 0; a < 3; a++) {
+            if (!get_residual(r, CODEC_T_ROOT + a, &res, &tok)) goto bad_stream;
+            P[a] = codec_predict_root(key, K, N, KN, a) + res;
+            if (!in_range(P[a])) goto bad_value;
+        }
+        uint32_t prev[3];
+        for (uint32_t a = 0; a < 3; a++) {
+            if (!get_residual(r, CODEC_T_FIRST + a, &res, &prev[a])) goto bad_stream;
+            P[3u + a] = codec_predict(key, mode, P, K, N, KN, 1, a) + res;
+            if (!in_range(P[3u + a])) goto bad_value;
+        }
+        for (uint32_t v = 2; v < nv; v++) {
+            for (uint32_t a = 0; a < 3; a++) {
+                uint32_t t = CODEC_T_BODY + a * CODEC_NBUCKET + codec_bucket(prev[a]);
+                if (!get_residual(r, t, &res, &prev[a])) goto bad_stream;
+                int32_t q = codec_predict(key, mode, P, K, N, KN, v, a) + res;
+                if (!in_range(q)) goto bad_value;
+                P[3u * v + a] = q;
+            }
+        }
+    }
+    return CORE_OK;
+bad_stream:
+    return core_fail(err, CORE_EFORMAT, "codec: corrupt entropy-coded data (invalid symbol or stream overrun)");
+bad_value:
+    return core_fail(err, CORE_EFORMAT, "codec: corrupt frame (decoded coordinate out of range)");
+}
+
+core_status codec_decode(codec_decoder *dec, const uint8_t *data, size_t len, float *xyz_out,
+                         size_t out_floats, codec_frame_info *info, core_err *err)
+{
+    if (!dec || !xyz_out) return core_fail(err, CORE_EINVAL, "codec: NULL decoder or output");
+    codec_frame_info h;
+    core_status st = codec_peek_header(data, len, &h, err);
+    if (st) return st;
+    uint32_t crc = codec_get_u32(data + CODEC_OFF_CRC);
+    if (codec_frame_crc(data, h.payload_len) != crc)
+        return core_fail(err, CORE_EFORMAT, "codec: CRC mismatch (frame %llu corrupted)", (unsigned long long)h.seq);
+    size_t nq = (size_t)h.nstrands_sent * h.nverts * 3u;
+    if (out_floats < nq)
+        return core_fail(err, CORE_EINVAL, "codec: output holds %zu floats, frame needs %zu", out_floats, nq);
+    if (!h.keyframe) {
+        if (!dec->key_valid || dec->key.seq != h.ref_seq)
+            return core_fail(err, CORE_ESTATE, "codec: frame %llu needs keyframe %llu, which is not held",
+                             (unsigned long long)h.seq, (unsigned long long)h.ref_seq);
+        const codec_frame_info *k = &dec->key;
+        if (k->nstrands_total != h.nstrands_total || k->nverts != h.nverts || k->stride != h.stride ||
+            k->step != h.step)
+            return core_fail(err, CORE_EFORMAT, "codec: frame %llu does not match its keyframe's layout or step",
+                             (unsigned long long)h.seq);
+    }
+    st = reserve(dec, nq, err);
+    if (st) return st;
+
+    static const codec_rans_tables zero_tabs;
+    codec_rans_tables tabs = zero_tabs;
+    const uint8_t *pl = data + CODEC_HEADER_SIZE;
+    size_t pos = 0;
+    st = codec_rans_read_tables(pl, h.payload_len, &pos, &tabs, dec->slots, err);
+    if (st) return st;
+    if (h.payload_len - pos < 4) return core_fail(err, CORE_EFORMAT, "codec: truncated payload (no stream length)");
+    uint32_t rans_len = codec_get_u32(pl + pos);
+    pos += 4;
+    if (rans_len < 8 || rans_len > h.payload_len - pos)
+        return core_fail(err, CORE_EFORMAT, "codec: entropy stream length %u invalid for %zu payload bytes left",
+                         rans_len, h.payload_len - pos);
+    reader r = { .tabs = &tabs, .slots = dec->slots, .data = pl, .pos = pos + 8u, .end = pos + rans_len,
+                 .which = 0, .bdata = pl, .bpos = pos + rans_len, .bend = h.payload_len };
+    r.x[0] = codec_get_u32(pl + pos);
+    r.x[1] = codec_get_u32(pl + pos + 4u);
+    for (int k = 0; k < 2; k++)
+        if (r.x[k] < CODEC_RANS_L || r.x[k] >= (CODEC_RANS_L << 8))
+            return core_fail(err, CORE_EFORMAT, "codec: invalid entropy coder state");
+    st = decode_strands(dec, &h, &r, err);
+    if (st) return st;
+    if (r.x[0] != CODEC_RANS_L || r.x[1] != CODEC_RANS_L || r.pos != r.end)
+        return core_fail(err, CORE_EFORMAT, "codec: entropy stream does not end where the frame says");
+    size_t bits_avail = (r.bend - (pos + rans_len)) * 8u, bits_used = (r.bpos - (pos + rans_len)) * 8u - r.nacc;
+    if (bits_used > bits_avail || bits_avail - bits_used >= 8u)
+        return core_fail(err, CORE_EFORMAT, "codec: raw bit stream is %zu bits, frame used %zu", bits_avail,
+                         bits_used);
+
+    for (size_t i = 0; i < nq; i++) xyz_out[i] = (float)((double)dec->cur_q[i] * h.step);
+    if (h.keyframe) {
+        int32_t *t = dec->key_q;
+        dec->key_q = dec->cur_q;
+        dec->cur_q = t;
+        dec->key = h;
+        dec->key_valid = true;
+    }
+    if (info) *info = h;
+    return CORE_OK;
+}

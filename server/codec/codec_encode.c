@@ -1,0 +1,261 @@
+/* codec: the encoder (quantise, predict per strand, tokenise, rANS-code, frame). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "codec_rans.h"
+
+/* Bit writer for the raw bits that follow escape tokens (LSB first). */
+typedef struct bitw {
+    uint8_t *p;
+    uint64_t acc;
+    uint32_t n;
+} bitw;
+
+static inline void bitw_put(bitw *w, uint32_t v, uint32_t nb)
+{
+    w->acc |= (uint64_t)v << w->n;
+    w->n += nb;
+    while (w->n >= 8) {
+        *w->p++ = (uint8_t)w->acc;
+        w->acc >>= 8;
+        w->n -= 8;
+    }
+}
+
+/* Pass-1 state: symbols, their histogram, raw bits. */
+typedef struct emitter {
+    uint16_t *syms;
+    size_t nsyms;
+    uint32_t (*counts)[CODEC_NTOK];
+    bitw bits;
+} emitter;
+
+static inline uint32_t emit(emitter *e, uint32_t table, int32_t r)
+{
+    uint32_t nb, tok = codec_token(codec_zigzag(r), &nb);
+    e->syms[e->nsyms++] = (uint16_t)(table << 7 | tok);
+    e->counts[table][tok]++;
+    if (nb) bitw_put(&e->bits, codec_zigzag(r) & ((1u << nb) - 1u), nb);
+    return tok;
+}
+
+static inline void emit_symbol(emitter *e, uint32_t table, uint32_t sym)
+{
+    e->syms[e->nsyms++] = (uint16_t)(table << 7 | sym);
+    e->counts[table][sym]++;
+}
+
+static inline uint32_t cost_of(int32_t r)
+{
+    uint32_t z = codec_zigzag(r);
+    return (32u - (uint32_t)__builtin_clz(z | 1u)) + (z != 0u);
+}
+
+void codec_encoder_free(codec_encoder *enc)
+{
+    if (!enc) return;
+    free(enc->key_q);
+    free(enc->cur_q);
+    free(enc->syms);
+    free(enc->bits);
+    free(enc->rans);
+    memset(enc, 0, sizeof *enc);
+}
+
+core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint32_t nstrands,
+                               uint32_t nverts, core_err *err)
+{
+    if (!enc) return core_fail(err, CORE_EINVAL, "codec: NULL encoder");
+    memset(enc, 0, sizeof *enc);
+    codec_desc d = { 0 };
+    if (desc) d = *desc;
+    if (d.max_error_m == 0.0f) d.max_error_m = CODEC_DEFAULT_MAX_ERROR;
+    if (d.key_interval == 0) d.key_interval = CODEC_DEFAULT_KEY_INTERVAL;
+    if (d.stride == 0) d.stride = 1;
+    if (!(d.max_error_m >= 1e-6f && d.max_error_m <= 0.1f))
+        return core_fail(err, CORE_EINVAL, "codec: max_error_m %g outside [1e-6, 0.1] m", (double)d.max_error_m);
+    if (nstrands < 1) return core_fail(err, CORE_EINVAL, "codec: no strands");
+    if (nverts < 2 || nverts > CODEC_MAX_NVERTS)
+        return core_fail(err, CORE_EINVAL, "codec: %u vertices per strand outside [2, %u]", nverts,
+                         CODEC_MAX_NVERTS);
+    uint32_t sent = (uint32_t)(((uint64_t)nstrands + d.stride - 1u) / d.stride);
+    if ((uint64_t)sent * nverts > CODEC_MAX_VERTICES)
+        return core_fail(err, CORE_EINVAL, "codec: %u x %u vertices exceed the limit %u", sent, nverts,
+                         CODEC_MAX_VERTICES);
+    enc->desc = d;
+    enc->nstrands_total = nstrands;
+    enc->nstrands_sent = sent;
+    enc->nverts = nverts;
+    enc->step = codec_step_for_bound(d.max_error_m);
+    enc->inv_step = 1.0 / enc->step;
+    size_t nq = (size_t)sent * nverts * 3u;
+    enc->nsyms_max = (size_t)sent * (1u + 3u * (size_t)nverts);
+    enc->bits_cap = nq * 4u + 16u;
+    enc->rans_cap = enc->nsyms_max * 2u + 16u;
+    enc->key_q = malloc(nq * sizeof *enc->key_q);
+    enc->cur_q = malloc(nq * sizeof *enc->cur_q);
+    enc->syms = malloc(enc->nsyms_max * sizeof *enc->syms);
+    enc->bits = malloc(enc->bits_cap);
+    enc->rans = malloc(enc->rans_cap);
+    if (!enc->key_q || !enc->cur_q || !enc->syms || !enc->bits || !enc->rans) {
+        codec_encoder_free(enc);
+        return core_fail(err, CORE_ENOMEM, "codec: out of memory for %u x %u vertices", sent, nverts);
+    }
+    return CORE_OK;
+}
+
+/* Quantises the sent strands into enc->cur_q, checking the float32 reconstruction of every
+ * coordinate against the bound (and nudging by one step where rounding would break it). */
+static core_status quantize(codec_encoder *enc, const float *xyz, core_err *err)
+{
+    const double step = enc->step, inv = enc->inv_step;
+    const float bound = enc->desc.max_error_m;
+    const size_t per = (size_t)enc->nverts * 3u;
+    for (uint32_t j = 0; j < enc->nstrands_sent; j++) {
+        const float *src = xyz + (size_t)j * enc->desc.stride * per;
+        int32_t *q = enc->cur_q + (size_t)j * per;
+        for (size_t i = 0; i < per; i++) {
+            float x = src[i];
+            double t = (double)x * inv;
+            if (!(fabs(t) < (double)(CODEC_MAX_QUANT - 2)))
+                return core_fail(err, CORE_EINVAL,
+                                 "codec: strand %u vertex %zu coordinate %g is %s", j * enc->desc.stride,
+                                 i / 3u, (double)x, isfinite(x) ? "out of range for this error bound" : "not finite");
+            int32_t v = (int32_t)lrint(t);
+            if (!(fabsf((float)((double)v * step) - x) <= bound)) {
+                int32_t alt = (float)((double)v * step) < x ? v + 1 : v - 1;
+                if (!(fabsf((float)((double)alt * step) - x) <= bound))
+                    return core_fail(err, CORE_EINVAL,
+                                     "codec: coordinate %g cannot be held within %g m in float32", (double)x,
+                                     (double)bound);
+                v = alt;
+            }
+            q[i] = v;
+        }
+    }
+    return CORE_OK;
+}
+
+static uint32_t choose_mode(bool key, const int32_t *P, const int32_t *K, const int32_t *N, const int32_t *KN,
+                            uint32_t nverts)
+{
+    uint32_t nmodes = key ? CODEC_KEY_MODES : CODEC_DELTA_MODES, best = 0, best_cost = UINT32_MAX;
+    for (uint32_t m = 0; m < nmodes; m++) {
+        uint32_t c = 0;
+        for (uint32_t v = 1; v < nverts; v++)
+            for (uint32_t a = 0; a < 3; a++) c += cost_of(P[3u * v + a] - codec_predict(key, m, P, K, N, KN, v, a));
+        if (c < best_cost) {
+            best_cost = c;
+            best = m;
+        }
+    }
+    return best;
+}
+
+/* Pass 1: per strand mode, root and vertex residuals into symbols and raw bits. */
+static void tokenize(codec_encoder *enc, bool key, emitter *e)
+{
+    const uint32_t nv = enc->nverts;
+    const size_t per = (size_t)nv * 3u;
+    for (uint32_t j = 0; j < enc->nstrands_sent; j++) {
+        const int32_t *P = enc->cur_q + (size_t)j * per;
+        const int32_t *K = key ? NULL : enc->key_q + (size_t)j * per;
+        const int32_t *N = j ? P - per : NULL;
+        const int32_t *KN = (j && !key) ? K - per : NULL;
+        uint32_t mode = choose_mode(key, P, K, N, KN, nv);
+        emit_symbol(e, CODEC_T_MODE, mode);
+        for (uint32_t a = 0; a < 3; a++) emit(e, CODEC_T_ROOT + a, P[a] - codec_predict_root(key, K, N, KN, a));
+        uint32_t prev[3];
+        for (uint32_t a = 0; a < 3; a++)
+            prev[a] = emit(e, CODEC_T_FIRST + a, P[3u + a] - codec_predict(key, mode, P, K, N, KN, 1, a));
+        for (uint32_t v = 2; v < nv; v++)
+            for (uint32_t a = 0; a < 3; a++)
+                prev[a] = emit(e, CODEC_T_BODY + a * CODEC_NBUCKET + codec_bucket(prev[a]),
+                               P[3u * v + a] - codec_predict(key, mode, P, K, N, KN, v, a));
+    }
+}
+
+core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, double sim_time,
+                         bool force_key, codec_buf *out, core_err *err)
+{
+    if (!enc || !enc->cur_q || !xyz || !out)
+        return core_fail(err, CORE_EINVAL, "codec: NULL or uninitialised encoder/positions/buffer");
+    if (!isfinite(sim_time)) return core_fail(err, CORE_EINVAL, "codec: sim time is not finite");
+    if (enc->key_valid && seq <= enc->last_seq)
+        return core_fail(err, CORE_EINVAL, "codec: sequence %llu does not follow %llu", (unsigned long long)seq,
+                         (unsigned long long)enc->last_seq);
+    bool key = force_key || !enc->key_valid || enc->since_key + 1u >= enc->desc.key_interval;
+    core_status st = quantize(enc, xyz, err);
+    if (st) return st;
+
+    static const uint32_t zero_counts[CODEC_NTABLES][CODEC_NTOK];
+    uint32_t counts[CODEC_NTABLES][CODEC_NTOK];
+    memcpy(counts, zero_counts, sizeof counts);
+    emitter e = { .syms = enc->syms, .nsyms = 0, .counts = counts, .bits = { .p = enc->bits, .acc = 0, .n = 0 } };
+    tokenize(enc, key, &e);
+    if (e.bits.n) bitw_put(&e.bits, 0, 8u - e.bits.n);
+    size_t nbits_bytes = (size_t)(e.bits.p - enc->bits);
+
+    uint16_t freq[CODEC_NTABLES][CODEC_NTOK];
+    uint32_t nsym[CODEC_NTABLES];
+    codec_rans_sym rs[CODEC_NTABLES][CODEC_NTOK];
+    for (uint32_t t = 0; t < CODEC_NTABLES; t++) {
+        nsym[t] = codec_rans_normalize(counts[t], CODEC_NTOK, freq[t]);
+        uint32_t start = 0;
+        for (uint32_t s = 0; s < nsym[t]; s++) {
+            if (freq[t][s]) codec_rans_sym_init(&rs[t][s], start, freq[t][s]);
+            start += freq[t][s];
+        }
+    }
+
+    /* rANS, last symbol first; symbol i uses state i & 1. */
+    uint8_t *end = enc->rans + enc->rans_cap, *p = end;
+    uint32_t x[2] = { CODEC_RANS_L, CODEC_RANS_L };
+    for (size_t i = e.nsyms; i-- > 0;) {
+        uint16_t s = e.syms[i];
+        codec_rans_put(&x[i & 1u], &p, &rs[s >> 7][s & 0x7fu]);
+    }
+    for (int k = 1; k >= 0; k--) {
+        p -= 4;
+        codec_put_u32(p, x[k]);
+    }
+    size_t rans_len = (size_t)(end - p);
+
+    size_t max_len = CODEC_HEADER_SIZE + (size_t)CODEC_NTABLES * 3u * (CODEC_NTOK + 1u) + 4u + rans_len + nbits_bytes;
+    st = codec_buf_reserve(out, max_len, err);
+    if (st) return st;
+    uint8_t *w = out->data + CODEC_HEADER_SIZE;
+    for (uint32_t t = 0; t < CODEC_NTABLES; t++) w = codec_rans_write_table(w, freq[t], nsym[t]);
+    codec_put_u32(w, (uint32_t)rans_len);
+    w += 4;
+    memcpy(w, p, rans_len);
+    w += rans_len;
+    memcpy(w, enc->bits, nbits_bytes);
+    w += nbits_bytes;
+    size_t payload = (size_t)(w - out->data) - CODEC_HEADER_SIZE;
+    if (payload > UINT32_MAX) return core_fail(err, CORE_EINVAL, "codec: frame payload over 4 GiB");
+
+    codec_frame_info h = {
+        .seq = seq, .ref_seq = key ? seq : enc->key_seq, .sim_time = sim_time, .step = enc->step,
+        .max_error_m = enc->desc.max_error_m, .keyframe = key, .nstrands_total = enc->nstrands_total,
+        .nstrands_sent = enc->nstrands_sent, .nverts = enc->nverts, .stride = enc->desc.stride,
+        .payload_len = (uint32_t)payload,
+    };
+    codec_header_write(out->data, &h);
+    codec_put_u32(out->data + CODEC_OFF_CRC, codec_frame_crc(out->data, payload));
+    out->len = CODEC_HEADER_SIZE + payload;
+
+    enc->last_seq = seq;
+    if (key) {
+        int32_t *t = enc->key_q;
+        enc->key_q = enc->cur_q;
+        enc->cur_q = t;
+        enc->key_seq = seq;
+        enc->key_valid = true;
+        enc->since_key = 0;
+    } else {
+        enc->since_key++;
+    }
+    return CORE_OK;
+}

@@ -1,0 +1,149 @@
+/* codec: format constants, residual tokens, context tables and predictors shared by the
+ * encoder and the decoder (proto/CODEC.md is the normative description). */
+#ifndef CODEC_CODEC_INTERNAL_H
+#define CODEC_CODEC_INTERNAL_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "codec.h"
+
+/* rANS: 12-bit probabilities, byte-wise renormalisation, state in [2^23, 2^31), two states. */
+#define CODEC_SCALE_BITS 12u
+#define CODEC_SCALE (1u << CODEC_SCALE_BITS)
+#define CODEC_RANS_L (1u << 23)
+
+/* Residual tokens: zigzag values 0..15 directly; above, token 16 + 2 (e - 4) + b where
+ * e = floor(log2 z) and b the bit below the leading one, followed by e - 1 raw bits. */
+#define CODEC_DIRECT 16u
+#define CODEC_NTOK 70u           /* tokens 0..69 cover zigzag values below 2^31 */
+
+/* Prediction modes, chosen per strand. */
+#define CODEC_KEY_MODES 3u       /* keyframes: linear, neighbour segment, quadratic */
+#define CODEC_DELTA_MODES 4u     /* deltas: key segment, displacement, linear, neighbour displacement */
+
+/* Context tables: strand mode, root per axis, first segment per axis, body per axis x bucket. */
+#define CODEC_NBUCKET 6u
+#define CODEC_T_MODE 0u
+#define CODEC_T_ROOT 1u
+#define CODEC_T_FIRST 4u
+#define CODEC_T_BODY 7u
+#define CODEC_NTABLES (CODEC_T_BODY + 3u * CODEC_NBUCKET)
+
+/* Bucket of the previous vertex's token on the same axis (the context of the next one). */
+static inline uint32_t codec_bucket(uint32_t tok)
+{
+    static const uint8_t b[CODEC_DIRECT] = { 0, 1, 1, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 4, 4, 4 };
+    return tok < CODEC_DIRECT ? b[tok] : CODEC_NBUCKET - 1u;
+}
+
+static inline uint32_t codec_zigzag(int32_t r)
+{
+    return ((uint32_t)r << 1) ^ (uint32_t)(r >> 31);
+}
+
+static inline int32_t codec_unzigzag(uint32_t z)
+{
+    return (int32_t)(z >> 1) ^ -(int32_t)(z & 1u);
+}
+
+/* Token of zigzag value z and the count of raw bits that follow it. */
+static inline uint32_t codec_token(uint32_t z, uint32_t *nbits)
+{
+    if (z < CODEC_DIRECT) {
+        *nbits = 0;
+        return z;
+    }
+    uint32_t e = 31u - (uint32_t)__builtin_clz(z);
+    *nbits = e - 1u;
+    return CODEC_DIRECT + 2u * (e - 4u) + ((z >> (e - 1u)) & 1u);
+}
+
+/* Predicted lattice coordinate of vertex v (>= 1), axis a, of the current strand.
+ * P: this strand so far (this frame); K: the same strand in the keyframe (deltas only);
+ * N / KN: the previous strand sent, this frame / keyframe (NULL for the first strand).
+ * All inputs are below CODEC_MAX_QUANT in magnitude, so no sum overflows. */
+static inline int32_t codec_predict(bool key, uint32_t mode, const int32_t *P, const int32_t *K,
+                                    const int32_t *N, const int32_t *KN, uint32_t v, uint32_t a)
+{
+    uint32_t i = 3u * v + a, p = i - 3u, pp = i - 6u;
+    if (key) {
+        if (mode == 1u && N) return P[p] + N[i] - N[p];
+        if (v == 1u) return N ? P[p] + N[i] - N[p] : P[p];
+        if (mode == 2u && v >= 3u) return 3 * P[p] - 3 * P[pp] + P[i - 9u];
+        return 2 * P[p] - P[pp];
+    }
+    switch (mode) {
+    case 1u:
+        if (v == 1u) break;
+        return P[p] + K[i] - K[p] + (P[p] - K[p]) - (P[pp] - K[pp]);
+    case 2u:
+        if (v == 1u) break;
+        return 2 * P[p] - P[pp];
+    case 3u:
+        if (!N) break;
+        return P[p] + K[i] - K[p] + (N[i] - KN[i]) - (N[p] - KN[p]);
+    default:
+        break;
+    }
+    return P[p] + K[i] - K[p];
+}
+
+/* Predicted root coordinate (axis a) of the current strand. */
+static inline int32_t codec_predict_root(bool key, const int32_t *K, const int32_t *N,
+                                         const int32_t *KN, uint32_t a)
+{
+    if (key) return N ? N[a] : 0;
+    return K[a] + (N ? N[a] - KN[a] : 0);
+}
+
+/* Header layout helpers (little-endian). */
+static inline void codec_put_u16(uint8_t *p, uint32_t v) { p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); }
+static inline void codec_put_u32(uint8_t *p, uint32_t v)
+{
+    for (int k = 0; k < 4; k++) p[k] = (uint8_t)(v >> (8 * k));
+}
+static inline void codec_put_u64(uint8_t *p, uint64_t v)
+{
+    for (int k = 0; k < 8; k++) p[k] = (uint8_t)(v >> (8 * k));
+}
+static inline uint32_t codec_get_u16(const uint8_t *p) { return (uint32_t)p[0] | (uint32_t)p[1] << 8; }
+static inline uint32_t codec_get_u32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+static inline uint64_t codec_get_u64(const uint8_t *p)
+{
+    return (uint64_t)codec_get_u32(p) | (uint64_t)codec_get_u32(p + 4) << 32;
+}
+
+/* Header field offsets. */
+#define CODEC_OFF_VERSION 4u
+#define CODEC_OFF_CODEC 6u
+#define CODEC_OFF_FLAGS 7u
+#define CODEC_OFF_SEQ 8u
+#define CODEC_OFF_REF 16u
+#define CODEC_OFF_TIME 24u
+#define CODEC_OFF_STEP 32u
+#define CODEC_OFF_BOUND 40u
+#define CODEC_OFF_TOTAL 44u
+#define CODEC_OFF_SENT 48u
+#define CODEC_OFF_NVERTS 52u
+#define CODEC_OFF_STRIDE 56u
+#define CODEC_OFF_PAYLOAD 60u
+#define CODEC_OFF_CRC 64u
+
+/* Quantization step for a bound: 2 * bound * (1 - 2^-5), leaving room for float32 rounding. */
+double codec_step_for_bound(float max_error_m);
+
+/* Writes the fixed header into p[0..CODEC_HEADER_SIZE) (CRC field zero). */
+void codec_header_write(uint8_t *p, const codec_frame_info *info);
+
+/* Grows buf to hold at least cap bytes. */
+core_status codec_buf_reserve(codec_buf *buf, size_t cap, core_err *err);
+
+/* CRC-32 (zlib) of a frame: header bytes 0..63, then the payload. */
+uint32_t codec_frame_crc(const uint8_t *frame, size_t payload_len);
+
+#endif
