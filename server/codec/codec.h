@@ -60,7 +60,9 @@ typedef struct codec_encoder {
     int32_t *key_q;      /* keyframe lattice coordinates, sent strands, strand-major xyz */
     int32_t *cur_q;      /* this frame's lattice coordinates */
     uint64_t last_seq;   /* sequence numbers must increase */
-    uint16_t *syms;      /* entropy-coder symbols of this frame, (table << 7) | token */
+    uint16_t *syms;      /* entropy-coder symbols of this frame, (table << 9) | symbol */
+    int32_t *res;        /* residuals of one strand under two prediction modes */
+    struct codec_rans_sym *rsyms; /* per-frame encoding tables */
     uint8_t *bits;       /* raw bit stream of this frame */
     uint8_t *rans;       /* rANS output, written backwards from the end */
     size_t nsyms_max, bits_cap, rans_cap;
@@ -72,7 +74,7 @@ typedef struct codec_decoder {
     codec_frame_info key;  /* header of the held keyframe */
     int32_t *key_q, *cur_q;
     size_t cap;            /* int32 capacity of key_q and cur_q */
-    uint8_t *slots;        /* rANS slot -> symbol lookup, one 4096-entry table per context */
+    uint16_t *slots;       /* rANS slot -> symbol lookup, one 4096-entry table per context */
 } codec_decoder;
 
 /* Releases buf's memory and zeroes it. Safe on a zeroed buf. */

@@ -9,7 +9,7 @@
 /* Entropy decoding state of one frame. */
 typedef struct reader {
     const codec_rans_tables *tabs;
-    const uint8_t *slots;
+    const uint16_t *slots;
     const uint8_t *data;   /* rANS bytes [pos, end) */
     size_t pos, end;
     uint32_t x[2];
@@ -26,7 +26,7 @@ static inline uint32_t get_sym(reader *r, uint32_t t)
     uint32_t x = r->x[r->which];
     uint32_t slot = x & (CODEC_SCALE - 1u);
     uint32_t s = r->slots[(size_t)t * CODEC_SCALE + slot];
-    if (s == 0xffu) return BAD;
+    if (s == 0xffffu) return BAD;
     x = r->tabs->freq[t][s] * (x >> CODEC_SCALE_BITS) + slot - r->tabs->start[t][s];
     while (x < CODEC_RANS_L) {
         if (r->pos >= r->end) return BAD;
@@ -51,19 +51,46 @@ static inline uint32_t get_bits(reader *r, uint32_t nb)
     return v;
 }
 
-/* Next residual coded with table t; *tok receives its token. Returns false on a bad symbol. */
-static inline bool get_residual(reader *r, uint32_t t, int32_t *res, uint32_t *tok)
+/* One axis's residual of class c (1..5: sign and c-1 bits in b; escape: read here). */
+static inline int32_t axis_residual(reader *r, uint32_t c, uint32_t b, bool *bad)
 {
-    uint32_t k = get_sym(r, t);
-    if (k == BAD) return false;
-    uint32_t z = k;
-    if (k >= CODEC_DIRECT) {
-        uint32_t e = (k - CODEC_DIRECT) / 2u + 4u;
-        z = ((2u | ((k - CODEC_DIRECT) & 1u)) << (e - 1u)) | get_bits(r, e - 1u);
+    uint32_t m;
+    if (c < CODEC_ESCAPE) {
+        m = (1u << (c - 1u)) | (b >> 1);
+    } else {
+        b = get_bits(r, 6);
+        uint32_t ex = (b >> 1) + 5u;
+        if (ex > 29u) {
+            *bad = true;
+            return 0;
+        }
+        m = (1u << ex) | get_bits(r, ex);
     }
-    *res = codec_unzigzag(z);
-    *tok = k;
-    return true;
+    return (b & 1u) ? -(int32_t)m : (int32_t)m;
+}
+
+/* Decodes one vertex's residuals coded with table t into res; *next receives the table of the
+ * next vertex. Returns false on a bad symbol or escape. */
+static inline bool get_vertex(reader *r, uint32_t t, int32_t *res, uint32_t *next)
+{
+    uint32_t s = get_sym(r, t);
+    if (s == BAD) return false;
+    uint32_t c0 = s % CODEC_NCLASS, c1 = (s / CODEC_NCLASS) % CODEC_NCLASS, c2 = s / (CODEC_NCLASS * CODEC_NCLASS);
+    *next = codec_body_table(c0, c1, c2);
+    bool bad = false;
+    if (c0 < CODEC_ESCAPE && c1 < CODEC_ESCAPE && c2 < CODEC_ESCAPE) {
+        uint32_t b = get_bits(r, c0 + c1 + c2);
+        res[0] = c0 ? axis_residual(r, c0, b & ((1u << c0) - 1u), &bad) : 0;
+        b >>= c0;
+        res[1] = c1 ? axis_residual(r, c1, b & ((1u << c1) - 1u), &bad) : 0;
+        b >>= c1;
+        res[2] = c2 ? axis_residual(r, c2, b, &bad) : 0;
+        return true;
+    }
+    const uint32_t c[3] = { c0, c1, c2 };
+    for (uint32_t a = 0; a < 3; a++)
+        res[a] = c[a] == 0 ? 0 : axis_residual(r, c[a], c[a] < CODEC_ESCAPE ? get_bits(r, c[a]) : 0, &bad);
+    return !bad;
 }
 
 static inline bool in_range(int32_t q)
@@ -88,7 +115,7 @@ void codec_decoder_free(codec_decoder *dec)
 static core_status reserve(codec_decoder *dec, size_t nq, core_err *err)
 {
     if (!dec->slots) {
-        dec->slots = malloc((size_t)CODEC_NTABLES * CODEC_SCALE);
+        dec->slots = malloc((size_t)CODEC_NTABLES * CODEC_SCALE * sizeof *dec->slots);
         if (!dec->slots) return core_fail(err, CORE_ENOMEM, "codec: out of memory for decoder tables");
     }
     if (dec->cap >= nq) return CORE_OK;
@@ -108,31 +135,24 @@ static core_status decode_strands(codec_decoder *dec, const codec_frame_info *h,
     const bool key = h->keyframe;
     const uint32_t nv = h->nverts, nmodes = key ? CODEC_KEY_MODES : CODEC_DELTA_MODES;
     const size_t per = (size_t)nv * 3u;
-    int32_t res;
-    uint32_t tok;
+    int32_t res[3];
     for (uint32_t j = 0; j < h->nstrands_sent; j++) {
         int32_t *P = dec->cur_q + (size_t)j * per;
         const int32_t *K = key ? NULL : dec->key_q + (size_t)j * per;
         const int32_t *N = j ? P - per : NULL;
         const int32_t *KN = (j && !key) ? K - per : NULL;
-        uint32_t mode = get_sym(r, CODEC_T_MODE);
+        uint32_t mode = get_sym(r, CODEC_T_MODE), table;
         if (mode == BAD || mode >= nmodes) goto bad_stream;
+        if (!get_vertex(r, CODEC_T_ROOT, res, &table)) goto bad_stream;
         for (uint32_t a = 0; a < 3; a++) {
-            if (!get_residual(r, CODEC_T_ROOT + a, &res, &tok)) goto bad_stream;
-            P[a] = codec_predict_root(key, K, N, KN, a) + res;
+            P[a] = codec_predict_root(key, K, N, KN, a) + res[a];
             if (!in_range(P[a])) goto bad_value;
         }
-        uint32_t prev[3];
-        for (uint32_t a = 0; a < 3; a++) {
-            if (!get_residual(r, CODEC_T_FIRST + a, &res, &prev[a])) goto bad_stream;
-            P[3u + a] = codec_predict(key, mode, P, K, N, KN, 1, a) + res;
-            if (!in_range(P[3u + a])) goto bad_value;
-        }
-        for (uint32_t v = 2; v < nv; v++) {
+        table = CODEC_T_FIRST;
+        for (uint32_t v = 1; v < nv; v++) {
+            if (!get_vertex(r, table, res, &table)) goto bad_stream;
             for (uint32_t a = 0; a < 3; a++) {
-                uint32_t t = CODEC_T_BODY + a * CODEC_NBUCKET + codec_bucket(prev[a]);
-                if (!get_residual(r, t, &res, &prev[a])) goto bad_stream;
-                int32_t q = codec_predict(key, mode, P, K, N, KN, v, a) + res;
+                int32_t q = codec_predict(key, mode, P, K, N, KN, v, a) + res[a];
                 if (!in_range(q)) goto bad_value;
                 P[3u * v + a] = q;
             }

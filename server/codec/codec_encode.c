@@ -5,6 +5,8 @@
 
 #include "codec_rans.h"
 
+_Static_assert(CODEC_NTABLES <= 16 && CODEC_NSYM <= 512, "symbols are packed as table << 9 | sym");
+
 /* Bit writer for the raw bits that follow escape tokens (LSB first). */
 typedef struct bitw {
     uint8_t *p;
@@ -27,29 +29,63 @@ static inline void bitw_put(bitw *w, uint32_t v, uint32_t nb)
 typedef struct emitter {
     uint16_t *syms;
     size_t nsyms;
-    uint32_t (*counts)[CODEC_NTOK];
+    uint32_t (*counts)[CODEC_NSYM];
     bitw bits;
 } emitter;
 
-static inline uint32_t emit(emitter *e, uint32_t table, int32_t r)
-{
-    uint32_t nb, tok = codec_token(codec_zigzag(r), &nb);
-    e->syms[e->nsyms++] = (uint16_t)(table << 7 | tok);
-    e->counts[table][tok]++;
-    if (nb) bitw_put(&e->bits, codec_zigzag(r) & ((1u << nb) - 1u), nb);
-    return tok;
-}
-
 static inline void emit_symbol(emitter *e, uint32_t table, uint32_t sym)
 {
-    e->syms[e->nsyms++] = (uint16_t)(table << 7 | sym);
+    e->syms[e->nsyms++] = (uint16_t)(table << 9 | sym);
     e->counts[table][sym]++;
 }
 
-static inline uint32_t cost_of(int32_t r)
+static inline uint32_t mag(int32_t r)
 {
-    uint32_t z = codec_zigzag(r);
-    return (32u - (uint32_t)__builtin_clz(z | 1u)) + (z != 0u);
+    return r < 0 ? (uint32_t)-r : (uint32_t)r;
+}
+
+/* Emits one vertex's residuals (classes in one symbol, then raw bits per axis); returns the
+ * table for the next vertex. */
+static inline uint32_t emit_vertex(emitter *e, uint32_t table, const int32_t *r)
+{
+    uint32_t c[3];
+    uint64_t acc = 0;
+    uint32_t n = 0;
+    for (uint32_t a = 0; a < 3; a++) {
+        uint32_t m = mag(r[a]);
+        c[a] = codec_class(m);
+        if (c[a] == 0) continue;
+        uint32_t sign = r[a] < 0;
+        if (c[a] < CODEC_ESCAPE) {
+            acc |= (uint64_t)(((m - (1u << (c[a] - 1u))) << 1) | sign) << n;
+            n += c[a];
+        } else {
+            uint32_t ex = 31u - (uint32_t)__builtin_clz(m);
+            bitw_put(&e->bits, (uint32_t)acc, n);
+            bitw_put(&e->bits, sign | (ex - 5u) << 1, 6);
+            bitw_put(&e->bits, m - (1u << ex), ex);
+            acc = 0;
+            n = 0;
+        }
+    }
+    if (n) bitw_put(&e->bits, (uint32_t)acc, n);
+    emit_symbol(e, table, c[0] + CODEC_NCLASS * c[1] + CODEC_NCLASS * CODEC_NCLASS * c[2]);
+    return codec_body_table(c[0], c[1], c[2]);
+}
+
+/* Residuals of vertices 1..nverts-1 of one strand under one prediction mode, into r[3..);
+ * returns their summed classes (a bit-cost estimate). */
+static inline uint32_t residuals(bool key, uint32_t mode, const int32_t *P, const int32_t *K, const int32_t *N,
+                                 const int32_t *KN, uint32_t nverts, int32_t *r)
+{
+    uint32_t cost = 0;
+    for (uint32_t v = 1; v < nverts; v++)
+        for (uint32_t a = 0; a < 3; a++) {
+            int32_t d = P[3u * v + a] - codec_predict(key, mode, P, K, N, KN, v, a);
+            r[3u * v + a] = d;
+            cost += 31u - (uint32_t)__builtin_clz(2u * mag(d) + 1u);
+        }
+    return cost;
 }
 
 void codec_encoder_free(codec_encoder *enc)
@@ -60,6 +96,8 @@ void codec_encoder_free(codec_encoder *enc)
     free(enc->syms);
     free(enc->bits);
     free(enc->rans);
+    free(enc->res);
+    free(enc->rsyms);
     memset(enc, 0, sizeof *enc);
 }
 
@@ -90,15 +128,17 @@ core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint3
     enc->step = codec_step_for_bound(d.max_error_m);
     enc->inv_step = 1.0 / enc->step;
     size_t nq = (size_t)sent * nverts * 3u;
-    enc->nsyms_max = (size_t)sent * (1u + 3u * (size_t)nverts);
-    enc->bits_cap = nq * 4u + 16u;
+    enc->nsyms_max = (size_t)sent * (1u + (size_t)nverts);
+    enc->bits_cap = (size_t)sent * nverts * 14u + 16u;
     enc->rans_cap = enc->nsyms_max * 2u + 16u;
     enc->key_q = malloc(nq * sizeof *enc->key_q);
     enc->cur_q = malloc(nq * sizeof *enc->cur_q);
     enc->syms = malloc(enc->nsyms_max * sizeof *enc->syms);
     enc->bits = malloc(enc->bits_cap);
     enc->rans = malloc(enc->rans_cap);
-    if (!enc->key_q || !enc->cur_q || !enc->syms || !enc->bits || !enc->rans) {
+    enc->res = malloc(2u * (size_t)nverts * 3u * sizeof *enc->res);
+    enc->rsyms = malloc((size_t)CODEC_NTABLES * CODEC_NSYM * sizeof *enc->rsyms);
+    if (!enc->key_q || !enc->cur_q || !enc->syms || !enc->bits || !enc->rans || !enc->res || !enc->rsyms) {
         codec_encoder_free(enc);
         return core_fail(err, CORE_ENOMEM, "codec: out of memory for %u x %u vertices", sent, nverts);
     }
@@ -137,42 +177,33 @@ static core_status quantize(codec_encoder *enc, const float *xyz, core_err *err)
     return CORE_OK;
 }
 
-static uint32_t choose_mode(bool key, const int32_t *P, const int32_t *K, const int32_t *N, const int32_t *KN,
-                            uint32_t nverts)
-{
-    uint32_t nmodes = key ? CODEC_KEY_MODES : CODEC_DELTA_MODES, best = 0, best_cost = UINT32_MAX;
-    for (uint32_t m = 0; m < nmodes; m++) {
-        uint32_t c = 0;
-        for (uint32_t v = 1; v < nverts; v++)
-            for (uint32_t a = 0; a < 3; a++) c += cost_of(P[3u * v + a] - codec_predict(key, m, P, K, N, KN, v, a));
-        if (c < best_cost) {
-            best_cost = c;
-            best = m;
-        }
-    }
-    return best;
-}
-
-/* Pass 1: per strand mode, root and vertex residuals into symbols and raw bits. */
+/* Pass 1: per strand the cheapest mode, then its residuals into symbols and raw bits. */
 static void tokenize(codec_encoder *enc, bool key, emitter *e)
 {
-    const uint32_t nv = enc->nverts;
+    const uint32_t nv = enc->nverts, nmodes = key ? CODEC_KEY_MODES : CODEC_DELTA_MODES;
     const size_t per = (size_t)nv * 3u;
+    int32_t *best = enc->res, *trial = enc->res + per;
     for (uint32_t j = 0; j < enc->nstrands_sent; j++) {
         const int32_t *P = enc->cur_q + (size_t)j * per;
         const int32_t *K = key ? NULL : enc->key_q + (size_t)j * per;
         const int32_t *N = j ? P - per : NULL;
         const int32_t *KN = (j && !key) ? K - per : NULL;
-        uint32_t mode = choose_mode(key, P, K, N, KN, nv);
+        uint32_t mode = 0, best_cost = residuals(key, 0, P, K, N, KN, nv, best);
+        for (uint32_t m = 1; m < nmodes; m++) {
+            uint32_t c = residuals(key, m, P, K, N, KN, nv, trial);
+            if (c < best_cost) {
+                int32_t *t = best;
+                best = trial;
+                trial = t;
+                best_cost = c;
+                mode = m;
+            }
+        }
         emit_symbol(e, CODEC_T_MODE, mode);
-        for (uint32_t a = 0; a < 3; a++) emit(e, CODEC_T_ROOT + a, P[a] - codec_predict_root(key, K, N, KN, a));
-        uint32_t prev[3];
-        for (uint32_t a = 0; a < 3; a++)
-            prev[a] = emit(e, CODEC_T_FIRST + a, P[3u + a] - codec_predict(key, mode, P, K, N, KN, 1, a));
-        for (uint32_t v = 2; v < nv; v++)
-            for (uint32_t a = 0; a < 3; a++)
-                prev[a] = emit(e, CODEC_T_BODY + a * CODEC_NBUCKET + codec_bucket(prev[a]),
-                               P[3u * v + a] - codec_predict(key, mode, P, K, N, KN, v, a));
+        for (uint32_t a = 0; a < 3; a++) best[a] = P[a] - codec_predict_root(key, K, N, KN, a);
+        emit_vertex(e, CODEC_T_ROOT, best);
+        uint32_t table = CODEC_T_FIRST;
+        for (uint32_t v = 1; v < nv; v++) table = emit_vertex(e, table, best + 3u * v);
     }
 }
 
@@ -189,22 +220,22 @@ core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, dou
     core_status st = quantize(enc, xyz, err);
     if (st) return st;
 
-    static const uint32_t zero_counts[CODEC_NTABLES][CODEC_NTOK];
-    uint32_t counts[CODEC_NTABLES][CODEC_NTOK];
+    static const uint32_t zero_counts[CODEC_NTABLES][CODEC_NSYM];
+    uint32_t counts[CODEC_NTABLES][CODEC_NSYM];
     memcpy(counts, zero_counts, sizeof counts);
     emitter e = { .syms = enc->syms, .nsyms = 0, .counts = counts, .bits = { .p = enc->bits, .acc = 0, .n = 0 } };
     tokenize(enc, key, &e);
     if (e.bits.n) bitw_put(&e.bits, 0, 8u - e.bits.n);
     size_t nbits_bytes = (size_t)(e.bits.p - enc->bits);
 
-    uint16_t freq[CODEC_NTABLES][CODEC_NTOK];
+    uint16_t freq[CODEC_NTABLES][CODEC_NSYM];
     uint32_t nsym[CODEC_NTABLES];
-    codec_rans_sym rs[CODEC_NTABLES][CODEC_NTOK];
+    codec_rans_sym *rs = enc->rsyms;
     for (uint32_t t = 0; t < CODEC_NTABLES; t++) {
-        nsym[t] = codec_rans_normalize(counts[t], CODEC_NTOK, freq[t]);
+        nsym[t] = codec_rans_normalize(counts[t], CODEC_NSYM, freq[t]);
         uint32_t start = 0;
         for (uint32_t s = 0; s < nsym[t]; s++) {
-            if (freq[t][s]) codec_rans_sym_init(&rs[t][s], start, freq[t][s]);
+            if (freq[t][s]) codec_rans_sym_init(&rs[t * CODEC_NSYM + s], start, freq[t][s]);
             start += freq[t][s];
         }
     }
@@ -214,7 +245,7 @@ core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, dou
     uint32_t x[2] = { CODEC_RANS_L, CODEC_RANS_L };
     for (size_t i = e.nsyms; i-- > 0;) {
         uint16_t s = e.syms[i];
-        codec_rans_put(&x[i & 1u], &p, &rs[s >> 7][s & 0x7fu]);
+        codec_rans_put(&x[i & 1u], &p, &rs[(s >> 9) * CODEC_NSYM + (s & 0x1ffu)]);
     }
     for (int k = 1; k >= 0; k--) {
         p -= 4;
@@ -222,7 +253,7 @@ core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, dou
     }
     size_t rans_len = (size_t)(end - p);
 
-    size_t max_len = CODEC_HEADER_SIZE + (size_t)CODEC_NTABLES * 3u * (CODEC_NTOK + 1u) + 4u + rans_len + nbits_bytes;
+    size_t max_len = CODEC_HEADER_SIZE + (size_t)CODEC_NTABLES * 5u * (CODEC_NSYM + 1u) + 4u + rans_len + nbits_bytes;
     st = codec_buf_reserve(out, max_len, err);
     if (st) return st;
     uint8_t *w = out->data + CODEC_HEADER_SIZE;

@@ -14,50 +14,38 @@
 #define CODEC_SCALE (1u << CODEC_SCALE_BITS)
 #define CODEC_RANS_L (1u << 23)
 
-/* Residual tokens: zigzag values 0..15 directly; above, token 16 + 2 (e - 4) + b where
- * e = floor(log2 z) and b the bit below the leading one, followed by e - 1 raw bits. */
-#define CODEC_DIRECT 16u
-#define CODEC_NTOK 70u           /* tokens 0..69 cover zigzag values below 2^31 */
+/* Residuals are coded per vertex: one rANS symbol holds the magnitude class of all three axes,
+ * sym = c0 + 7 c1 + 49 c2, and raw bits give signs and the bits below the leading one.
+ * Class of |r| = m: 0 for 0, c (1..5) for 2^(c-1) <= m < 2^c, 6 (escape) for m >= 32. */
+#define CODEC_NCLASS 7u
+#define CODEC_ESCAPE 6u
+#define CODEC_NSYM (CODEC_NCLASS * CODEC_NCLASS * CODEC_NCLASS)
 
 /* Prediction modes, chosen per strand. */
 #define CODEC_KEY_MODES 3u       /* keyframes: linear, neighbour segment, quadratic */
 #define CODEC_DELTA_MODES 4u     /* deltas: key segment, displacement, linear, neighbour displacement */
 
-/* Context tables: strand mode, root per axis, first segment per axis, body per axis x bucket. */
-#define CODEC_NBUCKET 6u
+/* Context tables: strand mode, roots, first segment, body by the previous vertex's top class. */
+#define CODEC_NBODY 6u
 #define CODEC_T_MODE 0u
 #define CODEC_T_ROOT 1u
-#define CODEC_T_FIRST 4u
-#define CODEC_T_BODY 7u
-#define CODEC_NTABLES (CODEC_T_BODY + 3u * CODEC_NBUCKET)
+#define CODEC_T_FIRST 2u
+#define CODEC_T_BODY 3u
+#define CODEC_NTABLES (CODEC_T_BODY + CODEC_NBODY)
 
-/* Bucket of the previous vertex's token on the same axis (the context of the next one). */
-static inline uint32_t codec_bucket(uint32_t tok)
+static inline uint32_t codec_class(uint32_t m)
 {
-    static const uint8_t b[CODEC_DIRECT] = { 0, 1, 1, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 4, 4, 4 };
-    return tok < CODEC_DIRECT ? b[tok] : CODEC_NBUCKET - 1u;
+    if (m == 0) return 0;
+    uint32_t c = 32u - (uint32_t)__builtin_clz(m);
+    return c < CODEC_ESCAPE ? c : CODEC_ESCAPE;
 }
 
-static inline uint32_t codec_zigzag(int32_t r)
+/* Body table for the vertex after one whose classes were c0, c1, c2. */
+static inline uint32_t codec_body_table(uint32_t c0, uint32_t c1, uint32_t c2)
 {
-    return ((uint32_t)r << 1) ^ (uint32_t)(r >> 31);
-}
-
-static inline int32_t codec_unzigzag(uint32_t z)
-{
-    return (int32_t)(z >> 1) ^ -(int32_t)(z & 1u);
-}
-
-/* Token of zigzag value z and the count of raw bits that follow it. */
-static inline uint32_t codec_token(uint32_t z, uint32_t *nbits)
-{
-    if (z < CODEC_DIRECT) {
-        *nbits = 0;
-        return z;
-    }
-    uint32_t e = 31u - (uint32_t)__builtin_clz(z);
-    *nbits = e - 1u;
-    return CODEC_DIRECT + 2u * (e - 4u) + ((z >> (e - 1u)) & 1u);
+    uint32_t m = c0 > c1 ? c0 : c1;
+    m = m > c2 ? m : c2;
+    return CODEC_T_BODY + (m < CODEC_NBODY - 1u ? m : CODEC_NBODY - 1u);
 }
 
 /* Predicted lattice coordinate of vertex v (>= 1), axis a, of the current strand.

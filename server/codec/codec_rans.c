@@ -71,8 +71,16 @@ static uint8_t *put_varint(uint8_t *p, uint32_t v)
 
 uint8_t *codec_rans_write_table(uint8_t *p, const uint16_t *freq, uint32_t nsym)
 {
-    p = put_varint(p, nsym);
-    for (uint32_t i = 0; i < nsym; i++) p = put_varint(p, freq[i]);
+    uint32_t used = 0;
+    for (uint32_t i = 0; i < nsym; i++) used += freq[i] != 0;
+    p = put_varint(p, used);
+    uint32_t next = 0;
+    for (uint32_t i = 0; i < nsym; i++) {
+        if (!freq[i]) continue;
+        p = put_varint(p, i - next);
+        p = put_varint(p, freq[i]);
+        next = i + 1u;
+    }
     return p;
 }
 
@@ -93,31 +101,38 @@ static core_status get_varint(const uint8_t *data, size_t len, size_t *pos, uint
 }
 
 core_status codec_rans_read_tables(const uint8_t *data, size_t len, size_t *pos, codec_rans_tables *tabs,
-                                   uint8_t *slots, core_err *err)
+                                   uint16_t *slots, core_err *err)
 {
     for (uint32_t t = 0; t < CODEC_NTABLES; t++) {
-        uint32_t nsym = 0;
-        core_status st = get_varint(data, len, pos, &nsym, err);
+        uint32_t used = 0;
+        core_status st = get_varint(data, len, pos, &used, err);
         if (st) return st;
-        if (nsym > CODEC_NTOK)
-            return core_fail(err, CORE_EFORMAT, "codec: table %u has %u symbols (max %u)", t, nsym, CODEC_NTOK);
-        tabs->nsym[t] = nsym;
-        uint8_t *lut = slots + (size_t)t * CODEC_SCALE;
-        if (nsym == 0) {
-            memset(lut, 0xff, CODEC_SCALE);
+        if (used > CODEC_NSYM)
+            return core_fail(err, CORE_EFORMAT, "codec: table %u lists %u symbols (max %u)", t, used, CODEC_NSYM);
+        uint16_t *lut = slots + (size_t)t * CODEC_SCALE;
+        tabs->nsym[t] = used;
+        if (used == 0) {
+            for (uint32_t i = 0; i < CODEC_SCALE; i++) lut[i] = 0xffffu;
             continue;
         }
-        uint32_t start = 0;
-        for (uint32_t s = 0; s < nsym; s++) {
-            uint32_t f = 0;
+        uint32_t start = 0, next = 0;
+        for (uint32_t k = 0; k < used; k++) {
+            uint32_t gap = 0, f = 0;
+            st = get_varint(data, len, pos, &gap, err);
+            if (st) return st;
             st = get_varint(data, len, pos, &f, err);
             if (st) return st;
-            if (f > CODEC_SCALE - start)
-                return core_fail(err, CORE_EFORMAT, "codec: table %u frequencies exceed %u", t, CODEC_SCALE);
+            if (gap >= CODEC_NSYM - next)
+                return core_fail(err, CORE_EFORMAT, "codec: table %u names a symbol beyond %u", t, CODEC_NSYM - 1u);
+            uint32_t s = next + gap;
+            if (f == 0 || f > CODEC_SCALE - start)
+                return core_fail(err, CORE_EFORMAT, "codec: table %u frequency %u invalid (sum must be %u)", t, f,
+                                 CODEC_SCALE);
             tabs->freq[t][s] = (uint16_t)f;
             tabs->start[t][s] = (uint16_t)start;
-            memset(lut + start, (int)s, f);
+            for (uint32_t i = 0; i < f; i++) lut[start + i] = (uint16_t)s;
             start += f;
+            next = s + 1u;
         }
         if (start != CODEC_SCALE)
             return core_fail(err, CORE_EFORMAT, "codec: table %u frequencies sum to %u, not %u", t, start,

@@ -17,8 +17,8 @@ typedef struct codec_rans_sym {
 
 /* Decoder side of all tables of a frame. */
 typedef struct codec_rans_tables {
-    uint16_t freq[CODEC_NTABLES][CODEC_NTOK];
-    uint16_t start[CODEC_NTABLES][CODEC_NTOK];
+    uint16_t freq[CODEC_NTABLES][CODEC_NSYM];
+    uint16_t start[CODEC_NTABLES][CODEC_NSYM];
     uint32_t nsym[CODEC_NTABLES];
 } codec_rans_tables;
 
@@ -29,14 +29,15 @@ uint32_t codec_rans_normalize(const uint32_t *counts, uint32_t n, uint16_t *freq
 /* Prepares symbol (start, freq) for encoding. */
 void codec_rans_sym_init(codec_rans_sym *s, uint32_t start, uint32_t freq);
 
-/* Appends table t's description (alphabet size, then frequencies, LEB128) at *p; returns the
- * new end. The caller reserves 3 * (CODEC_NTOK + 1) bytes per table. */
+/* Appends a table's description at *p (LEB128: the count of used symbols, then for each the
+ * gap from the previous used symbol and its frequency); returns the new end. The caller
+ * reserves 5 * (CODEC_NSYM + 1) bytes per table. */
 uint8_t *codec_rans_write_table(uint8_t *p, const uint16_t *freq, uint32_t nsym);
 
 /* Parses every table at data[*pos..len), fills tabs and the slot lookup (CODEC_NTABLES x
- * CODEC_SCALE bytes; 0xff marks an empty table). */
+ * CODEC_SCALE entries; 0xffff marks an empty table). */
 core_status codec_rans_read_tables(const uint8_t *data, size_t len, size_t *pos, codec_rans_tables *tabs,
-                                   uint8_t *slots, core_err *err);
+                                   uint16_t *slots, core_err *err);
 
 /* Encodes symbol s into state *x, writing renormalisation bytes backwards at *pp. */
 static inline void codec_rans_put(uint32_t *x, uint8_t **pp, const codec_rans_sym *s)
