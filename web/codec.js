@@ -140,9 +140,9 @@ export class StrandDecoder {
     this._keyValid = false;
     this._keyQ = new Int32Array(0);
     this._curQ = new Int32Array(0);
-    this._freq = new Uint16Array(NTABLES * NSYM);
-    this._start = new Uint16Array(NTABLES * NSYM);
-    this._slots = new Uint16Array(NTABLES * SCALE);
+    this._slots = new Uint16Array(NTABLES * SCALE);  // slot -> symbol (0xffff: unused table)
+    this._steps = new Uint32Array(NTABLES * SCALE);  // slot -> freq << 12 | (slot - start)
+    this._res = new Int32Array(0); // residuals of one strand
     this._pos = 0; // table parser position
   }
 
@@ -188,8 +188,7 @@ export class StrandDecoder {
 
     const out = this.info;
     if (out.positions.length !== nq) out.positions = new Float32Array(nq);
-    const positions = out.positions, q = this._curQ, step = h.step;
-    for (let i = 0; i < nq; i++) positions[i] = q[i] * step;
+    dequantize(this._curQ, out.positions, nq, h.step);
     if (h.keyframe) {
       const t = this._keyQ;
       this._keyQ = this._curQ;
@@ -215,7 +214,7 @@ export class StrandDecoder {
   }
 
   _readTables(bytes, end) {
-    const freq = this._freq, start = this._start, slots = this._slots;
+    const slots = this._slots, steps = this._steps;
     for (let t = 0; t < NTABLES; t++) {
       const used = this._varint(bytes, end);
       if (used > NSYM) fail(`table ${t} lists ${used} symbols (max ${NSYM})`);
@@ -231,9 +230,8 @@ export class StrandDecoder {
         if (gap >= NSYM - next) fail(`table ${t} names a symbol beyond ${NSYM - 1}`);
         const s = next + gap;
         if (f === 0 || f > SCALE - st) fail(`table ${t} frequency ${f} invalid (sum must be ${SCALE})`);
-        freq[t * NSYM + s] = f;
-        start[t * NSYM + s] = st;
         slots.fill(s, lut + st, lut + st + f);
+        for (let k = 0; k < f; k++) steps[lut + st + k] = (f << SCALE_BITS) | k;
         st += f;
         next = s + 1;
       }
@@ -242,147 +240,183 @@ export class StrandDecoder {
   }
 
   // Decodes all strands into this._curQ: rANS bytes [rpos, rend), raw bits [bstart, bend).
+  // Per strand: the mode and vertex symbols with their raw bits into residuals R, then the
+  // predictions (one flat loop per mode).
   _decodeStrands(bytes, h, rpos, rend, bend) {
-    const freq = this._freq, start = this._start, slots = this._slots;
+    const slots = this._slots, steps = this._steps;
     const key = h.keyframe, nv = h.nverts, per = nv * 3, nmodes = key ? KEY_MODES : DELTA_MODES;
     const P = this._curQ, K = this._keyQ;
+    if (this._res.length < per) this._res = new Int32Array(per);
+    const R = this._res;
     const bstart = rend;
     let x0 = u32(bytes, rpos), x1 = u32(bytes, rpos + 4);
     rpos += 8;
     if (x0 < RANS_L || x0 >= RANS_L * 256 || x1 < RANS_L || x1 >= RANS_L * 256) fail('invalid entropy coder state');
-    let which = 0;
     let bpos = bstart, acc = 0, nacc = 0;
-    let r0 = 0, r1 = 0, r2 = 0;
     const badStream = 'corrupt entropy-coded data (invalid symbol or stream overrun)';
 
     for (let j = 0; j < h.nstrandsSent; j++) {
-      const base = j * per, hasN = j > 0, nb = base - per;
+      const base = j * per;
       let mode = 0, table = T_MODE;
-      // The mode symbol and then one symbol per vertex (root first).
       for (let v = -1; v < nv; v++) {
-        // --- rANS symbol of `table`
-        let x = which ? x1 : x0;
-        const slot = x & (SCALE - 1);
-        const s = slots[table * SCALE + slot];
+        // rANS symbol of `table`; x0 is always the state of this symbol, x1 the next one's
+        const li = (table << SCALE_BITS) + (x0 & (SCALE - 1));
+        const s = slots[li], e = steps[li];
         if (s === 0xffff) fail(badStream);
-        const fi = table * NSYM + s;
-        x = freq[fi] * (x >>> SCALE_BITS) + slot - start[fi];
+        let x = (e >>> SCALE_BITS) * (x0 >>> SCALE_BITS) + (e & (SCALE - 1));
         while (x < RANS_L) {
           if (rpos >= rend) fail(badStream);
           x = (x << 8) | bytes[rpos++];
         }
-        if (which) x1 = x; else x0 = x;
-        which ^= 1;
+        x0 = x1;
+        x1 = x;
         if (v < 0) {
           if (s >= nmodes) fail(badStream);
           mode = s;
           table = T_ROOT;
           continue;
         }
-        // --- residuals from the classes and raw bits
-        const c0 = SYM_C0[s], c1 = SYM_C1[s], c2 = SYM_C2[s];
+        table = v === 0 ? T_FIRST : SYM_NEXT[s];
+        const i = 3 * v;
         const nbits = SYM_BITS[s];
         if (nbits >= 0) {
-          while (nacc < nbits) {
-            acc |= (bpos < bend ? bytes[bpos] : 0) << nacc;
-            bpos++;
-            nacc += 8;
+          // fast path: the three fields, c0 + c1 + c2 <= 15 bits
+          if (nacc < nbits) {
+            if (bpos + 2 <= bend) acc |= (bytes[bpos] | (bytes[bpos + 1] << 8)) << nacc;
+            else if (bpos < bend) acc |= bytes[bpos] << nacc;
+            bpos += 2;
+            nacc += 16;
           }
           let b = acc;
           acc >>>= nbits;
           nacc -= nbits;
-          if (c0) { const m = (1 << (c0 - 1)) | ((b & ((1 << c0) - 1)) >>> 1); r0 = b & 1 ? -m : m; } else r0 = 0;
+          const c0 = SYM_C0[s], c1 = SYM_C1[s], c2 = SYM_C2[s];
+          let f = b & ((1 << c0) - 1), m = ((1 << c0) >> 1) | (f >> 1), sg = f & 1;
+          R[i] = (m ^ -sg) + sg;
           b >>>= c0;
-          if (c1) { const m = (1 << (c1 - 1)) | ((b & ((1 << c1) - 1)) >>> 1); r1 = b & 1 ? -m : m; } else r1 = 0;
+          f = b & ((1 << c1) - 1); m = ((1 << c1) >> 1) | (f >> 1); sg = f & 1;
+          R[i + 1] = (m ^ -sg) + sg;
           b >>>= c1;
-          if (c2) { const m = (1 << (c2 - 1)) | ((b & ((1 << c2) - 1)) >>> 1); r2 = b & 1 ? -m : m; } else r2 = 0;
-        } else {
-          for (let a = 0; a < 3; a++) {
-            const c = a === 0 ? c0 : a === 1 ? c1 : c2;
-            let r = 0;
-            if (c !== 0) {
-              const n1 = c < ESCAPE ? c : 6;
-              while (nacc < n1) { acc |= (bpos < bend ? bytes[bpos] : 0) << nacc; bpos++; nacc += 8; }
-              let b = acc & ((1 << n1) - 1);
-              acc >>>= n1;
-              nacc -= n1;
-              let m;
-              if (c < ESCAPE) {
-                m = (1 << (c - 1)) | (b >>> 1);
-              } else {
-                const ex = (b >>> 1) + 5;
-                if (ex > 29) fail(badStream);
-                // mantissa: up to 29 bits, read in two parts of at most 16
-                let mant = 0, got = 0;
-                while (got < ex) {
-                  const n2 = ex - got > 16 ? 16 : ex - got;
-                  while (nacc < n2) { acc |= (bpos < bend ? bytes[bpos] : 0) << nacc; bpos++; nacc += 8; }
-                  mant += (acc & ((1 << n2) - 1)) * (1 << got);
-                  acc >>>= n2;
-                  nacc -= n2;
-                  got += n2;
-                }
-                m = (1 << ex) + mant;
-              }
-              r = b & 1 ? -m : m;
-            }
-            if (a === 0) r0 = r; else if (a === 1) r1 = r; else r2 = r;
-          }
+          f = b & ((1 << c2) - 1); m = ((1 << c2) >> 1) | (f >> 1); sg = f & 1;
+          R[i + 2] = (m ^ -sg) + sg;
+          continue;
         }
-        table = v === 0 ? T_FIRST : SYM_NEXT[s];
-        // --- prediction (codec_predict / codec_predict_root)
-        const i = base + 3 * v;
-        let p0, p1, p2;
-        if (v === 0) {
-          if (key) {
-            if (hasN) { p0 = P[nb]; p1 = P[nb + 1]; p2 = P[nb + 2]; } else { p0 = 0; p1 = 0; p2 = 0; }
-          } else if (hasN) {
-            p0 = K[i] + P[nb] - K[nb]; p1 = K[i + 1] + P[nb + 1] - K[nb + 1]; p2 = K[i + 2] + P[nb + 2] - K[nb + 2];
+        for (let a = 0; a < 3; a++) {
+          const c = a === 0 ? SYM_C0[s] : a === 1 ? SYM_C1[s] : SYM_C2[s];
+          const n1 = c < ESCAPE ? c : 6;
+          while (nacc < n1) { acc |= (bpos < bend ? bytes[bpos] : 0) << nacc; bpos++; nacc += 8; }
+          const f = acc & ((1 << n1) - 1);
+          acc >>>= n1;
+          nacc -= n1;
+          let m;
+          if (c < ESCAPE) {
+            m = ((1 << c) >> 1) | (f >> 1);
           } else {
-            p0 = K[i]; p1 = K[i + 1]; p2 = K[i + 2];
-          }
-        } else {
-          const p = i - 3, pp = i - 6, n = i - per, np = p - per;
-          let m = mode;
-          if (key) {
-            if (m === 1 && !hasN) m = 0;
-            if (m === 2 && v < 3) m = 0;
-            if (m === 1 || (v === 1 && hasN)) {
-              p0 = P[p] + P[n] - P[np]; p1 = P[p + 1] + P[n + 1] - P[np + 1]; p2 = P[p + 2] + P[n + 2] - P[np + 2];
-            } else if (v === 1) {
-              p0 = P[p]; p1 = P[p + 1]; p2 = P[p + 2];
-            } else if (m === 2) {
-              p0 = 3 * P[p] - 3 * P[pp] + P[i - 9]; p1 = 3 * P[p + 1] - 3 * P[pp + 1] + P[i - 8];
-              p2 = 3 * P[p + 2] - 3 * P[pp + 2] + P[i - 7];
-            } else {
-              p0 = 2 * P[p] - P[pp]; p1 = 2 * P[p + 1] - P[pp + 1]; p2 = 2 * P[p + 2] - P[pp + 2];
+            const ex = (f >>> 1) + 5;
+            if (ex > 29) fail(badStream);
+            let mant = 0, got = 0; // up to 29 bits, read in parts of at most 16
+            while (got < ex) {
+              const n2 = ex - got > 16 ? 16 : ex - got;
+              while (nacc < n2) { acc |= (bpos < bend ? bytes[bpos] : 0) << nacc; bpos++; nacc += 8; }
+              mant += (acc & ((1 << n2) - 1)) * (1 << got);
+              acc >>>= n2;
+              nacc -= n2;
+              got += n2;
             }
-          } else {
-            if ((m === 1 || m === 2) && v === 1) m = 0;
-            if (m === 3 && !hasN) m = 0;
-            if (m === 0) {
-              p0 = P[p] + K[i] - K[p]; p1 = P[p + 1] + K[i + 1] - K[p + 1]; p2 = P[p + 2] + K[i + 2] - K[p + 2];
-            } else if (m === 1) {
-              p0 = P[p] + K[i] - K[p] + (P[p] - K[p]) - (P[pp] - K[pp]);
-              p1 = P[p + 1] + K[i + 1] - K[p + 1] + (P[p + 1] - K[p + 1]) - (P[pp + 1] - K[pp + 1]);
-              p2 = P[p + 2] + K[i + 2] - K[p + 2] + (P[p + 2] - K[p + 2]) - (P[pp + 2] - K[pp + 2]);
-            } else if (m === 2) {
-              p0 = 2 * P[p] - P[pp]; p1 = 2 * P[p + 1] - P[pp + 1]; p2 = 2 * P[p + 2] - P[pp + 2];
-            } else {
-              p0 = P[p] + K[i] - K[p] + (P[n] - K[n]) - (P[np] - K[np]);
-              p1 = P[p + 1] + K[i + 1] - K[p + 1] + (P[n + 1] - K[n + 1]) - (P[np + 1] - K[np + 1]);
-              p2 = P[p + 2] + K[i + 2] - K[p + 2] + (P[n + 2] - K[n + 2]) - (P[np + 2] - K[np + 2]);
-            }
+            m = (1 << ex) + mant;
           }
+          R[i + a] = f & 1 ? -m : m;
         }
-        const q0 = p0 + r0, q1 = p1 + r1, q2 = p2 + r2;
-        if (q0 <= -MAX_QUANT || q0 >= MAX_QUANT || q1 <= -MAX_QUANT || q1 >= MAX_QUANT ||
-            q2 <= -MAX_QUANT || q2 >= MAX_QUANT) fail('corrupt frame (decoded coordinate out of range)');
-        P[i] = q0; P[i + 1] = q1; P[i + 2] = q2;
       }
+      if (!reconstruct(key, mode, P, K, base, per, R)) fail('corrupt frame (decoded coordinate out of range)');
     }
     if (x0 !== RANS_L || x1 !== RANS_L || rpos !== rend) fail('entropy stream does not end where the frame says');
     const avail = (bend - bstart) * 8, used = (bpos - bstart) * 8 - nacc;
     if (used > avail || avail - used >= 8) fail(`raw bit stream is ${avail} bits, frame used ${used}`);
   }
+}
+
+// positions = float32(q * step), exactly as the C decoder.
+function dequantize(q, positions, n, step) {
+  for (let i = 0; i < n; i++) positions[i] = q[i] * step;
+}
+
+const inRange = (q) => q > -MAX_QUANT && q < MAX_QUANT;
+
+// Rebuilds strand `base` (per = 3 * nverts coordinates) of P from residuals R with the
+// predictions of proto/CODEC.md; K is the keyframe, the previous strand starts at base - per.
+// Returns false on an out-of-range coordinate.
+function reconstruct(key, mode, P, K, base, per, R) {
+  const hasN = base > 0, end = base + per;
+  // root
+  for (let a = 0; a < 3; a++) {
+    const i = base + a, n = i - per;
+    const pred = key ? (hasN ? P[n] : 0) : (hasN ? K[i] + P[n] - K[n] : K[i]);
+    const q = pred + R[a];
+    if (!inRange(q)) return false;
+    P[i] = q;
+  }
+  // vertex 1
+  for (let a = 0; a < 3; a++) {
+    const i = base + 3 + a, p = i - 3, n = i - per, np = p - per;
+    let pred;
+    if (key) pred = hasN ? P[p] + P[n] - P[np] : P[p];
+    else if (mode === 3 && hasN) pred = P[p] + K[i] - K[p] + (P[n] - K[n]) - (P[np] - K[np]);
+    else pred = P[p] + K[i] - K[p];
+    const q = pred + R[3 + a];
+    if (!inRange(q)) return false;
+    P[i] = q;
+  }
+  let i = base + 6, r = 6;
+  if (key) {
+    if (mode === 1 && hasN) {
+      for (; i < end; i++, r++) {
+        const q = P[i - 3] + P[i - per] - P[i - 3 - per] + R[r];
+        if (!inRange(q)) return false;
+        P[i] = q;
+      }
+    } else if (mode === 2) {
+      for (; i < end && r < 9; i++, r++) {
+        const q = 2 * P[i - 3] - P[i - 6] + R[r];
+        if (!inRange(q)) return false;
+        P[i] = q;
+      }
+      for (; i < end; i++, r++) {
+        const q = 3 * P[i - 3] - 3 * P[i - 6] + P[i - 9] + R[r];
+        if (!inRange(q)) return false;
+        P[i] = q;
+      }
+    } else {
+      for (; i < end; i++, r++) {
+        const q = 2 * P[i - 3] - P[i - 6] + R[r];
+        if (!inRange(q)) return false;
+        P[i] = q;
+      }
+    }
+  } else if (mode === 1) {
+    for (; i < end; i++, r++) {
+      const q = P[i - 3] + K[i] - K[i - 3] + (P[i - 3] - K[i - 3]) - (P[i - 6] - K[i - 6]) + R[r];
+      if (!inRange(q)) return false;
+      P[i] = q;
+    }
+  } else if (mode === 2) {
+    for (; i < end; i++, r++) {
+      const q = 2 * P[i - 3] - P[i - 6] + R[r];
+      if (!inRange(q)) return false;
+      P[i] = q;
+    }
+  } else if (mode === 3 && hasN) {
+    for (; i < end; i++, r++) {
+      const q = P[i - 3] + K[i] - K[i - 3] + (P[i - per] - K[i - per]) - (P[i - 3 - per] - K[i - 3 - per]) + R[r];
+      if (!inRange(q)) return false;
+      P[i] = q;
+    }
+  } else {
+    for (; i < end; i++, r++) {
+      const q = P[i - 3] + K[i] - K[i - 3] + R[r];
+      if (!inRange(q)) return false;
+      P[i] = q;
+    }
+  }
+  return true;
 }

@@ -22,7 +22,7 @@
 
 /* Per-stream constants; zero means default. */
 typedef struct codec_desc {
-    float max_error_m;     /* per-axis bound |decoded - input| <= this; 0 -> 1e-4 m; [1e-6, 1e-1] */
+    float max_error_m;     /* per-axis bound |decoded - input| <= this; 0 -> 1e-4 m; [1e-5, 1e-1] */
     uint32_t key_interval; /* a keyframe at least every this many frames; 0 -> 30 */
     uint32_t stride;       /* send strands 0, k, 2k, ...; 0 -> 1 (all strands) */
 } codec_desc;
@@ -75,6 +75,8 @@ typedef struct codec_decoder {
     int32_t *key_q, *cur_q;
     size_t cap;            /* int32 capacity of key_q and cur_q */
     uint16_t *slots;       /* rANS slot -> symbol lookup, one 4096-entry table per context */
+    int32_t *res;          /* residuals of one strand */
+    uint32_t res_cap;      /* vertices res holds */
 } codec_decoder;
 
 /* Releases buf's memory and zeroes it. Safe on a zeroed buf. */

@@ -37,65 +37,121 @@ static inline uint32_t get_sym(reader *r, uint32_t t)
     return s;
 }
 
-static inline uint32_t get_bits(reader *r, uint32_t nb)
+static inline void refill(reader *r)
 {
-    while (r->nacc < nb) {
+    if (r->nacc > 32) return;
+    if (r->bpos <= r->bend && r->bend - r->bpos >= 4) {
+        r->acc |= (uint64_t)codec_get_u32(r->bdata + r->bpos) << r->nacc;
+        r->bpos += 4;
+        r->nacc += 32;
+        return;
+    }
+    while (r->nacc <= 56) { /* the tail: zeros past the end, counted for the final check */
         uint64_t b = r->bpos < r->bend ? r->bdata[r->bpos] : 0u;
         r->bpos++;
         r->acc |= b << r->nacc;
         r->nacc += 8;
     }
+}
+
+/* Next nb (<= 32) raw bits, least significant first. */
+static inline uint32_t get_bits(reader *r, uint32_t nb)
+{
+    refill(r);
     uint32_t v = (uint32_t)(r->acc & ((1ull << nb) - 1u));
     r->acc >>= nb;
     r->nacc -= nb;
     return v;
 }
 
-/* One axis's residual of class c (1..5: sign and c-1 bits in b; escape: read here). */
-static inline int32_t axis_residual(reader *r, uint32_t c, uint32_t b, bool *bad)
+/* Residual of class c (0..5) from its c-bit field f (sign in bit 0). */
+static inline int32_t field_residual(uint32_t c, uint32_t f)
 {
-    uint32_t m;
-    if (c < CODEC_ESCAPE) {
-        m = (1u << (c - 1u)) | (b >> 1);
-    } else {
-        b = get_bits(r, 6);
-        uint32_t ex = (b >> 1) + 5u;
-        if (ex > 29u) {
-            *bad = true;
-            return 0;
-        }
-        m = (1u << ex) | get_bits(r, ex);
-    }
-    return (b & 1u) ? -(int32_t)m : (int32_t)m;
+    uint32_t m = ((1u << c) >> 1) | (f >> 1), sign = f & 1u;
+    return (int32_t)((m ^ (0u - sign)) + sign);
 }
 
-/* Decodes one vertex's residuals coded with table t into res; *next receives the table of the
- * next vertex. Returns false on a bad symbol or escape. */
-static inline bool get_vertex(reader *r, uint32_t t, int32_t *res, uint32_t *next)
+/* One escaped axis: sign, e - 5 (5 bits), then e bits below the leading one. */
+static inline bool escape_residual(reader *r, int32_t *res)
+{
+    uint32_t b = get_bits(r, 6), ex = (b >> 1) + 5u;
+    if (ex > 29u) return false;
+    uint32_t m = (1u << ex) | get_bits(r, ex), sign = b & 1u;
+    *res = (int32_t)((m ^ (0u - sign)) + sign);
+    return true;
+}
+
+/* Decodes one vertex's residuals coded with table t into res; returns the next vertex's
+ * table, or BAD. */
+static inline uint32_t get_vertex(reader *r, uint32_t t, int32_t *res)
 {
     uint32_t s = get_sym(r, t);
-    if (s == BAD) return false;
+    if (s == BAD) return BAD;
     uint32_t c0 = s % CODEC_NCLASS, c1 = (s / CODEC_NCLASS) % CODEC_NCLASS, c2 = s / (CODEC_NCLASS * CODEC_NCLASS);
-    *next = codec_body_table(c0, c1, c2);
-    bool bad = false;
     if (c0 < CODEC_ESCAPE && c1 < CODEC_ESCAPE && c2 < CODEC_ESCAPE) {
         uint32_t b = get_bits(r, c0 + c1 + c2);
-        res[0] = c0 ? axis_residual(r, c0, b & ((1u << c0) - 1u), &bad) : 0;
+        res[0] = field_residual(c0, b & ((1u << c0) - 1u));
         b >>= c0;
-        res[1] = c1 ? axis_residual(r, c1, b & ((1u << c1) - 1u), &bad) : 0;
-        b >>= c1;
-        res[2] = c2 ? axis_residual(r, c2, b, &bad) : 0;
-        return true;
+        res[1] = field_residual(c1, b & ((1u << c1) - 1u));
+        res[2] = field_residual(c2, b >> c1);
+    } else {
+        const uint32_t c[3] = { c0, c1, c2 };
+        for (uint32_t a = 0; a < 3; a++) {
+            if (c[a] < CODEC_ESCAPE) res[a] = field_residual(c[a], get_bits(r, c[a]));
+            else if (!escape_residual(r, &res[a])) return BAD;
+        }
     }
-    const uint32_t c[3] = { c0, c1, c2 };
-    for (uint32_t a = 0; a < 3; a++)
-        res[a] = c[a] == 0 ? 0 : axis_residual(r, c[a], c[a] < CODEC_ESCAPE ? get_bits(r, c[a]) : 0, &bad);
-    return !bad;
+    return codec_body_table(c0, c1, c2);
 }
 
 static inline bool in_range(int32_t q)
 {
-    return q > -CODEC_MAX_QUANT && q < CODEC_MAX_QUANT;
+    return (uint32_t)(q + (CODEC_MAX_QUANT - 1)) < (uint32_t)(2 * CODEC_MAX_QUANT - 1);
+}
+
+/* Rebuilds vertices 1..nv-1 of a strand from residuals R: P[i] = prediction + R[i], one flat
+ * loop per mode (the predictions of codec_predict). Returns false on an out-of-range value. */
+static bool reconstruct(bool key, uint32_t mode, int32_t *restrict P, const int32_t *restrict K,
+                        const int32_t *restrict N, const int32_t *restrict KN, uint32_t nv, const int32_t *restrict R)
+{
+    const size_t n = (size_t)nv * 3u;
+    bool ok = true;
+    for (uint32_t a = 0; a < 3; a++) {
+        P[3 + a] = codec_predict(key, mode, P, K, N, KN, 1, a) + R[3 + a];
+        ok &= in_range(P[3 + a]);
+    }
+    if (!ok) return false;
+    size_t i = 6;
+#define REBUILD(expr)                        \
+    for (; i < n; i++) {                     \
+        int32_t q = (expr) + R[i];           \
+        if (!in_range(q)) return false;      \
+        P[i] = q;                            \
+    }
+    if (key) {
+        if (mode == 1u && N) {
+            REBUILD(P[i - 3] + N[i] - N[i - 3])
+        } else if (mode == 2u) {
+            for (; i < n && i < 9; i++) {
+                int32_t q = 2 * P[i - 3] - P[i - 6] + R[i];
+                if (!in_range(q)) return false;
+                P[i] = q;
+            }
+            REBUILD(3 * P[i - 3] - 3 * P[i - 6] + P[i - 9])
+        } else {
+            REBUILD(2 * P[i - 3] - P[i - 6])
+        }
+    } else if (mode == 1u) {
+        REBUILD(P[i - 3] + K[i] - K[i - 3] + (P[i - 3] - K[i - 3]) - (P[i - 6] - K[i - 6]))
+    } else if (mode == 2u) {
+        REBUILD(2 * P[i - 3] - P[i - 6])
+    } else if (mode == 3u && N) {
+        REBUILD(P[i - 3] + K[i] - K[i - 3] + (N[i] - KN[i]) - (N[i - 3] - KN[i - 3]))
+    } else {
+        REBUILD(P[i - 3] + K[i] - K[i - 3])
+    }
+#undef REBUILD
+    return true;
 }
 
 void codec_decoder_init(codec_decoder *dec)
@@ -109,14 +165,21 @@ void codec_decoder_free(codec_decoder *dec)
     free(dec->key_q);
     free(dec->cur_q);
     free(dec->slots);
+    free(dec->res);
     memset(dec, 0, sizeof *dec);
 }
 
-static core_status reserve(codec_decoder *dec, size_t nq, core_err *err)
+static core_status reserve(codec_decoder *dec, size_t nq, uint32_t nverts, core_err *err)
 {
     if (!dec->slots) {
         dec->slots = malloc((size_t)CODEC_NTABLES * CODEC_SCALE * sizeof *dec->slots);
         if (!dec->slots) return core_fail(err, CORE_ENOMEM, "codec: out of memory for decoder tables");
+    }
+    if (dec->res_cap < nverts) {
+        int32_t *r = realloc(dec->res, (size_t)nverts * 3u * sizeof *r);
+        if (!r) return core_fail(err, CORE_ENOMEM, "codec: out of memory for residuals");
+        dec->res = r;
+        dec->res_cap = nverts;
     }
     if (dec->cap >= nq) return CORE_OK;
     int32_t *k = realloc(dec->key_q, nq * sizeof *k);
@@ -129,34 +192,31 @@ static core_status reserve(codec_decoder *dec, size_t nq, core_err *err)
     return CORE_OK;
 }
 
-/* Decodes every strand of the frame into dec->cur_q. */
+/* Decodes every strand of the frame into dec->cur_q: first the strand's symbols and raw bits
+ * into residuals, then the predictions. */
 static core_status decode_strands(codec_decoder *dec, const codec_frame_info *h, reader *r, core_err *err)
 {
     const bool key = h->keyframe;
     const uint32_t nv = h->nverts, nmodes = key ? CODEC_KEY_MODES : CODEC_DELTA_MODES;
     const size_t per = (size_t)nv * 3u;
-    int32_t res[3];
+    int32_t *R = dec->res;
     for (uint32_t j = 0; j < h->nstrands_sent; j++) {
         int32_t *P = dec->cur_q + (size_t)j * per;
         const int32_t *K = key ? NULL : dec->key_q + (size_t)j * per;
         const int32_t *N = j ? P - per : NULL;
         const int32_t *KN = (j && !key) ? K - per : NULL;
-        uint32_t mode = get_sym(r, CODEC_T_MODE), table;
+        uint32_t mode = get_sym(r, CODEC_T_MODE);
         if (mode == BAD || mode >= nmodes) goto bad_stream;
-        if (!get_vertex(r, CODEC_T_ROOT, res, &table)) goto bad_stream;
+        uint32_t table = get_vertex(r, CODEC_T_ROOT, R);
+        if (table == BAD) goto bad_stream;
+        table = CODEC_T_FIRST;
+        for (uint32_t v = 1; v < nv && table != BAD; v++) table = get_vertex(r, table, R + 3u * v);
+        if (table == BAD) goto bad_stream;
         for (uint32_t a = 0; a < 3; a++) {
-            P[a] = codec_predict_root(key, K, N, KN, a) + res[a];
+            P[a] = codec_predict_root(key, K, N, KN, a) + R[a];
             if (!in_range(P[a])) goto bad_value;
         }
-        table = CODEC_T_FIRST;
-        for (uint32_t v = 1; v < nv; v++) {
-            if (!get_vertex(r, table, res, &table)) goto bad_stream;
-            for (uint32_t a = 0; a < 3; a++) {
-                int32_t q = codec_predict(key, mode, P, K, N, KN, v, a) + res[a];
-                if (!in_range(q)) goto bad_value;
-                P[3u * v + a] = q;
-            }
-        }
+        if (!reconstruct(key, mode, P, K, N, KN, nv, R)) goto bad_value;
     }
     return CORE_OK;
 bad_stream:
@@ -188,7 +248,7 @@ core_status codec_decode(codec_decoder *dec, const uint8_t *data, size_t len, fl
             return core_fail(err, CORE_EFORMAT, "codec: frame %llu does not match its keyframe's layout or step",
                              (unsigned long long)h.seq);
     }
-    st = reserve(dec, nq, err);
+    st = reserve(dec, nq, h.nverts, err);
     if (st) return st;
 
     static const codec_rans_tables zero_tabs;

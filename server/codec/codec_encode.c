@@ -48,44 +48,75 @@ static inline uint32_t mag(int32_t r)
  * table for the next vertex. */
 static inline uint32_t emit_vertex(emitter *e, uint32_t table, const int32_t *r)
 {
-    uint32_t c[3];
-    uint64_t acc = 0;
-    uint32_t n = 0;
+    uint32_t m0 = mag(r[0]), m1 = mag(r[1]), m2 = mag(r[2]), c[3];
+    if ((m0 | m1 | m2) < 32u) {
+        /* class = floor(log2(2m + 1)); field = sign | bits below the leading one, c bits */
+        uint32_t c0 = 31u - (uint32_t)__builtin_clz(2u * m0 + 1u), c1 = 31u - (uint32_t)__builtin_clz(2u * m1 + 1u),
+                 c2 = 31u - (uint32_t)__builtin_clz(2u * m2 + 1u);
+        uint32_t f0 = ((m0 << 1) | ((uint32_t)r[0] >> 31)) & ((1u << c0) - 1u);
+        uint32_t f1 = ((m1 << 1) | ((uint32_t)r[1] >> 31)) & ((1u << c1) - 1u);
+        uint32_t f2 = ((m2 << 1) | ((uint32_t)r[2] >> 31)) & ((1u << c2) - 1u);
+        bitw_put(&e->bits, f0 | f1 << c0 | f2 << (c0 + c1), c0 + c1 + c2);
+        emit_symbol(e, table, c0 + CODEC_NCLASS * c1 + CODEC_NCLASS * CODEC_NCLASS * c2);
+        return codec_body_table(c0, c1, c2);
+    }
     for (uint32_t a = 0; a < 3; a++) {
-        uint32_t m = mag(r[a]);
+        uint32_t m = mag(r[a]), sign = (uint32_t)r[a] >> 31;
         c[a] = codec_class(m);
         if (c[a] == 0) continue;
-        uint32_t sign = r[a] < 0;
         if (c[a] < CODEC_ESCAPE) {
-            acc |= (uint64_t)(((m - (1u << (c[a] - 1u))) << 1) | sign) << n;
-            n += c[a];
+            bitw_put(&e->bits, ((m << 1) | sign) & ((1u << c[a]) - 1u), c[a]);
         } else {
             uint32_t ex = 31u - (uint32_t)__builtin_clz(m);
-            bitw_put(&e->bits, (uint32_t)acc, n);
             bitw_put(&e->bits, sign | (ex - 5u) << 1, 6);
             bitw_put(&e->bits, m - (1u << ex), ex);
-            acc = 0;
-            n = 0;
         }
     }
-    if (n) bitw_put(&e->bits, (uint32_t)acc, n);
     emit_symbol(e, table, c[0] + CODEC_NCLASS * c[1] + CODEC_NCLASS * CODEC_NCLASS * c[2]);
     return codec_body_table(c[0], c[1], c[2]);
 }
 
-/* Residuals of vertices 1..nverts-1 of one strand under one prediction mode, into r[3..);
- * returns their summed classes (a bit-cost estimate). */
-static inline uint32_t residuals(bool key, uint32_t mode, const int32_t *P, const int32_t *K, const int32_t *N,
-                                 const int32_t *KN, uint32_t nverts, int32_t *r)
+/* Summed magnitude classes of r[0..n) (a bit-cost estimate), via the float exponent of 2|r|+1
+ * so that the loop vectorises. */
+static uint32_t est_cost(const int32_t *r, size_t n)
 {
     uint32_t cost = 0;
-    for (uint32_t v = 1; v < nverts; v++)
-        for (uint32_t a = 0; a < 3; a++) {
-            int32_t d = P[3u * v + a] - codec_predict(key, mode, P, K, N, KN, v, a);
-            r[3u * v + a] = d;
-            cost += 31u - (uint32_t)__builtin_clz(2u * mag(d) + 1u);
-        }
+    for (size_t i = 0; i < n; i++) {
+        union { float f; uint32_t u; } v = { .f = (float)(2u * mag(r[i]) + 1u) };
+        cost += (v.u >> 23) - 127u;
+    }
     return cost;
+}
+
+/* Residuals of vertices 1..nverts-1 of one strand under one prediction mode, into r[3..);
+ * returns their estimated cost. Same predictions as codec_predict, written as flat loops. */
+static uint32_t residuals(bool key, uint32_t mode, const int32_t *restrict P, const int32_t *restrict K,
+                          const int32_t *restrict N, const int32_t *restrict KN, uint32_t nverts, int32_t *restrict r)
+{
+    const size_t n = (size_t)nverts * 3u;
+    for (uint32_t a = 0; a < 3; a++) r[3 + a] = P[3 + a] - codec_predict(key, mode, P, K, N, KN, 1, a);
+    size_t i = 6;
+    if (key) {
+        if (mode == 1u && N) {
+            for (; i < n; i++) r[i] = P[i] - (P[i - 3] + N[i] - N[i - 3]);
+        } else {
+            if (mode == 2u)
+                for (; i < n && i < 9; i++) r[i] = P[i] - (2 * P[i - 3] - P[i - 6]);
+            if (mode == 2u)
+                for (; i < n; i++) r[i] = P[i] - (3 * P[i - 3] - 3 * P[i - 6] + P[i - 9]);
+            else
+                for (; i < n; i++) r[i] = P[i] - (2 * P[i - 3] - P[i - 6]);
+        }
+    } else if (mode == 1u) {
+        for (; i < n; i++) r[i] = P[i] - (2 * P[i - 3] + K[i] - 2 * K[i - 3] - P[i - 6] + K[i - 6]);
+    } else if (mode == 2u) {
+        for (; i < n; i++) r[i] = P[i] - (2 * P[i - 3] - P[i - 6]);
+    } else if (mode == 3u && N) {
+        for (; i < n; i++) r[i] = P[i] - (P[i - 3] + K[i] - K[i - 3] + N[i] - KN[i] - N[i - 3] + KN[i - 3]);
+    } else {
+        for (; i < n; i++) r[i] = P[i] - (P[i - 3] + K[i] - K[i - 3]);
+    }
+    return est_cost(r + 3, n - 3);
 }
 
 void codec_encoder_free(codec_encoder *enc)
@@ -111,8 +142,8 @@ core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint3
     if (d.max_error_m == 0.0f) d.max_error_m = CODEC_DEFAULT_MAX_ERROR;
     if (d.key_interval == 0) d.key_interval = CODEC_DEFAULT_KEY_INTERVAL;
     if (d.stride == 0) d.stride = 1;
-    if (!(d.max_error_m >= 1e-6f && d.max_error_m <= 0.1f))
-        return core_fail(err, CORE_EINVAL, "codec: max_error_m %g outside [1e-6, 0.1] m", (double)d.max_error_m);
+    if (!(d.max_error_m >= 1e-5f && d.max_error_m <= 0.1f))
+        return core_fail(err, CORE_EINVAL, "codec: max_error_m %g outside [1e-5, 0.1] m", (double)d.max_error_m);
     if (nstrands < 1) return core_fail(err, CORE_EINVAL, "codec: no strands");
     if (nverts < 2 || nverts > CODEC_MAX_NVERTS)
         return core_fail(err, CORE_EINVAL, "codec: %u vertices per strand outside [2, %u]", nverts,
@@ -145,33 +176,50 @@ core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint3
     return CORE_OK;
 }
 
-/* Quantises the sent strands into enc->cur_q, checking the float32 reconstruction of every
- * coordinate against the bound (and nudging by one step where rounding would break it). */
+/* Quantises one coordinate carefully: the nearest lattice point whose float32 reconstruction
+ * is within the bound (the nearest one or a neighbour). */
+static core_status quantize_one(const codec_encoder *enc, float x, uint32_t strand, size_t vert, int32_t *out,
+                                core_err *err)
+{
+    const double step = enc->step, t = (double)x * enc->inv_step;
+    const float bound = enc->desc.max_error_m;
+    if (!(fabs(t) < (double)(CODEC_MAX_QUANT - 2)))
+        return core_fail(err, CORE_EINVAL, "codec: strand %u vertex %zu coordinate %g is %s", strand, vert, (double)x,
+                         isfinite(x) ? "out of range for this error bound" : "not finite");
+    int32_t v = (int32_t)lrint(t);
+    if (!(fabsf((float)((double)v * step) - x) <= bound)) {
+        int32_t alt = (float)((double)v * step) < x ? v + 1 : v - 1;
+        if (!(fabsf((float)((double)alt * step) - x) <= bound))
+            return core_fail(err, CORE_EINVAL, "codec: coordinate %g cannot be held within %g m in float32", (double)x,
+                             (double)bound);
+        v = alt;
+    }
+    *out = v;
+    return CORE_OK;
+}
+
+/* Quantises the sent strands into enc->cur_q. Vectorisable passes check the range (and NaN),
+ * round (truncation of a shifted positive value, i.e. floor(t + 0.5)) and check each float32
+ * reconstruction against the bound; a strand with any flag is redone one coordinate at a time. */
 static core_status quantize(codec_encoder *enc, const float *xyz, core_err *err)
 {
-    const double step = enc->step, inv = enc->inv_step;
-    const float bound = enc->desc.max_error_m;
+    const double step = enc->step, inv = enc->inv_step, shift = (double)(2 * CODEC_MAX_QUANT);
+    const float bound = enc->desc.max_error_m, xlim = (float)((double)(CODEC_MAX_QUANT - 4) * step);
     const size_t per = (size_t)enc->nverts * 3u;
     for (uint32_t j = 0; j < enc->nstrands_sent; j++) {
-        const float *src = xyz + (size_t)j * enc->desc.stride * per;
-        int32_t *q = enc->cur_q + (size_t)j * per;
+        const float *restrict src = xyz + (size_t)j * enc->desc.stride * per;
+        int32_t *restrict q = enc->cur_q + (size_t)j * per;
+        int bad = 0;
+        for (size_t i = 0; i < per; i++) bad |= !(fabsf(src[i]) <= xlim);
+        if (!bad) {
+            for (size_t i = 0; i < per; i++)
+                q[i] = (int32_t)((double)src[i] * inv + (shift + 0.5)) - 2 * CODEC_MAX_QUANT;
+            for (size_t i = 0; i < per; i++) bad |= fabsf((float)((double)q[i] * step) - src[i]) > bound;
+            if (!bad) continue;
+        }
         for (size_t i = 0; i < per; i++) {
-            float x = src[i];
-            double t = (double)x * inv;
-            if (!(fabs(t) < (double)(CODEC_MAX_QUANT - 2)))
-                return core_fail(err, CORE_EINVAL,
-                                 "codec: strand %u vertex %zu coordinate %g is %s", j * enc->desc.stride,
-                                 i / 3u, (double)x, isfinite(x) ? "out of range for this error bound" : "not finite");
-            int32_t v = (int32_t)lrint(t);
-            if (!(fabsf((float)((double)v * step) - x) <= bound)) {
-                int32_t alt = (float)((double)v * step) < x ? v + 1 : v - 1;
-                if (!(fabsf((float)((double)alt * step) - x) <= bound))
-                    return core_fail(err, CORE_EINVAL,
-                                     "codec: coordinate %g cannot be held within %g m in float32", (double)x,
-                                     (double)bound);
-                v = alt;
-            }
-            q[i] = v;
+            core_status st = quantize_one(enc, src[i], j * enc->desc.stride, i / 3u, &q[i], err);
+            if (st) return st;
         }
     }
     return CORE_OK;
@@ -190,6 +238,7 @@ static void tokenize(codec_encoder *enc, bool key, emitter *e)
         const int32_t *KN = (j && !key) ? K - per : NULL;
         uint32_t mode = 0, best_cost = residuals(key, 0, P, K, N, KN, nv, best);
         for (uint32_t m = 1; m < nmodes; m++) {
+            if (!N && ((key && m == 1u) || (!key && m == 3u))) continue; /* same as mode 0 */
             uint32_t c = residuals(key, m, P, K, N, KN, nv, trial);
             if (c < best_cost) {
                 int32_t *t = best;

@@ -100,8 +100,8 @@ core_status codec_peek_header(const uint8_t *data, size_t len, codec_frame_info 
                          (unsigned long long)h.ref_seq, h.keyframe ? "keyframe" : "delta frame",
                          (unsigned long long)h.seq);
     if (!isfinite(h.sim_time)) return core_fail(err, CORE_EFORMAT, "codec: sim time is not finite");
-    if (!(h.max_error_m >= 1e-6f && h.max_error_m <= 0.1f))
-        return core_fail(err, CORE_EFORMAT, "codec: error bound %g m outside [1e-6, 0.1]", (double)h.max_error_m);
+    if (!(h.max_error_m >= 1e-5f && h.max_error_m <= 0.1f))
+        return core_fail(err, CORE_EFORMAT, "codec: error bound %g m outside [1e-5, 0.1]", (double)h.max_error_m);
     if (!(h.step > 0.0 && h.step <= 2.0 * (double)h.max_error_m))
         return core_fail(err, CORE_EFORMAT, "codec: quantization step %g m does not meet bound %g m", h.step,
                          (double)h.max_error_m);
