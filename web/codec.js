@@ -19,7 +19,9 @@ const T_MODE = 0;
 const T_ROOT = 1;
 const T_FIRST = 2;
 const T_BODY = 3;
-const NTABLES = T_BODY + NBODY;
+const T_ESC = T_BODY + NBODY;
+const NESC = 25;
+const NTABLES = T_ESC + 1;
 const MAX_VERTICES = 1 << 24;
 const MAX_NVERTS = 4096;
 const MAX_QUANT = 1 << 26;
@@ -303,29 +305,42 @@ export class StrandDecoder {
         }
         for (let a = 0; a < 3; a++) {
           const c = a === 0 ? SYM_C0[s] : a === 1 ? SYM_C1[s] : SYM_C2[s];
-          const n1 = c < ESCAPE ? c : 6;
-          while (nacc < n1) { acc |= (bpos < bend ? bytes[bpos] : 0) << nacc; bpos++; nacc += 8; }
-          const f = acc & ((1 << n1) - 1);
-          acc >>>= n1;
-          nacc -= n1;
-          let m;
           if (c < ESCAPE) {
-            m = ((1 << c) >> 1) | (f >> 1);
-          } else {
-            const ex = (f >>> 1) + 5;
-            if (ex > 29) fail(badStream);
-            let mant = 0, got = 0; // up to 29 bits, read in parts of at most 16
-            while (got < ex) {
-              const n2 = ex - got > 16 ? 16 : ex - got;
-              while (nacc < n2) { acc |= (bpos < bend ? bytes[bpos] : 0) << nacc; bpos++; nacc += 8; }
-              mant += (acc & ((1 << n2) - 1)) * (1 << got);
-              acc >>>= n2;
-              nacc -= n2;
-              got += n2;
-            }
-            m = (1 << ex) + mant;
+            while (nacc < c) { acc |= (bpos < bend ? bytes[bpos] : 0) << nacc; bpos++; nacc += 8; }
+            const f = acc & ((1 << c) - 1);
+            acc >>>= c;
+            nacc -= c;
+            const m = ((1 << c) >> 1) | (f >> 1);
+            R[i + a] = f & 1 ? -m : m;
+            continue;
           }
-          R[i + a] = f & 1 ? -m : m;
+          // escape: e - 5 from the escape table (rANS), then sign and e mantissa bits (raw)
+          const li = (T_ESC << SCALE_BITS) + (x0 & (SCALE - 1));
+          const k = slots[li], ee = steps[li];
+          if (k >= NESC) fail(badStream); // also an unused table (0xffff)
+          let xe = (ee >>> SCALE_BITS) * (x0 >>> SCALE_BITS) + (ee & (SCALE - 1));
+          while (xe < RANS_L) {
+            if (rpos >= rend) fail(badStream);
+            xe = (xe << 8) | bytes[rpos++];
+          }
+          x0 = x1;
+          x1 = xe;
+          const ex = k + 5;
+          while (nacc < 1) { acc |= (bpos < bend ? bytes[bpos] : 0) << nacc; bpos++; nacc += 8; }
+          const sign = acc & 1;
+          acc >>>= 1;
+          nacc -= 1;
+          let mant = 0, got = 0; // up to 29 bits, read in parts of at most 16
+          while (got < ex) {
+            const n2 = ex - got > 16 ? 16 : ex - got;
+            while (nacc < n2) { acc |= (bpos < bend ? bytes[bpos] : 0) << nacc; bpos++; nacc += 8; }
+            mant += (acc & ((1 << n2) - 1)) * (1 << got);
+            acc >>>= n2;
+            nacc -= n2;
+            got += n2;
+          }
+          const m = (1 << ex) + mant;
+          R[i + a] = sign ? -m : m;
         }
       }
       if (!reconstruct(key, mode, P, K, base, per, R)) fail('corrupt frame (decoded coordinate out of range)');

@@ -71,12 +71,14 @@ static inline int32_t field_residual(uint32_t c, uint32_t f)
     return (int32_t)((m ^ (0u - sign)) + sign);
 }
 
-/* One escaped axis: sign, e - 5 (5 bits), then e bits below the leading one. */
+/* One escaped axis: e = 5 + a symbol of the escape table, then the sign and e bits below the
+ * leading one (raw). */
 static inline bool escape_residual(reader *r, int32_t *res)
 {
-    uint32_t b = get_bits(r, 6), ex = (b >> 1) + 5u;
-    if (ex > 29u) return false;
-    uint32_t m = (1u << ex) | get_bits(r, ex), sign = b & 1u;
+    uint32_t k = get_sym(r, CODEC_T_ESC);
+    if (k >= CODEC_NESC) return false; /* also BAD */
+    uint32_t ex = k + 5u, sign = get_bits(r, 1);
+    uint32_t m = (1u << ex) | get_bits(r, ex);
     *res = (int32_t)((m ^ (0u - sign)) + sign);
     return true;
 }

@@ -60,6 +60,7 @@ static inline uint32_t emit_vertex(emitter *e, uint32_t table, const int32_t *r)
         emit_symbol(e, table, c0 + CODEC_NCLASS * c1 + CODEC_NCLASS * CODEC_NCLASS * c2);
         return codec_body_table(c0, c1, c2);
     }
+    uint32_t esc[3], nesc = 0;
     for (uint32_t a = 0; a < 3; a++) {
         uint32_t m = mag(r[a]), sign = (uint32_t)r[a] >> 31;
         c[a] = codec_class(m);
@@ -68,11 +69,13 @@ static inline uint32_t emit_vertex(emitter *e, uint32_t table, const int32_t *r)
             bitw_put(&e->bits, ((m << 1) | sign) & ((1u << c[a]) - 1u), c[a]);
         } else {
             uint32_t ex = 31u - (uint32_t)__builtin_clz(m);
-            bitw_put(&e->bits, sign | (ex - 5u) << 1, 6);
+            esc[nesc++] = ex - 5u;
+            bitw_put(&e->bits, sign, 1);
             bitw_put(&e->bits, m - (1u << ex), ex);
         }
     }
     emit_symbol(e, table, c[0] + CODEC_NCLASS * c[1] + CODEC_NCLASS * CODEC_NCLASS * c[2]);
+    for (uint32_t k = 0; k < nesc; k++) emit_symbol(e, CODEC_T_ESC, esc[k]);
     return codec_body_table(c[0], c[1], c[2]);
 }
 
@@ -159,8 +162,8 @@ core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint3
     enc->step = codec_step_for_bound(d.max_error_m);
     enc->inv_step = 1.0 / enc->step;
     size_t nq = (size_t)sent * nverts * 3u;
-    enc->nsyms_max = (size_t)sent * (1u + (size_t)nverts);
-    enc->bits_cap = (size_t)sent * nverts * 14u + 16u;
+    enc->nsyms_max = (size_t)sent * (1u + 4u * (size_t)nverts);
+    enc->bits_cap = (size_t)sent * nverts * 12u + 16u;
     enc->rans_cap = enc->nsyms_max * 2u + 16u;
     enc->key_q = malloc(nq * sizeof *enc->key_q);
     enc->cur_q = malloc(nq * sizeof *enc->cur_q);

@@ -16,7 +16,8 @@
 
 /* Residuals are coded per vertex: one rANS symbol holds the magnitude class of all three axes,
  * sym = c0 + 7 c1 + 49 c2, and raw bits give signs and the bits below the leading one.
- * Class of |r| = m: 0 for 0, c (1..5) for 2^(c-1) <= m < 2^c, 6 (escape) for m >= 32. */
+ * Class of |r| = m: 0 for 0, c (1..5) for 2^(c-1) <= m < 2^c, 6 (escape) for m >= 32; an
+ * escaped axis adds a symbol of table CODEC_T_ESC for floor(log2 m). */
 #define CODEC_NCLASS 7u
 #define CODEC_ESCAPE 6u
 #define CODEC_NSYM (CODEC_NCLASS * CODEC_NCLASS * CODEC_NCLASS)
@@ -31,7 +32,9 @@
 #define CODEC_T_ROOT 1u
 #define CODEC_T_FIRST 2u
 #define CODEC_T_BODY 3u
-#define CODEC_NTABLES (CODEC_T_BODY + CODEC_NBODY)
+#define CODEC_T_ESC (CODEC_T_BODY + CODEC_NBODY) /* e - 5 of an escaped axis (e = floor(log2 m)) */
+#define CODEC_NESC 25u                           /* e in 5..29 */
+#define CODEC_NTABLES (CODEC_T_ESC + 1u)
 
 static inline uint32_t codec_class(uint32_t m)
 {
