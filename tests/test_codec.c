@@ -438,6 +438,22 @@ static void test_absurd_headers(void **state)
         if (which < 24) assert_int_equal(codec_peek_header(c, f.key.len, &info, &err), CORE_EFORMAT);
     }
     free(c);
+    /* a delta whose rigid motion is absurd */
+    core_err err;
+    assert_int_equal(codec_decode(&dec, f.key.data, f.key.len, out, f.n, NULL, &err), CORE_OK);
+    c = malloc(f.delta.len);
+    const float bad_motion[4] = { NAN, 2.5f, -INFINITY, 1e30f };
+    for (int k = 0; k < 4; k++) {
+        memcpy(c, f.delta.data, f.delta.len);
+        memcpy(&u32, &bad_motion[k], 4);
+        put32(c + CODEC_HEADER_SIZE + (k < 2 ? 4u * (uint32_t)k : 40u), u32);
+        restamp_crc(c, f.delta.len);
+        expect_reject(&dec, c, f.delta.len, out, f.n, CORE_EFORMAT);
+        assert_int_equal(codec_decode(&dec, c, f.delta.len, out, f.n, NULL, &err), CORE_EFORMAT);
+        assert_non_null(strstr(err.msg, "motion"));
+    }
+    assert_int_equal(codec_decode(&dec, f.delta.data, f.delta.len, out, f.n, NULL, &err), CORE_OK);
+    free(c);
     free(out);
     codec_decoder_free(&dec);
     free_frames(&f);

@@ -25,6 +25,7 @@ const NTABLES = T_ESC + 1;
 const MAX_VERTICES = 1 << 24;
 const MAX_NVERTS = 4096;
 const MAX_QUANT = 1 << 26;
+const MOTION_BYTES = 48;
 
 // Per symbol: the three classes, the table of the next vertex, the raw bit count (-1: escape).
 const SYM_C0 = new Uint8Array(NSYM);
@@ -142,6 +143,8 @@ export class StrandDecoder {
     this._keyValid = false;
     this._keyQ = new Int32Array(0);
     this._curQ = new Int32Array(0);
+    this._keyM = new Int32Array(0); // the keyframe moved by a delta's rigid motion
+    this._motion = new Float64Array(12);
     this._slots = new Uint16Array(NTABLES * SCALE);  // slot -> symbol (0xffff: unused table)
     this._steps = new Uint32Array(NTABLES * SCALE);  // slot -> freq << 12 | (slot - start)
     this._res = new Int32Array(0); // residuals of one strand
@@ -177,8 +180,20 @@ export class StrandDecoder {
       k.set(this._keyQ);
       this._keyQ = k;
       this._curQ = new Int32Array(nq);
+      this._keyM = new Int32Array(nq);
     }
-    const pl = HEADER_SIZE, end = bytes.length;
+    const end = bytes.length;
+    let pl = HEADER_SIZE;
+    if (!h.keyframe) {
+      if (end - pl < MOTION_BYTES) fail('truncated payload (no motion)');
+      const m = this._motion;
+      for (let k = 0; k < 12; k++) m[k] = f32(bytes, pl + 4 * k);
+      for (let k = 0; k < 12; k++) {
+        if (!(Math.abs(m[k]) <= (k < 9 ? 2 : 4 * MAX_QUANT))) fail('invalid rigid motion');
+      }
+      applyMotion(m, this._keyQ, this._keyM, nq / 3);
+      pl += MOTION_BYTES;
+    }
     this._pos = pl;
     this._readTables(bytes, end);
     let pos = this._pos;
@@ -247,7 +262,7 @@ export class StrandDecoder {
   _decodeStrands(bytes, h, rpos, rend, bend) {
     const slots = this._slots, steps = this._steps;
     const key = h.keyframe, nv = h.nverts, per = nv * 3, nmodes = key ? KEY_MODES : DELTA_MODES;
-    const P = this._curQ, K = this._keyQ;
+    const P = this._curQ, K = this._keyM;
     if (this._res.length < per) this._res = new Int32Array(per);
     const R = this._res;
     const bstart = rend;
@@ -351,6 +366,22 @@ export class StrandDecoder {
   }
 }
 
+// out = round(R k + t) per vertex in binary64, clamped (codec_motion_apply).
+function applyMotion(m, k, out, nverts) {
+  const lim = MAX_QUANT - 1;
+  const r0 = m[0], r1 = m[1], r2 = m[2], r3 = m[3], r4 = m[4], r5 = m[5], r6 = m[6], r7 = m[7], r8 = m[8];
+  const t0 = m[9], t1 = m[10], t2 = m[11];
+  for (let i = 0, j = 0; i < nverts; i++, j += 3) {
+    const x = k[j], y = k[j + 1], z = k[j + 2];
+    let w = Math.floor(r0 * x + r1 * y + r2 * z + t0 + 0.5);
+    out[j] = w < -lim ? -lim : w > lim ? lim : w;
+    w = Math.floor(r3 * x + r4 * y + r5 * z + t1 + 0.5);
+    out[j + 1] = w < -lim ? -lim : w > lim ? lim : w;
+    w = Math.floor(r6 * x + r7 * y + r8 * z + t2 + 0.5);
+    out[j + 2] = w < -lim ? -lim : w > lim ? lim : w;
+  }
+}
+
 // positions = float32(q * step), exactly as the C decoder.
 function dequantize(q, positions, n, step) {
   for (let i = 0; i < n; i++) positions[i] = q[i] * step;
@@ -376,7 +407,6 @@ function reconstruct(key, mode, P, K, base, per, R) {
     const i = base + 3 + a, p = i - 3, n = i - per, np = p - per;
     let pred;
     if (key) pred = hasN ? P[p] + P[n] - P[np] : P[p];
-    else if (mode === 3 && hasN) pred = P[p] + K[i] - K[p] + (P[n] - K[n]) - (P[np] - K[np]);
     else pred = P[p] + K[i] - K[p];
     const q = pred + R[3 + a];
     if (!inRange(q)) return false;
@@ -420,9 +450,14 @@ function reconstruct(key, mode, P, K, base, per, R) {
       if (!inRange(q)) return false;
       P[i] = q;
     }
-  } else if (mode === 3 && hasN) {
+  } else if (mode === 3) {
+    for (; i < end && r < 9; i++, r++) {
+      const q = 2 * P[i - 3] - P[i - 6] + R[r];
+      if (!inRange(q)) return false;
+      P[i] = q;
+    }
     for (; i < end; i++, r++) {
-      const q = P[i - 3] + K[i] - K[i - 3] + (P[i - per] - K[i - per]) - (P[i - 3 - per] - K[i - 3 - per]) + R[r];
+      const q = 3 * P[i - 3] - 3 * P[i - 6] + P[i - 9] + R[r];
       if (!inRange(q)) return false;
       P[i] = q;
     }

@@ -59,6 +59,7 @@ typedef struct codec_encoder {
     bool key_valid;
     int32_t *key_q;      /* keyframe lattice coordinates, sent strands, strand-major xyz */
     int32_t *cur_q;      /* this frame's lattice coordinates */
+    int32_t *key_m;      /* the keyframe moved by this frame's rigid motion */
     uint64_t last_seq;   /* sequence numbers must increase */
     uint16_t *syms;      /* entropy-coder symbols of this frame, (table << 9) | symbol */
     int32_t *res;        /* residuals of one strand under two prediction modes */
@@ -72,8 +73,8 @@ typedef struct codec_encoder {
 typedef struct codec_decoder {
     bool key_valid;
     codec_frame_info key;  /* header of the held keyframe */
-    int32_t *key_q, *cur_q;
-    size_t cap;            /* int32 capacity of key_q and cur_q */
+    int32_t *key_q, *cur_q, *key_m; /* keyframe, this frame, keyframe moved by the frame's motion */
+    size_t cap;            /* int32 capacity of key_q, cur_q and key_m */
     uint16_t *slots;       /* rANS slot -> symbol lookup, one 4096-entry table per context */
     int32_t *res;          /* residuals of one strand */
     uint32_t res_cap;      /* vertices res holds */

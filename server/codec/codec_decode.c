@@ -114,12 +114,12 @@ static inline bool in_range(int32_t q)
 /* Rebuilds vertices 1..nv-1 of a strand from residuals R: P[i] = prediction + R[i], one flat
  * loop per mode (the predictions of codec_predict). Returns false on an out-of-range value. */
 static bool reconstruct(bool key, uint32_t mode, int32_t *restrict P, const int32_t *restrict K,
-                        const int32_t *restrict N, const int32_t *restrict KN, uint32_t nv, const int32_t *restrict R)
+                        const int32_t *restrict N, uint32_t nv, const int32_t *restrict R)
 {
     const size_t n = (size_t)nv * 3u;
     bool ok = true;
     for (uint32_t a = 0; a < 3; a++) {
-        P[3 + a] = codec_predict(key, mode, P, K, N, KN, 1, a) + R[3 + a];
+        P[3 + a] = codec_predict(key, mode, P, K, N, 1, a) + R[3 + a];
         ok &= in_range(P[3 + a]);
     }
     if (!ok) return false;
@@ -147,8 +147,13 @@ static bool reconstruct(bool key, uint32_t mode, int32_t *restrict P, const int3
         REBUILD(P[i - 3] + K[i] - K[i - 3] + (P[i - 3] - K[i - 3]) - (P[i - 6] - K[i - 6]))
     } else if (mode == 2u) {
         REBUILD(2 * P[i - 3] - P[i - 6])
-    } else if (mode == 3u && N) {
-        REBUILD(P[i - 3] + K[i] - K[i - 3] + (N[i] - KN[i]) - (N[i - 3] - KN[i - 3]))
+    } else if (mode == 3u) {
+        for (; i < n && i < 9; i++) {
+            int32_t q = 2 * P[i - 3] - P[i - 6] + R[i];
+            if (!in_range(q)) return false;
+            P[i] = q;
+        }
+        REBUILD(3 * P[i - 3] - 3 * P[i - 6] + P[i - 9])
     } else {
         REBUILD(P[i - 3] + K[i] - K[i - 3])
     }
@@ -166,6 +171,7 @@ void codec_decoder_free(codec_decoder *dec)
     if (!dec) return;
     free(dec->key_q);
     free(dec->cur_q);
+    free(dec->key_m);
     free(dec->slots);
     free(dec->res);
     memset(dec, 0, sizeof *dec);
@@ -190,6 +196,9 @@ static core_status reserve(codec_decoder *dec, size_t nq, uint32_t nverts, core_
     int32_t *c = realloc(dec->cur_q, nq * sizeof *c);
     if (!c) return core_fail(err, CORE_ENOMEM, "codec: out of memory for %zu coordinates", nq);
     dec->cur_q = c;
+    int32_t *m = realloc(dec->key_m, nq * sizeof *m);
+    if (!m) return core_fail(err, CORE_ENOMEM, "codec: out of memory for %zu coordinates", nq);
+    dec->key_m = m;
     dec->cap = nq;
     return CORE_OK;
 }
@@ -204,7 +213,7 @@ static core_status decode_strands(codec_decoder *dec, const codec_frame_info *h,
     int32_t *R = dec->res;
     for (uint32_t j = 0; j < h->nstrands_sent; j++) {
         int32_t *P = dec->cur_q + (size_t)j * per;
-        const int32_t *K = key ? NULL : dec->key_q + (size_t)j * per;
+        const int32_t *K = key ? NULL : dec->key_m + (size_t)j * per;
         const int32_t *N = j ? P - per : NULL;
         const int32_t *KN = (j && !key) ? K - per : NULL;
         uint32_t mode = get_sym(r, CODEC_T_MODE);
@@ -218,7 +227,7 @@ static core_status decode_strands(codec_decoder *dec, const codec_frame_info *h,
             P[a] = codec_predict_root(key, K, N, KN, a) + R[a];
             if (!in_range(P[a])) goto bad_value;
         }
-        if (!reconstruct(key, mode, P, K, N, KN, nv, R)) goto bad_value;
+        if (!reconstruct(key, mode, P, K, N, nv, R)) goto bad_value;
     }
     return CORE_OK;
 bad_stream:
@@ -257,6 +266,17 @@ core_status codec_decode(codec_decoder *dec, const uint8_t *data, size_t len, fl
     codec_rans_tables tabs = zero_tabs;
     const uint8_t *pl = data + CODEC_HEADER_SIZE;
     size_t pos = 0;
+    if (!h.keyframe) {
+        if (h.payload_len < CODEC_MOTION_BYTES) return core_fail(err, CORE_EFORMAT, "codec: truncated payload (no motion)");
+        float motion[12];
+        for (int k = 0; k < 12; k++) {
+            uint32_t u = codec_get_u32(pl + 4 * k);
+            memcpy(&motion[k], &u, 4);
+        }
+        if (!codec_motion_valid(motion)) return core_fail(err, CORE_EFORMAT, "codec: invalid rigid motion");
+        codec_motion_apply(motion, dec->key_q, dec->key_m, nq / 3u);
+        pos = CODEC_MOTION_BYTES;
+    }
     st = codec_rans_read_tables(pl, h.payload_len, &pos, &tabs, dec->slots, err);
     if (st) return st;
     if (h.payload_len - pos < 4) return core_fail(err, CORE_EFORMAT, "codec: truncated payload (no stream length)");

@@ -94,10 +94,10 @@ static uint32_t est_cost(const int32_t *r, size_t n)
 /* Residuals of vertices 1..nverts-1 of one strand under one prediction mode, into r[3..);
  * returns their estimated cost. Same predictions as codec_predict, written as flat loops. */
 static uint32_t residuals(bool key, uint32_t mode, const int32_t *restrict P, const int32_t *restrict K,
-                          const int32_t *restrict N, const int32_t *restrict KN, uint32_t nverts, int32_t *restrict r)
+                          const int32_t *restrict N, uint32_t nverts, int32_t *restrict r)
 {
     const size_t n = (size_t)nverts * 3u;
-    for (uint32_t a = 0; a < 3; a++) r[3 + a] = P[3 + a] - codec_predict(key, mode, P, K, N, KN, 1, a);
+    for (uint32_t a = 0; a < 3; a++) r[3 + a] = P[3 + a] - codec_predict(key, mode, P, K, N, 1, a);
     size_t i = 6;
     if (key) {
         if (mode == 1u && N) {
@@ -114,8 +114,9 @@ static uint32_t residuals(bool key, uint32_t mode, const int32_t *restrict P, co
         for (; i < n; i++) r[i] = P[i] - (2 * P[i - 3] + K[i] - 2 * K[i - 3] - P[i - 6] + K[i - 6]);
     } else if (mode == 2u) {
         for (; i < n; i++) r[i] = P[i] - (2 * P[i - 3] - P[i - 6]);
-    } else if (mode == 3u && N) {
-        for (; i < n; i++) r[i] = P[i] - (P[i - 3] + K[i] - K[i - 3] + N[i] - KN[i] - N[i - 3] + KN[i - 3]);
+    } else if (mode == 3u) {
+        for (; i < n && i < 9; i++) r[i] = P[i] - (2 * P[i - 3] - P[i - 6]);
+        for (; i < n; i++) r[i] = P[i] - (3 * P[i - 3] - 3 * P[i - 6] + P[i - 9]);
     } else {
         for (; i < n; i++) r[i] = P[i] - (P[i - 3] + K[i] - K[i - 3]);
     }
@@ -127,6 +128,7 @@ void codec_encoder_free(codec_encoder *enc)
     if (!enc) return;
     free(enc->key_q);
     free(enc->cur_q);
+    free(enc->key_m);
     free(enc->syms);
     free(enc->bits);
     free(enc->rans);
@@ -167,12 +169,13 @@ core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint3
     enc->rans_cap = enc->nsyms_max * 2u + 16u;
     enc->key_q = malloc(nq * sizeof *enc->key_q);
     enc->cur_q = malloc(nq * sizeof *enc->cur_q);
+    enc->key_m = malloc(nq * sizeof *enc->key_m);
     enc->syms = malloc(enc->nsyms_max * sizeof *enc->syms);
     enc->bits = malloc(enc->bits_cap);
     enc->rans = malloc(enc->rans_cap);
     enc->res = malloc(2u * (size_t)nverts * 3u * sizeof *enc->res);
     enc->rsyms = malloc((size_t)CODEC_NTABLES * CODEC_NSYM * sizeof *enc->rsyms);
-    if (!enc->key_q || !enc->cur_q || !enc->syms || !enc->bits || !enc->rans || !enc->res || !enc->rsyms) {
+    if (!enc->key_q || !enc->cur_q || !enc->key_m || !enc->syms || !enc->bits || !enc->rans || !enc->res || !enc->rsyms) {
         codec_encoder_free(enc);
         return core_fail(err, CORE_ENOMEM, "codec: out of memory for %u x %u vertices", sent, nverts);
     }
@@ -236,13 +239,13 @@ static void tokenize(codec_encoder *enc, bool key, emitter *e)
     int32_t *best = enc->res, *trial = enc->res + per;
     for (uint32_t j = 0; j < enc->nstrands_sent; j++) {
         const int32_t *P = enc->cur_q + (size_t)j * per;
-        const int32_t *K = key ? NULL : enc->key_q + (size_t)j * per;
+        const int32_t *K = key ? NULL : enc->key_m + (size_t)j * per;
         const int32_t *N = j ? P - per : NULL;
         const int32_t *KN = (j && !key) ? K - per : NULL;
-        uint32_t mode = 0, best_cost = residuals(key, 0, P, K, N, KN, nv, best);
+        uint32_t mode = 0, best_cost = residuals(key, 0, P, K, N, nv, best);
         for (uint32_t m = 1; m < nmodes; m++) {
-            if (!N && ((key && m == 1u) || (!key && m == 3u))) continue; /* same as mode 0 */
-            uint32_t c = residuals(key, m, P, K, N, KN, nv, trial);
+            if (!N && key && m == 1u) continue; /* same as mode 0 */
+            uint32_t c = residuals(key, m, P, K, N, nv, trial);
             if (c < best_cost) {
                 int32_t *t = best;
                 best = trial;
@@ -271,6 +274,13 @@ core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, dou
     bool key = force_key || !enc->key_valid || enc->since_key + 1u >= enc->desc.key_interval;
     core_status st = quantize(enc, xyz, err);
     if (st) return st;
+
+    float motion[12];
+    if (!key) {
+        const size_t per = (size_t)enc->nverts * 3u;
+        codec_motion_estimate(enc->key_q, enc->cur_q, enc->nstrands_sent, per, motion);
+        codec_motion_apply(motion, enc->key_q, enc->key_m, (size_t)enc->nstrands_sent * enc->nverts);
+    }
 
     static const uint32_t zero_counts[CODEC_NTABLES][CODEC_NSYM];
     uint32_t counts[CODEC_NTABLES][CODEC_NSYM];
@@ -305,10 +315,18 @@ core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, dou
     }
     size_t rans_len = (size_t)(end - p);
 
-    size_t max_len = CODEC_HEADER_SIZE + (size_t)CODEC_NTABLES * 5u * (CODEC_NSYM + 1u) + 4u + rans_len + nbits_bytes;
+    size_t max_len = CODEC_HEADER_SIZE + CODEC_MOTION_BYTES + (size_t)CODEC_NTABLES * 5u * (CODEC_NSYM + 1u) + 4u + rans_len + nbits_bytes;
     st = codec_buf_reserve(out, max_len, err);
     if (st) return st;
     uint8_t *w = out->data + CODEC_HEADER_SIZE;
+    if (!key) {
+        for (int k = 0; k < 12; k++) {
+            uint32_t u;
+            memcpy(&u, &motion[k], 4);
+            codec_put_u32(w + 4 * k, u);
+        }
+        w += CODEC_MOTION_BYTES;
+    }
     for (uint32_t t = 0; t < CODEC_NTABLES; t++) w = codec_rans_write_table(w, freq[t], nsym[t]);
     codec_put_u32(w, (uint32_t)rans_len);
     w += 4;

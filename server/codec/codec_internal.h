@@ -24,7 +24,7 @@
 
 /* Prediction modes, chosen per strand. */
 #define CODEC_KEY_MODES 3u       /* keyframes: linear, neighbour segment, quadratic */
-#define CODEC_DELTA_MODES 4u     /* deltas: key segment, displacement, linear, neighbour displacement */
+#define CODEC_DELTA_MODES 4u     /* deltas: key segment, displacement, linear, quadratic */
 
 /* Context tables: strand mode, roots, first segment, body by the previous vertex's top class. */
 #define CODEC_NBODY 6u
@@ -52,11 +52,12 @@ static inline uint32_t codec_body_table(uint32_t c0, uint32_t c1, uint32_t c2)
 }
 
 /* Predicted lattice coordinate of vertex v (>= 1), axis a, of the current strand.
- * P: this strand so far (this frame); K: the same strand in the keyframe (deltas only);
- * N / KN: the previous strand sent, this frame / keyframe (NULL for the first strand).
+ * P: this strand so far (this frame); K: the same strand in the motion-compensated keyframe
+ * (deltas only);
+ * N: the previous strand sent, this frame (NULL for the first strand).
  * All inputs are below CODEC_MAX_QUANT in magnitude, so no sum overflows. */
 static inline int32_t codec_predict(bool key, uint32_t mode, const int32_t *P, const int32_t *K,
-                                    const int32_t *N, const int32_t *KN, uint32_t v, uint32_t a)
+                                    const int32_t *N, uint32_t v, uint32_t a)
 {
     uint32_t i = 3u * v + a, p = i - 3u, pp = i - 6u;
     if (key) {
@@ -73,8 +74,9 @@ static inline int32_t codec_predict(bool key, uint32_t mode, const int32_t *P, c
         if (v == 1u) break;
         return 2 * P[p] - P[pp];
     case 3u:
-        if (!N) break;
-        return P[p] + K[i] - K[p] + (N[i] - KN[i]) - (N[p] - KN[p]);
+        if (v == 1u) break;
+        if (v == 2u) return 2 * P[p] - P[pp];
+        return 3 * P[p] - 3 * P[pp] + P[i - 9u];
     default:
         break;
     }
@@ -124,6 +126,22 @@ static inline uint64_t codec_get_u64(const uint8_t *p)
 #define CODEC_OFF_STRIDE 56u
 #define CODEC_OFF_PAYLOAD 60u
 #define CODEC_OFF_CRC 64u
+
+/* Delta frames start their payload with a rigid motion in lattice units: 12 f32, the rotation
+ * row-major then the translation; the decoder predicts from the keyframe moved by it. */
+#define CODEC_MOTION_BYTES 48u
+
+void codec_motion_identity(float m[12]);
+
+/* True when every rotation entry is within [-2, 2] and the translation within 2^28. */
+bool codec_motion_valid(const float m[12]);
+
+/* Least-squares rigid motion taking the keyframe's roots to this frame's (lattice units, roots
+ * at key[j * per], cur[j * per]); identity when it cannot be estimated. */
+void codec_motion_estimate(const int32_t *key, const int32_t *cur, uint32_t nstrands, size_t per, float m[12]);
+
+/* out = round(R k + t) per vertex (binary64 arithmetic, clamped to the lattice range). */
+void codec_motion_apply(const float m[12], const int32_t *k, int32_t *out, size_t nverts);
 
 /* Quantization step for a bound: 2 * bound * (1 - 2^-5), leaving room for float32 rounding. */
 double codec_step_for_bound(float max_error_m);

@@ -191,6 +191,16 @@ test('absurd header fields are rejected', () => {
     if (i < 25) assert.throws(() => peekHeader(c), /^Error: codec: /, `peek ${i}`);
   });
   assert.throws(() => peekHeader(new ArrayBuffer(100)), /Uint8Array/);
+  // a delta whose rigid motion is absurd
+  const dec = new StrandDecoder();
+  dec.decode(keyBytes());
+  [[0, NaN], [4, 2.5], [40, -Infinity], [44, 1e30]].forEach(([off, v]) => {
+    const d = deltaBytes();
+    f32(d, HEADER_SIZE + off, v);
+    restampCrc(d);
+    assert.throws(() => dec.decode(d), /invalid rigid motion/);
+  });
+  dec.decode(deltaBytes());
 });
 
 test('peekHeader reads the fixed header', () => {

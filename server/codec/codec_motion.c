@@ -1,0 +1,105 @@
+/* codec: the rigid motion of a delta frame (estimated from the roots, applied to the keyframe
+ * lattice to give the motion-compensated temporal reference). */
+#include <math.h>
+#include <string.h>
+
+#include "codec_internal.h"
+
+void codec_motion_identity(float m[12])
+{
+    memset(m, 0, 12 * sizeof *m);
+    m[0] = m[4] = m[8] = 1.0f;
+}
+
+bool codec_motion_valid(const float m[12])
+{
+    for (int k = 0; k < 9; k++)
+        if (!(fabsf(m[k]) <= 2.0f)) return false;
+    for (int k = 9; k < 12; k++)
+        if (!(fabsf(m[k]) <= (float)(4 * CODEC_MAX_QUANT))) return false;
+    return true;
+}
+
+static double det3(const double a[9])
+{
+    return a[0] * (a[4] * a[8] - a[5] * a[7]) - a[1] * (a[3] * a[8] - a[5] * a[6]) + a[2] * (a[3] * a[7] - a[4] * a[6]);
+}
+
+/* The orthogonal polar factor of a (Newton: X <- (X + X^-T) / 2); false if singular. */
+static bool polar(const double a[9], double q[9])
+{
+    double x[9];
+    memcpy(x, a, sizeof x);
+    for (int it = 0; it < 30; it++) {
+        double d = det3(x);
+        if (!(fabs(d) > 1e-300) || !isfinite(d)) return false;
+        /* inverse transpose = cofactor matrix / det */
+        double c[9] = {
+            x[4] * x[8] - x[5] * x[7], x[5] * x[6] - x[3] * x[8], x[3] * x[7] - x[4] * x[6],
+            x[2] * x[7] - x[1] * x[8], x[0] * x[8] - x[2] * x[6], x[1] * x[6] - x[0] * x[7],
+            x[1] * x[5] - x[2] * x[4], x[2] * x[3] - x[0] * x[5], x[0] * x[4] - x[1] * x[3],
+        };
+        double delta = 0;
+        for (int k = 0; k < 9; k++) {
+            double n = 0.5 * (x[k] + c[k] / d);
+            delta = fmax(delta, fabs(n - x[k]));
+            x[k] = n;
+        }
+        if (delta < 1e-12) break;
+    }
+    memcpy(q, x, sizeof x);
+    return det3(q) > 0.5;
+}
+
+void codec_motion_estimate(const int32_t *key, const int32_t *cur, uint32_t nstrands, size_t per, float m[12])
+{
+    codec_motion_identity(m);
+    if (nstrands < 3) return;
+    double ca[3] = { 0, 0, 0 }, cb[3] = { 0, 0, 0 };
+    for (uint32_t j = 0; j < nstrands; j++)
+        for (int a = 0; a < 3; a++) {
+            ca[a] += key[(size_t)j * per + (size_t)a];
+            cb[a] += cur[(size_t)j * per + (size_t)a];
+        }
+    for (int a = 0; a < 3; a++) {
+        ca[a] /= nstrands;
+        cb[a] /= nstrands;
+    }
+    double h[9] = { 0 }; /* sum (b - cb)(a - ca)^T: R = polar factor */
+    for (uint32_t j = 0; j < nstrands; j++) {
+        double da[3], db[3];
+        for (int a = 0; a < 3; a++) {
+            da[a] = key[(size_t)j * per + (size_t)a] - ca[a];
+            db[a] = cur[(size_t)j * per + (size_t)a] - cb[a];
+        }
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 3; c++) h[3 * r + c] += db[r] * da[c];
+    }
+    double scale = 0;
+    for (int k = 0; k < 9; k++) scale = fmax(scale, fabs(h[k]));
+    if (!(scale > 0)) return;
+    for (int k = 0; k < 9; k++) h[k] /= scale;
+    double rot[9];
+    if (!polar(h, rot)) return;
+    float f[12];
+    for (int k = 0; k < 9; k++) f[k] = (float)rot[k];
+    for (int r = 0; r < 3; r++)
+        f[9 + r] = (float)(cb[r] - ((double)f[3 * r] * ca[0] + (double)f[3 * r + 1] * ca[1] + (double)f[3 * r + 2] * ca[2]));
+    if (codec_motion_valid(f)) memcpy(m, f, sizeof f);
+}
+
+void codec_motion_apply(const float m[12], const int32_t *restrict k, int32_t *restrict out, size_t nverts)
+{
+    const double lim = (double)(CODEC_MAX_QUANT - 1);
+    const double r0 = m[0], r1 = m[1], r2 = m[2], r3 = m[3], r4 = m[4], r5 = m[5], r6 = m[6], r7 = m[7], r8 = m[8];
+    const double t0 = m[9], t1 = m[10], t2 = m[11];
+    for (size_t i = 0; i < nverts; i++) {
+        double x = k[3 * i], y = k[3 * i + 1], z = k[3 * i + 2];
+        double v[3] = { r0 * x + r1 * y + r2 * z + t0, r3 * x + r4 * y + r5 * z + t1, r6 * x + r7 * y + r8 * z + t2 };
+        for (int a = 0; a < 3; a++) {
+            double w = floor(v[a] + 0.5);
+            w = w < -lim ? -lim : w > lim ? lim : w;
+            out[3 * i + (size_t)a] = (int32_t)w;
+        }
+    }
+}
