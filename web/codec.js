@@ -366,18 +366,19 @@ export class StrandDecoder {
   }
 }
 
-// out = round(R k + t) per vertex in binary64, clamped (codec_motion_apply).
+// out = round(R k + t) per vertex in binary64, clamped (codec_motion_apply): trunc of a sum
+// that stays in (0, 2^31), so `| 0` is exact.
 function applyMotion(m, k, out, nverts) {
-  const lim = MAX_QUANT - 1;
+  const lim = MAX_QUANT - 1, off = 1073741824;
   const r0 = m[0], r1 = m[1], r2 = m[2], r3 = m[3], r4 = m[4], r5 = m[5], r6 = m[6], r7 = m[7], r8 = m[8];
-  const t0 = m[9], t1 = m[10], t2 = m[11];
-  for (let i = 0, j = 0; i < nverts; i++, j += 3) {
+  const c0 = m[9] + 1073741824.5, c1 = m[10] + 1073741824.5, c2 = m[11] + 1073741824.5;
+  for (let j = 0, n = nverts * 3; j < n; j += 3) {
     const x = k[j], y = k[j + 1], z = k[j + 2];
-    let w = Math.floor(r0 * x + r1 * y + r2 * z + t0 + 0.5);
+    let w = ((r0 * x + r1 * y + r2 * z + c0) | 0) - off;
     out[j] = w < -lim ? -lim : w > lim ? lim : w;
-    w = Math.floor(r3 * x + r4 * y + r5 * z + t1 + 0.5);
+    w = ((r3 * x + r4 * y + r5 * z + c1) | 0) - off;
     out[j + 1] = w < -lim ? -lim : w > lim ? lim : w;
-    w = Math.floor(r6 * x + r7 * y + r8 * z + t2 + 0.5);
+    w = ((r6 * x + r7 * y + r8 * z + c2) | 0) - off;
     out[j + 2] = w < -lim ? -lim : w > lim ? lim : w;
   }
 }

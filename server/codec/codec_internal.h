@@ -140,7 +140,8 @@ bool codec_motion_valid(const float m[12]);
  * at key[j * per], cur[j * per]); identity when it cannot be estimated. */
 void codec_motion_estimate(const int32_t *key, const int32_t *cur, uint32_t nstrands, size_t per, float m[12]);
 
-/* out = round(R k + t) per vertex (binary64 arithmetic, clamped to the lattice range). */
+/* out = round(R k + t) per vertex (binary64, exactly as proto/CODEC.md; clamped to the lattice
+ * range). m must be codec_motion_valid. */
 void codec_motion_apply(const float m[12], const int32_t *k, int32_t *out, size_t nverts);
 
 /* Quantization step for a bound: 2 * bound * (1 - 2^-5), leaving room for float32 rounding. */

@@ -90,16 +90,15 @@ void codec_motion_estimate(const int32_t *key, const int32_t *cur, uint32_t nstr
 
 void codec_motion_apply(const float m[12], const int32_t *restrict k, int32_t *restrict out, size_t nverts)
 {
-    const double lim = (double)(CODEC_MAX_QUANT - 1);
+    /* trunc(s + t + 2^30 + 1/2) - 2^30 = round half up of s + t; the sum stays in (0, 2^31)
+     * because |r| <= 2, |k| < 2^26 and |t| <= 2^28 */
+    const int32_t lim = CODEC_MAX_QUANT - 1, off = 1 << 30;
     const double r0 = m[0], r1 = m[1], r2 = m[2], r3 = m[3], r4 = m[4], r5 = m[5], r6 = m[6], r7 = m[7], r8 = m[8];
-    const double t0 = m[9], t1 = m[10], t2 = m[11];
+    const double c0 = (double)m[9] + 1073741824.5, c1 = (double)m[10] + 1073741824.5, c2 = (double)m[11] + 1073741824.5;
     for (size_t i = 0; i < nverts; i++) {
         double x = k[3 * i], y = k[3 * i + 1], z = k[3 * i + 2];
-        double v[3] = { r0 * x + r1 * y + r2 * z + t0, r3 * x + r4 * y + r5 * z + t1, r6 * x + r7 * y + r8 * z + t2 };
-        for (int a = 0; a < 3; a++) {
-            double w = floor(v[a] + 0.5);
-            w = w < -lim ? -lim : w > lim ? lim : w;
-            out[3 * i + (size_t)a] = (int32_t)w;
-        }
+        int32_t w[3] = { (int32_t)(r0 * x + r1 * y + r2 * z + c0) - off, (int32_t)(r3 * x + r4 * y + r5 * z + c1) - off,
+                         (int32_t)(r6 * x + r7 * y + r8 * z + c2) - off };
+        for (int a = 0; a < 3; a++) out[3 * i + (size_t)a] = w[a] < -lim ? -lim : w[a] > lim ? lim : w[a];
     }
 }
