@@ -25,7 +25,7 @@ static const core_param_info table[] = {
     F(stiffness_tip, 0.0, 1.0, 0.25, "", "Shape stiffness at the tip as a fraction of the root value (linear fade along the strand)."),
     F(repulsion, 0.0, 0.5, 0.1, "", "SPH pressure coefficient k: repulsion between strands that gives the hair volume."),
     F(viscosity, 0.0, 200.0, 10.0, "1/s", "SPH viscosity: friction between neighbouring strands."),
-    F(sph_radius, 0.001, 0.05, 0.008, "m", "SPH smoothing length h (also the hash-grid cell size)."),
+    F(sph_radius, 0.001, 0.05, 0.003, "m", "SPH smoothing length h (also the hash-grid cell size)."),
     F(rest_density, 0.1, 10.0, 1.0, "", "SPH rest density as a multiple of the groom's mean rest-pose density."),
     I(neighbor_cap, 1, 64, 24, "", "SPH neighbours kept per particle, nearest first."),
     B(shape, 1, "Global and local shape constraints."),
