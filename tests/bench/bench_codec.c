@@ -1,5 +1,6 @@
 /* strandbench codec: bytes per vertex, max error and speed of the strand codec against
- * float32, quant+deflate and quant+meshopt+deflate (Node) at 0.5, 0.1 and 0.02 mm. */
+ * float32, quant+deflate and quant+meshopt+deflate (Node) at 0.5, 0.1 and 0.02 mm, on frames
+ * of the CPU simulation (default groom, scripted head motion), a file or a synthetic animation. */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -11,17 +12,55 @@
 #include "bench.h"
 #include "codec/codec.h"
 #include "codec_synth.h"
+#include "core/math3.h"
+#include "groom/groom.h"
+#include "sim/sim.h"
 
 #define NBOUNDS 3
 static const float BOUNDS[NBOUNDS] = { 5e-4f, 1e-4f, 2e-5f };
 
-/* Frames: from a file ("SCFR", u32 nstrands, u32 nverts, u32 nframes, then float32 frames,
- * strand-major xyz) or the synthetic animation. */
+/* Frames: the simulation, a file ("SCFR", u32 nstrands, u32 nverts, u32 nframes, then float32
+ * frames, strand-major xyz) or the synthetic animation. */
 typedef struct frame_src {
     FILE *fp;
+    int synthetic;
+    sim sim;
+    core_groom groom;
     uint32_t nstrands, nverts, nframes;
     double fps;
 } frame_src;
+
+/* The scripted head motion at time t: sway (yaw, pitch, roll) and drift, with a fast head
+ * shake between 6 s and 7 s. */
+static core_xform head_script(double t)
+{
+    const double tau = 6.283185307179586;
+    double yaw = 0.5 * sin(tau * 0.4 * t), pitch = 0.15 * sin(tau * 0.6 * t), roll = 0.1 * sin(tau * 0.3 * t);
+    if (t >= 6.0 && t < 7.0) yaw += 0.6 * sin(tau * 3.0 * (t - 6.0));
+    core_xform x = core_xform_identity();
+    x.pos = core_v3((float)(0.04 * sin(tau * 0.5 * t)), (float)(0.02 * sin(tau * 0.9 * t)), (float)(0.03 * sin(tau * 0.25 * t)));
+    x.rot = core_q_mul(core_q_axis_angle(core_v3(0, 1, 0), (float)yaw),
+                       core_q_mul(core_q_axis_angle(core_v3(1, 0, 0), (float)pitch),
+                                  core_q_axis_angle(core_v3(0, 0, 1), (float)roll)));
+    return x;
+}
+
+static int src_open_sim(frame_src *s, double seconds)
+{
+    core_err err;
+    groom_desc gd = { 0 };
+    sim_params params;
+    sim_params_default(&params);
+    if (groom_procedural(&gd, &s->groom, &err) || sim_create(&s->sim, NULL, &s->groom, &params, &err)) {
+        fprintf(stderr, "strandbench codec: simulation: %s\n", err.msg);
+        return -1;
+    }
+    s->nstrands = s->groom.nstrands;
+    s->nverts = s->groom.nverts;
+    s->fps = 1.0 / (double)params.dt;
+    s->nframes = (uint32_t)lrint(seconds * s->fps);
+    return 0;
+}
 
 static int src_open_file(frame_src *s, const char *path)
 {
@@ -56,7 +95,16 @@ static int src_frame(frame_src *s, uint32_t f, float *xyz)
         }
         return 0;
     }
-    codec_synth_frame(s->nstrands, s->nverts, f / s->fps, CODEC_SYNTH_GENTLE, xyz);
+    if (s->synthetic) {
+        codec_synth_frame(s->nstrands, s->nverts, f / s->fps, CODEC_SYNTH_GENTLE, xyz);
+        return 0;
+    }
+    core_err err;
+    sim_set_motion(&s->sim, head_script((f + 1) / s->fps));
+    if (sim_step(&s->sim, &err) || sim_read_positions(&s->sim, xyz, &err)) {
+        fprintf(stderr, "strandbench codec: simulation step %u: %s\n", f, err.msg);
+        return -1;
+    }
     return 0;
 }
 
@@ -181,11 +229,13 @@ static void run_js(const char *quant_path, const char *strand_path, js_result *r
 
 static void usage(void)
 {
-    puts("usage: strandbench codec [--json] [--frames FILE] [--seconds S] [--fps F] [--strands N] [--verts V]\n"
-         "                         [--js-frames K]\n"
+    puts("usage: strandbench codec [--json] [--frames FILE | --synthetic] [--seconds S] [--js-frames K]\n"
+         "                         [--fps F] [--strands N] [--verts V]   (the last three: --synthetic only)\n"
+         "  default: S seconds (10) of the CPU simulation on the default procedural groom with a\n"
+         "        scripted head motion (sway, drift, a fast shake at 6-7 s), one frame per step.\n"
          "  FILE: \"SCFR\", u32 nstrands, u32 nverts, u32 nframes, then nframes x nstrands x nverts x 3\n"
-         "        float32 (little-endian, strand-major xyz). Without it: a synthetic animation\n"
-         "        (default 4096 x 32 vertices, 10 s at 60 frames/s).\n"
+         "        float32 (little-endian, strand-major xyz).\n"
+         "  --synthetic: strands swinging on a sphere (default 4096 x 32 vertices at 60 frames/s).\n"
          "  K: frames (the first K) also decoded in Node (strand, JS) and coded with meshopt (default 30).");
 }
 
@@ -200,6 +250,7 @@ int bench_codec_main(int argc, char **argv)
         const char *a = argv[i];
         int more = i + 1 < argc;
         if (strcmp(a, "--json") == 0) json = 1;
+        else if (strcmp(a, "--synthetic") == 0) src.synthetic = 1;
         else if (strcmp(a, "--frames") == 0 && more) path = argv[++i];
         else if (strcmp(a, "--seconds") == 0 && more) seconds = atof(argv[++i]);
         else if (strcmp(a, "--fps") == 0 && more) src.fps = atof(argv[++i]);
@@ -213,6 +264,8 @@ int bench_codec_main(int argc, char **argv)
     }
     if (path) {
         if (src_open_file(&src, path)) return 1;
+    } else if (!src.synthetic) {
+        if (!(seconds > 0) || src_open_sim(&src, seconds)) return 1;
     } else {
         if (!(seconds > 0 && src.fps > 0) || src.nstrands < 1 || src.nverts < 2) {
             usage();
@@ -327,10 +380,11 @@ int bench_codec_main(int argc, char **argv)
     }
 
     const char *names[NCODEC] = { "float32", "quant+deflate", "strand" };
+    const char *source = path ? "file" : src.synthetic ? "synthetic" : "simulation";
     double vtot = (double)nv * nf;
     if (!json)
         printf("codec bench: %u frames of %u x %u vertices (%s), Node sample %u frames\n"
-               "%-22s %9s %10s %12s %10s %10s %12s\n", nf, src.nstrands, src.nverts, path ? path : "synthetic",
+               "%-22s %9s %10s %12s %10s %10s %12s\n", nf, src.nstrands, src.nverts, path ? path : source,
                js_frames, "codec", "bound_mm", "B/vertex", "max_err_mm", "enc_ns/v", "dec_ns/v", "js_dec_ns/v");
     for (int b = 0; b < NBOUNDS; b++) {
         js_result js;
@@ -359,8 +413,8 @@ int bench_codec_main(int argc, char **argv)
             if (json) {
                 printf("{\"bench\":\"codec\",\"codec\":\"%s\",\"error_bound_m\":%.6g,\"bytes_per_vertex\":%.4f,"
                        "\"max_error_m\":%.6g,\"encode_ns_per_vertex\":%.2f,\"decode_ns_per_vertex\":%.2f,"
-                       "\"frames\":%u,\"vertices_per_frame\":%zu",
-                       name, (double)BOUNDS[b], bytes, err, e_ns, d_ns, nf, nv);
+                       "\"frames\":%u,\"vertices_per_frame\":%zu,\"source\":\"%s\"",
+                       name, (double)BOUNDS[b], bytes, err, e_ns, d_ns, nf, nv, source);
                 if (strand) {
                     printf(",\"ratio_to_best_baseline\":%.3f", bytes / best);
                     if (js.have_strand)
@@ -388,6 +442,8 @@ int bench_codec_main(int argc, char **argv)
             free(st[c][b].dec_ns);
         }
     if (src.fp) fclose(src.fp);
+    sim_destroy(&src.sim);
+    core_groom_free(&src.groom);
     codec_buf_free(&buf);
     free(x);
     free(y);
