@@ -16,6 +16,60 @@ static void update_stiffness(sim_cpu *c)
     }
 }
 
+static uint32_t spread_bits(uint32_t v) /* 10 bits -> every third bit */
+{
+    v &= 0x3ff;
+    v = (v | (v << 16)) & 0x030000ff;
+    v = (v | (v << 8)) & 0x0300f00f;
+    v = (v | (v << 4)) & 0x030c30c3;
+    v = (v | (v << 2)) & 0x09249249;
+    return v;
+}
+
+typedef struct morton_key {
+    uint32_t code, strand;
+} morton_key;
+
+static int morton_cmp(const void *a, const void *b)
+{
+    const morton_key *x = a, *y = b;
+    if (x->code != y->code) return x->code < y->code ? -1 : 1;
+    return x->strand < y->strand ? -1 : x->strand > y->strand;
+}
+
+/* Orders strands by the Morton code of their root so that the strands a worker processes
+ * together are close in space (collider culling, SPH locality). Caller frees. */
+static uint32_t *spatial_order(const core_groom *g)
+{
+    uint32_t *perm = malloc(g->nstrands * sizeof *perm);
+    morton_key *keys = malloc(g->nstrands * sizeof *keys);
+    if (!perm || !keys) {
+        free(perm);
+        free(keys);
+        return NULL;
+    }
+    float lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
+    for (uint32_t s = 0; s < g->nstrands; s++)
+        for (int k = 0; k < 3; k++) {
+            float v = g->pos[3 * (size_t)s * g->nverts + k];
+            lo[k] = fminf(lo[k], v), hi[k] = fmaxf(hi[k], v);
+        }
+    for (uint32_t s = 0; s < g->nstrands; s++) {
+        uint32_t code = 0;
+        for (int k = 0; k < 3; k++) {
+            float ext = hi[k] - lo[k];
+            float f = ext > 0.0f ? (g->pos[3 * (size_t)s * g->nverts + k] - lo[k]) / ext : 0.0f;
+            code |= spread_bits((uint32_t)(f * 1023.0f)) << k;
+        }
+        keys[s].code = code;
+        keys[s].strand = s;
+    }
+    qsort(keys, g->nstrands, sizeof *keys, morton_cmp);
+    for (uint32_t s = 0; s < g->nstrands; s++) perm[s] = keys[s].strand;
+    free(keys);
+    return perm;
+}
+
 static void cpu_reset(void *self)
 {
     sim_cpu *c = self;
@@ -45,6 +99,7 @@ static void cpu_destroy(void *self)
         free(c->rest[k]);
     }
     free(c->sg);
+    free(c->perm);
     free(c->sl);
     free(c);
 }
@@ -92,13 +147,20 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
     }
     c->sg = malloc(c->nv * sizeof(float));
     c->sl = malloc(c->nv * sizeof(float));
-    if (!ok || !c->sg || !c->sl) {
+    c->perm = spatial_order(g);
+    if (!ok || !c->sg || !c->sl || !c->perm) {
         cpu_destroy(c);
         return core_fail(err, CORE_ENOMEM, "out of memory for %zu particles", n);
     }
     for (uint32_t s = 0; s < c->ns; s++)
         for (uint32_t l = 0; l < c->nv; l++)
-            for (int k = 0; k < 3; k++) c->rest[k][(size_t)l * c->ns + s] = g->pos[3 * ((size_t)s * c->nv + l) + k];
+            for (int k = 0; k < 3; k++)
+                c->rest[k][(size_t)l * c->ns + s] = g->pos[3 * ((size_t)c->perm[s] * c->nv + l) + k];
+    for (size_t i = c->ns; i < n; i++) {
+        float dx = c->rest[0][i] - c->rest[0][i - c->ns], dy = c->rest[1][i] - c->rest[1][i - c->ns],
+              dz = c->rest[2][i] - c->rest[2][i - c->ns];
+        c->max_segment = fmaxf(c->max_segment, sqrtf(dx * dx + dy * dy + dz * dz));
+    }
     core_status st = sim_pool_init(&c->pool, desc ? desc->threads : 0, err);
     if (st != CORE_OK) {
         cpu_destroy(c);
@@ -163,7 +225,7 @@ static core_status cpu_read_state(void *self, float *xyz, float *vel, core_err *
     sim_cpu *c = self;
     for (uint32_t s = 0; s < c->ns; s++)
         for (uint32_t l = 0; l < c->nv; l++) {
-            size_t i = (size_t)l * c->ns + s, o = 3 * ((size_t)s * c->nv + l);
+            size_t i = (size_t)l * c->ns + s, o = 3 * ((size_t)c->perm[s] * c->nv + l);
             for (int k = 0; k < 3; k++) {
                 if (xyz) xyz[o + k] = c->x[k][i];
                 if (vel) vel[o + k] = c->v[k][i];
@@ -185,7 +247,7 @@ static core_status cpu_write_state(void *self, const float *xyz, const float *ve
             return core_fail(err, CORE_EINVAL, "state value %zu is not finite", i);
     for (uint32_t s = 0; s < c->ns; s++)
         for (uint32_t l = 0; l < c->nv; l++) {
-            size_t i = (size_t)l * c->ns + s, o = 3 * ((size_t)s * c->nv + l);
+            size_t i = (size_t)l * c->ns + s, o = 3 * ((size_t)c->perm[s] * c->nv + l);
             for (int k = 0; k < 3; k++) {
                 c->x[k][i] = xyz[o + k];
                 c->v[k][i] = vel ? vel[o + k] : 0.0f;

@@ -6,10 +6,25 @@
 
 /* Strands processed together by one worker; the per-strand temporaries stay in L1. */
 #define CHUNK 64
+/* Collision / rest-length alternations per vertex. */
+#define COLLISION_ITERATIONS 2
+/* Final alternating passes over overlapping colliders (concave crevices converge slowly). */
+#define CREVICE_PASSES 2
 
 /* Plain compares (not fmaxf/fminf, whose NaN rules block vectorization). */
 #define MAXF(a, b) ((a) > (b) ? (a) : (b))
 #define MINF(a, b) ((a) < (b) ? (a) : (b))
+
+/* Rotates v by the unit quaternion (qx,qy,qz,qw) (branch-free, vectorizable). */
+#define QROT(qx, qy, qz, qw, vx, vy, vz, ox, oy, oz)                                           \
+    do {                                                                                       \
+        float tx_ = 2.0f * ((qy) * (vz) - (qz) * (vy));                                        \
+        float ty_ = 2.0f * ((qz) * (vx) - (qx) * (vz));                                        \
+        float tz_ = 2.0f * ((qx) * (vy) - (qy) * (vx));                                        \
+        ox = (vx) + (qw) * tx_ + ((qy) * tz_ - (qz) * ty_);                                    \
+        oy = (vy) + (qw) * ty_ + ((qz) * tx_ - (qx) * tz_);                                    \
+        oz = (vz) + (qw) * tz_ + ((qx) * ty_ - (qy) * tx_);                                    \
+    } while (0)
 
 typedef struct chain_ctx {
     sim_cpu *c;
@@ -30,6 +45,12 @@ void sim_cpu_world_colliders(const sim_cpu *c, core_xform head, sim_cpu_wcollide
         out[k].radius = in->radius;
         out[k].radii = in->radii;
         out[k].rot = core_q_norm(core_q_mul(head.rot, in->rot));
+        float r = in->radius;
+        if (in->kind == CORE_COLLIDER_ELLIPSOID) r = MAXF(in->radii.x, MAXF(in->radii.y, in->radii.z));
+        core_vec3 b = in->kind == CORE_COLLIDER_CAPSULE ? out[k].b : out[k].a;
+        out[k].lo[0] = MINF(out[k].a.x, b.x) - r, out[k].hi[0] = MAXF(out[k].a.x, b.x) + r;
+        out[k].lo[1] = MINF(out[k].a.y, b.y) - r, out[k].hi[1] = MAXF(out[k].a.y, b.y) + r;
+        out[k].lo[2] = MINF(out[k].a.z, b.z) - r, out[k].hi[2] = MAXF(out[k].a.z, b.z) + r;
     }
 }
 
@@ -62,20 +83,25 @@ static void collide(const sim_cpu_wcollider *w, float *restrict x, float *restri
         break;
     }
     case CORE_COLLIDER_ELLIPSOID: {
-        const core_quat q = w->rot;
+        const float qx = w->rot.x, qy = w->rot.y, qz = w->rot.z, qw = w->rot.w;
+        const float cx = w->a.x, cy = w->a.y, cz = w->a.z;
         const float irx = 1.0f / w->radii.x, iry = 1.0f / w->radii.y, irz = 1.0f / w->radii.z;
+        float topx, topy, topz; /* where a point at the exact centre goes */
+        QROT(qx, qy, qz, qw, 0.0f, w->radii.y, 0.0f, topx, topy, topz);
         for (size_t s = 0; s < n; s++) {
-            core_vec3 d = core_v3(x[s] - w->a.x, y[s] - w->a.y, z[s] - w->a.z);
-            core_vec3 u = core_q_rotate(core_q_conj(q), d);
-            float sx = u.x * irx, sy = u.y * iry, sz = u.z * irz;
-            float sl = sqrtf(sx * sx + sy * sy + sz * sz);
-            bool inside = sl < 1.0f;
-            float k = 1.0f / MAXF(sl, 1e-12f);
-            core_vec3 p = core_q_rotate(q, core_v3_scale(u, k));
-            if (sl < 1e-12f) p = core_q_rotate(q, core_v3(0.0f, w->radii.y, 0.0f));
-            x[s] = inside ? w->a.x + p.x : x[s];
-            y[s] = inside ? w->a.y + p.y : y[s];
-            z[s] = inside ? w->a.z + p.z : z[s];
+            const float dx = x[s] - cx, dy = y[s] - cy, dz = z[s] - cz;
+            float ux, uy, uz;
+            QROT(-qx, -qy, -qz, qw, dx, dy, dz, ux, uy, uz);
+            const float sx = ux * irx, sy = uy * iry, sz = uz * irz;
+            const float sl = sqrtf(sx * sx + sy * sy + sz * sz);
+            const bool inside = sl < 1.0f, degenerate = sl < 1e-12f;
+            const float k = 1.0f / MAXF(sl, 1e-12f);
+            float px, py, pz;
+            QROT(qx, qy, qz, qw, ux * k, uy * k, uz * k, px, py, pz);
+            px = degenerate ? topx : px, py = degenerate ? topy : py, pz = degenerate ? topz : pz;
+            x[s] = inside ? cx + px : x[s];
+            y[s] = inside ? cy + py : y[s];
+            z[s] = inside ? cz + pz : z[s];
         }
         break;
     }
@@ -102,16 +128,6 @@ typedef struct chunk_tmp {
     float dx[CHUNK], dy[CHUNK], dz[CHUNK], bad[CHUNK];
 } chunk_tmp;
 
-/* Rotates v by the unit quaternion (qx,qy,qz,qw) (branch-free, vectorizable). */
-#define QROT(qx, qy, qz, qw, vx, vy, vz, ox, oy, oz)                                           \
-    do {                                                                                       \
-        float tx_ = 2.0f * ((qy) * (vz) - (qz) * (vy));                                        \
-        float ty_ = 2.0f * ((qz) * (vx) - (qx) * (vz));                                        \
-        float tz_ = 2.0f * ((qx) * (vy) - (qy) * (vx));                                        \
-        ox = (vx) + (qw) * tx_ + ((qy) * tz_ - (qz) * ty_);                                    \
-        oy = (vy) + (qw) * ty_ + ((qz) * tx_ - (qx) * tz_);                                    \
-        oz = (vz) + (qw) * tz_ + ((qx) * ty_ - (qy) * tx_);                                    \
-    } while (0)
 
 /* Predict (eq. 1), global shape (11), local shape (12) and follow-the-leader (13) for one level. */
 static inline __attribute__((always_inline)) void level_constraints(const chain_ctx *ctx, chunk_tmp *restrict t,
@@ -179,19 +195,28 @@ static void level_refollow(const chain_ctx *ctx, chunk_tmp *restrict t, size_t o
     }
 }
 
-/* Writes the previous level with the DFTL velocity correction (eq. 14). */
-static void level_finalize_prev(const chain_ctx *ctx, const chunk_tmp *restrict t, size_t op, size_t s0, size_t cnt)
+/* Writes the previous level with the DFTL velocity correction (eq. 14). restrict parameters
+ * (not locals) so the compiler can vectorize without alias checks. */
+static void finalize_kernel(size_t n, float inv_dt, float damp, float *restrict X, float *restrict Y,
+                            float *restrict Z, float *restrict VX, float *restrict VY, float *restrict VZ,
+                            const float *restrict px, const float *restrict py, const float *restrict pz,
+                            const float *restrict ox, const float *restrict oy, const float *restrict oz,
+                            const float *restrict dx, const float *restrict dy, const float *restrict dz)
+{
+    for (size_t s = 0; s < n; s++) {
+        VX[s] = (px[s] - ox[s]) * inv_dt - damp * dx[s] * inv_dt;
+        VY[s] = (py[s] - oy[s]) * inv_dt - damp * dy[s] * inv_dt;
+        VZ[s] = (pz[s] - oz[s]) * inv_dt - damp * dz[s] * inv_dt;
+        X[s] = px[s], Y[s] = py[s], Z[s] = pz[s];
+    }
+}
+
+static void level_finalize_prev(const chain_ctx *ctx, const chunk_tmp *t, size_t op, size_t s0, size_t cnt)
 {
     sim_cpu *c = ctx->c;
-    const float inv_dt = 1.0f / ctx->dt, damp = c->params.damping;
-    float *restrict X = c->x[0] + s0 + op, *restrict Y = c->x[1] + s0 + op, *restrict Z = c->x[2] + s0 + op;
-    float *restrict VX = c->v[0] + s0 + op, *restrict VY = c->v[1] + s0 + op, *restrict VZ = c->v[2] + s0 + op;
-    for (size_t s = 0; s < cnt; s++) {
-        VX[s] = (t->px[s] - t->ox[s]) * inv_dt - damp * t->dx[s] * inv_dt;
-        VY[s] = (t->py[s] - t->oy[s]) * inv_dt - damp * t->dy[s] * inv_dt;
-        VZ[s] = (t->pz[s] - t->oz[s]) * inv_dt - damp * t->dz[s] * inv_dt;
-        X[s] = t->px[s], Y[s] = t->py[s], Z[s] = t->pz[s];
-    }
+    const size_t i = s0 + op;
+    finalize_kernel(cnt, 1.0f / ctx->dt, c->params.damping, c->x[0] + i, c->x[1] + i, c->x[2] + i, c->v[0] + i,
+                    c->v[1] + i, c->v[2] + i, t->px, t->py, t->pz, t->ox, t->oy, t->oz, t->dx, t->dy, t->dz);
 }
 
 /* Carries each frame along the chain (rotate the rest direction onto the current one) and
@@ -219,11 +244,66 @@ static void level_advance(const chain_ctx *ctx, chunk_tmp *restrict t, size_t o,
         float nw = qw * rw - qx * rx - qy * ry - qz * rz;
         float iq = 1.0f / sqrtf(MAXF(nx * nx + ny * ny + nz * nz + nw * nw, 1e-30f));
         t->qx[s] = nx * iq, t->qy[s] = ny * iq, t->qz[s] = nz * iq, t->qw[s] = nw * iq;
-        t->bad[s] += (t->cx[s] - t->cx[s]) + (t->cy[s] - t->cy[s]) + (t->cz[s] - t->cz[s]);
+        /* NaN/inf in the position, the correction or the start position (which make the
+         * velocity non-finite) marks the strand */
+        t->bad[s] += (t->cx[s] - t->cx[s]) + (t->cy[s] - t->cy[s]) + (t->cz[s] - t->cz[s]) + (t->dx[s] - t->dx[s]) +
+                     (t->dy[s] - t->dy[s]) + (t->dz[s] - t->dz[s]) + (t->cox[s] - t->cox[s]) +
+                     (t->coy[s] - t->coy[s]) + (t->coz[s] - t->coz[s]);
         t->px[s] = t->cx[s], t->py[s] = t->cy[s], t->pz[s] = t->cz[s];
         t->ox[s] = t->cox[s], t->oy[s] = t->coy[s], t->oz[s] = t->coz[s];
         t->prx[s] = RX[s], t->pry[s] = RY[s], t->prz[s] = RZ[s];
     }
+}
+
+/* Bounding box of this level's positions and their parents in the chunk. */
+static void level_bounds(const chunk_tmp *t, size_t cnt, float lo[3], float hi[3])
+{
+    float l0 = t->cx[0], l1 = t->cy[0], l2 = t->cz[0], h0 = l0, h1 = l1, h2 = l2;
+    for (size_t s = 0; s < cnt; s++) {
+        l0 = MINF(l0, MINF(t->cx[s], t->px[s])), h0 = MAXF(h0, MAXF(t->cx[s], t->px[s]));
+        l1 = MINF(l1, MINF(t->cy[s], t->py[s])), h1 = MAXF(h1, MAXF(t->cy[s], t->py[s]));
+        l2 = MINF(l2, MINF(t->cz[s], t->pz[s])), h2 = MAXF(h2, MAXF(t->cz[s], t->pz[s]));
+    }
+    lo[0] = l0, lo[1] = l1, lo[2] = l2, hi[0] = h0, hi[1] = h1, hi[2] = h2;
+}
+
+/* Alternates pushes out of the colliders with the rest-length projection so a vertex sliding
+ * on a surface keeps close to its rest length; ends outside every collider.
+ * Culling: a vertex only ever moves within its parent's rest-length sphere or onto the
+ * surface of a collider it hit, so a collider whose box misses the chunk's box (grown by the
+ * segment length and by the boxes of the colliders already hit) cannot be reached. The chunks
+ * are the same for any thread count, so culling never changes results. */
+static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s0, size_t cnt)
+{
+    float lo[3], hi[3];
+    level_bounds(t, cnt, lo, hi);
+    const float grow = ctx->c->max_segment;
+    for (int d = 0; d < 3; d++) lo[d] -= grow, hi[d] += grow;
+    const bool finite = lo[0] == lo[0] && lo[1] == lo[1] && lo[2] == lo[2] && hi[0] == hi[0] && hi[1] == hi[1] &&
+                        hi[2] == hi[2];
+    const sim_cpu_wcollider *hit[CORE_MAX_COLLIDERS];
+    bool taken[CORE_MAX_COLLIDERS] = { false };
+    uint32_t nhit = 0;
+    for (bool grew = true; grew;) {
+        grew = false;
+        for (uint32_t k = 0; k < ctx->nwc; k++) {
+            const sim_cpu_wcollider *w = &ctx->wc[k];
+            bool overlap = true;
+            for (int d = 0; d < 3; d++) overlap = overlap && lo[d] <= w->hi[d] && hi[d] >= w->lo[d];
+            if (taken[k] || !(overlap || !finite)) continue;
+            taken[k] = true;
+            hit[nhit++] = w;
+            for (int d = 0; d < 3; d++) lo[d] = MINF(lo[d], w->lo[d]), hi[d] = MAXF(hi[d], w->hi[d]);
+            grew = true;
+        }
+    }
+    if (nhit == 0) return;
+    for (int it = 0; it < COLLISION_ITERATIONS; it++) {
+        for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
+        level_refollow(ctx, t, o, s0, cnt);
+    }
+    for (int pass = 0; pass < CREVICE_PASSES; pass++) /* settle points in a crevice between colliders */
+        for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
 }
 
 static void chain_chunk(const chain_ctx *ctx, chunk_tmp *restrict t, size_t s0, size_t cnt, uint64_t *nan_count)
@@ -254,11 +334,7 @@ static void chain_chunk(const chain_ctx *ctx, chunk_tmp *restrict t, size_t s0, 
             level_constraints(ctx, t, o, s0, cnt, l, true);
         else
             level_constraints(ctx, t, o, s0, cnt, l, false);
-        if (ctx->nwc > 0) {
-            for (uint32_t k = 0; k < ctx->nwc; k++) collide(&ctx->wc[k], t->cx, t->cy, t->cz, cnt);
-            level_refollow(ctx, t, o, s0, cnt);
-            for (uint32_t k = 0; k < ctx->nwc; k++) collide(&ctx->wc[k], t->cx, t->cy, t->cz, cnt);
-        }
+        if (ctx->nwc > 0) collide_level(ctx, t, o, s0, cnt);
         if (l > 1) level_finalize_prev(ctx, t, o - ns, s0, cnt);
         level_advance(ctx, t, o, s0, cnt);
     }
@@ -281,7 +357,9 @@ static void chain_job(void *vctx, int tid, int nt)
     const chain_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     size_t b, e;
-    sim_pool_range(c->ns, tid, nt, 16, &b, &e);
+    /* whole chunks per worker: the chunks (and their collider culling) are the same for any
+     * thread count, so results are bitwise identical */
+    sim_pool_range(c->ns, tid, nt, CHUNK, &b, &e);
     chunk_tmp t;
     for (size_t s = b; s < e; s += CHUNK) {
         size_t cnt = e - s < CHUNK ? e - s : CHUNK;

@@ -16,6 +16,7 @@ typedef struct sim_cpu_wcollider {
     float radius;
     core_vec3 radii;
     core_quat rot;       /* world orientation (ellipsoid) */
+    float lo[3], hi[3];  /* world bounding box, for culling */
 } sim_cpu_wcollider;
 
 /* Scratch of the SPH stage (grid, sorted copies, neighbour lists); grown on demand. */
@@ -23,17 +24,18 @@ typedef struct sim_cpu_sph {
     size_t n;                /* particles the per-particle arrays hold */
     size_t cells_cap;        /* cells the per-cell arrays hold */
     int cap;                 /* neighbour slots per particle the arrays hold */
-    uint32_t *cell;          /* cell of each particle, original order */
+    uint32_t *cell;          /* hash bucket of each particle, original order */
     uint32_t *order;         /* sorted slot -> original particle index */
     uint32_t *strand;        /* sorted slot -> strand index */
     float *sp, *sv;          /* sorted positions / velocities, 4 floats each (w unused) */
+    float *sx, *sy, *sz;     /* sorted positions again as SoA, for the vectorized scan */
     float *rho, *press;      /* per sorted slot */
     uint32_t *nbr;           /* per sorted slot: neighbour_cap sorted slots */
     uint8_t *nnbr;           /* per sorted slot: neighbours kept */
-    uint32_t *cell_start;    /* cells + 1 */
+    uint32_t *cell_start;    /* buckets + 1: first sorted slot of each bucket */
     uint32_t *hist;          /* nthreads x cells: counts, then scatter cursors */
     size_t tsum[257];        /* per-thread partial sums of the prefix scan */
-    /* grid of the current pass */
+    /* grid of the current pass: cells of cell_size from origin, hashed into ncells buckets */
     float origin[3], cell_size, inv_cell;
     uint32_t dims[3];
     size_t ncells;
@@ -47,6 +49,9 @@ typedef struct sim_cpu {
     /* level-major SoA: index = level * ns + strand */
     float *x[3], *v[3], *a[3], *rest[3];
     float *sg, *sl;          /* per-level shape stiffness */
+    float max_segment;       /* longest rest segment */
+    uint32_t *perm;          /* internal strand -> groom strand (roots in Morton order, so
+                                neighbouring strands are near each other) */
     uint32_t ncolliders;
     core_collider colliders[CORE_MAX_COLLIDERS];
     core_xform head, prev_head;

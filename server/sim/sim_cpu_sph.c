@@ -7,8 +7,10 @@
 
 /* Reference frame time of the pressure scale: accelerations are h / (1/60 s)^2 per unit. */
 #define SPH_ACCEL_SCALE 3600.0f
-/* Candidates examined per particle beyond which the densest cells are not searched further. */
-#define SPH_MAX_CANDIDATES 4096
+/* Candidates within h kept per particle before the nearest neighbour_cap are selected. */
+#define SPH_MAX_CANDIDATES 1024
+/* Candidates whose distances are computed in one vector loop. */
+#define SPH_SCAN_BLOCK 64
 
 typedef struct sph_ctx {
     sim_cpu *c;
@@ -24,6 +26,9 @@ void sim_cpu_sph_free(sim_cpu_sph *s)
     free(s->order);
     free(s->strand);
     free(s->sp);
+    free(s->sx);
+    free(s->sy);
+    free(s->sz);
     free(s->sv);
     free(s->rho);
     free(s->press);
@@ -38,11 +43,15 @@ static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, 
 {
     if (s->n < n || s->cap < cap) {
         free(s->cell), free(s->order), free(s->strand), free(s->sp), free(s->sv);
+        free(s->sx), free(s->sy), free(s->sz);
         free(s->rho), free(s->press), free(s->nbr), free(s->nnbr);
         s->cell = malloc(n * sizeof *s->cell);
         s->order = malloc(n * sizeof *s->order);
         s->strand = malloc(n * sizeof *s->strand);
         s->sp = malloc(n * 4 * sizeof *s->sp);
+        s->sx = malloc(n * sizeof *s->sx);
+        s->sy = malloc(n * sizeof *s->sy);
+        s->sz = malloc(n * sizeof *s->sz);
         s->sv = malloc(n * 4 * sizeof *s->sv);
         s->rho = malloc(n * sizeof *s->rho);
         s->press = malloc(n * sizeof *s->press);
@@ -50,7 +59,7 @@ static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, 
         s->nnbr = malloc(n * sizeof *s->nnbr);
         s->n = n;
         s->cap = cap;
-        if (!s->cell || !s->order || !s->strand || !s->sp || !s->sv || !s->rho || !s->press || !s->nbr || !s->nnbr) {
+        if (!s->cell || !s->order || !s->strand || !s->sp || !s->sv || !s->sx || !s->sy || !s->sz || !s->rho || !s->press || !s->nbr || !s->nnbr) {
             sim_cpu_sph_free(s);
             return core_fail(err, CORE_ENOMEM, "out of memory for SPH buffers of %zu particles", n);
         }
@@ -86,11 +95,20 @@ static void bounds_job(void *vctx, int tid, int nt)
     }
 }
 
-static inline uint32_t cell_coord(float p, float origin, float inv, uint32_t dim)
+static inline uint32_t cell_coord(float p, float origin, float inv)
 {
     float f = (p - origin) * inv;
     if (!(f > 0.0f)) return 0; /* also catches NaN */
-    return f >= (float)(dim - 1) ? dim - 1 : (uint32_t)f;
+    return f >= 1048575.0f ? 1048575u : (uint32_t)f;
+}
+
+/* The spatial hash: the cell's linear index in the bounding-box grid, folded into the
+ * power-of-two table. Unlike a scrambling hash it keeps the three x-neighbours of a cell in
+ * consecutive buckets, so a row of cells is one contiguous run of sorted particles. */
+static inline uint32_t cell_hash(const sim_cpu_sph *s, uint32_t cx, uint32_t cy, uint32_t cz)
+{
+    uint64_t lin = ((uint64_t)cz * s->dims[1] + cy) * s->dims[0] + cx;
+    return (uint32_t)(lin & (s->ncells - 1));
 }
 
 static void count_job(void *vctx, int tid, int nt)
@@ -102,12 +120,12 @@ static void count_job(void *vctx, int tid, int nt)
     uint32_t *hist = s->hist + (size_t)tid * s->ncells;
     memset(hist, 0, s->ncells * sizeof *hist);
     for (size_t i = b; i < e; i++) {
-        uint32_t cx = cell_coord(ctx->pos[0][i], s->origin[0], s->inv_cell, s->dims[0]);
-        uint32_t cy = cell_coord(ctx->pos[1][i], s->origin[1], s->inv_cell, s->dims[1]);
-        uint32_t cz = cell_coord(ctx->pos[2][i], s->origin[2], s->inv_cell, s->dims[2]);
-        uint32_t cell = (cz * s->dims[1] + cy) * s->dims[0] + cx;
-        s->cell[i] = cell;
-        hist[cell]++;
+        uint32_t cx = cell_coord(ctx->pos[0][i], s->origin[0], s->inv_cell);
+        uint32_t cy = cell_coord(ctx->pos[1][i], s->origin[1], s->inv_cell);
+        uint32_t cz = cell_coord(ctx->pos[2][i], s->origin[2], s->inv_cell);
+        uint32_t bucket = cell_hash(s, cx, cy, cz);
+        s->cell[i] = bucket;
+        hist[bucket]++;
     }
 }
 
@@ -140,6 +158,7 @@ static void scan_fill_job(void *vctx, int tid, int nt)
             run += cnt;
         }
     }
+    if (tid == nt - 1) s->cell_start[s->ncells] = (uint32_t)run;
 }
 
 static void scatter_job(void *vctx, int tid, int nt)
@@ -159,52 +178,84 @@ static void scatter_job(void *vctx, int tid, int nt)
             s->sv[4 * (size_t)slot + k] = ctx->vel ? ctx->vel[k][i] : 0.0f;
         }
         s->sp[4 * (size_t)slot + 3] = 0.0f;
+        s->sx[slot] = ctx->pos[0][i], s->sy[slot] = ctx->pos[1][i], s->sz[slot] = ctx->pos[2][i];
         s->sv[4 * (size_t)slot + 3] = 0.0f;
     }
 }
 
-/* Max-heap on (r2, slot) holding the cap nearest candidates. */
-typedef struct nbr_heap {
-    float r2[64];
-    uint32_t slot[64];
-    int n, cap;
-} nbr_heap;
-
-static inline int heap_less(const nbr_heap *h, int a, int b)
+/* Squared distances from (x,y,z) to the candidates [0, n): a plain loop the compiler vectorizes. */
+static void dist2_kernel(size_t n, float x, float y, float z, const float *restrict sx, const float *restrict sy,
+                         const float *restrict sz, float *restrict out)
 {
-    return h->r2[a] < h->r2[b] || (h->r2[a] == h->r2[b] && h->slot[a] < h->slot[b]);
+    for (size_t j = 0; j < n; j++) {
+        float dx = sx[j] - x, dy = sy[j] - y, dz = sz[j] - z;
+        out[j] = dx * dx + dy * dy + dz * dz;
+    }
 }
 
-static inline void heap_swap(nbr_heap *h, int a, int b)
+static inline void swap_u64(uint64_t *a, uint64_t *b)
 {
-    float r = h->r2[a];
-    uint32_t s = h->slot[a];
-    h->r2[a] = h->r2[b], h->slot[a] = h->slot[b];
-    h->r2[b] = r, h->slot[b] = s;
+    uint64_t t = *a;
+    *a = *b, *b = t;
 }
 
-static void heap_offer(nbr_heap *h, float r2, uint32_t slot)
+/* Reorders the distinct keys[0, n) so that the k smallest come first (quickselect with a
+ * median-of-three pivot; deterministic). */
+static void select_smallest(uint64_t *keys, size_t n, size_t k)
 {
-    if (h->n < h->cap) {
-        int i = h->n++;
-        h->r2[i] = r2, h->slot[i] = slot;
-        while (i > 0 && heap_less(h, (i - 1) / 2, i)) {
-            heap_swap(h, i, (i - 1) / 2);
-            i = (i - 1) / 2;
+    size_t lo = 0, hi = n;
+    while (hi - lo > 1 && k > lo && k < hi) {
+        size_t mid = lo + (hi - lo) / 2, last = hi - 1;
+        if (keys[mid] < keys[lo]) swap_u64(&keys[mid], &keys[lo]);
+        if (keys[last] < keys[lo]) swap_u64(&keys[last], &keys[lo]);
+        if (keys[mid] < keys[last]) swap_u64(&keys[mid], &keys[last]); /* median now at last */
+        const uint64_t pivot = keys[last];
+        size_t store = lo;
+        for (size_t i = lo; i < last; i++)
+            if (keys[i] < pivot) swap_u64(&keys[i], &keys[store++]);
+        swap_u64(&keys[store], &keys[last]);
+        if (store == k) break;
+        if (k < store) hi = store;
+        else lo = store + 1;
+    }
+}
+
+/* The bucket ranges [lo, hi] covering the 27 cells around (cx,cy,cz): one run of three
+ * buckets per row of x-neighbours (split where the fold wraps), sorted and merged so no
+ * bucket is visited twice. Returns the number of ranges. */
+static int neighbour_ranges(const sim_cpu_sph *s, uint32_t cx, uint32_t cy, uint32_t cz, uint32_t lo[18],
+                            uint32_t hi[18])
+{
+    const uint32_t mask = (uint32_t)s->ncells - 1;
+    int n = 0;
+    for (uint32_t z = cz - 1; z != cz + 2; z++)
+        for (uint32_t y = cy - 1; y != cy + 2; y++) {
+            uint32_t a = cell_hash(s, cx - 1, y, z), b = (a + 2) & mask;
+            uint32_t seg_lo[2] = { a, 0 }, seg_hi[2] = { b, b };
+            int segs = 1;
+            if (b < a) { /* wrapped: [a, mask] and [0, b] */
+                seg_hi[0] = mask;
+                segs = 2;
+            }
+            for (int k = 0; k < segs; k++) {
+                int i = n++;
+                while (i > 0 && lo[i - 1] > seg_lo[k]) { /* insertion keeps them sorted by lo */
+                    lo[i] = lo[i - 1], hi[i] = hi[i - 1];
+                    i--;
+                }
+                lo[i] = seg_lo[k], hi[i] = seg_hi[k];
+            }
         }
-        return;
+    int m = 0;
+    for (int k = 0; k < n; k++) {
+        if (m > 0 && lo[k] <= hi[m - 1] + 1) {
+            if (hi[k] > hi[m - 1]) hi[m - 1] = hi[k];
+        } else {
+            lo[m] = lo[k], hi[m] = hi[k];
+            m++;
+        }
     }
-    if (!(r2 < h->r2[0] || (r2 == h->r2[0] && slot < h->slot[0]))) return;
-    h->r2[0] = r2, h->slot[0] = slot;
-    int i = 0;
-    for (;;) {
-        int l = 2 * i + 1, r = l + 1, m = i;
-        if (l < h->n && heap_less(h, m, l)) m = l;
-        if (r < h->n && heap_less(h, m, r)) m = r;
-        if (m == i) break;
-        heap_swap(h, i, m);
-        i = m;
-    }
+    return m;
 }
 
 /* Neighbour search and density for every particle of the cells in this worker's range. */
@@ -215,52 +266,55 @@ static void density_job(void *vctx, int tid, int nt)
     sim_cpu_sph *s = &c->sph;
     const float h = c->params.sph_radius, h2 = h * h, inv_h2 = 1.0f / h2;
     const int cap = c->params.neighbor_cap;
-    const uint32_t dx = s->dims[0], dy = s->dims[1], dz = s->dims[2];
     size_t b, e;
     sim_pool_range(s->ncells, tid, nt, 1, &b, &e);
-    nbr_heap heap;
-    heap.cap = cap;
-    for (size_t cell = b; cell < e; cell++) {
-        uint32_t first = s->cell_start[cell], last = cell + 1 < s->ncells ? s->cell_start[cell + 1] : (uint32_t)c->n;
-        if (first == last) continue;
-        uint32_t cx = (uint32_t)(cell % dx), cy = (uint32_t)(cell / dx % dy), cz = (uint32_t)(cell / dx / dy);
-        /* the 9 rows of 3 x-adjacent cells around this cell are contiguous in sorted order */
-        uint32_t rb[9], re[9];
-        int nrows = 0;
-        uint32_t x0 = cx > 0 ? cx - 1 : 0, x1 = cx + 1 < dx ? cx + 1 : dx - 1;
-        for (int oz = -1; oz <= 1; oz++) {
-            if ((oz < 0 && cz == 0) || (oz > 0 && cz + 1 >= dz)) continue;
-            for (int oy = -1; oy <= 1; oy++) {
-                if ((oy < 0 && cy == 0) || (oy > 0 && cy + 1 >= dy)) continue;
-                size_t row = ((size_t)(cz + (uint32_t)oz) * dy + (cy + (uint32_t)oy)) * dx;
-                size_t lo = row + x0, hi = row + x1 + 1;
-                rb[nrows] = s->cell_start[lo];
-                re[nrows] = hi < s->ncells ? s->cell_start[hi] : (uint32_t)c->n;
-                nrows++;
-            }
-        }
+    float d2[SPH_SCAN_BLOCK];
+    uint64_t keys[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK];
+    uint32_t ccx = UINT32_MAX, ccy = 0, ccz = 0; /* cell whose neighbour ranges are in rlo/rhi */
+    uint32_t rlo[18], rhi[18];
+    int nr = 0;
+    for (size_t bucket = b; bucket < e; bucket++) {
+        uint32_t first = s->cell_start[bucket], last = s->cell_start[bucket + 1];
         for (uint32_t i = first; i < last; i++) {
-            const float xi = s->sp[4 * (size_t)i], yi = s->sp[4 * (size_t)i + 1], zi = s->sp[4 * (size_t)i + 2];
+            const float xi = s->sx[i], yi = s->sy[i], zi = s->sz[i];
             const uint32_t si = s->strand[i];
-            heap.n = 0;
-            size_t examined = 0;
-            for (int r = 0; r < nrows && examined < SPH_MAX_CANDIDATES; r++) {
-                examined += re[r] - rb[r];
-                for (uint32_t j = rb[r]; j < re[r]; j++) {
-                    float ddx = s->sp[4 * (size_t)j] - xi, ddy = s->sp[4 * (size_t)j + 1] - yi,
-                          ddz = s->sp[4 * (size_t)j + 2] - zi;
-                    float r2 = ddx * ddx + ddy * ddy + ddz * ddz;
-                    if (r2 < h2 && s->strand[j] != si) heap_offer(&heap, r2, j);
+            uint32_t cx = cell_coord(xi, s->origin[0], s->inv_cell), cy = cell_coord(yi, s->origin[1], s->inv_cell),
+                     cz = cell_coord(zi, s->origin[2], s->inv_cell);
+            if (cx != ccx || cy != ccy || cz != ccz) {
+                ccx = cx, ccy = cy, ccz = cz;
+                nr = neighbour_ranges(s, cx, cy, cz, rlo, rhi);
+            }
+            /* candidates within h of another strand; key = (r2 bits, slot): ordered like
+             * (r2, slot) because r2 >= 0, so the cap keeps the nearest, ties by slot */
+            size_t m = 0;
+            for (int r = 0; r < nr; r++) {
+                const uint32_t rb = s->cell_start[rlo[r]], re = s->cell_start[rhi[r] + 1];
+                for (uint32_t j0 = rb; j0 < re && m < SPH_MAX_CANDIDATES; j0 += SPH_SCAN_BLOCK) {
+                    uint32_t cnt = re - j0 < SPH_SCAN_BLOCK ? re - j0 : SPH_SCAN_BLOCK;
+                    dist2_kernel(cnt, xi, yi, zi, s->sx + j0, s->sy + j0, s->sz + j0, d2);
+                    for (uint32_t q = 0; q < cnt; q++) {
+                        uint32_t bits;
+                        memcpy(&bits, &d2[q], sizeof bits);
+                        keys[m] = (uint64_t)bits << 32 | (j0 + q);
+                        m += (d2[q] < h2) & (s->strand[j0 + q] != si);
+                    }
                 }
+            }
+            if (m > (size_t)cap) {
+                select_smallest(keys, m, (size_t)cap);
+                m = (size_t)cap;
             }
             float rho = 1.0f;
             uint32_t *out = s->nbr + (size_t)i * (size_t)cap;
-            for (int k = 0; k < heap.n; k++) {
-                float q = 1.0f - heap.r2[k] * inv_h2;
+            for (size_t k = 0; k < m; k++) {
+                float r2;
+                uint32_t bits = (uint32_t)(keys[k] >> 32);
+                memcpy(&r2, &bits, sizeof r2);
+                float q = 1.0f - r2 * inv_h2;
                 rho += q * q * q;
-                out[k] = heap.slot[k];
+                out[k] = (uint32_t)keys[k];
             }
-            s->nnbr[i] = (uint8_t)heap.n;
+            s->nnbr[i] = (uint8_t)m;
             s->rho[i] = rho;
         }
     }
@@ -340,23 +394,16 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
         for (int t = 1; t < nt; t++) lo[k] = fminf(lo[k], ctx->bmin[t][k]), hi[k] = fmaxf(hi[k], ctx->bmax[t][k]);
         if (!isfinite(lo[k]) || !isfinite(hi[k])) lo[k] = hi[k] = 0.0f; /* non-finite strands are reset after */
     }
-    /* cell = h, grown when the box would need more cells than the budget (still correct:
-     * neighbours within h lie in the 27 surrounding cells for any cell >= h) */
-    size_t budget = c->n * 8 > (1u << 18) ? c->n * 8 : (1u << 18);
-    float cell = c->params.sph_radius;
-    for (;;) {
-        double cells = 1.0;
-        for (int k = 0; k < 3; k++) cells *= floor((double)(hi[k] - lo[k]) / cell) + 1.0;
-        if (cells <= (double)budget) break;
-        cell *= (float)cbrt(cells / (double)budget) * 1.01f;
-    }
-    s->cell_size = cell;
-    s->inv_cell = 1.0f / cell;
-    s->ncells = 1;
+    /* cells of size h hashed into a power-of-two table of at least 2n buckets; a cell's
+     * neighbours within h lie in the 27 cells around it */
+    s->cell_size = c->params.sph_radius;
+    s->inv_cell = 1.0f / s->cell_size;
+    s->ncells = 4096;
+    while (s->ncells < 2 * c->n) s->ncells *= 2;
     for (int k = 0; k < 3; k++) {
-        s->origin[k] = lo[k];
-        s->dims[k] = (uint32_t)floorf((hi[k] - lo[k]) * s->inv_cell) + 1;
-        s->ncells *= s->dims[k];
+        s->origin[k] = lo[k] - s->cell_size; /* cell coords >= 1, so cx - 1 does not wrap */
+        double cells = floor((double)(hi[k] - s->origin[k]) * s->inv_cell) + 2.0;
+        s->dims[k] = cells < 1048576.0 ? (uint32_t)cells : 1048576u;
     }
     core_status st = sph_reserve(s, c->n, c->params.neighbor_cap, s->ncells, nt, err);
     if (st != CORE_OK) {
