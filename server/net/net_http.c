@@ -16,7 +16,7 @@ static int confirm_upgrade(net *n, struct lws *wsi, const char *upgrade)
     if (len > 0 && len < (int)sizeof list && net_token_listed(list, n->subprotocol)) return 0;
     char body[384];
     char shown[64];
-    snprintf(shown, sizeof shown, "%s", len <= 0 ? "(none)" : len < (int)sizeof list ? list : "(too long)");
+    snprintf(shown, sizeof shown, "%.60s", len <= 0 ? "(none)" : len < (int)sizeof list ? list : "(too long)");
     for (char *c = shown; *c; c++)
         if (*c == '<' || *c == '>' || *c == '&') *c = '?';
     snprintf(body, sizeof body,
