@@ -53,39 +53,59 @@ export class Ema {
   reset() { this.value = NaN; }
 }
 
-// Latency from the server's simulation clock: each frame's arrival time minus its sim time is
-// a fixed clock offset plus the transport delay. The smallest offset seen in the window stands
-// for the fastest delivery; latency = this frame's offset - that minimum (ms). A sim time that
-// goes backwards (reset, new groom) restarts the estimate.
+// Latency from the server's simulation clock. Each frame's arrival time minus its sim time
+// (scaled by the rate r at which sim time advances per wall second, measured over the window,
+// so a server running slower than real time does not look like growing latency) is a clock
+// offset plus the transport delay. The smallest offset in the window stands for the fastest
+// delivery; latency = this frame's offset - that minimum (ms). A sim time that goes backwards
+// (reset, new groom) restarts the estimate.
 export class LatencyEstimator {
-  constructor(windowMs = 10000, capacity = 1024) {
+  constructor(windowMs = 5000, capacity = 1024) {
     this.windowMs = windowMs;
     this.t = new Float64Array(capacity);
-    this.off = new Float64Array(capacity);
+    this.sim = new Float64Array(capacity);
     this.head = 0;
     this.n = 0;
     this.lastSim = -Infinity;
     this.value = NaN;
+    this.rate = 1;
+    this.rated = false;
   }
 
-  reset() { this.n = 0; this.head = 0; this.lastSim = -Infinity; this.value = NaN; }
+  reset() { this.n = 0; this.head = 0; this.lastSim = -Infinity; this.value = NaN; this.rate = 1; this.rated = false; }
 
   // Records a frame of simulation time simSeconds arriving at nowMs; returns the latency.
   add(nowMs, simSeconds) {
     if (!Number.isFinite(simSeconds)) return this.value;
     if (simSeconds < this.lastSim) this.reset();
     this.lastSim = simSeconds;
-    const off = nowMs - simSeconds * 1000;
     this.t[this.head] = nowMs;
-    this.off[this.head] = off;
+    this.sim[this.head] = simSeconds * 1000;
     this.head = (this.head + 1) % this.t.length;
     if (this.n < this.t.length) this.n++;
-    let min = off;
     const cap = this.t.length;
+    let oldest = (this.head - 1 + cap) % cap, count = 0;
     for (let k = 1; k <= this.n; k++) {
       const i = (this.head - k + cap) % cap;
       if (nowMs - this.t[i] > this.windowMs) break;
-      if (this.off[i] < min) min = this.off[i];
+      oldest = i;
+      count++;
+    }
+    const wallSpan = nowMs - this.t[oldest], simSpan = simSeconds * 1000 - this.sim[oldest];
+    // the sim clock's speed relative to the wall clock, once the window holds enough of both;
+    // smoothed so that one late frame does not bend it
+    if (count >= 8 && wallSpan > 500 && simSpan > 0) {
+      const inst = simSpan / wallSpan;
+      this.rate = this.rated ? this.rate + 0.05 * (inst - this.rate) : inst;
+      this.rated = true;
+    }
+    const r = this.rate;
+    const off = nowMs - (simSeconds * 1000) / r;
+    let min = off;
+    for (let k = 1; k <= count; k++) {
+      const i = (this.head - k + cap) % cap;
+      const o = this.t[i] - this.sim[i] / r;
+      if (o < min) min = o;
     }
     this.value = off - min;
     return this.value;
