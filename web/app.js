@@ -54,6 +54,8 @@ export class App {
     this.serverStats = null;
     this.framesRendered = 0;
     this.framesUploaded = 0;
+    this.totals = { frames: 0, decodeMs: 0, prepareMs: 0, uploads: 0, uploadMs: 0 }; // for benchmarks
+    this.clientId = null;
     this.lastOverlay = 0;
     this.captureWaiters = [];
     this.contextLost = false;
@@ -152,6 +154,7 @@ export class App {
       return;
     }
     this.limits = h.limits || {};
+    this.clientId = Number.isInteger(h.client) ? h.client : null;
     this.panel.buildParams(h.params || {});
     this.panel.buildMotion(h.presets, h.animation, this.limits);
     this.panel.buildGrooms(h.grooms, h.groom, this.limits);
@@ -233,6 +236,9 @@ export class App {
     this.latency.add(m.arrival, m.simTime);
     this.decodeMs.add(m.decodeMs);
     this.prepareMs.add(m.prepareMs);
+    this.totals.frames++;
+    this.totals.decodeMs += m.decodeMs;
+    this.totals.prepareMs += m.prepareMs;
     this.seq = m.seq;
   }
 
@@ -288,7 +294,10 @@ export class App {
       if (this.guideConfig && f.gen === this.decoder.gen && this.renderer.hair.texW === this.guideConfig.texW) {
         const t0 = performance.now();
         this.renderer.hair.upload(f.buf, this.guideConfig.nrmOffset);
-        this.uploadMs.add(performance.now() - t0);
+        const dt = performance.now() - t0;
+        this.uploadMs.add(dt);
+        this.totals.uploads++;
+        this.totals.uploadMs += dt;
         this.framesUploaded++;
         if (f.head) {
           this.head.position.set(f.head.position);

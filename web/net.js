@@ -4,7 +4,9 @@ import { Backoff } from './backoff.js';
 
 export const SUBPROTOCOL = 'strandcast.v1';
 export const PROTOCOL_VERSION = 1;
-const WATCHDOG_MS = 8000; // the server sends stats about once a second
+// The server sends stats about once a second; a connection silent for this long is taken as
+// half-open (sleep, NAT drop) and reopened. Generous, as a loaded server may step slowly.
+const WATCHDOG_MS = 30000;
 
 // The endpoint for a page served by strandcastd: same host, ws or wss like the page.
 export function defaultUrl(loc) {
