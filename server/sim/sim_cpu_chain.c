@@ -7,7 +7,7 @@
 /* Strands processed together by one worker; the per-strand temporaries stay in L1. */
 #define CHUNK 64
 /* Collision / rest-length alternations per vertex. */
-#define COLLISION_ITERATIONS 2
+#define COLLISION_ITERATIONS 1
 /* Final alternating passes over overlapping colliders (concave crevices converge slowly). */
 #define CREVICE_PASSES 2
 

@@ -27,9 +27,8 @@ typedef struct sim_cpu_sph {
     uint32_t *cell;          /* hash bucket of each particle, original order */
     uint32_t *order;         /* sorted slot -> original particle index */
     uint32_t *strand;        /* sorted slot -> strand index */
-    float *sp, *sv;          /* sorted positions / velocities, 4 floats each (w unused) */
+    float *sp, *sv;          /* sorted (x, y, z, density) and (vx, vy, vz, pressure) */
     float *sx, *sy, *sz;     /* sorted positions again as SoA, for the vectorized scan */
-    float *rho, *press;      /* per sorted slot */
     uint32_t *nbr;           /* per sorted slot: neighbour_cap sorted slots */
     uint8_t *nnbr;           /* per sorted slot: neighbours kept */
     uint32_t *cell_start;    /* buckets + 1: first sorted slot of each bucket */

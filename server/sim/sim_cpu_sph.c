@@ -2,6 +2,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef __AVX2__
+#include <immintrin.h>
+#endif
 
 #include "sim_cpu_internal.h"
 
@@ -11,6 +14,8 @@
 #define SPH_MAX_CANDIDATES 1024
 /* Candidates whose distances are computed in one vector loop. */
 #define SPH_SCAN_BLOCK 64
+/* Elements of padding after the sorted SoA arrays (one AVX2 vector). */
+#define SPH_PAD 8
 
 typedef struct sph_ctx {
     sim_cpu *c;
@@ -30,8 +35,6 @@ void sim_cpu_sph_free(sim_cpu_sph *s)
     free(s->sy);
     free(s->sz);
     free(s->sv);
-    free(s->rho);
-    free(s->press);
     free(s->nbr);
     free(s->nnbr);
     free(s->cell_start);
@@ -44,22 +47,21 @@ static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, 
     if (s->n < n || s->cap < cap) {
         free(s->cell), free(s->order), free(s->strand), free(s->sp), free(s->sv);
         free(s->sx), free(s->sy), free(s->sz);
-        free(s->rho), free(s->press), free(s->nbr), free(s->nnbr);
+        free(s->nbr), free(s->nnbr);
         s->cell = malloc(n * sizeof *s->cell);
         s->order = malloc(n * sizeof *s->order);
-        s->strand = malloc(n * sizeof *s->strand);
+        s->strand = calloc(n + SPH_PAD, sizeof *s->strand);
         s->sp = malloc(n * 4 * sizeof *s->sp);
-        s->sx = malloc(n * sizeof *s->sx);
-        s->sy = malloc(n * sizeof *s->sy);
-        s->sz = malloc(n * sizeof *s->sz);
+        /* padded by SPH_PAD so vector loads of a run's last block stay inside */
+        s->sx = calloc(n + SPH_PAD, sizeof *s->sx);
+        s->sy = calloc(n + SPH_PAD, sizeof *s->sy);
+        s->sz = calloc(n + SPH_PAD, sizeof *s->sz);
         s->sv = malloc(n * 4 * sizeof *s->sv);
-        s->rho = malloc(n * sizeof *s->rho);
-        s->press = malloc(n * sizeof *s->press);
         s->nbr = malloc(n * (size_t)cap * sizeof *s->nbr);
         s->nnbr = malloc(n * sizeof *s->nnbr);
         s->n = n;
         s->cap = cap;
-        if (!s->cell || !s->order || !s->strand || !s->sp || !s->sv || !s->sx || !s->sy || !s->sz || !s->rho || !s->press || !s->nbr || !s->nnbr) {
+        if (!s->cell || !s->order || !s->strand || !s->sp || !s->sv || !s->sx || !s->sy || !s->sz || !s->nbr || !s->nnbr) {
             sim_cpu_sph_free(s);
             return core_fail(err, CORE_ENOMEM, "out of memory for SPH buffers of %zu particles", n);
         }
@@ -183,14 +185,48 @@ static void scatter_job(void *vctx, int tid, int nt)
     }
 }
 
-/* Squared distances from (x,y,z) to the candidates [0, n): a plain loop the compiler vectorizes. */
-static void dist2_kernel(size_t n, float x, float y, float z, const float *restrict sx, const float *restrict sy,
-                         const float *restrict sz, float *restrict out)
+/* Appends to keys[] the candidates j in [b, e) within h (r2 < h2) that belong to another
+ * strand than si, as (r2 bits << 32 | j); returns the new count. r2 = (dx*dx + dy*dy) + dz*dz
+ * in both paths, so the AVX2 and the scalar code give the same keys. */
+static size_t gather_candidates(const sim_cpu_sph *s, uint32_t b, uint32_t e, float x, float y, float z, float h2,
+                                uint32_t si, uint64_t *keys, size_t m)
 {
-    for (size_t j = 0; j < n; j++) {
-        float dx = sx[j] - x, dy = sy[j] - y, dz = sz[j] - z;
-        out[j] = dx * dx + dy * dy + dz * dz;
+    uint32_t j = b;
+#ifdef __AVX2__
+    const __m256 vx = _mm256_set1_ps(x), vy = _mm256_set1_ps(y), vz = _mm256_set1_ps(z), vh2 = _mm256_set1_ps(h2);
+    const __m256i vsi = _mm256_set1_epi32((int)si);
+    float r2s[8];
+    const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    for (; j < e; j += 8) { /* the arrays are padded by 8, so the last block may read past e */
+        __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(s->sx + j), vx);
+        __m256 dy = _mm256_sub_ps(_mm256_loadu_ps(s->sy + j), vy);
+        __m256 dz = _mm256_sub_ps(_mm256_loadu_ps(s->sz + j), vz);
+        __m256 r2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+        __m256i same = _mm256_cmpeq_epi32(_mm256_loadu_si256((const __m256i *)(s->strand + j)), vsi);
+        __m256i inside = _mm256_cmpgt_epi32(_mm256_set1_epi32((int)(e - j)), lanes);
+        __m256 ok = _mm256_andnot_ps(_mm256_castsi256_ps(same), _mm256_castsi256_ps(inside));
+        unsigned mask = (unsigned)_mm256_movemask_ps(_mm256_and_ps(ok, _mm256_cmp_ps(r2, vh2, _CMP_LT_OQ)));
+        if (!mask) continue;
+        _mm256_storeu_ps(r2s, r2);
+        while (mask) {
+            unsigned q = (unsigned)__builtin_ctz(mask);
+            uint32_t bits;
+            memcpy(&bits, &r2s[q], sizeof bits);
+            keys[m++] = (uint64_t)bits << 32 | (j + q);
+            mask &= mask - 1;
+        }
     }
+    return m;
+#endif
+    for (; j < e; j++) {
+        float dx = s->sx[j] - x, dy = s->sy[j] - y, dz = s->sz[j] - z;
+        float r2 = (dx * dx + dy * dy) + dz * dz;
+        uint32_t bits;
+        memcpy(&bits, &r2, sizeof bits);
+        keys[m] = (uint64_t)bits << 32 | j;
+        m += (r2 < h2) & (s->strand[j] != si);
+    }
+    return m;
 }
 
 static inline void swap_u64(uint64_t *a, uint64_t *b)
@@ -268,7 +304,6 @@ static void density_job(void *vctx, int tid, int nt)
     const int cap = c->params.neighbor_cap;
     size_t b, e;
     sim_pool_range(s->ncells, tid, nt, 1, &b, &e);
-    float d2[SPH_SCAN_BLOCK];
     uint64_t keys[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK];
     uint32_t ccx = UINT32_MAX, ccy = 0, ccz = 0; /* cell whose neighbour ranges are in rlo/rhi */
     uint32_t rlo[18], rhi[18];
@@ -290,14 +325,8 @@ static void density_job(void *vctx, int tid, int nt)
             for (int r = 0; r < nr; r++) {
                 const uint32_t rb = s->cell_start[rlo[r]], re = s->cell_start[rhi[r] + 1];
                 for (uint32_t j0 = rb; j0 < re && m < SPH_MAX_CANDIDATES; j0 += SPH_SCAN_BLOCK) {
-                    uint32_t cnt = re - j0 < SPH_SCAN_BLOCK ? re - j0 : SPH_SCAN_BLOCK;
-                    dist2_kernel(cnt, xi, yi, zi, s->sx + j0, s->sy + j0, s->sz + j0, d2);
-                    for (uint32_t q = 0; q < cnt; q++) {
-                        uint32_t bits;
-                        memcpy(&bits, &d2[q], sizeof bits);
-                        keys[m] = (uint64_t)bits << 32 | (j0 + q);
-                        m += (d2[q] < h2) & (s->strand[j0 + q] != si);
-                    }
+                    uint32_t j1 = re - j0 < SPH_SCAN_BLOCK ? re : j0 + SPH_SCAN_BLOCK;
+                    m = gather_candidates(s, j0, j1, xi, yi, zi, h2, si, keys, m);
                 }
             }
             if (m > (size_t)cap) {
@@ -315,7 +344,7 @@ static void density_job(void *vctx, int tid, int nt)
                 out[k] = (uint32_t)keys[k];
             }
             s->nnbr[i] = (uint8_t)m;
-            s->rho[i] = rho;
+            s->sp[4 * (size_t)i + 3] = rho;
         }
     }
 }
@@ -328,7 +357,7 @@ static void pressure_job(void *vctx, int tid, int nt)
     size_t b, e;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     const float inv_rho0 = 1.0f / (c->params.rest_density * c->rho_rest);
-    for (size_t i = b; i < e; i++) s->press[i] = fmaxf(s->rho[i] * inv_rho0 - 1.0f, 0.0f);
+    for (size_t i = b; i < e; i++) s->sv[4 * i + 3] = fmaxf(s->sp[4 * i + 3] * inv_rho0 - 1.0f, 0.0f);
 }
 
 static void force_job(void *vctx, int tid, int nt)
@@ -344,7 +373,7 @@ static void force_job(void *vctx, int tid, int nt)
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     for (size_t i = b; i < e; i++) {
         const float *pi = s->sp + 4 * i, *vi = s->sv + 4 * i;
-        const float Pi = s->press[i];
+        const float Pi = vi[3], rhoi = pi[3];
         float apx = 0.0f, apy = 0.0f, apz = 0.0f, W = 0.0f, vbx = 0.0f, vby = 0.0f, vbz = 0.0f;
         const uint32_t *nb = s->nbr + i * (size_t)cap;
         for (int k = 0; k < s->nnbr[i]; k++) {
@@ -353,9 +382,9 @@ static void force_job(void *vctx, int tid, int nt)
             float dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
             float r = sqrtf(dx * dx + dy * dy + dz * dz);
             float q = 1.0f - r * inv_h;
-            float inv_rhoj = 1.0f / s->rho[j];
+            float inv_rhoj = 1.0f / pj[3];
             if (r > 1e-9f) {
-                float f = (Pi + s->press[j]) * 0.5f * inv_rhoj * q * q / r;
+                float f = (Pi + vj[3]) * 0.5f * inv_rhoj * q * q / r;
                 apx += f * dx, apy += f * dy, apz += f * dz;
             }
             float w = q * inv_rhoj;
@@ -364,7 +393,7 @@ static void force_job(void *vctx, int tid, int nt)
         }
         float ax = 0.0f, ay = 0.0f, az = 0.0f;
         if (W > 0.0f) {
-            float kr = kp / s->rho[i];
+            float kr = kp / rhoi;
             ax = apx * kr, ay = apy * kr, az = apz * kr;
             float blend = (1.0f - expf(-mu_dt * W / (1.0f + W))) * inv_dt;
             ax += blend * (vbx / W - vi[0]);
@@ -417,7 +446,7 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
     sim_pool_run(&c->pool, density_job, ctx);
     if (out_mean_rho) {
         double sum = 0.0; /* serial, in sorted order: the same bits for any thread count */
-        for (size_t i = 0; i < c->n; i++) sum += s->rho[i];
+        for (size_t i = 0; i < c->n; i++) sum += s->sp[4 * i + 3];
         *out_mean_rho = sum / (double)c->n;
     } else {
         sim_pool_run(&c->pool, pressure_job, ctx);
