@@ -14,7 +14,7 @@
 
 static const core_param_info table[] = {
     F(dt, 0.001, 0.05, 1.0 / 60.0, "s", "Simulated time per step (the paper uses 0.016 s)."),
-    I(substeps, 1, 16, 1, "", "Solver substeps per step; roots and colliders are interpolated across them."),
+    I(substeps, 1, 16, 4, "", "Solver substeps per step; roots and colliders are interpolated across them. More substeps make the shape constraints stiffer against gravity."),
     F(gravity, 0.0, 50.0, 9.81, "m/s^2", "Gravity along -y."),
     F(wind_x, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, x component."),
     F(wind_y, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, y component."),
@@ -25,7 +25,7 @@ static const core_param_info table[] = {
     F(stiffness_tip, 0.0, 1.0, 0.25, "", "Shape stiffness at the tip as a fraction of the root value (linear fade along the strand)."),
     F(repulsion, 0.0, 0.5, 0.1, "", "SPH pressure coefficient k: repulsion between strands that gives the hair volume."),
     F(viscosity, 0.0, 200.0, 10.0, "1/s", "SPH viscosity: friction between neighbouring strands."),
-    F(sph_radius, 0.001, 0.05, 0.008, "m", "SPH smoothing length h (also the hash-grid cell size)."),
+    F(sph_radius, 0.001, 0.05, 0.003, "m", "SPH smoothing length h (also the hash-grid cell size)."),
     F(rest_density, 0.1, 10.0, 1.0, "", "SPH rest density as a multiple of the groom's mean rest-pose density."),
     I(neighbor_cap, 1, 64, 24, "", "SPH neighbours kept per particle, nearest first."),
     B(shape, 1, "Global and local shape constraints."),

@@ -1,0 +1,146 @@
+/* app: wires groom -> sim -> codec -> net and back; owns the threads and the signal-driven shutdown. */
+#include <errno.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "app_internal.h"
+#include "groom/groom.h"
+
+_Static_assert(APP_PORT_ANY == NET_PORT_ANY, "app and net agree on the free-port value");
+
+static void defaults(app_desc *d)
+{
+    if (!d->groom) d->groom = "straight";
+    if (d->rate <= 0.0) d->rate = APP_DEFAULT_RATE;
+    if (d->max_error <= 0.0) d->max_error = APP_DEFAULT_MAX_ERROR;
+    if (d->keyframe_interval <= 0) d->keyframe_interval = APP_DEFAULT_KEY_INTERVAL;
+}
+
+static core_status load_initial_groom(app *a, core_err *err)
+{
+    groom_style style;
+    if (groom_style_parse(a->d.groom, &style, NULL) == CORE_OK)
+        return app_groom_load_style(a, a->d.groom, a->d.strands, a->d.verts, a->d.seed, &a->groom, err);
+    const char *base = strrchr(a->d.groom, '/');
+    return app_groom_load_path(a, a->d.groom, base ? base + 1 : a->d.groom, a->d.verts, &a->groom, err);
+}
+
+static core_status setup(app *a, core_err *err)
+{
+    a->ptable = sim_param_table(&a->nparams);
+    if (a->nparams > PROTO_MAX_PARAMS)
+        return core_fail(err, CORE_EINVAL, "the parameter table has %zu entries; proto serves at most %d", a->nparams,
+                         PROTO_MAX_PARAMS);
+    for (int i = 0; i < 3; i++) a->styles[i] = groom_style_name((groom_style)i);
+    a->parser = (proto_parser){ a->ptable, a->nparams, app_preset_names, APP_PRESET_COUNT, a->styles, 3 };
+    sim_params_default(&a->params);
+    a->anim_speed = 1.0;
+    a->base_head = core_xform_identity();
+    pthread_mutex_init(&a->stats_mu, NULL);
+    core_status st = app_mailbox_init(&a->mb, err);
+    if (st != CORE_OK) return st;
+    app_list_assets(a);
+    if ((st = load_initial_groom(a, err)) != CORE_OK) return st;
+    sim_desc sd = { a->d.backend, a->d.threads, a->d.device };
+    if ((st = sim_create(&a->sim, &sd, &a->groom.g, &a->params, err)) != CORE_OK) return st;
+    size_t n = (size_t)a->groom.g.nstrands * a->groom.g.nverts * 3;
+    a->xyz = malloc(n * sizeof *a->xyz);
+    if (!a->xyz) return core_fail(err, CORE_ENOMEM, "out of memory for %zu positions", n / 3);
+    sim_set_motion(&a->sim, a->base_head);
+    if ((st = sim_read_positions(&a->sim, a->xyz, err)) != CORE_OK) return st;
+    core_log(CORE_LOG_INFO, "app", "groom %s: %u strands x %u vertices, %u colliders; backend %s", a->groom.source,
+             a->groom.g.nstrands, a->groom.g.nverts, a->groom.g.ncolliders, a->sim.vt->name);
+    if (a->d.no_net) return CORE_OK;
+    net_desc nd = {
+        .listen = a->d.listen, .port = a->d.port, .web_dir = a->d.web_dir, .subprotocol = PROTO_SUBPROTOCOL,
+        .max_message = PROTO_MAX_MESSAGE, .sndbuf = a->d.client_buffer,
+        .cb = { a, app_on_open, app_on_text, app_on_close, app_metrics },
+    };
+    return net_create(&a->net, &nd, err);
+}
+
+static void teardown(app *a)
+{
+    net_destroy(a->net);
+    a->net = NULL;
+    app_tiers_free(a);
+    sim_destroy(&a->sim);
+    app_groom_free(&a->groom);
+    free(a->xyz);
+    free(a->clients);
+    app_free_assets(a);
+    app_mailbox_free(&a->mb);
+    pthread_mutex_destroy(&a->stats_mu);
+}
+
+static void *net_main(void *arg)
+{
+    net_run(arg);
+    return NULL;
+}
+
+/* Waits for SIGINT/SIGTERM (blocked, taken with sigtimedwait) or the sim thread's end. */
+static void wait_for_stop(app *a, const sigset_t *set)
+{
+    struct timespec tick = { 0, 50 * 1000 * 1000 };
+    while (!atomic_load(&a->sim_done)) {
+        int sig = sigtimedwait(set, NULL, &tick);
+        if (sig == SIGINT || sig == SIGTERM) {
+            core_log(CORE_LOG_INFO, "app", "%s: shutting down", sig == SIGINT ? "SIGINT" : "SIGTERM");
+            return;
+        }
+        if (sig < 0 && errno != EAGAIN && errno != EINTR) return;
+    }
+}
+
+core_status app_run(const app_desc *desc, core_err *err)
+{
+    sigset_t set, old;
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &set, &old);
+    signal(SIGPIPE, SIG_IGN);
+
+    app *a = calloc(1, sizeof *a);
+    if (!a) return core_fail(err, CORE_ENOMEM, "out of memory");
+    a->d = *desc;
+    defaults(&a->d);
+    core_status st = setup(a, err);
+    pthread_t sim_thread, net_thread;
+    bool sim_started = false, net_started = false;
+    if (st == CORE_OK && a->net) {
+        const char *host = a->d.listen && *a->d.listen ? a->d.listen : "127.0.0.1";
+        printf("strandcastd: open http://%s:%d/  (WebSocket subprotocol %s)\n", host, net_port(a->net), PROTO_SUBPROTOCOL);
+        fflush(stdout);
+        if (pthread_create(&net_thread, NULL, net_main, a->net) != 0) st = core_fail(err, CORE_EBACKEND, "cannot start the net thread");
+        else net_started = true;
+    }
+    if (st == CORE_OK) {
+        if (pthread_create(&sim_thread, NULL, app_sim_main, a) != 0) st = core_fail(err, CORE_EBACKEND, "cannot start the sim thread");
+        else sim_started = true;
+    }
+    if (st == CORE_OK) wait_for_stop(a, &set);
+    atomic_store(&a->quit, true);
+    if (sim_started) {
+        app_mailbox_wake(&a->mb);
+        pthread_join(sim_thread, NULL);
+        if (a->fatal != CORE_OK) st = core_fail(err, a->fatal, "simulation stopped: %s", a->fatal_err.msg);
+    }
+    if (net_started) {
+        net_stop(a->net);
+        pthread_join(net_thread, NULL);
+    }
+    if (st == CORE_OK) {
+        sim_stats ss;
+        sim_get_stats(&a->sim, &ss);
+        core_log(CORE_LOG_INFO, "app", "stopped after %llu steps (%.2f s simulated)", (unsigned long long)ss.steps, ss.sim_time);
+    }
+    teardown(a);
+    free(a);
+    pthread_sigmask(SIG_SETMASK, &old, NULL);
+    return st;
+}

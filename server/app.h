@@ -1,0 +1,46 @@
+/* app: the strandcastd pipeline (groom -> sim -> codec -> net, commands back); main.c fills the desc. */
+#ifndef APP_H
+#define APP_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "core/core.h"
+#include "sim/sim.h"
+
+#define APP_DEFAULT_STRANDS 4096u
+#define APP_DEFAULT_VERTS 32u
+#define APP_DEFAULT_RATE 60.0         /* stream Hz */
+#define APP_DEFAULT_MAX_ERROR 1e-4    /* m */
+#define APP_DEFAULT_KEY_INTERVAL 30
+#define APP_LOG_INTERVAL_S 5.0
+#define APP_PORT_ANY (-1)             /* app_desc.port: let the kernel pick a free port */
+
+/* Everything strandcastd's flags set; zero means default for every field. */
+typedef struct app_desc {
+    const char *groom;         /* "straight" | "wavy" | "curly" or a .tfx/.hair path; NULL = straight */
+    uint32_t strands;          /* procedural strand count; 0 = 4096 */
+    uint32_t verts;            /* vertices per strand; 0 = 32 (procedural) or the file's own */
+    uint64_t seed;             /* procedural seed; 0 = the groom module's default */
+    sim_backend_kind backend;
+    int device, threads;
+    const char *listen;        /* NULL = 127.0.0.1 */
+    int port;                  /* 0 = 7681; APP_PORT_ANY = a free port */
+    const char *web_dir;       /* NULL = no static files */
+    const char *assets_dir;    /* folder set_groom files come from; NULL = none */
+    double rate;               /* stream frames per second; 0 = 60 */
+    double max_error;          /* default stream max position error, m; 0 = 1e-4 */
+    int keyframe_interval;     /* frames between keyframes; 0 = 30 */
+    int client_buffer;         /* kernel send buffer per client, bytes; 0 = 256 KiB */
+    bool no_net;               /* simulate and log only */
+    uint64_t steps;            /* stop after this many steps; 0 = run until SIGINT/SIGTERM */
+} app_desc;
+
+/* Runs the daemon on the calling thread (which becomes the signal-waiting controller; SIGINT
+ * and SIGTERM are blocked in it and in every thread it starts) until SIGINT/SIGTERM or
+ * desc->steps steps. Prints "strandcastd: open http://ADDR:PORT/" on stdout once listening.
+ * Returns CORE_OK after a clean shutdown, or the error that stopped start-up or the simulation
+ * (err says why). */
+core_status app_run(const app_desc *desc, core_err *err);
+
+#endif

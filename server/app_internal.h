@@ -1,0 +1,183 @@
+/* app: internal state of the pipeline shared by the app_*.c files (mailbox, streams, clients). */
+#ifndef APP_INTERNAL_H
+#define APP_INTERNAL_H
+
+#include <pthread.h>
+#include <stdatomic.h>
+
+#include "app.h"
+#include "codec/codec.h"
+#include "core/groom_types.h"
+#include "core/math3.h"
+#include "net/net.h"
+#include "proto/proto.h"
+
+#define APP_MAILBOX 256   /* queued commands from the net thread; more -> "busy" error */
+#define APP_MAX_FILES 256 /* groom files listed from the asset folder */
+
+/* ---- mailbox: net thread -> sim thread ---- */
+typedef enum app_cmd_kind { APP_CMD_OPEN, APP_CMD_CLOSE, APP_CMD_MSG } app_cmd_kind;
+
+typedef struct app_cmd {
+    app_cmd_kind kind;
+    uint32_t client;
+    proto_msg msg;
+} app_cmd;
+
+typedef struct app_mailbox {
+    pthread_mutex_t mu;
+    pthread_cond_t cv;        /* signalled on every post (CLOCK_MONOTONIC waits) */
+    app_cmd *ring;
+    int head, len;
+    bool wake;                /* set by app_mailbox_wake */
+} app_mailbox;
+
+core_status app_mailbox_init(app_mailbox *m, core_err *err);
+void app_mailbox_free(app_mailbox *m);
+/* Queues a copy of *c; a motion replaces a motion still at the tail (newest wins).
+ * CORE_ENOMEM when full. Any thread. */
+core_status app_mailbox_post(app_mailbox *m, const app_cmd *c);
+/* Takes the oldest command into *out; false when empty. Sim thread. */
+bool app_mailbox_take(app_mailbox *m, app_cmd *out);
+/* Blocks until a post, app_mailbox_wake, or the monotonic deadline (ns). Sim thread. */
+void app_mailbox_wait(app_mailbox *m, unsigned long long deadline_ns);
+/* Wakes app_mailbox_wait. Any thread. */
+void app_mailbox_wake(app_mailbox *m);
+
+/* ---- preset animations ---- */
+typedef enum app_preset { APP_PRESET_NONE, APP_PRESET_NOD, APP_PRESET_SHAKE, APP_PRESET_CIRCLE,
+                          APP_PRESET_HEADBANG, APP_PRESET_SWAY, APP_PRESET_COUNT } app_preset;
+extern const char *const app_preset_names[APP_PRESET_COUNT];
+/* The head transform of preset p at animation time t (s) applied on top of base. Pure. */
+core_xform app_anim_head(app_preset p, double t, core_xform base);
+
+/* ---- streams: one codec encoder per distinct (stride, max_error), each a net stream ---- */
+typedef struct app_tier {
+    bool used;
+    int32_t stride;
+    double max_error;
+    uint32_t subscribers;
+    bool force_key;
+    bool ready;               /* encoder initialised for the current groom */
+    codec_encoder enc;
+} app_tier;
+
+/* ---- clients as the sim thread sees them ---- */
+typedef struct app_client {
+    uint32_t id;
+    int tier;
+    int32_t stride;
+    double max_error, max_rate;
+    bool has_t;
+    double last_t;            /* newest motion timestamp from this client */
+} app_client;
+
+/* The live groom and its pre-rendered JSON. */
+typedef struct app_groom {
+    core_groom g;
+    char source[PROTO_MAX_NAME + 16];
+    uint64_t seed;
+    proto_groom_json json;
+} app_groom;
+
+/* Numbers the sim thread publishes for /metrics and stats (guarded by stats_mu). */
+typedef struct app_stats {
+    uint64_t steps;
+    double sim_time;
+    double steps_per_s;       /* over the last stats window */
+    double step_ms;           /* mean over the last stats window */
+    double encode_ms;         /* mean per published round over the last window */
+    uint64_t frames_encoded, encode_bytes, nan_resets;
+    uint32_t clients;
+} app_stats;
+
+typedef struct app {
+    app_desc d;
+
+    /* modules */
+    sim sim;
+    net *net;
+    app_groom groom;
+    sim_params params;
+    float *xyz;               /* positions of the current groom, strand-major */
+
+    /* command plumbing */
+    app_mailbox mb;
+    proto_parser parser;
+    const core_param_info *ptable;
+    size_t nparams;
+    const char *styles[3];
+    char *files[APP_MAX_FILES];
+    size_t nfiles;
+
+    /* sim thread state */
+    bool paused;
+    int32_t step_budget;      /* steps left while paused */
+    bool dirty;               /* publish the current positions even when not stepping */
+    core_xform base_head;     /* last client motion */
+    app_preset preset;
+    double anim_speed, anim_time;
+    app_tier tiers[NET_MAX_STREAMS];
+    app_client *clients;
+    size_t nclients, cap_clients;
+    uint64_t frame_seq;
+    codec_buf enc_buf;
+    double publish_acc;
+    core_status fatal;        /* a sim-thread failure that stops the daemon */
+    core_err fatal_err;
+
+    /* measuring windows (sim thread) */
+    unsigned long long win_start_ns, log_start_ns;
+    uint64_t win_steps, log_steps;
+    double step_ms_acc, log_step_ms_acc, encode_ms_acc;
+    uint64_t encode_rounds;
+
+    /* thread control */
+    atomic_bool quit;         /* ask the sim thread to stop */
+    atomic_bool sim_done;     /* the sim thread has finished (steps reached or failure) */
+
+    /* stats */
+    pthread_mutex_t stats_mu;
+    app_stats stats;
+    atomic_uint_fast64_t accepted, rejected;
+} app;
+
+/* Net-thread callbacks (net_callbacks.user = app). */
+void app_on_open(void *user, uint32_t client);
+void app_on_text(void *user, uint32_t client, const char *text, size_t len);
+void app_on_close(void *user, uint32_t client);
+size_t app_metrics(void *user, char *buf, size_t cap);
+
+/* Sends an error reply to one client (any thread) and counts the rejection. */
+void app_reply_error(app *a, uint32_t client, const proto_id *id, const proto_error *e);
+/* Sends text (freed here) to a client or NET_ALL; ignores NULL (out of memory) and --no-net. */
+void app_send(app *a, uint32_t client, char *text, unsigned flags);
+
+/* Groom handling (sim thread at run time, main thread at start-up). */
+core_status app_groom_load_style(app *a, const char *style, uint32_t strands, uint32_t verts, uint64_t seed,
+                                 app_groom *out, core_err *err);
+core_status app_groom_load_path(app *a, const char *path, const char *label, uint32_t verts, app_groom *out,
+                                core_err *err);
+void app_groom_free(app_groom *g);
+/* Lists the .tfx/.hair files under d.assets_dir into a->files (sorted). */
+void app_list_assets(app *a);
+void app_free_assets(app *a);
+
+/* Streams (sim thread). */
+int app_tier_acquire(app *a, int32_t stride, double max_error);
+void app_tier_release(app *a, int tier);
+/* Re-initialises every tier's encoder for the current groom (after a groom change). */
+void app_tiers_reset(app *a);
+void app_tiers_free(app *a);
+/* Encodes a->xyz once per tier with subscribers and publishes the frames. */
+void app_publish(app *a);
+uint32_t app_tier_strands(const app *a, int32_t stride);
+
+/* Commands (sim thread). */
+void app_handle(app *a, app_cmd *c);
+/* The sim thread's body (pthread start routine; arg = app). */
+void *app_sim_main(void *arg);
+/* Current state/animation for state messages and hello. */
+proto_state app_state(const app *a);
+
+#endif

@@ -1,0 +1,106 @@
+/* app: subscription tiers: one codec encoder per distinct (stride, max_error), published to net. */
+#include <string.h>
+
+#include "app_internal.h"
+
+uint32_t app_tier_strands(const app *a, int32_t stride)
+{
+    uint32_t k = stride > 0 ? (uint32_t)stride : 1u;
+    return (a->groom.g.nstrands + k - 1) / k;
+}
+
+static core_status tier_init(app *a, app_tier *t, core_err *err)
+{
+    codec_desc cd = { (float)t->max_error, (uint32_t)a->d.keyframe_interval, (uint32_t)t->stride };
+    core_status st = codec_encoder_init(&t->enc, &cd, a->groom.g.nstrands, a->groom.g.nverts, err);
+    t->ready = st == CORE_OK;
+    t->force_key = true;
+    return st;
+}
+
+int app_tier_acquire(app *a, int32_t stride, double max_error)
+{
+    int free_slot = -1;
+    for (int i = 0; i < NET_MAX_STREAMS; i++) {
+        app_tier *t = &a->tiers[i];
+        if (t->used && t->stride == stride && t->max_error == max_error) {
+            t->subscribers++;
+            return i;
+        }
+        if (!t->used && free_slot < 0) free_slot = i;
+    }
+    if (free_slot < 0) return -1;
+    app_tier *t = &a->tiers[free_slot];
+    memset(t, 0, sizeof *t);
+    t->used = true;
+    t->stride = stride;
+    t->max_error = max_error;
+    t->subscribers = 1;
+    core_err err;
+    if (tier_init(a, t, &err) != CORE_OK) core_log(CORE_LOG_ERROR, "app", "stream encoder: %s", err.msg);
+    return free_slot;
+}
+
+void app_tier_release(app *a, int tier)
+{
+    if (tier < 0 || tier >= NET_MAX_STREAMS || !a->tiers[tier].used) return;
+    app_tier *t = &a->tiers[tier];
+    if (--t->subscribers > 0) return;
+    codec_encoder_free(&t->enc);
+    memset(t, 0, sizeof *t);
+    if (a->net) net_drop_stream(a->net, (uint32_t)tier);
+}
+
+void app_tiers_reset(app *a)
+{
+    for (int i = 0; i < NET_MAX_STREAMS; i++) {
+        app_tier *t = &a->tiers[i];
+        if (!t->used) continue;
+        codec_encoder_free(&t->enc);
+        core_err err;
+        if (tier_init(a, t, &err) != CORE_OK) core_log(CORE_LOG_ERROR, "app", "stream encoder: %s", err.msg);
+    }
+}
+
+void app_tiers_free(app *a)
+{
+    for (int i = 0; i < NET_MAX_STREAMS; i++) codec_encoder_free(&a->tiers[i].enc);
+    memset(a->tiers, 0, sizeof a->tiers);
+    codec_buf_free(&a->enc_buf);
+}
+
+void app_publish(app *a)
+{
+    if (!a->net) return;
+    unsigned long long t0 = core_now_ns();
+    uint64_t seq = ++a->frame_seq;
+    uint64_t frames = 0, bytes = 0;
+    sim_stats ss;
+    sim_get_stats(&a->sim, &ss);
+    for (int i = 0; i < NET_MAX_STREAMS; i++) {
+        app_tier *t = &a->tiers[i];
+        if (!t->used || !t->ready || t->subscribers == 0) continue;
+        core_err err;
+        if (codec_encode(&t->enc, a->xyz, seq, ss.sim_time, t->force_key, &a->enc_buf, &err) != CORE_OK) {
+            core_log(CORE_LOG_WARN, "app", "stream %d: frame %llu not sent: %s", i, (unsigned long long)seq, err.msg);
+            t->force_key = true;
+            continue;
+        }
+        t->force_key = false;
+        codec_frame_info info;
+        if (codec_peek_header(a->enc_buf.data, a->enc_buf.len, &info, &err) != CORE_OK) continue;
+        net_buf *b = net_buf_new(a->enc_buf.len);
+        if (!b) continue;
+        memcpy(net_buf_data(b), a->enc_buf.data, a->enc_buf.len);
+        net_publish(a->net, (uint32_t)i, b, seq, info.keyframe);
+        frames++;
+        bytes += a->enc_buf.len;
+    }
+    double ms = (double)(core_now_ns() - t0) / 1e6;
+    pthread_mutex_lock(&a->stats_mu);
+    a->stats.frames_encoded += frames;
+    a->stats.encode_bytes += bytes;
+    pthread_mutex_unlock(&a->stats_mu);
+    a->encode_ms_acc += ms;
+    a->encode_rounds++;
+}

@@ -1,0 +1,120 @@
+/* codec: strand frame encoder/decoder with a guaranteed maximum per-axis position error. */
+#ifndef CODEC_CODEC_H
+#define CODEC_CODEC_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "../core/core.h"
+
+/* The wire format is specified byte by byte in proto/CODEC.md. */
+#define CODEC_MAGIC "SCF1"
+#define CODEC_VERSION 1u
+#define CODEC_ID_STRAND 1u         /* the only codec of format version 1 */
+#define CODEC_HEADER_SIZE 68u
+#define CODEC_FLAG_KEY 1u          /* keyframe: intra-coded, no reference */
+#define CODEC_DEFAULT_MAX_ERROR 1e-4f
+#define CODEC_DEFAULT_KEY_INTERVAL 30u
+#define CODEC_MAX_VERTICES (1u << 24) /* per frame (strands sent x vertices per strand) */
+#define CODEC_MAX_NVERTS 4096u
+#define CODEC_MAX_QUANT (1 << 26)  /* |position / step| must stay below this */
+
+/* Per-stream constants; zero means default. */
+typedef struct codec_desc {
+    float max_error_m;     /* per-axis bound |decoded - input| <= this; 0 -> 1e-4 m; [1e-5, 1e-1] */
+    uint32_t key_interval; /* a keyframe at least every this many frames; 0 -> 30 */
+    uint32_t stride;       /* send strands 0, k, 2k, ...; 0 -> 1 (all strands) */
+} codec_desc;
+
+/* A caller-owned growable byte buffer. Zero-initialise it; codec_buf_free releases it. */
+typedef struct codec_buf {
+    uint8_t *data;
+    size_t len, cap;
+} codec_buf;
+
+/* The decoded header of one frame. */
+typedef struct codec_frame_info {
+    uint64_t seq;            /* this frame's sequence number */
+    uint64_t ref_seq;        /* sequence of the keyframe it predicts from (== seq on keyframes) */
+    double sim_time;         /* simulation time, s */
+    double step;             /* quantization step, m */
+    float max_error_m;       /* the per-axis error bound the encoder guaranteed */
+    bool keyframe;
+    uint32_t nstrands_total; /* strands in the simulation */
+    uint32_t nstrands_sent;  /* strands in this frame: ceil(total / stride) */
+    uint32_t nverts;         /* vertices per strand (vertex 0 = root) */
+    uint32_t stride;         /* strands sent are 0, stride, 2*stride, ... */
+    uint32_t payload_len;    /* bytes after the header */
+    size_t frame_len;        /* header + payload */
+} codec_frame_info;
+
+/* Encoder state: holds the integer reconstruction of the current keyframe. */
+typedef struct codec_encoder {
+    codec_desc desc;
+    uint32_t nstrands_total, nstrands_sent, nverts;
+    double step, inv_step;
+    uint64_t key_seq;
+    uint32_t since_key;  /* frames since the last keyframe; key_valid false until the first */
+    bool key_valid;
+    int32_t *key_q;      /* keyframe lattice coordinates, sent strands, strand-major xyz */
+    int32_t *cur_q;      /* this frame's lattice coordinates */
+    int32_t *key_m;      /* the keyframe moved by this frame's rigid motion */
+    uint64_t last_seq;   /* sequence numbers must increase */
+    uint16_t *syms;      /* entropy-coder symbols of this frame, (table << 9) | symbol */
+    int32_t *res;        /* residuals of one strand under two prediction modes */
+    struct codec_rans_sym *rsyms; /* per-frame encoding tables */
+    uint8_t *bits;       /* raw bit stream of this frame */
+    uint8_t *rans;       /* rANS output, written backwards from the end */
+    size_t nsyms_max, bits_cap, rans_cap;
+} codec_encoder;
+
+/* Decoder state: holds the integer reconstruction of the last keyframe decoded. */
+typedef struct codec_decoder {
+    bool key_valid;
+    codec_frame_info key;  /* header of the held keyframe */
+    int32_t *key_q, *cur_q, *key_m; /* keyframe, this frame, keyframe moved by the frame's motion */
+    size_t cap;            /* int32 capacity of key_q, cur_q and key_m */
+    uint16_t *slots;       /* rANS slot -> symbol lookup, one 4096-entry table per context */
+    int32_t *res;          /* residuals of one strand */
+    uint32_t res_cap;      /* vertices res holds */
+} codec_decoder;
+
+/* Releases buf's memory and zeroes it. Safe on a zeroed buf. */
+void codec_buf_free(codec_buf *buf);
+
+/* Sets up an encoder for nstrands x nverts strands (nverts >= 2). desc may be NULL (defaults).
+ * On failure *enc is zeroed and err says why. One thread at a time uses an encoder. */
+core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint32_t nstrands,
+                               uint32_t nverts, core_err *err);
+
+/* Encodes one frame: xyz is 3 * nstrands * nverts floats, strand-major (caller-owned, read only).
+ * Writes the frame to out (replacing its contents; out grows as needed). A keyframe is made on
+ * the first call, every key_interval frames, and when force_key is set; other frames are deltas
+ * against the last keyframe, so a decoder holding that keyframe decodes any later frame in any
+ * subset. Every decoded coordinate is within max_error_m of the input (per axis). Fails with
+ * CORE_EINVAL on a non-finite or out-of-range position (the encoder state is unchanged). */
+core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, double sim_time,
+                         bool force_key, codec_buf *out, core_err *err);
+
+/* Frees the encoder's memory and zeroes it. Safe on a zeroed encoder. */
+void codec_encoder_free(codec_encoder *enc);
+
+/* Parses and validates the fixed header of data[0..len) (magic, version, codec, flags, counts,
+ * step, that the whole payload is present). Does not check the CRC. Pure, any thread. */
+core_status codec_peek_header(const uint8_t *data, size_t len, codec_frame_info *info, core_err *err);
+
+/* A decoder holding no keyframe. Never fails. */
+void codec_decoder_init(codec_decoder *dec);
+
+/* Decodes one frame into xyz_out (capacity out_floats floats; needs 3 * nstrands_sent * nverts).
+ * Keyframes replace the held reference; deltas need the keyframe they name (CORE_ESTATE when it
+ * is not held). Any corrupt, truncated or inconsistent frame is rejected (CORE_EFORMAT) with a
+ * message; on any failure xyz_out and the held keyframe are unchanged. info may be NULL. */
+core_status codec_decode(codec_decoder *dec, const uint8_t *data, size_t len, float *xyz_out,
+                         size_t out_floats, codec_frame_info *info, core_err *err);
+
+/* Frees the decoder's memory and zeroes it. Safe on a zeroed decoder. */
+void codec_decoder_free(codec_decoder *dec);
+
+#endif

@@ -1,0 +1,104 @@
+/* codec: the rigid motion of a delta frame (estimated from the roots, applied to the keyframe
+ * lattice to give the motion-compensated temporal reference). */
+#include <math.h>
+#include <string.h>
+
+#include "codec_internal.h"
+
+void codec_motion_identity(float m[12])
+{
+    memset(m, 0, 12 * sizeof *m);
+    m[0] = m[4] = m[8] = 1.0f;
+}
+
+bool codec_motion_valid(const float m[12])
+{
+    for (int k = 0; k < 9; k++)
+        if (!(fabsf(m[k]) <= 2.0f)) return false;
+    for (int k = 9; k < 12; k++)
+        if (!(fabsf(m[k]) <= (float)(4 * CODEC_MAX_QUANT))) return false;
+    return true;
+}
+
+static double det3(const double a[9])
+{
+    return a[0] * (a[4] * a[8] - a[5] * a[7]) - a[1] * (a[3] * a[8] - a[5] * a[6]) + a[2] * (a[3] * a[7] - a[4] * a[6]);
+}
+
+/* The orthogonal polar factor of a (Newton: X <- (X + X^-T) / 2); false if singular. */
+static bool polar(const double a[9], double q[9])
+{
+    double x[9];
+    memcpy(x, a, sizeof x);
+    for (int it = 0; it < 30; it++) {
+        double d = det3(x);
+        if (!(fabs(d) > 1e-300) || !isfinite(d)) return false;
+        /* inverse transpose = cofactor matrix / det */
+        double c[9] = {
+            x[4] * x[8] - x[5] * x[7], x[5] * x[6] - x[3] * x[8], x[3] * x[7] - x[4] * x[6],
+            x[2] * x[7] - x[1] * x[8], x[0] * x[8] - x[2] * x[6], x[1] * x[6] - x[0] * x[7],
+            x[1] * x[5] - x[2] * x[4], x[2] * x[3] - x[0] * x[5], x[0] * x[4] - x[1] * x[3],
+        };
+        double delta = 0;
+        for (int k = 0; k < 9; k++) {
+            double n = 0.5 * (x[k] + c[k] / d);
+            delta = fmax(delta, fabs(n - x[k]));
+            x[k] = n;
+        }
+        if (delta < 1e-12) break;
+    }
+    memcpy(q, x, sizeof x);
+    return det3(q) > 0.5;
+}
+
+void codec_motion_estimate(const int32_t *key, const int32_t *cur, uint32_t nstrands, size_t per, float m[12])
+{
+    codec_motion_identity(m);
+    if (nstrands < 3) return;
+    double ca[3] = { 0, 0, 0 }, cb[3] = { 0, 0, 0 };
+    for (uint32_t j = 0; j < nstrands; j++)
+        for (int a = 0; a < 3; a++) {
+            ca[a] += key[(size_t)j * per + (size_t)a];
+            cb[a] += cur[(size_t)j * per + (size_t)a];
+        }
+    for (int a = 0; a < 3; a++) {
+        ca[a] /= nstrands;
+        cb[a] /= nstrands;
+    }
+    double h[9] = { 0 }; /* sum (b - cb)(a - ca)^T: R = polar factor */
+    for (uint32_t j = 0; j < nstrands; j++) {
+        double da[3], db[3];
+        for (int a = 0; a < 3; a++) {
+            da[a] = key[(size_t)j * per + (size_t)a] - ca[a];
+            db[a] = cur[(size_t)j * per + (size_t)a] - cb[a];
+        }
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 3; c++) h[3 * r + c] += db[r] * da[c];
+    }
+    double scale = 0;
+    for (int k = 0; k < 9; k++) scale = fmax(scale, fabs(h[k]));
+    if (!(scale > 0)) return;
+    for (int k = 0; k < 9; k++) h[k] /= scale;
+    double rot[9];
+    if (!polar(h, rot)) return;
+    float f[12];
+    for (int k = 0; k < 9; k++) f[k] = (float)rot[k];
+    for (int r = 0; r < 3; r++)
+        f[9 + r] = (float)(cb[r] - ((double)f[3 * r] * ca[0] + (double)f[3 * r + 1] * ca[1] + (double)f[3 * r + 2] * ca[2]));
+    if (codec_motion_valid(f)) memcpy(m, f, sizeof f);
+}
+
+void codec_motion_apply(const float m[12], const int32_t *restrict k, int32_t *restrict out, size_t nverts)
+{
+    /* trunc(s + t + 2^30 + 1/2) - 2^30 = round half up of s + t; the sum stays in (0, 2^31)
+     * because |r| <= 2, |k| < 2^26 and |t| <= 2^28 */
+    const int32_t lim = CODEC_MAX_QUANT - 1, off = 1 << 30;
+    const double r0 = m[0], r1 = m[1], r2 = m[2], r3 = m[3], r4 = m[4], r5 = m[5], r6 = m[6], r7 = m[7], r8 = m[8];
+    const double c0 = (double)m[9] + 1073741824.5, c1 = (double)m[10] + 1073741824.5, c2 = (double)m[11] + 1073741824.5;
+    for (size_t i = 0; i < nverts; i++) {
+        double x = k[3 * i], y = k[3 * i + 1], z = k[3 * i + 2];
+        int32_t w[3] = { (int32_t)(r0 * x + r1 * y + r2 * z + c0) - off, (int32_t)(r3 * x + r4 * y + r5 * z + c1) - off,
+                         (int32_t)(r6 * x + r7 * y + r8 * z + c2) - off };
+        for (int a = 0; a < 3; a++) out[3 * i + (size_t)a] = w[a] < -lim ? -lim : w[a] > lim ? lim : w[a];
+    }
+}

@@ -1,0 +1,99 @@
+/* groom: procedural grooms, .tfx / .hair loaders, resampling and character colliders. */
+#ifndef GROOM_GROOM_H
+#define GROOM_GROOM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "../core/core.h"
+#include "../core/groom_types.h"
+
+/* Limits shared by the procedural generator and the loaders. */
+#define GROOM_MAX_STRANDS (1u << 22)      /* strands per groom */
+#define GROOM_MAX_VERTS (1u << 12)        /* vertices per strand (output and .tfx input) */
+#define GROOM_MAX_TOTAL (1u << 26)        /* vertices per groom (output and file input) */
+#define GROOM_MAX_FILE_BYTES (512u << 20) /* groom_load_file refuses larger files */
+
+#define GROOM_DEFAULT_STRANDS 4096u
+#define GROOM_DEFAULT_VERTS 32u
+#define GROOM_DEFAULT_LENGTH 0.25f         /* metres */
+#define GROOM_DEFAULT_SEED 0x5eed5eed2015ull
+
+/* The default head ellipsoid (head frame, metres): centred at the origin, x = half width,
+ * y = half height (up), z = half depth (+z = face). */
+#define GROOM_HEAD_RX 0.08f
+#define GROOM_HEAD_RY 0.10f
+#define GROOM_HEAD_RZ 0.095f
+
+typedef enum groom_style { GROOM_STRAIGHT = 0, GROOM_WAVY, GROOM_CURLY } groom_style;
+
+/* Procedural groom settings; zero means default for every field. */
+typedef struct groom_desc {
+    groom_style style;
+    uint32_t nstrands; /* 0 = 4096, at most GROOM_MAX_STRANDS */
+    uint32_t nverts;   /* 0 = 32, 2..GROOM_MAX_VERTS */
+    uint64_t seed;     /* 0 = GROOM_DEFAULT_SEED */
+    float length;      /* mean strand length in metres, 0 = 0.25; finite, (0, 2] */
+} groom_desc;
+
+/* Generates a procedural groom: roots 1 mm outside the scalp (upper and back part, not the
+ * face) of the default head ellipsoid, strands growing along the surface normal and then
+ * combed downward, draped outside every default collider (each new vertex is projected out of
+ * the colliders with a 1 mm margin, then its segment renormalised). Per-strand length varies
+ * by +-8% around d->length; inside a strand every segment has the same length. wavy adds a
+ * planar wave (3.5 waves per 0.25 m), curly a helix of 1 cm radius. Bitwise deterministic
+ * from the seed for a given build. out receives the default colliders
+ * (groom_default_colliders). d may be NULL (all defaults). out must be zeroed or freed; the
+ * caller owns it (core_groom_free). Pure, any thread. */
+core_status groom_procedural(const groom_desc *d, core_groom *out, core_err *err);
+
+/* Parses "straight" | "wavy" | "curly" (exact, lowercase). CORE_EINVAL otherwise. Pure. */
+core_status groom_style_parse(const char *name, groom_style *out, core_err *err);
+
+/* Name of a style ("straight", ...; "unknown" for out-of-range values); static storage. */
+const char *groom_style_name(groom_style s);
+
+/* Loads a TressFX .tfx file image (layout in shared/assets/README.md) of size bytes.
+ * nverts: target vertex count per strand (0 = keep the file's), 2..GROOM_MAX_VERTS.
+ * Every strand is resampled arc-length uniform (groom_resample_polyline); positions are
+ * taken as they are (the file's frame and units); the w component is ignored. Colliders are
+ * left empty (ncolliders = 0): call groom_fit_colliders if needed. A malformed image is
+ * refused with CORE_EFORMAT and a message naming the problem and where (byte offset,
+ * strand). Never reads outside data[0, size). out must be zeroed or freed; the caller owns
+ * it. Pure, any thread. */
+core_status groom_load_tfx(const void *data, size_t size, uint32_t nverts, core_groom *out, core_err *err);
+
+/* Loads a Cem Yuksel .hair file image (layout in shared/DESIGN.md) of size bytes; the file
+ * size must equal what the header implies. nverts: target vertex count per strand, or 0 =
+ * keep the file's count when every strand has the same number of points (and at most
+ * GROOM_MAX_VERTS), else 32. Strands are resampled arc-length uniform; positions are taken
+ * as they are (no unit or axis conversion); thickness, transparency and colour arrays are
+ * skipped. Colliders are left empty. Errors, bounds and ownership as groom_load_tfx. */
+core_status groom_load_hair(const void *data, size_t size, uint32_t nverts, core_groom *out, core_err *err);
+
+/* Reads the file at path (at most GROOM_MAX_FILE_BYTES) and loads it by extension (.tfx or
+ * .hair, case-insensitive) with the loaders above, then fits colliders under its roots
+ * (groom_fit_colliders). CORE_EIO when the file cannot be read, CORE_EINVAL for an unknown
+ * extension, the loader's error otherwise. out must be zeroed or freed; the caller owns it.
+ * Blocking file I/O, any thread. */
+core_status groom_load_file(const char *path, uint32_t nverts, core_groom *out, core_err *err);
+
+/* Resamples the polyline in[0 .. 3*n_in) (n_in >= 2 points, finite) to n_out >= 2 points
+ * spaced uniformly along its arc length, written to out[0 .. 3*n_out) (must not overlap in).
+ * The end points are copied exactly. CORE_EINVAL for bad counts or a polyline of zero
+ * length. Pure, any thread. */
+core_status groom_resample_polyline(const float *in, uint32_t n_in, float *out, uint32_t n_out, core_err *err);
+
+/* Replaces g's colliders by the default character: the head ellipsoid (GROOM_HEAD_R*, at the
+ * origin), a neck capsule and two shoulder capsules. Pure. */
+void groom_default_colliders(core_groom *g);
+
+/* Replaces g's colliders by one head sphere fitted under the roots (for file grooms):
+ * c = centroid of the roots, n = mean root direction (first segments, normalised; +y when
+ * they cancel), R = the largest distance of a root from the axis through c along n, clamped
+ * to [0.04, 0.25] m; the centre is c - n * R and the radius the smallest root distance from
+ * it minus 1 mm, so every root is outside. Leaves g without colliders when the radius would
+ * be under 5 mm. Needs g->nverts >= 2. Pure. */
+void groom_fit_colliders(core_groom *g);
+
+#endif

@@ -1,0 +1,73 @@
+/* groom: reads a groom file from disk and dispatches to the loader for its extension. */
+#include "groom.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+static int has_ext(const char *path, const char *ext)
+{
+    size_t n = strlen(path), e = strlen(ext);
+    return n > e && strcasecmp(path + n - e, ext) == 0;
+}
+
+/* Reads the whole file into a malloc'd buffer (caller frees). */
+static core_status read_all(const char *path, unsigned char **data, size_t *size, core_err *err)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return core_fail(err, CORE_EIO, "cannot open groom file '%s': %s", path, strerror(errno));
+    size_t cap = 1 << 16, n = 0;
+    unsigned char *buf = malloc(cap);
+    core_status st = buf ? CORE_OK : core_fail(err, CORE_ENOMEM, "out of memory reading '%s'", path);
+    while (st == CORE_OK) {
+        if (n > GROOM_MAX_FILE_BYTES) {
+            st = core_fail(err, CORE_EINVAL, "groom file '%s' is larger than %u bytes", path, GROOM_MAX_FILE_BYTES);
+            break;
+        }
+        if (n == cap) { /* grow, at most to one byte past the cap so oversize files are seen */
+            size_t ncap = cap * 2 > (size_t)GROOM_MAX_FILE_BYTES + 1 ? (size_t)GROOM_MAX_FILE_BYTES + 1 : cap * 2;
+            unsigned char *nb = realloc(buf, ncap);
+            if (!nb) {
+                st = core_fail(err, CORE_ENOMEM, "out of memory reading '%s' (%zu bytes so far)", path, n);
+                break;
+            }
+            buf = nb;
+            cap = ncap;
+        }
+        size_t got = fread(buf + n, 1, cap - n, f);
+        n += got;
+        if (got == 0) {
+            if (ferror(f)) st = core_fail(err, CORE_EIO, "error reading groom file '%s'", path);
+            break;
+        }
+    }
+    fclose(f);
+    if (st != CORE_OK) {
+        free(buf);
+        return st;
+    }
+    *data = buf;
+    *size = n;
+    return CORE_OK;
+}
+
+core_status groom_load_file(const char *path, uint32_t nverts, core_groom *out, core_err *err)
+{
+    memset(out, 0, sizeof *out);
+    if (!path) return core_fail(err, CORE_EINVAL, "no groom file path");
+    int tfx = has_ext(path, ".tfx"), hair = has_ext(path, ".hair");
+    if (!tfx && !hair)
+        return core_fail(err, CORE_EINVAL, "groom file '%s' has an unknown extension (expected .tfx or .hair)", path);
+    unsigned char *data = NULL;
+    size_t size = 0;
+    core_status st = read_all(path, &data, &size, err);
+    if (st != CORE_OK) return st;
+    core_err e;
+    st = tfx ? groom_load_tfx(data, size, nverts, out, &e) : groom_load_hair(data, size, nverts, out, &e);
+    free(data);
+    if (st != CORE_OK) return core_fail(err, st, "%s: %s", path, e.msg);
+    groom_fit_colliders(out);
+    return CORE_OK;
+}

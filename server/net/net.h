@@ -1,0 +1,116 @@
+/* net: the libwebsockets server: sessions, frame broadcast, text queues, static files, /metrics. */
+#ifndef NET_NET_H
+#define NET_NET_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "../core/core.h"
+
+/* Threads: one thread (the net thread) calls net_run, and every lws call happens inside it.
+ * Functions marked "any thread" only take a mutex and call lws_cancel_service().
+ * Clients are numbered from 1 in connection order; NET_ALL addresses every ready client. */
+#define NET_ALL 0u
+#define NET_PORT_ANY (-1)          /* net_desc.port: let the kernel pick a free port */
+#define NET_MAX_STREAMS 32         /* frame streams (e.g. one per subscription tier) */
+#define NET_DEFAULT_PORT 7681
+#define NET_DEFAULT_MAX_MESSAGE (64 * 1024)
+#define NET_DEFAULT_TEXT_QUEUE 32
+#define NET_DEFAULT_PING_S 20
+#define NET_DEFAULT_SNDBUF (256 * 1024)
+#define NET_INBOX_MAX 8192         /* pending posts from other threads before posting fails */
+
+typedef struct net net;
+
+/* A refcounted, immutable-once-posted byte buffer (a binary frame or a text message) with
+ * the headroom lws needs in front of it. Any thread. */
+typedef struct net_buf net_buf;
+
+/* Allocates len bytes (refcount 1); NULL when out of memory. */
+net_buf *net_buf_new(size_t len);
+unsigned char *net_buf_data(net_buf *b);
+size_t net_buf_len(const net_buf *b);
+void net_buf_ref(net_buf *b);
+/* Drops one reference; frees on the last. NULL is ignored. */
+void net_buf_unref(net_buf *b);
+
+/* Called on the net thread. text is a complete, UTF-8-valid text message of at most
+ * max_message bytes, valid only during the call. */
+typedef struct net_callbacks {
+    void *user;
+    void (*on_open)(void *user, uint32_t client);
+    void (*on_text)(void *user, uint32_t client, const char *text, size_t len);
+    void (*on_close)(void *user, uint32_t client);
+    /* Appends Prometheus text lines for /metrics to buf (at most cap bytes); returns the count
+     * written. May be NULL. */
+    size_t (*metrics)(void *user, char *buf, size_t cap);
+} net_callbacks;
+
+/* Zero means default for every field. */
+typedef struct net_desc {
+    const char *listen;        /* address to bind; default "127.0.0.1"; "0.0.0.0" or "*" = all */
+    int port;                  /* default NET_DEFAULT_PORT; NET_PORT_ANY = a free port */
+    const char *web_dir;       /* folder served at "/"; NULL = no static files */
+    const char *subprotocol;   /* the WebSocket subprotocol clients must ask for (required) */
+    size_t max_message;        /* largest client text message; default 64 KiB (bigger: close 1009) */
+    int text_queue;            /* queued text messages per client; default 32 */
+    int ping_s;                /* idle seconds before a ping; hang up ping_s + 10 s without a pong */
+    int sndbuf;                /* kernel send buffer per client (SO_SNDBUF), bytes; default 256 KiB */
+    net_callbacks cb;
+} net_desc;
+
+/* Creates the lws context and binds the port (so net_port works at once). The caller owns
+ * *out and frees it with net_destroy. Any thread, before net_run. */
+core_status net_create(net **out, const net_desc *d, core_err *err);
+
+/* The bound TCP port. */
+int net_port(const net *n);
+
+/* The net thread's loop: serves until net_stop, then closes every client (1001 "server
+ * shutting down") and returns. Call once. */
+void net_run(net *n);
+
+/* Asks net_run to return. Any thread (also from a signal-handling thread, not a handler). */
+void net_stop(net *n);
+
+/* Frees the context and everything queued. After net_run returned (or was never called). */
+void net_destroy(net *n);
+
+enum {
+    NET_TEXT_DROPPABLE = 1 /* may be dropped when the client's queue is full (e.g. stats) */
+};
+
+/* Queues a copy of text (len bytes) for one client or NET_ALL (ready clients only).
+ * A client whose queue is full loses its oldest droppable message; with none to drop it is
+ * closed (1008, "send queue overflow"). Unknown or closed clients are ignored. Any thread.
+ * Fails only when out of memory or the inbox is full. */
+core_status net_send_text(net *n, uint32_t client, const char *text, size_t len, unsigned flags);
+
+/* Makes a client ready: queues its first message (the hello), then delivers broadcasts and the
+ * frames of `stream` to it, at most max_rate frames per second (0 = every frame). Any thread. */
+core_status net_start_client(net *n, uint32_t client, const char *hello, size_t len, uint32_t stream, double max_rate);
+
+/* Moves a ready client to another stream and/or rate; it gets that stream's keyframe first.
+ * Any thread. */
+core_status net_subscribe(net *n, uint32_t client, uint32_t stream, double max_rate);
+
+/* Publishes a frame on stream (< NET_MAX_STREAMS), taking over the caller's reference.
+ * seq must grow across every publish of the process. A keyframe replaces the stream's
+ * retained keyframe; any other frame must decode given that keyframe. Each client is sent the
+ * newest frame of its stream it has not seen (preceded by the keyframe when it lacks it);
+ * older frames are skipped. Any thread. */
+void net_publish(net *n, uint32_t stream, net_buf *frame, uint64_t seq, bool key);
+
+/* Forgets a stream's retained frames (after its last subscriber left). Any thread. */
+void net_drop_stream(net *n, uint32_t stream);
+
+/* Counters (monotonic) kept by the net thread; read from any thread. */
+typedef struct net_stats {
+    uint64_t clients;          /* connected WebSocket clients now */
+    uint64_t frames_sent, frames_skipped, bytes_sent, text_sent, text_dropped;
+    uint64_t messages_in, protocol_closes, http_requests;
+} net_stats;
+void net_get_stats(net *n, net_stats *out);
+
+#endif

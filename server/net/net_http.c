@@ -1,0 +1,115 @@
+/* net: the HTTP side: subprotocol check on upgrade (400 with a reason) and /metrics. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "net_internal.h"
+
+#define METRICS_MAX (32 * 1024)
+
+static int confirm_upgrade(net *n, struct lws *wsi, const char *upgrade)
+{
+    if (!upgrade || strcmp(upgrade, "websocket") != 0) return 0;
+    char list[256] = "";
+    int len = lws_hdr_total_length(wsi, WSI_TOKEN_PROTOCOL);
+    if (len > 0 && len < (int)sizeof list) lws_hdr_copy(wsi, list, sizeof list, WSI_TOKEN_PROTOCOL);
+    if (len > 0 && len < (int)sizeof list && net_token_listed(list, n->subprotocol)) return 0;
+    char body[384];
+    char shown[64];
+    snprintf(shown, sizeof shown, "%.60s", len <= 0 ? "(none)" : len < (int)sizeof list ? list : "(too long)");
+    for (char *c = shown; *c; c++)
+        if (*c == '<' || *c == '>' || *c == '&') *c = '?';
+    snprintf(body, sizeof body,
+             "unsupported WebSocket subprotocol %s: this server speaks \"%s\" "
+             "(send Sec-WebSocket-Protocol: %s)",
+             shown, n->subprotocol, n->subprotocol);
+    atomic_fetch_add(&n->protocol_closes, 1);
+    if (lws_return_http_status(wsi, HTTP_STATUS_BAD_REQUEST, body)) return -1;
+    return 1;
+}
+
+static void metrics_body(net *n, net_http *h)
+{
+    h->body = malloc(METRICS_MAX);
+    if (!h->body) return;
+    size_t used = 0;
+    if (n->desc.cb.metrics) used = n->desc.cb.metrics(n->desc.cb.user, h->body, METRICS_MAX);
+    if (used > METRICS_MAX) used = METRICS_MAX;
+    net_stats st;
+    net_get_stats(n, &st);
+    int w = snprintf(h->body + used, METRICS_MAX - used,
+                     "# HELP strandcast_clients Connected WebSocket clients.\n# TYPE strandcast_clients gauge\n"
+                     "strandcast_clients %llu\n"
+                     "# HELP strandcast_frames_sent_total Binary frames written to clients.\n"
+                     "# TYPE strandcast_frames_sent_total counter\nstrandcast_frames_sent_total %llu\n"
+                     "# HELP strandcast_frames_skipped_total Frames a client never got because a newer one replaced it.\n"
+                     "# TYPE strandcast_frames_skipped_total counter\nstrandcast_frames_skipped_total %llu\n"
+                     "# HELP strandcast_bytes_sent_total WebSocket payload bytes written (frames and text).\n"
+                     "# TYPE strandcast_bytes_sent_total counter\nstrandcast_bytes_sent_total %llu\n"
+                     "# HELP strandcast_text_sent_total Text messages written to clients.\n"
+                     "# TYPE strandcast_text_sent_total counter\nstrandcast_text_sent_total %llu\n"
+                     "# HELP strandcast_text_dropped_total Droppable text messages dropped from full client queues.\n"
+                     "# TYPE strandcast_text_dropped_total counter\nstrandcast_text_dropped_total %llu\n"
+                     "# HELP strandcast_messages_received_total Complete client text messages received.\n"
+                     "# TYPE strandcast_messages_received_total counter\nstrandcast_messages_received_total %llu\n"
+                     "# HELP strandcast_protocol_closes_total Connections refused or closed for protocol violations.\n"
+                     "# TYPE strandcast_protocol_closes_total counter\nstrandcast_protocol_closes_total %llu\n",
+                     (unsigned long long)st.clients, (unsigned long long)st.frames_sent,
+                     (unsigned long long)st.frames_skipped, (unsigned long long)st.bytes_sent,
+                     (unsigned long long)st.text_sent, (unsigned long long)st.text_dropped,
+                     (unsigned long long)st.messages_in, (unsigned long long)st.protocol_closes);
+    if (w > 0) used += (size_t)w < METRICS_MAX - used ? (size_t)w : METRICS_MAX - used - 1;
+    h->len = used;
+}
+
+static int metrics_headers(net *n, struct lws *wsi, net_http *h)
+{
+    char uri[64] = "";
+    if (lws_hdr_copy(wsi, uri, sizeof uri, WSI_TOKEN_GET_URI) <= 0 || strcmp(uri, "/metrics") != 0)
+        return lws_return_http_status(wsi, HTTP_STATUS_NOT_FOUND, "not found") || lws_http_transaction_completed(wsi) ? -1 : 0;
+    metrics_body(n, h);
+    if (!h->body) return lws_return_http_status(wsi, HTTP_STATUS_INTERNAL_SERVER_ERROR, "out of memory") ? -1 : 0;
+    unsigned char buf[LWS_PRE + 512], *start = buf + LWS_PRE, *p = start, *end = buf + sizeof buf;
+    if (lws_add_http_common_headers(wsi, HTTP_STATUS_OK, "text/plain; version=0.0.4; charset=utf-8", h->len, &p, end) ||
+        lws_add_http_header_by_token(wsi, WSI_TOKEN_HTTP_CACHE_CONTROL, (unsigned char *)"no-store", 8, &p, end) ||
+        lws_finalize_write_http_header(wsi, start, &p, end))
+        return -1;
+    lws_callback_on_writable(wsi);
+    return 0;
+}
+
+static int metrics_write(struct lws *wsi, net_http *h)
+{
+    if (!h->body) return 0;
+    unsigned char *out = malloc(LWS_PRE + h->len);
+    if (!out) return -1;
+    memcpy(out + LWS_PRE, h->body, h->len);
+    int w = lws_write(wsi, out + LWS_PRE, h->len, LWS_WRITE_HTTP_FINAL);
+    free(out);
+    free(h->body);
+    h->body = NULL;
+    if (w < (int)h->len) return -1;
+    return lws_http_transaction_completed(wsi) ? -1 : 0;
+}
+
+int net_http_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in, size_t len)
+{
+    net *n = lws_context_user(lws_get_context(wsi));
+    net_http *h = user;
+    switch (reason) {
+    case LWS_CALLBACK_HTTP_CONFIRM_UPGRADE: return confirm_upgrade(n, wsi, in);
+    case LWS_CALLBACK_HTTP:
+        /* the /metrics callback mount, or any URL when no web folder is mounted */
+        return metrics_headers(n, wsi, h);
+    case LWS_CALLBACK_HTTP_WRITEABLE: return metrics_write(wsi, h);
+    case LWS_CALLBACK_HTTP_DROP_PROTOCOL:
+    case LWS_CALLBACK_CLOSED_HTTP:
+        if (h) {
+            free(h->body);
+            h->body = NULL;
+        }
+        return 0;
+    case LWS_CALLBACK_FILTER_HTTP_CONNECTION: atomic_fetch_add(&n->http_requests, 1); return 0;
+    default: return lws_callback_http_dummy(wsi, reason, user, in, len);
+    }
+}

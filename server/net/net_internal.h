@@ -1,0 +1,121 @@
+/* net: internal state shared by the net module's files (server, sessions, HTTP, buffers). */
+#ifndef NET_NET_INTERNAL_H
+#define NET_NET_INTERNAL_H
+
+#include <libwebsockets.h>
+#include <pthread.h>
+#include <stdatomic.h>
+
+#include "net.h"
+
+struct net_buf {
+    atomic_int refs;
+    size_t len;
+    unsigned char mem[]; /* LWS_PRE bytes of headroom, then len bytes of data */
+};
+
+typedef enum net_ev_kind { NET_EV_TEXT, NET_EV_START, NET_EV_SUBSCRIBE, NET_EV_FRAME, NET_EV_DROP } net_ev_kind;
+
+/* One post from another thread, applied in order on the net thread. */
+typedef struct net_event {
+    struct net_event *next;
+    net_ev_kind kind;
+    uint32_t client;   /* TEXT, START, SUBSCRIBE */
+    uint32_t stream;   /* START, SUBSCRIBE, FRAME, DROP */
+    unsigned flags;    /* TEXT */
+    double max_rate;   /* START, SUBSCRIBE */
+    net_buf *buf;      /* TEXT, START (hello), FRAME */
+    uint64_t seq;      /* FRAME */
+    bool key;          /* FRAME */
+} net_event;
+
+/* A stream's newest frame and its retained keyframe (net thread only). */
+typedef struct net_slot {
+    net_buf *latest, *key;
+    uint64_t latest_seq, latest_key_seq, key_seq;
+    uint64_t count;       /* frames published on the stream; the latest is number `count` */
+} net_slot;
+
+/* One WebSocket connection (lws per-session data, net thread only). */
+typedef struct net_session {
+    struct net_session *next, *prev;
+    struct lws *wsi;
+    uint32_t client;
+    bool ready;           /* got its hello: receives broadcasts and frames */
+    bool closing;         /* close with close_code at the next WRITEABLE */
+    int close_code;
+    const char *close_reason;
+    /* text queue (ring of qcap) */
+    net_buf **q;
+    unsigned char *qflags;
+    int qcap, qhead, qlen;
+    /* frames */
+    uint32_t stream;
+    double max_rate;
+    uint64_t next_due_ns;
+    uint64_t last_count;  /* count of the last frame sent from its stream; 0 = none */
+    bool has_key;
+    uint64_t key_seq;     /* seq of the keyframe it holds */
+    /* receive reassembly */
+    char *rx;
+    size_t rx_len, rx_cap;
+} net_session;
+
+/* HTTP per-request data (the /metrics body). */
+typedef struct net_http {
+    char *body;
+    size_t len;
+} net_http;
+
+struct net {
+    struct lws_context *ctx;
+    struct lws_vhost *vhost;
+    net_desc desc;
+    char *listen, *web_dir, *subprotocol;
+    lws_retry_bo_t retry;
+    struct lws_protocols protocols[3];
+    struct lws_http_mount mounts[2];
+    struct lws_protocol_vhost_options mimes[12];
+    int port;
+    atomic_bool stop;
+
+    pthread_mutex_t lock;              /* guards the inbox */
+    net_event *in_head, *in_tail;
+    size_t in_count;
+    net_event *pending_frame[NET_MAX_STREAMS]; /* newest non-key frame event still in the inbox */
+
+    /* net thread only */
+    net_session *sessions;
+    uint32_t next_client;
+    net_slot slots[NET_MAX_STREAMS];
+    lws_sorted_usec_list_t shutdown_sul;
+    bool shutting_down;
+
+    atomic_uint_fast64_t clients, frames_sent, frames_skipped, bytes_sent, text_sent, text_dropped;
+    atomic_uint_fast64_t messages_in, protocol_closes, http_requests;
+};
+
+/* lws protocol callbacks. */
+int net_ws_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in, size_t len);
+int net_http_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in, size_t len);
+
+/* Applies every queued post (net thread), then asks for WRITEABLE where there is work. */
+void net_drain(net *n);
+
+/* Asks for WRITEABLE if the session has text or a newer frame to send (net thread). */
+void net_session_kick(net *n, net_session *s);
+
+/* Queues a text buffer (takes a reference) on a session, enforcing the queue bound. */
+void net_session_enqueue(net *n, net_session *s, net_buf *b, unsigned flags);
+
+/* Starts a server-side close of s with a WebSocket close code (net thread). */
+void net_session_close(net_session *s, int code, const char *reason);
+
+/* True when data[0, len) is well-formed UTF-8 (no overlongs, surrogates or code points over
+ * U+10FFFF). Pure. */
+bool net_utf8_valid(const void *data, size_t len);
+
+/* True when the comma-separated list (blanks around items ignored) contains token. Pure. */
+bool net_token_listed(const char *list, const char *token);
+
+#endif

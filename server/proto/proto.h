@@ -1,0 +1,247 @@
+/* proto: the strandcast.v1 control messages: JSON text <-> typed structs (the only cJSON user). */
+#ifndef PROTO_PROTO_H
+#define PROTO_PROTO_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "../core/core.h"
+#include "../core/groom_types.h"
+#include "../core/math3.h"
+#include "../core/param.h"
+
+#define PROTO_SUBPROTOCOL "strandcast.v1"
+#define PROTO_VERSION 1
+#define PROTO_MAX_MESSAGE (64 * 1024) /* largest client text message, bytes */
+#define PROTO_MAX_PARAMS 64           /* largest parameter table proto can serve */
+#define PROTO_MAX_ID 64               /* longest string request id, bytes */
+#define PROTO_MAX_NAME 255            /* longest groom file name, bytes */
+#define PROTO_MAX_STRANDS 65536
+#define PROTO_MAX_VERTS 256
+#define PROTO_MAX_VERTICES (2u * 1024u * 1024u) /* strands x verts of a requested groom */
+#define PROTO_MAX_STEP 1000           /* largest "step" count */
+#define PROTO_MAX_SPEED 20.0          /* largest animation speed factor */
+#define PROTO_MAX_POSITION 100.0      /* largest |head position| component, m */
+#define PROTO_MAX_STRIDE 4096
+#define PROTO_MIN_ERROR 1e-6          /* subscribe max_error range, m */
+#define PROTO_MAX_ERROR 1e-2
+#define PROTO_MAX_RATE 240.0          /* subscribe max_rate, Hz (0 = the server's rate) */
+
+typedef enum proto_type {
+    PROTO_GET_PARAMS = 1,
+    PROTO_SET_PARAMS,
+    PROTO_MOTION,
+    PROTO_ANIMATE,
+    PROTO_RESET,
+    PROTO_PAUSE,
+    PROTO_RESUME,
+    PROTO_STEP,
+    PROTO_SET_GROOM,
+    PROTO_SUBSCRIBE,
+    PROTO_KEYFRAME
+} proto_type;
+
+/* Stable error codes; proto_code_name gives the wire string. */
+typedef enum proto_code {
+    PROTO_ERR_NONE = 0,
+    PROTO_ERR_BAD_JSON,      /* not JSON, or not a JSON object */
+    PROTO_ERR_UNKNOWN_TYPE,  /* "type" names no client message */
+    PROTO_ERR_BAD_FIELD,     /* missing, unknown, duplicated or wrongly typed field */
+    PROTO_ERR_OUT_OF_RANGE,  /* number outside its documented range, or an unknown name */
+    PROTO_ERR_NOT_FINITE,    /* number overflowed to infinity */
+    PROTO_ERR_UNKNOWN_PARAM, /* set_params names a parameter not in the schema */
+    PROTO_ERR_TOO_LARGE,     /* message, string or array over its limit */
+    PROTO_ERR_NOT_FOUND,     /* groom file not in the asset list */
+    PROTO_ERR_BAD_STATE,     /* request not valid now (e.g. step while running) */
+    PROTO_ERR_BUSY,          /* the server's command queue is full; retry later */
+    PROTO_ERR_FAILED         /* valid request that failed while being carried out */
+} proto_code;
+
+/* A rejection: code, the offending field as a path ("values.gravity", "" for the whole
+ * message) and a human-readable reason. */
+typedef struct proto_error {
+    proto_code code;
+    char field[96];
+    char message[224];
+} proto_error;
+
+typedef enum proto_id_kind { PROTO_ID_NONE = 0, PROTO_ID_NUMBER, PROTO_ID_STRING } proto_id_kind;
+
+/* The optional request id, echoed verbatim in the reply. */
+typedef struct proto_id {
+    proto_id_kind kind;
+    double num;
+    char str[PROTO_MAX_ID + 1];
+} proto_id;
+
+typedef struct proto_param_value {
+    uint32_t index; /* into the parameter table */
+    double value;   /* validated: finite, in range, integral for int, 0/1 for bool */
+} proto_param_value;
+
+/* One parsed client message. */
+typedef struct proto_msg {
+    proto_type type;
+    proto_id id;
+    union {
+        struct {
+            uint32_t count;
+            proto_param_value v[PROTO_MAX_PARAMS];
+        } set_params;
+        struct {
+            bool has_t;
+            double t; /* client clock, ms */
+            core_vec3 position;
+            core_quat orientation; /* normalized */
+        } motion;
+        struct {
+            uint32_t preset; /* index into the parser's preset names */
+            double speed;
+        } animate;
+        struct {
+            int32_t count;
+        } step;
+        struct {
+            bool is_file;
+            uint32_t style;       /* index into the parser's style names (procedural) */
+            char file[PROTO_MAX_NAME + 1];
+            uint32_t strands, verts; /* 0 = keep the current count */
+            bool has_seed;
+            uint32_t seed;
+        } set_groom;
+        struct {
+            bool has_stride, has_max_error, has_max_rate;
+            int32_t stride;
+            double max_error;
+            double max_rate;
+        } subscribe;
+    } u;
+} proto_msg;
+
+/* What proto_parse validates against; the caller owns every array (static tables). */
+typedef struct proto_parser {
+    const core_param_info *params;
+    size_t nparams;                 /* at most PROTO_MAX_PARAMS */
+    const char *const *presets;     /* animation preset names */
+    size_t npresets;
+    const char *const *styles;      /* procedural groom styles */
+    size_t nstyles;
+} proto_parser;
+
+/* Parses one client text message (len bytes, need not be NUL-terminated) into *out.
+ * On rejection returns CORE_EINVAL and fills *e; out->id holds the request id when it could be
+ * read (so the error reply can echo it). Pure; any thread. */
+core_status proto_parse(const proto_parser *p, const char *text, size_t len, proto_msg *out, proto_error *e);
+
+/* Wire name of a code ("bad_json", ...) or of a message type ("set_params", ...). Static. */
+const char *proto_code_name(proto_code code);
+const char *proto_type_name(proto_type type);
+
+/* Fills e and returns CORE_EINVAL. */
+core_status proto_fail(proto_error *e, proto_code code, const char *field, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+
+/* ---- server -> client messages. Every builder returns a NUL-terminated string the caller
+ * frees with proto_free, or NULL when out of memory. Pure; any thread. ---- */
+
+void proto_free(char *text);
+
+/* {"type":"error","id":..,"code":..,"field":..,"message":..} */
+char *proto_build_error(const proto_id *id, const proto_error *e);
+
+/* {"type":"ok","id":..,"request":"<type name>"} */
+char *proto_build_ok(const proto_id *id, proto_type request);
+
+/* {"type":"params","id":..,"values":{..},"by":..}: values read from the struct at `values`
+ * through the table offsets; only the entries with changed[i] set when changed is non-NULL.
+ * by < 0 writes null (a reply to get_params or a server-side change). */
+char *proto_build_params(const proto_id *id, const core_param_info *table, size_t n, const void *values,
+                         const bool *changed, int64_t by);
+
+/* Everything about the groom a client needs to draw it and decode frames. */
+typedef struct proto_groom {
+    const char *source;           /* "procedural:straight", "file:ratboy/Ratboy_mohawk.tfx" */
+    const core_groom *groom;      /* rest pose, head frame */
+    uint64_t seed;
+} proto_groom;
+
+/* Pre-rendered JSON of a groom ("groom" and "colliders" values); built once per groom and
+ * embedded in every hello and groom message. Free with proto_groom_json_free. */
+typedef struct proto_groom_json {
+    char *groom;
+    char *colliders;
+} proto_groom_json;
+
+core_status proto_groom_json_build(proto_groom_json *out, const proto_groom *g, core_err *err);
+void proto_groom_json_free(proto_groom_json *j);
+
+/* {"type":"groom","groom":{..},"colliders":[..]} */
+char *proto_build_groom(const proto_groom_json *g);
+
+typedef struct proto_anim {
+    const char *preset;
+    double speed;
+} proto_anim;
+
+typedef struct proto_state {
+    bool paused;
+    double sim_time;
+    uint64_t steps;
+    proto_anim animation;
+} proto_state;
+
+/* {"type":"state","id":..,"paused":..,"sim_time":..,"steps":..,"animation":{..}} */
+char *proto_build_state(const proto_id *id, const proto_state *s);
+
+/* The stream a client receives. */
+typedef struct proto_stream {
+    const char *codec;
+    int32_t stride;        /* every stride-th strand, starting with strand 0 */
+    uint32_t strands;      /* strands per frame */
+    double max_error;      /* m */
+    double max_rate;       /* Hz the client asked for (0 = server rate) */
+    double rate;           /* Hz the server publishes at */
+    int32_t keyframe_interval;
+} proto_stream;
+
+/* {"type":"subscribed","id":..,"stream":{..}} */
+char *proto_build_subscribed(const proto_id *id, const proto_stream *s);
+
+typedef struct proto_hello {
+    const char *server;       /* "strandcastd" */
+    const char *version;      /* "0.1.0" */
+    uint32_t client;          /* this connection's client number (the "by" of its changes) */
+    const proto_groom_json *groom;
+    core_xform head;
+    const core_param_info *params;
+    size_t nparams;
+    const void *values;       /* params struct read through the table offsets */
+    const char *const *presets;
+    size_t npresets;
+    proto_anim animation;
+    const char *const *styles;
+    size_t nstyles;
+    const char *const *files; /* groom files set_groom may name */
+    size_t nfiles;
+    proto_stream stream;
+    proto_state state;
+} proto_hello;
+
+/* The first message of every connection; see proto/PROTOCOL.md. */
+char *proto_build_hello(const proto_hello *h);
+
+typedef struct proto_stats {
+    double steps_per_s;
+    double step_ms;
+    double encode_ms;
+    uint32_t clients;
+    double sim_time;
+    uint64_t steps;
+    uint64_t nan_resets;
+} proto_stats;
+
+/* {"type":"stats",..}: broadcast about once per second. */
+char *proto_build_stats(const proto_stats *s);
+
+#endif

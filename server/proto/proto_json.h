@@ -1,0 +1,28 @@
+/* proto: internal JSON helpers shared by the builders (float formatting, raw number arrays). */
+#ifndef PROTO_PROTO_JSON_H
+#define PROTO_PROTO_JSON_H
+
+#include <cjson/cJSON.h>
+#include <stddef.h>
+
+/* The shortest decimal that reads back as f, as a double (so 9.81f prints as 9.81). Pure. */
+double proto_json_float(float f);
+
+/* A JSON array of n floats (shortest form); NULL when out of memory. */
+cJSON *proto_json_float_array(const float *v, size_t n);
+
+/* A growable text buffer for large pre-rendered JSON fragments. */
+typedef struct proto_sb {
+    char *data;
+    size_t len, cap;
+    int failed; /* an allocation failed; data is freed and stays NULL */
+} proto_sb;
+
+/* Appends text; marks the buffer failed when out of memory. */
+void proto_sb_put(proto_sb *sb, const char *s, size_t n);
+/* Appends "[a,b,...]" of n floats in shortest form, every stride-th value from v. */
+void proto_sb_floats(proto_sb *sb, const float *v, size_t n, size_t stride);
+/* Returns the NUL-terminated text (caller frees with cJSON_free) or NULL after a failure. */
+char *proto_sb_take(proto_sb *sb);
+
+#endif

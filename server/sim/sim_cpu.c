@@ -1,0 +1,279 @@
+/* sim: the CPU reference backend: state, parameters and the step sequence (Algorithm 1). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "sim_cpu.h"
+#include "sim_cpu_internal.h"
+
+static void update_stiffness(sim_cpu *c)
+{
+    for (uint32_t l = 0; l < c->nv; l++) {
+        float t = (float)l / (float)(c->nv - 1);
+        float fade = 1.0f + (c->params.stiffness_tip - 1.0f) * t;
+        c->sg[l] = c->params.shape ? c->params.global_stiffness * fade : 0.0f;
+        c->sl[l] = c->params.shape ? c->params.local_stiffness * fade : 0.0f;
+    }
+}
+
+static uint32_t spread_bits(uint32_t v) /* 10 bits -> every third bit */
+{
+    v &= 0x3ff;
+    v = (v | (v << 16)) & 0x030000ff;
+    v = (v | (v << 8)) & 0x0300f00f;
+    v = (v | (v << 4)) & 0x030c30c3;
+    v = (v | (v << 2)) & 0x09249249;
+    return v;
+}
+
+typedef struct morton_key {
+    uint32_t code, strand;
+} morton_key;
+
+static int morton_cmp(const void *a, const void *b)
+{
+    const morton_key *x = a, *y = b;
+    if (x->code != y->code) return x->code < y->code ? -1 : 1;
+    return x->strand < y->strand ? -1 : x->strand > y->strand;
+}
+
+/* Orders strands by the Morton code of their root so that the strands a worker processes
+ * together are close in space (collider culling, SPH locality). Caller frees. */
+static uint32_t *spatial_order(const core_groom *g)
+{
+    uint32_t *perm = malloc(g->nstrands * sizeof *perm);
+    morton_key *keys = malloc(g->nstrands * sizeof *keys);
+    if (!perm || !keys) {
+        free(perm);
+        free(keys);
+        return NULL;
+    }
+    float lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
+    for (uint32_t s = 0; s < g->nstrands; s++)
+        for (int k = 0; k < 3; k++) {
+            float v = g->pos[3 * (size_t)s * g->nverts + k];
+            lo[k] = fminf(lo[k], v), hi[k] = fmaxf(hi[k], v);
+        }
+    for (uint32_t s = 0; s < g->nstrands; s++) {
+        uint32_t code = 0;
+        for (int k = 0; k < 3; k++) {
+            float ext = hi[k] - lo[k];
+            float f = ext > 0.0f ? (g->pos[3 * (size_t)s * g->nverts + k] - lo[k]) / ext : 0.0f;
+            code |= spread_bits((uint32_t)(f * 1023.0f)) << k;
+        }
+        keys[s].code = code;
+        keys[s].strand = s;
+    }
+    qsort(keys, g->nstrands, sizeof *keys, morton_cmp);
+    for (uint32_t s = 0; s < g->nstrands; s++) perm[s] = keys[s].strand;
+    free(keys);
+    return perm;
+}
+
+static void cpu_reset(void *self)
+{
+    sim_cpu *c = self;
+    for (size_t i = 0; i < c->n; i++) {
+        core_vec3 p = core_xform_point(c->head, core_v3(c->rest[0][i], c->rest[1][i], c->rest[2][i]));
+        c->x[0][i] = p.x, c->x[1][i] = p.y, c->x[2][i] = p.z;
+        c->v[0][i] = c->v[1][i] = c->v[2][i] = 0.0f;
+        c->a[0][i] = c->a[1][i] = c->a[2][i] = 0.0f;
+    }
+    c->prev_head = c->head;
+    memset(c->nan_per_thread, 0, sizeof c->nan_per_thread);
+    c->stats.steps = 0;
+    c->stats.sim_time = 0.0;
+    c->stats.nan_resets = 0;
+}
+
+static void cpu_destroy(void *self)
+{
+    sim_cpu *c = self;
+    if (!c) return;
+    sim_pool_destroy(&c->pool);
+    sim_cpu_sph_free(&c->sph);
+    for (int k = 0; k < 3; k++) {
+        free(c->x[k]);
+        free(c->v[k]);
+        free(c->a[k]);
+        free(c->rest[k]);
+    }
+    free(c->sg);
+    free(c->perm);
+    free(c->sl);
+    free(c);
+}
+
+static core_status cpu_set_params(void *self, const sim_params *p, core_err *err)
+{
+    (void)err;
+    sim_cpu *c = self;
+    if (p->sph_radius != c->params.sph_radius || p->neighbor_cap != c->params.neighbor_cap)
+        c->rho_rest_valid = false;
+    c->params = *p;
+    update_stiffness(c);
+    return CORE_OK;
+}
+
+static core_status cpu_create(const sim_desc *desc, const core_groom *g, const sim_params *params, void **out,
+                              core_err *err)
+{
+    *out = NULL;
+    if (!g || !g->pos || g->nstrands == 0 || g->nverts < 2)
+        return core_fail(err, CORE_EINVAL, "groom must have at least 1 strand of 2 vertices");
+    if (g->ncolliders > CORE_MAX_COLLIDERS)
+        return core_fail(err, CORE_EINVAL, "groom has %u colliders, more than %d", g->ncolliders, CORE_MAX_COLLIDERS);
+    size_t n, bytes;
+    if (!core_mul_size(g->nstrands, g->nverts, &n) || n > UINT32_MAX / 2 || !core_mul_size(n, sizeof(float), &bytes))
+        return core_fail(err, CORE_ENOMEM, "groom of %u x %u vertices is too large", g->nstrands, g->nverts);
+    for (size_t i = 0; i < 3 * n; i++)
+        if (!isfinite(g->pos[i]))
+            return core_fail(err, CORE_EINVAL, "groom vertex %zu is not finite", i / 3);
+    sim_cpu *c = calloc(1, sizeof *c);
+    if (!c) return core_fail(err, CORE_ENOMEM, "out of memory");
+    c->ns = g->nstrands;
+    c->nv = g->nverts;
+    c->n = n;
+    c->head = c->prev_head = core_xform_identity();
+    c->ncolliders = g->ncolliders;
+    memcpy(c->colliders, g->colliders, sizeof c->colliders);
+    bool ok = true;
+    for (int k = 0; k < 3; k++) {
+        c->x[k] = malloc(bytes);
+        c->v[k] = malloc(bytes);
+        c->a[k] = malloc(bytes);
+        c->rest[k] = malloc(bytes);
+        ok = ok && c->x[k] && c->v[k] && c->a[k] && c->rest[k];
+    }
+    c->sg = malloc(c->nv * sizeof(float));
+    c->sl = malloc(c->nv * sizeof(float));
+    c->perm = spatial_order(g);
+    if (!ok || !c->sg || !c->sl || !c->perm) {
+        cpu_destroy(c);
+        return core_fail(err, CORE_ENOMEM, "out of memory for %zu particles", n);
+    }
+    for (uint32_t s = 0; s < c->ns; s++)
+        for (uint32_t l = 0; l < c->nv; l++)
+            for (int k = 0; k < 3; k++)
+                c->rest[k][(size_t)l * c->ns + s] = g->pos[3 * ((size_t)c->perm[s] * c->nv + l) + k];
+    for (size_t i = c->ns; i < n; i++) {
+        float dx = c->rest[0][i] - c->rest[0][i - c->ns], dy = c->rest[1][i] - c->rest[1][i - c->ns],
+              dz = c->rest[2][i] - c->rest[2][i - c->ns];
+        c->max_segment = fmaxf(c->max_segment, sqrtf(dx * dx + dy * dy + dz * dz));
+    }
+    core_status st = sim_pool_init(&c->pool, desc ? desc->threads : 0, err);
+    if (st != CORE_OK) {
+        cpu_destroy(c);
+        return st;
+    }
+    c->params = *params;
+    update_stiffness(c);
+    cpu_reset(c);
+    *out = c;
+    return CORE_OK;
+}
+
+static void cpu_set_motion(void *self, core_xform head)
+{
+    sim_cpu *c = self;
+    head.rot = core_q_norm(head.rot);
+    c->head = head;
+}
+
+static core_status cpu_step(void *self, core_err *err)
+{
+    sim_cpu *c = self;
+    unsigned long long t0 = core_now_ns(), t1 = t0;
+    const float dt = c->params.dt;
+    bool sph = c->params.sph && c->params.repulsion + c->params.viscosity > 0.0f;
+    if (sph) {
+        if (!c->rho_rest_valid) {
+            double mean;
+            core_status st = sim_cpu_sph_pass(c, c->rest, NULL, dt, &mean, err);
+            if (st != CORE_OK) return st;
+            c->rho_rest = (float)mean;
+            c->rho_rest_valid = true;
+        }
+        core_status st = sim_cpu_sph_pass(c, c->x, c->v, dt, NULL, err);
+        if (st != CORE_OK) return st;
+        t1 = core_now_ns();
+    }
+    const int K = c->params.substeps;
+    for (int k = 0; k < K; k++) {
+        core_xform h = core_xform_lerp(c->prev_head, c->head, (float)(k + 1) / (float)K);
+        sim_cpu_chain_pass(c, h, dt / (float)K, sph);
+    }
+    c->prev_head = c->head;
+    unsigned long long t2 = core_now_ns();
+    uint64_t nan = 0;
+    for (int t = 0; t < c->pool.nthreads; t++) nan += c->nan_per_thread[t];
+    c->stats.nan_resets = nan;
+    c->stats.steps++;
+    c->stats.sim_time += dt;
+    c->stats.last_step_ms = (double)(t2 - t0) * 1e-6;
+    c->stats.nstages = 2;
+    c->stats.stage_names[0] = "sph";
+    c->stats.stage_ms[0] = (double)(t1 - t0) * 1e-6;
+    c->stats.stage_names[1] = "dftl";
+    c->stats.stage_ms[1] = (double)(t2 - t1) * 1e-6;
+    return CORE_OK;
+}
+
+static core_status cpu_read_state(void *self, float *xyz, float *vel, core_err *err)
+{
+    (void)err;
+    sim_cpu *c = self;
+    for (uint32_t s = 0; s < c->ns; s++)
+        for (uint32_t l = 0; l < c->nv; l++) {
+            size_t i = (size_t)l * c->ns + s, o = 3 * ((size_t)c->perm[s] * c->nv + l);
+            for (int k = 0; k < 3; k++) {
+                if (xyz) xyz[o + k] = c->x[k][i];
+                if (vel) vel[o + k] = c->v[k][i];
+            }
+        }
+    return CORE_OK;
+}
+
+static core_status cpu_read_positions(void *self, float *xyz, core_err *err)
+{
+    return cpu_read_state(self, xyz, NULL, err);
+}
+
+static core_status cpu_write_state(void *self, const float *xyz, const float *vel, core_err *err)
+{
+    sim_cpu *c = self;
+    for (size_t i = 0; i < 3 * c->n; i++)
+        if (!isfinite(xyz[i]) || (vel && !isfinite(vel[i])))
+            return core_fail(err, CORE_EINVAL, "state value %zu is not finite", i);
+    for (uint32_t s = 0; s < c->ns; s++)
+        for (uint32_t l = 0; l < c->nv; l++) {
+            size_t i = (size_t)l * c->ns + s, o = 3 * ((size_t)c->perm[s] * c->nv + l);
+            for (int k = 0; k < 3; k++) {
+                c->x[k][i] = xyz[o + k];
+                c->v[k][i] = vel ? vel[o + k] : 0.0f;
+            }
+        }
+    return CORE_OK;
+}
+
+static void cpu_get_stats(void *self, sim_stats *out)
+{
+    sim_cpu *c = self;
+    *out = c->stats;
+}
+
+static const sim_vtable cpu_vtable = {
+    .name = "cpu",
+    .create = cpu_create,
+    .set_params = cpu_set_params,
+    .set_motion = cpu_set_motion,
+    .step = cpu_step,
+    .read_positions = cpu_read_positions,
+    .write_state = cpu_write_state,
+    .read_state = cpu_read_state,
+    .reset = cpu_reset,
+    .get_stats = cpu_get_stats,
+    .destroy = cpu_destroy,
+};
+
+const sim_vtable *sim_cpu_vtable(void) { return &cpu_vtable; }

@@ -1,0 +1,383 @@
+/* sim: the CPU chain pass: predict, global/local shape, follow-the-leader, collisions, DFTL velocity. */
+#include <math.h>
+#include <string.h>
+
+#include "sim_cpu_internal.h"
+
+/* Strands processed together by one worker; the per-strand temporaries stay in L1. */
+#define CHUNK 64
+/* Collision / rest-length alternations per vertex. */
+#define COLLISION_ITERATIONS 1
+/* Final alternating passes over overlapping colliders (concave crevices converge slowly). */
+#define CREVICE_PASSES 2
+
+/* Plain compares (not fmaxf/fminf, whose NaN rules block vectorization). */
+#define MAXF(a, b) ((a) > (b) ? (a) : (b))
+#define MINF(a, b) ((a) < (b) ? (a) : (b))
+
+/* Rotates v by the unit quaternion (qx,qy,qz,qw) (branch-free, vectorizable). */
+#define QROT(qx, qy, qz, qw, vx, vy, vz, ox, oy, oz)                                           \
+    do {                                                                                       \
+        float tx_ = 2.0f * ((qy) * (vz) - (qz) * (vy));                                        \
+        float ty_ = 2.0f * ((qz) * (vx) - (qx) * (vz));                                        \
+        float tz_ = 2.0f * ((qx) * (vy) - (qy) * (vx));                                        \
+        ox = (vx) + (qw) * tx_ + ((qy) * tz_ - (qz) * ty_);                                    \
+        oy = (vy) + (qw) * ty_ + ((qz) * tx_ - (qx) * tz_);                                    \
+        oz = (vz) + (qw) * tz_ + ((qx) * ty_ - (qy) * tx_);                                    \
+    } while (0)
+
+typedef struct chain_ctx {
+    sim_cpu *c;
+    core_xform head;
+    float dt;
+    bool use_a;
+    sim_cpu_wcollider wc[CORE_MAX_COLLIDERS];
+    uint32_t nwc;
+} chain_ctx;
+
+void sim_cpu_world_colliders(const sim_cpu *c, core_xform head, sim_cpu_wcollider *out)
+{
+    for (uint32_t k = 0; k < c->ncolliders; k++) {
+        const core_collider *in = &c->colliders[k];
+        out[k].kind = in->kind;
+        out[k].a = core_xform_point(head, in->a);
+        out[k].b = core_xform_point(head, in->b);
+        out[k].radius = in->radius;
+        out[k].radii = in->radii;
+        out[k].rot = core_q_norm(core_q_mul(head.rot, in->rot));
+        float r = in->radius;
+        if (in->kind == CORE_COLLIDER_ELLIPSOID) r = MAXF(in->radii.x, MAXF(in->radii.y, in->radii.z));
+        core_vec3 b = in->kind == CORE_COLLIDER_CAPSULE ? out[k].b : out[k].a;
+        out[k].lo[0] = MINF(out[k].a.x, b.x) - r, out[k].hi[0] = MAXF(out[k].a.x, b.x) + r;
+        out[k].lo[1] = MINF(out[k].a.y, b.y) - r, out[k].hi[1] = MAXF(out[k].a.y, b.y) + r;
+        out[k].lo[2] = MINF(out[k].a.z, b.z) - r, out[k].hi[2] = MAXF(out[k].a.z, b.z) + r;
+    }
+}
+
+/* Pushes the points (x,y,z)[0..n) out of one collider (onto its surface). */
+static void collide(const sim_cpu_wcollider *w, float *restrict x, float *restrict y, float *restrict z, size_t n)
+{
+    switch (w->kind) {
+    case CORE_COLLIDER_SPHERE:
+    case CORE_COLLIDER_CAPSULE: {
+        const float ax = w->a.x, ay = w->a.y, az = w->a.z, r = w->radius;
+        float ex = 0.0f, ey = 0.0f, ez = 0.0f, inv_ee = 0.0f;
+        if (w->kind == CORE_COLLIDER_CAPSULE) {
+            ex = w->b.x - ax, ey = w->b.y - ay, ez = w->b.z - az;
+            float ee = ex * ex + ey * ey + ez * ez;
+            inv_ee = ee > 0.0f ? 1.0f / ee : 0.0f;
+        }
+        for (size_t s = 0; s < n; s++) {
+            float t = ((x[s] - ax) * ex + (y[s] - ay) * ey + (z[s] - az) * ez) * inv_ee;
+            t = MINF(MAXF(t, 0.0f), 1.0f);
+            float cx = ax + ex * t, cy = ay + ey * t, cz = az + ez * t;
+            float dx = x[s] - cx, dy = y[s] - cy, dz = z[s] - cz;
+            float dl = sqrtf(dx * dx + dy * dy + dz * dz);
+            float k = r / MAXF(dl, 1e-12f);
+            bool inside = dl < r;
+            bool degenerate = dl < 1e-12f;
+            x[s] = inside ? cx + dx * k : x[s];
+            y[s] = inside ? (degenerate ? cy + r : cy + dy * k) : y[s];
+            z[s] = inside ? cz + dz * k : z[s];
+        }
+        break;
+    }
+    case CORE_COLLIDER_ELLIPSOID: {
+        const float qx = w->rot.x, qy = w->rot.y, qz = w->rot.z, qw = w->rot.w;
+        const float cx = w->a.x, cy = w->a.y, cz = w->a.z;
+        const float irx = 1.0f / w->radii.x, iry = 1.0f / w->radii.y, irz = 1.0f / w->radii.z;
+        float topx, topy, topz; /* where a point at the exact centre goes */
+        QROT(qx, qy, qz, qw, 0.0f, w->radii.y, 0.0f, topx, topy, topz);
+        for (size_t s = 0; s < n; s++) {
+            const float dx = x[s] - cx, dy = y[s] - cy, dz = z[s] - cz;
+            float ux, uy, uz;
+            QROT(-qx, -qy, -qz, qw, dx, dy, dz, ux, uy, uz);
+            const float sx = ux * irx, sy = uy * iry, sz = uz * irz;
+            const float sl = sqrtf(sx * sx + sy * sy + sz * sz);
+            const bool inside = sl < 1.0f, degenerate = sl < 1e-12f;
+            const float k = 1.0f / MAXF(sl, 1e-12f);
+            float px, py, pz;
+            QROT(qx, qy, qz, qw, ux * k, uy * k, uz * k, px, py, pz);
+            px = degenerate ? topx : px, py = degenerate ? topy : py, pz = degenerate ? topz : pz;
+            x[s] = inside ? cx + px : x[s];
+            y[s] = inside ? cy + py : y[s];
+            z[s] = inside ? cz + pz : z[s];
+        }
+        break;
+    }
+    }
+}
+
+static void restore_strand(sim_cpu *c, size_t s, core_xform head)
+{
+    for (uint32_t l = 0; l < c->nv; l++) {
+        size_t i = (size_t)l * c->ns + s;
+        core_vec3 p = core_xform_point(head, core_v3(c->rest[0][i], c->rest[1][i], c->rest[2][i]));
+        c->x[0][i] = p.x, c->x[1][i] = p.y, c->x[2][i] = p.z;
+        c->v[0][i] = c->v[1][i] = c->v[2][i] = 0.0f;
+    }
+}
+
+/* Per-chunk temporaries: p = previous level's final position, o = its position at the step
+ * start, pr = its rest position, q = its frame; c = this level's position, co = its start
+ * position, d = the sum of this level's constraint corrections. */
+typedef struct chunk_tmp {
+    float px[CHUNK], py[CHUNK], pz[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK];
+    float prx[CHUNK], pry[CHUNK], prz[CHUNK], qx[CHUNK], qy[CHUNK], qz[CHUNK], qw[CHUNK];
+    float cx[CHUNK], cy[CHUNK], cz[CHUNK], cox[CHUNK], coy[CHUNK], coz[CHUNK];
+    float dx[CHUNK], dy[CHUNK], dz[CHUNK], bad[CHUNK];
+} chunk_tmp;
+
+
+/* Predict (eq. 1), global shape (11), local shape (12) and follow-the-leader (13) for one level. */
+static inline __attribute__((always_inline)) void level_constraints(const chain_ctx *ctx, chunk_tmp *restrict t,
+                                                                    size_t o, size_t s0, size_t cnt, uint32_t l,
+                                                                    const bool use_a)
+{
+    const sim_cpu *c = ctx->c;
+    const float dt = ctx->dt, dt2 = dt * dt;
+    const float gx = c->params.wind_x, gy = c->params.wind_y - c->params.gravity, gz = c->params.wind_z;
+    const float hqx = ctx->head.rot.x, hqy = ctx->head.rot.y, hqz = ctx->head.rot.z, hqw = ctx->head.rot.w;
+    const float htx = ctx->head.pos.x, hty = ctx->head.pos.y, htz = ctx->head.pos.z;
+    const float sg = c->sg[l], sl = c->sl[l];
+    const float *restrict X = c->x[0] + s0 + o, *restrict Y = c->x[1] + s0 + o, *restrict Z = c->x[2] + s0 + o;
+    const float *restrict VX = c->v[0] + s0 + o, *restrict VY = c->v[1] + s0 + o, *restrict VZ = c->v[2] + s0 + o;
+    const float *restrict AX = c->a[0] + s0 + o, *restrict AY = c->a[1] + s0 + o, *restrict AZ = c->a[2] + s0 + o;
+    const float *restrict RX = c->rest[0] + s0 + o, *restrict RY = c->rest[1] + s0 + o, *restrict RZ = c->rest[2] + s0 + o;
+    for (size_t s = 0; s < cnt; s++) {
+        float ax = gx, ay = gy, az = gz;
+        if (use_a) ax += AX[s], ay += AY[s], az += AZ[s];
+        const float xo = X[s], yo = Y[s], zo = Z[s];
+        const float predx = xo + VX[s] * dt + ax * dt2;
+        const float predy = yo + VY[s] * dt + ay * dt2;
+        const float predz = zo + VZ[s] * dt + az * dt2;
+        float sx = predx, sy = predy, sz = predz;
+        /* global shape: toward the rest position in the root (head) frame */
+        float gpx, gpy, gpz;
+        QROT(hqx, hqy, hqz, hqw, RX[s], RY[s], RZ[s], gpx, gpy, gpz);
+        sx += sg * (gpx + htx - sx), sy += sg * (gpy + hty - sy), sz += sg * (gpz + htz - sz);
+        /* local shape: toward the rest segment carried by the parent's frame */
+        const float rx = RX[s] - t->prx[s], ry = RY[s] - t->pry[s], rz = RZ[s] - t->prz[s];
+        float rrx, rry, rrz;
+        QROT(t->qx[s], t->qy[s], t->qz[s], t->qw[s], rx, ry, rz, rrx, rry, rrz);
+        const float tx = t->px[s] + rrx, ty = t->py[s] + rry, tz = t->pz[s] + rrz;
+        sx += sl * (tx - sx), sy += sl * (ty - sy), sz += sl * (tz - sz);
+        /* inextensibility: follow the leader at the rest length */
+        const float L = sqrtf(rx * rx + ry * ry + rz * rz);
+        const float ddx = t->px[s] - sx, ddy = t->py[s] - sy, ddz = t->pz[s] - sz;
+        const float len = sqrtf(ddx * ddx + ddy * ddy + ddz * ddz);
+        const bool ok = len > 1e-12f;
+        const float k = L / MAXF(len, 1e-12f);
+        sx = ok ? t->px[s] - ddx * k : tx;
+        sy = ok ? t->py[s] - ddy * k : ty;
+        sz = ok ? t->pz[s] - ddz * k : tz;
+        t->cx[s] = sx, t->cy[s] = sy, t->cz[s] = sz;
+        t->dx[s] = sx - predx, t->dy[s] = sy - predy, t->dz[s] = sz - predz;
+        t->cox[s] = xo, t->coy[s] = yo, t->coz[s] = zo;
+    }
+}
+
+/* Restores the rest length to the parent after a collision push moved the vertex. */
+static void level_refollow(const chain_ctx *ctx, chunk_tmp *restrict t, size_t o, size_t s0, size_t cnt)
+{
+    const sim_cpu *c = ctx->c;
+    const float *restrict RX = c->rest[0] + s0 + o, *restrict RY = c->rest[1] + s0 + o, *restrict RZ = c->rest[2] + s0 + o;
+    for (size_t s = 0; s < cnt; s++) {
+        const float rx = RX[s] - t->prx[s], ry = RY[s] - t->pry[s], rz = RZ[s] - t->prz[s];
+        const float L = sqrtf(rx * rx + ry * ry + rz * rz);
+        const float ddx = t->px[s] - t->cx[s], ddy = t->py[s] - t->cy[s], ddz = t->pz[s] - t->cz[s];
+        const float len = sqrtf(ddx * ddx + ddy * ddy + ddz * ddz);
+        const bool ok = len > 1e-12f;
+        const float k = L / MAXF(len, 1e-12f);
+        t->cx[s] = ok ? t->px[s] - ddx * k : t->cx[s];
+        t->cy[s] = ok ? t->py[s] - ddy * k : t->cy[s];
+        t->cz[s] = ok ? t->pz[s] - ddz * k : t->cz[s];
+    }
+}
+
+/* Writes the previous level with the DFTL velocity correction (eq. 14). restrict parameters
+ * (not locals) so the compiler can vectorize without alias checks. */
+static void finalize_kernel(size_t n, float inv_dt, float damp, float *restrict X, float *restrict Y,
+                            float *restrict Z, float *restrict VX, float *restrict VY, float *restrict VZ,
+                            const float *restrict px, const float *restrict py, const float *restrict pz,
+                            const float *restrict ox, const float *restrict oy, const float *restrict oz,
+                            const float *restrict dx, const float *restrict dy, const float *restrict dz)
+{
+    for (size_t s = 0; s < n; s++) {
+        VX[s] = (px[s] - ox[s]) * inv_dt - damp * dx[s] * inv_dt;
+        VY[s] = (py[s] - oy[s]) * inv_dt - damp * dy[s] * inv_dt;
+        VZ[s] = (pz[s] - oz[s]) * inv_dt - damp * dz[s] * inv_dt;
+        X[s] = px[s], Y[s] = py[s], Z[s] = pz[s];
+    }
+}
+
+static void level_finalize_prev(const chain_ctx *ctx, const chunk_tmp *t, size_t op, size_t s0, size_t cnt)
+{
+    sim_cpu *c = ctx->c;
+    const size_t i = s0 + op;
+    finalize_kernel(cnt, 1.0f / ctx->dt, c->params.damping, c->x[0] + i, c->x[1] + i, c->x[2] + i, c->v[0] + i,
+                    c->v[1] + i, c->v[2] + i, t->px, t->py, t->pz, t->ox, t->oy, t->oz, t->dx, t->dy, t->dz);
+}
+
+/* Carries each frame along the chain (rotate the rest direction onto the current one) and
+ * shifts this level into the "previous" slots. */
+static void level_advance(const chain_ctx *ctx, chunk_tmp *restrict t, size_t o, size_t s0, size_t cnt)
+{
+    const sim_cpu *c = ctx->c;
+    const float *restrict RX = c->rest[0] + s0 + o, *restrict RY = c->rest[1] + s0 + o, *restrict RZ = c->rest[2] + s0 + o;
+    for (size_t s = 0; s < cnt; s++) {
+        const float qx = t->qx[s], qy = t->qy[s], qz = t->qz[s], qw = t->qw[s];
+        float ex = RX[s] - t->prx[s], ey = RY[s] - t->pry[s], ez = RZ[s] - t->prz[s];
+        float ie = 1.0f / sqrtf(MAXF(ex * ex + ey * ey + ez * ez, 1e-30f));
+        ex *= ie, ey *= ie, ez *= ie;
+        float wx = t->cx[s] - t->px[s], wy = t->cy[s] - t->py[s], wz = t->cz[s] - t->pz[s];
+        float dx, dy, dz;
+        QROT(-qx, -qy, -qz, qw, wx, wy, wz, dx, dy, dz);
+        float id = 1.0f / sqrtf(MAXF(dx * dx + dy * dy + dz * dz, 1e-30f));
+        dx *= id, dy *= id, dz *= id;
+        float rx = ey * dz - ez * dy, ry = ez * dx - ex * dz, rz = ex * dy - ey * dx, rw = 1.0f + ex * dx + ey * dy + ez * dz;
+        float ir = 1.0f / sqrtf(MAXF(rx * rx + ry * ry + rz * rz + rw * rw, 1e-30f));
+        rx *= ir, ry *= ir, rz *= ir, rw *= ir;
+        float nx = qw * rx + qx * rw + qy * rz - qz * ry;
+        float ny = qw * ry - qx * rz + qy * rw + qz * rx;
+        float nz = qw * rz + qx * ry - qy * rx + qz * rw;
+        float nw = qw * rw - qx * rx - qy * ry - qz * rz;
+        float iq = 1.0f / sqrtf(MAXF(nx * nx + ny * ny + nz * nz + nw * nw, 1e-30f));
+        t->qx[s] = nx * iq, t->qy[s] = ny * iq, t->qz[s] = nz * iq, t->qw[s] = nw * iq;
+        /* NaN/inf in the position, the correction or the start position (which make the
+         * velocity non-finite) marks the strand */
+        t->bad[s] += (t->cx[s] - t->cx[s]) + (t->cy[s] - t->cy[s]) + (t->cz[s] - t->cz[s]) + (t->dx[s] - t->dx[s]) +
+                     (t->dy[s] - t->dy[s]) + (t->dz[s] - t->dz[s]) + (t->cox[s] - t->cox[s]) +
+                     (t->coy[s] - t->coy[s]) + (t->coz[s] - t->coz[s]);
+        t->px[s] = t->cx[s], t->py[s] = t->cy[s], t->pz[s] = t->cz[s];
+        t->ox[s] = t->cox[s], t->oy[s] = t->coy[s], t->oz[s] = t->coz[s];
+        t->prx[s] = RX[s], t->pry[s] = RY[s], t->prz[s] = RZ[s];
+    }
+}
+
+/* Bounding box of this level's positions and their parents in the chunk. */
+static void level_bounds(const chunk_tmp *t, size_t cnt, float lo[3], float hi[3])
+{
+    float l0 = t->cx[0], l1 = t->cy[0], l2 = t->cz[0], h0 = l0, h1 = l1, h2 = l2;
+    for (size_t s = 0; s < cnt; s++) {
+        l0 = MINF(l0, MINF(t->cx[s], t->px[s])), h0 = MAXF(h0, MAXF(t->cx[s], t->px[s]));
+        l1 = MINF(l1, MINF(t->cy[s], t->py[s])), h1 = MAXF(h1, MAXF(t->cy[s], t->py[s]));
+        l2 = MINF(l2, MINF(t->cz[s], t->pz[s])), h2 = MAXF(h2, MAXF(t->cz[s], t->pz[s]));
+    }
+    lo[0] = l0, lo[1] = l1, lo[2] = l2, hi[0] = h0, hi[1] = h1, hi[2] = h2;
+}
+
+/* Alternates pushes out of the colliders with the rest-length projection so a vertex sliding
+ * on a surface keeps close to its rest length; ends outside every collider.
+ * Culling: a vertex only ever moves within its parent's rest-length sphere or onto the
+ * surface of a collider it hit, so a collider whose box misses the chunk's box (grown by the
+ * segment length and by the boxes of the colliders already hit) cannot be reached. The chunks
+ * are the same for any thread count, so culling never changes results. */
+static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s0, size_t cnt)
+{
+    float lo[3], hi[3];
+    level_bounds(t, cnt, lo, hi);
+    const float grow = ctx->c->max_segment;
+    for (int d = 0; d < 3; d++) lo[d] -= grow, hi[d] += grow;
+    const bool finite = lo[0] == lo[0] && lo[1] == lo[1] && lo[2] == lo[2] && hi[0] == hi[0] && hi[1] == hi[1] &&
+                        hi[2] == hi[2];
+    const sim_cpu_wcollider *hit[CORE_MAX_COLLIDERS];
+    bool taken[CORE_MAX_COLLIDERS] = { false };
+    uint32_t nhit = 0;
+    for (bool grew = true; grew;) {
+        grew = false;
+        for (uint32_t k = 0; k < ctx->nwc; k++) {
+            const sim_cpu_wcollider *w = &ctx->wc[k];
+            bool overlap = true;
+            for (int d = 0; d < 3; d++) overlap = overlap && lo[d] <= w->hi[d] && hi[d] >= w->lo[d];
+            if (taken[k] || !(overlap || !finite)) continue;
+            taken[k] = true;
+            hit[nhit++] = w;
+            for (int d = 0; d < 3; d++) lo[d] = MINF(lo[d], w->lo[d]), hi[d] = MAXF(hi[d], w->hi[d]);
+            grew = true;
+        }
+    }
+    if (nhit == 0) return;
+    for (int it = 0; it < COLLISION_ITERATIONS; it++) {
+        for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
+        level_refollow(ctx, t, o, s0, cnt);
+    }
+    for (int pass = 0; pass < CREVICE_PASSES; pass++) /* settle points in a crevice between colliders */
+        for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
+}
+
+static void chain_chunk(const chain_ctx *ctx, chunk_tmp *restrict t, size_t s0, size_t cnt, uint64_t *nan_count)
+{
+    sim_cpu *c = ctx->c;
+    const size_t ns = c->ns;
+    const float inv_dt = 1.0f / ctx->dt;
+    const float hqx = ctx->head.rot.x, hqy = ctx->head.rot.y, hqz = ctx->head.rot.z, hqw = ctx->head.rot.w;
+    const core_vec3 ht = ctx->head.pos;
+    float *restrict X = c->x[0] + s0, *restrict Y = c->x[1] + s0, *restrict Z = c->x[2] + s0;
+    float *restrict VX = c->v[0] + s0, *restrict VY = c->v[1] + s0, *restrict VZ = c->v[2] + s0;
+    const float *restrict RX = c->rest[0] + s0, *restrict RY = c->rest[1] + s0, *restrict RZ = c->rest[2] + s0;
+
+    for (size_t s = 0; s < cnt; s++) { /* roots follow the head */
+        float px, py, pz;
+        QROT(hqx, hqy, hqz, hqw, RX[s], RY[s], RZ[s], px, py, pz);
+        px += ht.x, py += ht.y, pz += ht.z;
+        VX[s] = (px - X[s]) * inv_dt, VY[s] = (py - Y[s]) * inv_dt, VZ[s] = (pz - Z[s]) * inv_dt;
+        X[s] = px, Y[s] = py, Z[s] = pz;
+        t->px[s] = px, t->py[s] = py, t->pz[s] = pz;
+        t->prx[s] = RX[s], t->pry[s] = RY[s], t->prz[s] = RZ[s];
+        t->qx[s] = hqx, t->qy[s] = hqy, t->qz[s] = hqz, t->qw[s] = hqw;
+        t->bad[s] = (px - px) + (py - py) + (pz - pz);
+    }
+    for (uint32_t l = 1; l < c->nv; l++) {
+        const size_t o = (size_t)l * ns;
+        if (ctx->use_a)
+            level_constraints(ctx, t, o, s0, cnt, l, true);
+        else
+            level_constraints(ctx, t, o, s0, cnt, l, false);
+        if (ctx->nwc > 0) collide_level(ctx, t, o, s0, cnt);
+        if (l > 1) level_finalize_prev(ctx, t, o - ns, s0, cnt);
+        level_advance(ctx, t, o, s0, cnt);
+    }
+    const size_t ol = (size_t)(c->nv - 1) * ns;
+    for (size_t s = 0; s < cnt; s++) {
+        const size_t i = ol + s;
+        VX[i] = (t->px[s] - t->ox[s]) * inv_dt, VY[i] = (t->py[s] - t->oy[s]) * inv_dt, VZ[i] = (t->pz[s] - t->oz[s]) * inv_dt;
+        X[i] = t->px[s], Y[i] = t->py[s], Z[i] = t->pz[s];
+    }
+    for (size_t s = 0; s < cnt; s++) {
+        if (t->bad[s] != 0.0f) { /* NaN or inf somewhere along the strand */
+            restore_strand(c, s0 + s, ctx->head);
+            (*nan_count)++;
+        }
+    }
+}
+
+static void chain_job(void *vctx, int tid, int nt)
+{
+    const chain_ctx *ctx = vctx;
+    sim_cpu *c = ctx->c;
+    size_t b, e;
+    /* whole chunks per worker: the chunks (and their collider culling) are the same for any
+     * thread count, so results are bitwise identical */
+    sim_pool_range(c->ns, tid, nt, CHUNK, &b, &e);
+    chunk_tmp t;
+    for (size_t s = b; s < e; s += CHUNK) {
+        size_t cnt = e - s < CHUNK ? e - s : CHUNK;
+        chain_chunk(ctx, &t, s, cnt, &c->nan_per_thread[tid]);
+    }
+}
+
+void sim_cpu_chain_pass(sim_cpu *c, core_xform head, float dt, bool use_sph_accel)
+{
+    chain_ctx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.c = c;
+    ctx.head = head;
+    ctx.dt = dt;
+    ctx.use_a = use_sph_accel;
+    if (c->params.collisions) {
+        ctx.nwc = c->ncolliders;
+        sim_cpu_world_colliders(c, head, ctx.wc);
+    }
+    sim_pool_run(&c->pool, chain_job, &ctx);
+}

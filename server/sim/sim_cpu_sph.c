@@ -1,0 +1,457 @@
+/* sim: the CPU SPH stage: hash grid, stable counting sort, capped neighbours, density, forces. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#ifdef __AVX2__
+#include <immintrin.h>
+#endif
+
+#include "sim_cpu_internal.h"
+
+/* Reference frame time of the pressure scale: accelerations are h / (1/60 s)^2 per unit. */
+#define SPH_ACCEL_SCALE 3600.0f
+/* Candidates within h kept per particle before the nearest neighbour_cap are selected. */
+#define SPH_MAX_CANDIDATES 1024
+/* Candidates whose distances are computed in one vector loop. */
+#define SPH_SCAN_BLOCK 64
+/* Elements of padding after the sorted SoA arrays (one AVX2 vector). */
+#define SPH_PAD 8
+
+typedef struct sph_ctx {
+    sim_cpu *c;
+    float *const *pos;
+    float *const *vel;
+    float dt;
+    float bmin[256][3], bmax[256][3];
+} sph_ctx;
+
+void sim_cpu_sph_free(sim_cpu_sph *s)
+{
+    free(s->cell);
+    free(s->order);
+    free(s->strand);
+    free(s->sp);
+    free(s->sx);
+    free(s->sy);
+    free(s->sz);
+    free(s->sv);
+    free(s->nbr);
+    free(s->nnbr);
+    free(s->cell_start);
+    free(s->hist);
+    memset(s, 0, sizeof *s);
+}
+
+static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, int nthreads, core_err *err)
+{
+    if (s->n < n || s->cap < cap) {
+        free(s->cell), free(s->order), free(s->strand), free(s->sp), free(s->sv);
+        free(s->sx), free(s->sy), free(s->sz);
+        free(s->nbr), free(s->nnbr);
+        s->cell = malloc(n * sizeof *s->cell);
+        s->order = malloc(n * sizeof *s->order);
+        s->strand = calloc(n + SPH_PAD, sizeof *s->strand);
+        s->sp = malloc(n * 4 * sizeof *s->sp);
+        /* padded by SPH_PAD so vector loads of a run's last block stay inside */
+        s->sx = calloc(n + SPH_PAD, sizeof *s->sx);
+        s->sy = calloc(n + SPH_PAD, sizeof *s->sy);
+        s->sz = calloc(n + SPH_PAD, sizeof *s->sz);
+        s->sv = malloc(n * 4 * sizeof *s->sv);
+        s->nbr = malloc(n * (size_t)cap * sizeof *s->nbr);
+        s->nnbr = malloc(n * sizeof *s->nnbr);
+        s->n = n;
+        s->cap = cap;
+        if (!s->cell || !s->order || !s->strand || !s->sp || !s->sv || !s->sx || !s->sy || !s->sz || !s->nbr || !s->nnbr) {
+            sim_cpu_sph_free(s);
+            return core_fail(err, CORE_ENOMEM, "out of memory for SPH buffers of %zu particles", n);
+        }
+    }
+    size_t need = cells * (size_t)nthreads;
+    if (s->cells_cap < need) {
+        free(s->cell_start), free(s->hist);
+        s->cell_start = malloc((need + 1) * sizeof *s->cell_start);
+        s->hist = malloc(need * sizeof *s->hist);
+        s->cells_cap = need;
+        if (!s->cell_start || !s->hist) {
+            sim_cpu_sph_free(s);
+            return core_fail(err, CORE_ENOMEM, "out of memory for an SPH grid of %zu cells", cells);
+        }
+    }
+    return CORE_OK;
+}
+
+static void bounds_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    size_t b, e;
+    sim_pool_range(ctx->c->n, tid, nt, 64, &b, &e);
+    float lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
+    for (int k = 0; k < 3; k++) {
+        const float *p = ctx->pos[k];
+        for (size_t i = b; i < e; i++) {
+            lo[k] = fminf(lo[k], p[i]);
+            hi[k] = fmaxf(hi[k], p[i]);
+        }
+        ctx->bmin[tid][k] = lo[k];
+        ctx->bmax[tid][k] = hi[k];
+    }
+}
+
+static inline uint32_t cell_coord(float p, float origin, float inv)
+{
+    float f = (p - origin) * inv;
+    if (!(f > 0.0f)) return 0; /* also catches NaN */
+    return f >= 1048575.0f ? 1048575u : (uint32_t)f;
+}
+
+/* The spatial hash: the cell's linear index in the bounding-box grid, folded into the
+ * power-of-two table. Unlike a scrambling hash it keeps the three x-neighbours of a cell in
+ * consecutive buckets, so a row of cells is one contiguous run of sorted particles. */
+static inline uint32_t cell_hash(const sim_cpu_sph *s, uint32_t cx, uint32_t cy, uint32_t cz)
+{
+    uint64_t lin = ((uint64_t)cz * s->dims[1] + cy) * s->dims[0] + cx;
+    return (uint32_t)(lin & (s->ncells - 1));
+}
+
+static void count_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu_sph *s = &ctx->c->sph;
+    size_t b, e;
+    sim_pool_range(ctx->c->n, tid, nt, 64, &b, &e);
+    uint32_t *hist = s->hist + (size_t)tid * s->ncells;
+    memset(hist, 0, s->ncells * sizeof *hist);
+    for (size_t i = b; i < e; i++) {
+        uint32_t cx = cell_coord(ctx->pos[0][i], s->origin[0], s->inv_cell);
+        uint32_t cy = cell_coord(ctx->pos[1][i], s->origin[1], s->inv_cell);
+        uint32_t cz = cell_coord(ctx->pos[2][i], s->origin[2], s->inv_cell);
+        uint32_t bucket = cell_hash(s, cx, cy, cz);
+        s->cell[i] = bucket;
+        hist[bucket]++;
+    }
+}
+
+static void scan_sum_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu_sph *s = &ctx->c->sph;
+    size_t b, e, sum = 0;
+    sim_pool_range(s->ncells, tid, nt, 64, &b, &e);
+    for (int t = 0; t < nt; t++) {
+        const uint32_t *h = s->hist + (size_t)t * s->ncells;
+        for (size_t k = b; k < e; k++) sum += h[k];
+    }
+    s->tsum[tid] = sum;
+}
+
+static void scan_fill_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu_sph *s = &ctx->c->sph;
+    size_t b, e, run = 0;
+    for (int t = 0; t < tid; t++) run += s->tsum[t];
+    sim_pool_range(s->ncells, tid, nt, 64, &b, &e);
+    for (size_t k = b; k < e; k++) {
+        s->cell_start[k] = (uint32_t)run;
+        for (int t = 0; t < nt; t++) {
+            uint32_t *h = s->hist + (size_t)t * s->ncells + k;
+            uint32_t cnt = *h;
+            *h = (uint32_t)run;
+            run += cnt;
+        }
+    }
+    if (tid == nt - 1) s->cell_start[s->ncells] = (uint32_t)run;
+}
+
+static void scatter_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu *c = ctx->c;
+    sim_cpu_sph *s = &c->sph;
+    size_t b, e;
+    sim_pool_range(c->n, tid, nt, 64, &b, &e);
+    uint32_t *cursor = s->hist + (size_t)tid * s->ncells;
+    for (size_t i = b; i < e; i++) {
+        uint32_t slot = cursor[s->cell[i]]++;
+        s->order[slot] = (uint32_t)i;
+        s->strand[slot] = (uint32_t)(i % c->ns);
+        for (int k = 0; k < 3; k++) {
+            s->sp[4 * (size_t)slot + k] = ctx->pos[k][i];
+            s->sv[4 * (size_t)slot + k] = ctx->vel ? ctx->vel[k][i] : 0.0f;
+        }
+        s->sp[4 * (size_t)slot + 3] = 0.0f;
+        s->sx[slot] = ctx->pos[0][i], s->sy[slot] = ctx->pos[1][i], s->sz[slot] = ctx->pos[2][i];
+        s->sv[4 * (size_t)slot + 3] = 0.0f;
+    }
+}
+
+/* Appends to keys[] the candidates j in [b, e) within h (r2 < h2) that belong to another
+ * strand than si, as (r2 bits << 32 | j); returns the new count. r2 = (dx*dx + dy*dy) + dz*dz
+ * in both paths, so the AVX2 and the scalar code give the same keys. */
+static size_t gather_candidates(const sim_cpu_sph *s, uint32_t b, uint32_t e, float x, float y, float z, float h2,
+                                uint32_t si, uint64_t *keys, size_t m)
+{
+    uint32_t j = b;
+#ifdef __AVX2__
+    const __m256 vx = _mm256_set1_ps(x), vy = _mm256_set1_ps(y), vz = _mm256_set1_ps(z), vh2 = _mm256_set1_ps(h2);
+    const __m256i vsi = _mm256_set1_epi32((int)si);
+    float r2s[8];
+    const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    for (; j < e; j += 8) { /* the arrays are padded by 8, so the last block may read past e */
+        __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(s->sx + j), vx);
+        __m256 dy = _mm256_sub_ps(_mm256_loadu_ps(s->sy + j), vy);
+        __m256 dz = _mm256_sub_ps(_mm256_loadu_ps(s->sz + j), vz);
+        __m256 r2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+        __m256i same = _mm256_cmpeq_epi32(_mm256_loadu_si256((const __m256i *)(s->strand + j)), vsi);
+        __m256i inside = _mm256_cmpgt_epi32(_mm256_set1_epi32((int)(e - j)), lanes);
+        __m256 ok = _mm256_andnot_ps(_mm256_castsi256_ps(same), _mm256_castsi256_ps(inside));
+        unsigned mask = (unsigned)_mm256_movemask_ps(_mm256_and_ps(ok, _mm256_cmp_ps(r2, vh2, _CMP_LT_OQ)));
+        if (!mask) continue;
+        _mm256_storeu_ps(r2s, r2);
+        while (mask) {
+            unsigned q = (unsigned)__builtin_ctz(mask);
+            uint32_t bits;
+            memcpy(&bits, &r2s[q], sizeof bits);
+            keys[m++] = (uint64_t)bits << 32 | (j + q);
+            mask &= mask - 1;
+        }
+    }
+    return m;
+#endif
+    for (; j < e; j++) {
+        float dx = s->sx[j] - x, dy = s->sy[j] - y, dz = s->sz[j] - z;
+        float r2 = (dx * dx + dy * dy) + dz * dz;
+        uint32_t bits;
+        memcpy(&bits, &r2, sizeof bits);
+        keys[m] = (uint64_t)bits << 32 | j;
+        m += (r2 < h2) & (s->strand[j] != si);
+    }
+    return m;
+}
+
+static inline void swap_u64(uint64_t *a, uint64_t *b)
+{
+    uint64_t t = *a;
+    *a = *b, *b = t;
+}
+
+/* Reorders the distinct keys[0, n) so that the k smallest come first (quickselect with a
+ * median-of-three pivot; deterministic). */
+static void select_smallest(uint64_t *keys, size_t n, size_t k)
+{
+    size_t lo = 0, hi = n;
+    while (hi - lo > 1 && k > lo && k < hi) {
+        size_t mid = lo + (hi - lo) / 2, last = hi - 1;
+        if (keys[mid] < keys[lo]) swap_u64(&keys[mid], &keys[lo]);
+        if (keys[last] < keys[lo]) swap_u64(&keys[last], &keys[lo]);
+        if (keys[mid] < keys[last]) swap_u64(&keys[mid], &keys[last]); /* median now at last */
+        const uint64_t pivot = keys[last];
+        size_t store = lo;
+        for (size_t i = lo; i < last; i++)
+            if (keys[i] < pivot) swap_u64(&keys[i], &keys[store++]);
+        swap_u64(&keys[store], &keys[last]);
+        if (store == k) break;
+        if (k < store) hi = store;
+        else lo = store + 1;
+    }
+}
+
+/* The bucket ranges [lo, hi] covering the 27 cells around (cx,cy,cz): one run of three
+ * buckets per row of x-neighbours (split where the fold wraps), sorted and merged so no
+ * bucket is visited twice. Returns the number of ranges. */
+static int neighbour_ranges(const sim_cpu_sph *s, uint32_t cx, uint32_t cy, uint32_t cz, uint32_t lo[18],
+                            uint32_t hi[18])
+{
+    const uint32_t mask = (uint32_t)s->ncells - 1;
+    int n = 0;
+    for (uint32_t z = cz - 1; z != cz + 2; z++)
+        for (uint32_t y = cy - 1; y != cy + 2; y++) {
+            uint32_t a = cell_hash(s, cx - 1, y, z), b = (a + 2) & mask;
+            uint32_t seg_lo[2] = { a, 0 }, seg_hi[2] = { b, b };
+            int segs = 1;
+            if (b < a) { /* wrapped: [a, mask] and [0, b] */
+                seg_hi[0] = mask;
+                segs = 2;
+            }
+            for (int k = 0; k < segs; k++) {
+                int i = n++;
+                while (i > 0 && lo[i - 1] > seg_lo[k]) { /* insertion keeps them sorted by lo */
+                    lo[i] = lo[i - 1], hi[i] = hi[i - 1];
+                    i--;
+                }
+                lo[i] = seg_lo[k], hi[i] = seg_hi[k];
+            }
+        }
+    int m = 0;
+    for (int k = 0; k < n; k++) {
+        if (m > 0 && lo[k] <= hi[m - 1] + 1) {
+            if (hi[k] > hi[m - 1]) hi[m - 1] = hi[k];
+        } else {
+            lo[m] = lo[k], hi[m] = hi[k];
+            m++;
+        }
+    }
+    return m;
+}
+
+/* Neighbour search and density for every particle of the cells in this worker's range. */
+static void density_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu *c = ctx->c;
+    sim_cpu_sph *s = &c->sph;
+    const float h = c->params.sph_radius, h2 = h * h, inv_h2 = 1.0f / h2;
+    const int cap = c->params.neighbor_cap;
+    size_t b, e;
+    sim_pool_range(s->ncells, tid, nt, 1, &b, &e);
+    uint64_t keys[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK];
+    uint32_t ccx = UINT32_MAX, ccy = 0, ccz = 0; /* cell whose neighbour ranges are in rlo/rhi */
+    uint32_t rlo[18], rhi[18];
+    int nr = 0;
+    for (size_t bucket = b; bucket < e; bucket++) {
+        uint32_t first = s->cell_start[bucket], last = s->cell_start[bucket + 1];
+        for (uint32_t i = first; i < last; i++) {
+            const float xi = s->sx[i], yi = s->sy[i], zi = s->sz[i];
+            const uint32_t si = s->strand[i];
+            uint32_t cx = cell_coord(xi, s->origin[0], s->inv_cell), cy = cell_coord(yi, s->origin[1], s->inv_cell),
+                     cz = cell_coord(zi, s->origin[2], s->inv_cell);
+            if (cx != ccx || cy != ccy || cz != ccz) {
+                ccx = cx, ccy = cy, ccz = cz;
+                nr = neighbour_ranges(s, cx, cy, cz, rlo, rhi);
+            }
+            /* candidates within h of another strand; key = (r2 bits, slot): ordered like
+             * (r2, slot) because r2 >= 0, so the cap keeps the nearest, ties by slot */
+            size_t m = 0;
+            for (int r = 0; r < nr; r++) {
+                const uint32_t rb = s->cell_start[rlo[r]], re = s->cell_start[rhi[r] + 1];
+                for (uint32_t j0 = rb; j0 < re && m < SPH_MAX_CANDIDATES; j0 += SPH_SCAN_BLOCK) {
+                    uint32_t j1 = re - j0 < SPH_SCAN_BLOCK ? re : j0 + SPH_SCAN_BLOCK;
+                    m = gather_candidates(s, j0, j1, xi, yi, zi, h2, si, keys, m);
+                }
+            }
+            if (m > (size_t)cap) {
+                select_smallest(keys, m, (size_t)cap);
+                m = (size_t)cap;
+            }
+            float rho = 1.0f;
+            uint32_t *out = s->nbr + (size_t)i * (size_t)cap;
+            for (size_t k = 0; k < m; k++) {
+                float r2;
+                uint32_t bits = (uint32_t)(keys[k] >> 32);
+                memcpy(&r2, &bits, sizeof r2);
+                float q = 1.0f - r2 * inv_h2;
+                rho += q * q * q;
+                out[k] = (uint32_t)keys[k];
+            }
+            s->nnbr[i] = (uint8_t)m;
+            s->sp[4 * (size_t)i + 3] = rho;
+        }
+    }
+}
+
+static void pressure_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu *c = ctx->c;
+    sim_cpu_sph *s = &c->sph;
+    size_t b, e;
+    sim_pool_range(c->n, tid, nt, 64, &b, &e);
+    const float inv_rho0 = 1.0f / (c->params.rest_density * c->rho_rest);
+    for (size_t i = b; i < e; i++) s->sv[4 * i + 3] = fmaxf(s->sp[4 * i + 3] * inv_rho0 - 1.0f, 0.0f);
+}
+
+static void force_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu *c = ctx->c;
+    sim_cpu_sph *s = &c->sph;
+    const float h = c->params.sph_radius, inv_h = 1.0f / h;
+    const float kp = c->params.repulsion * h * SPH_ACCEL_SCALE;
+    const float mu_dt = c->params.viscosity * ctx->dt, inv_dt = 1.0f / ctx->dt;
+    const int cap = c->params.neighbor_cap;
+    size_t b, e;
+    sim_pool_range(c->n, tid, nt, 64, &b, &e);
+    for (size_t i = b; i < e; i++) {
+        const float *pi = s->sp + 4 * i, *vi = s->sv + 4 * i;
+        const float Pi = vi[3], rhoi = pi[3];
+        float apx = 0.0f, apy = 0.0f, apz = 0.0f, W = 0.0f, vbx = 0.0f, vby = 0.0f, vbz = 0.0f;
+        const uint32_t *nb = s->nbr + i * (size_t)cap;
+        for (int k = 0; k < s->nnbr[i]; k++) {
+            const uint32_t j = nb[k];
+            const float *pj = s->sp + 4 * (size_t)j, *vj = s->sv + 4 * (size_t)j;
+            float dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
+            float r = sqrtf(dx * dx + dy * dy + dz * dz);
+            float q = 1.0f - r * inv_h;
+            float inv_rhoj = 1.0f / pj[3];
+            if (r > 1e-9f) {
+                float f = (Pi + vj[3]) * 0.5f * inv_rhoj * q * q / r;
+                apx += f * dx, apy += f * dy, apz += f * dz;
+            }
+            float w = q * inv_rhoj;
+            W += w;
+            vbx += w * vj[0], vby += w * vj[1], vbz += w * vj[2];
+        }
+        float ax = 0.0f, ay = 0.0f, az = 0.0f;
+        if (W > 0.0f) {
+            float kr = kp / rhoi;
+            ax = apx * kr, ay = apy * kr, az = apz * kr;
+            float blend = (1.0f - expf(-mu_dt * W / (1.0f + W))) * inv_dt;
+            ax += blend * (vbx / W - vi[0]);
+            ay += blend * (vby / W - vi[1]);
+            az += blend * (vbz / W - vi[2]);
+        }
+        const uint32_t o = s->order[i];
+        c->a[0][o] = ax, c->a[1][o] = ay, c->a[2][o] = az;
+    }
+}
+
+core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt, double *out_mean_rho,
+                             core_err *err)
+{
+    sph_ctx *ctx = calloc(1, sizeof *ctx);
+    if (!ctx) return core_fail(err, CORE_ENOMEM, "out of memory");
+    ctx->c = c;
+    ctx->pos = pos;
+    ctx->vel = vel;
+    ctx->dt = dt;
+    sim_cpu_sph *s = &c->sph;
+    int nt = c->pool.nthreads;
+    sim_pool_run(&c->pool, bounds_job, ctx);
+    float lo[3], hi[3];
+    for (int k = 0; k < 3; k++) {
+        lo[k] = ctx->bmin[0][k], hi[k] = ctx->bmax[0][k];
+        for (int t = 1; t < nt; t++) lo[k] = fminf(lo[k], ctx->bmin[t][k]), hi[k] = fmaxf(hi[k], ctx->bmax[t][k]);
+        if (!isfinite(lo[k]) || !isfinite(hi[k])) lo[k] = hi[k] = 0.0f; /* non-finite strands are reset after */
+    }
+    /* cells of size h hashed into a power-of-two table of at least 2n buckets; a cell's
+     * neighbours within h lie in the 27 cells around it */
+    s->cell_size = c->params.sph_radius;
+    s->inv_cell = 1.0f / s->cell_size;
+    s->ncells = 4096;
+    while (s->ncells < 2 * c->n) s->ncells *= 2;
+    for (int k = 0; k < 3; k++) {
+        s->origin[k] = lo[k] - s->cell_size; /* cell coords >= 1, so cx - 1 does not wrap */
+        double cells = floor((double)(hi[k] - s->origin[k]) * s->inv_cell) + 2.0;
+        s->dims[k] = cells < 1048576.0 ? (uint32_t)cells : 1048576u;
+    }
+    core_status st = sph_reserve(s, c->n, c->params.neighbor_cap, s->ncells, nt, err);
+    if (st != CORE_OK) {
+        free(ctx);
+        return st;
+    }
+    sim_pool_run(&c->pool, count_job, ctx);
+    sim_pool_run(&c->pool, scan_sum_job, ctx);
+    sim_pool_run(&c->pool, scan_fill_job, ctx);
+    sim_pool_run(&c->pool, scatter_job, ctx);
+    sim_pool_run(&c->pool, density_job, ctx);
+    if (out_mean_rho) {
+        double sum = 0.0; /* serial, in sorted order: the same bits for any thread count */
+        for (size_t i = 0; i < c->n; i++) sum += s->sp[4 * i + 3];
+        *out_mean_rho = sum / (double)c->n;
+    } else {
+        sim_pool_run(&c->pool, pressure_job, ctx);
+        sim_pool_run(&c->pool, force_job, ctx);
+    }
+    free(ctx);
+    return CORE_OK;
+}

@@ -1,0 +1,188 @@
+/* strandbench solver: steps/s, ns per particle-step and memory-bandwidth fraction per case. */
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "bench.h"
+#include "groom/groom.h"
+#include "sim/sim.h"
+
+#define MAX_CASES 64
+
+typedef struct bench_case {
+    uint32_t strands, verts;
+} bench_case;
+
+static const bench_case default_cases[] = {
+    /* the paper's Table 2 sizes, then its Table 1 scenes (strands x mean vertices) */
+    { 1024, 8 }, { 1024, 32 }, { 4096, 32 }, { 4096, 64 }, { 16384, 64 },
+    { 15000, 23 }, { 500, 16 }, { 3358, 10 }, { 2902, 12 }, { 496, 12 },
+};
+
+static const char *feature_names[] = { "dftl", "dftl+shape", "dftl+shape+sph" };
+
+static void usage(void)
+{
+    puts("usage: strandbench [solver] [--backend cpu|vulkan] [--case SxV]... [--features dftl,dftl+shape,dftl+shape+sph]\n"
+         "                  [--groom FILE] [--steps N] [--threads N] [--json]\n"
+         "Runs the solver on procedural grooms of each case (default: the paper's Table 2 sizes and\n"
+         "Table 1 scenes) with each feature set, one step = one 1/60 s frame with one substep (the\n"
+         "paper's Algorithm 1 per frame), and reports steps/s, ns per particle-step and the fraction\n"
+         "of the memory bandwidth (a memcpy measured in the same run) the step's traffic reaches.");
+}
+
+/* Bytes a step must move at least: per particle and substep the chain reads x, v, rest
+ * (36 B) and writes x, v (24 B); with SPH it also reads a (12 B) and the SPH pass reads x, v
+ * (24 B), writes and reads the sorted copies (2 x 44 B) and writes a (12 B). */
+static double step_bytes(size_t n, int feat, int substeps)
+{
+    double per = 60.0 * substeps;
+    if (feat == SIM_FEAT_SPH) per += 12.0 * substeps + 24.0 + 88.0 + 12.0;
+    return per * (double)n;
+}
+
+static int run_case(const core_groom *g, int feat, sim_backend_kind backend, int threads, int steps, bool json,
+                    double bandwidth)
+{
+    sim_params p;
+    sim_params_default(&p);
+    p.substeps = 1;
+    p.shape = feat >= SIM_FEAT_SHAPE;
+    p.sph = feat >= SIM_FEAT_SPH;
+    sim_desc d = { .backend = backend, .threads = threads };
+    sim s;
+    core_err err;
+    if (sim_create(&s, &d, g, &p, &err) != CORE_OK) {
+        fprintf(stderr, "strandbench: %ux%u %s: %s\n", g->nstrands, g->nverts, feature_names[feat], err.msg);
+        return 1;
+    }
+    for (int i = 0; i < 3; i++) sim_step(&s, &err); /* warm up (first SPH pass computes rest density) */
+    unsigned long long t0 = core_now_ns();
+    for (int i = 0; i < steps; i++) {
+        core_xform h = core_xform_identity();
+        h.rot = core_q_axis_angle(core_v3(0, 1, 0), 0.4f * (float)(i % 60) / 60.0f);
+        sim_set_motion(&s, h);
+        if (sim_step(&s, &err) != CORE_OK) {
+            fprintf(stderr, "strandbench: step failed: %s\n", err.msg);
+            sim_destroy(&s);
+            return 1;
+        }
+    }
+    double sec = (double)(core_now_ns() - t0) * 1e-9;
+    size_t n = (size_t)g->nstrands * g->nverts;
+    double sps = steps / sec, ns_pp = sec * 1e9 / ((double)steps * (double)n);
+    double bw = step_bytes(n, feat, p.substeps) * sps / bandwidth;
+    sim_stats st;
+    sim_get_stats(&s, &st);
+    if (json)
+        printf("{\"bench\":\"solver\",\"strands\":%u,\"verts\":%u,\"features\":\"%s\",\"backend\":\"%s\","
+               "\"threads\":%d,\"steps_per_s\":%.2f,\"ns_per_particle_step\":%.3f,\"bw_fraction\":%.4f,"
+               "\"memcpy_bytes_per_s\":%.4g}\n",
+               g->nstrands, g->nverts, feature_names[feat], s.vt->name, threads, sps, ns_pp, bw, bandwidth);
+    else
+        printf("%6u x %-3u %-15s %-7s %3d thr %10.1f steps/s %8.2f ns/particle-step  %5.1f%% of memcpy bw\n",
+               g->nstrands, g->nverts, feature_names[feat], s.vt->name, threads, sps, ns_pp, 100.0 * bw);
+    fflush(stdout);
+    sim_destroy(&s);
+    return 0;
+}
+
+int bench_solver_main(int argc, char **argv)
+{
+    bench_case cases[MAX_CASES];
+    int ncases = 0, steps = 0, threads = 0;
+    bool json = false, feats[3] = { false, false, false }, any_feat = false;
+    const char *groom_file = NULL;
+    sim_backend_kind backend = SIM_BACKEND_CPU;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            usage();
+            return 0;
+        } else if (strcmp(a, "--json") == 0) {
+            json = true;
+        } else if (v && strcmp(a, "--case") == 0) {
+            unsigned s, n;
+            char tail;
+            if (ncases == MAX_CASES || sscanf(v, "%ux%u%c", &s, &n, &tail) != 2 || s == 0 || n < 2) {
+                fprintf(stderr, "strandbench: --case wants STRANDSxVERTS (e.g. 16384x64), got '%s'\n", v);
+                return 2;
+            }
+            cases[ncases++] = (bench_case){ s, n };
+            i++;
+        } else if (v && strcmp(a, "--features") == 0) {
+            char buf[256];
+            snprintf(buf, sizeof buf, "%s", v);
+            for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ",")) {
+                int k = 0;
+                while (k < 3 && strcmp(tok, feature_names[k]) != 0) k++;
+                if (k == 3) {
+                    fprintf(stderr, "strandbench: unknown feature set '%s' (dftl, dftl+shape, dftl+shape+sph)\n", tok);
+                    return 2;
+                }
+                feats[k] = any_feat = true;
+            }
+            i++;
+        } else if (v && strcmp(a, "--backend") == 0) {
+            if (strcmp(v, "cpu") == 0) backend = SIM_BACKEND_CPU;
+            else if (strcmp(v, "vulkan") == 0) backend = SIM_BACKEND_VULKAN;
+            else {
+                fprintf(stderr, "strandbench: --backend wants cpu or vulkan, got '%s'\n", v);
+                return 2;
+            }
+            i++;
+        } else if (v && strcmp(a, "--groom") == 0) {
+            groom_file = v;
+            i++;
+        } else if (v && (strcmp(a, "--steps") == 0 || strcmp(a, "--threads") == 0)) {
+            char *end;
+            long x = strtol(v, &end, 10);
+            if (*end || x < 1 || x > 1000000) {
+                fprintf(stderr, "strandbench: %s wants a positive integer, got '%s'\n", a, v);
+                return 2;
+            }
+            if (a[2] == 's') steps = (int)x;
+            else threads = (int)x;
+            i++;
+        } else {
+            fprintf(stderr, "strandbench: unknown or incomplete option '%s' (see --help)\n", a);
+            return 2;
+        }
+    }
+    if (threads == 0) {
+        long nc = sysconf(_SC_NPROCESSORS_ONLN);
+        threads = nc > 0 ? (int)nc : 1;
+    }
+    if (!any_feat) feats[0] = feats[1] = feats[2] = true;
+    if (ncases == 0 && !groom_file) {
+        ncases = (int)(sizeof default_cases / sizeof default_cases[0]);
+        memcpy(cases, default_cases, sizeof default_cases);
+    }
+    double bandwidth = bench_memcpy_bandwidth((size_t)256 << 20, threads);
+    if (!json) printf("memcpy bandwidth: %.2f GB/s (read + write)\n", bandwidth * 1e-9);
+    int rc = 0;
+    int total = ncases + (groom_file ? 1 : 0);
+    for (int c = 0; c < total; c++) {
+        core_groom g;
+        core_err err;
+        core_status st;
+        if (c < ncases) {
+            groom_desc gd = { .nstrands = cases[c].strands, .nverts = cases[c].verts };
+            st = groom_procedural(&gd, &g, &err);
+        } else {
+            st = groom_load_file(groom_file, 0, &g, &err);
+        }
+        if (st != CORE_OK) {
+            fprintf(stderr, "strandbench: groom: %s\n", err.msg);
+            return 1;
+        }
+        size_t n = (size_t)g.nstrands * g.nverts;
+        int nsteps = steps ? steps : (int)(2e7 / (double)n) + 10;
+        for (int f = 0; f < 3; f++)
+            if (feats[f]) rc |= run_case(&g, f, backend, threads, nsteps, json, bandwidth);
+        core_groom_free(&g);
+    }
+    return rc;
+}

@@ -1,0 +1,17 @@
+/* Test support: a raw-socket WebSocket client for protocol-violation tests (exact frames on the wire). */
+#ifndef TESTS_RAWWS_H
+#define TESTS_RAWWS_H
+
+#include <stdbool.h>
+#include <stddef.h>
+
+/* Connects and upgrades with Sec-WebSocket-Protocol: subprotocol; returns the socket or -1. */
+int rawws_open(int port, const char *subprotocol);
+/* Sends one masked frame (opcode 1 text, 2 binary, 0 continuation). Returns 0 on success. */
+int rawws_send(int fd, int opcode, const void *payload, size_t len, bool fin);
+/* Reads frames until a close frame (returns its code, 1005 when it has none), EOF/error (0) or
+ * timeout (-1). */
+int rawws_close_code(int fd, int timeout_ms);
+void rawws_free(int fd);
+
+#endif

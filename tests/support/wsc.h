@@ -1,0 +1,57 @@
+/* Test support: a small synchronous WebSocket client on libwebsockets (many connections, one thread). */
+#ifndef TESTS_WSC_H
+#define TESTS_WSC_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct wsc wsc;
+typedef struct wsc_conn wsc_conn;
+
+/* Called for every complete binary message (data valid during the call). */
+typedef void (*wsc_binary_fn)(wsc_conn *c, const uint8_t *data, size_t len, void *user);
+
+/* A client context; NULL on failure. */
+wsc *wsc_new(void);
+/* Closes every connection and frees everything. */
+void wsc_free(wsc *w);
+
+/* Starts a connection to 127.0.0.1:port asking for subprotocol (NULL = none). */
+wsc_conn *wsc_connect(wsc *w, int port, const char *subprotocol, wsc_binary_fn on_binary, void *user);
+
+/* Runs the event loop until pred(arg) is true or timeout_ms passes; returns pred's last value. */
+bool wsc_until(wsc *w, bool (*pred)(void *arg), void *arg, int timeout_ms);
+/* Runs the event loop for ms milliseconds. */
+void wsc_run(wsc *w, int ms);
+/* Waits until c is open (true) or failed/closed/timed out (false). */
+bool wsc_wait_open(wsc *w, wsc_conn *c, int timeout_ms);
+/* Waits until c is closed by the peer; returns the close code (0 if none, -1 on timeout). */
+int wsc_wait_closed(wsc *w, wsc_conn *c, int timeout_ms);
+
+/* Queues a text message (copied). */
+void wsc_send_text(wsc_conn *c, const char *text);
+/* Queues raw bytes as one WebSocket frame: binary or text, and whether it ends the message
+ * (a non-final text frame is followed by continuation frames queued with text = false
+ * and continuation = true). */
+void wsc_send_frame(wsc_conn *c, const void *data, size_t len, bool binary, bool continuation, bool fin);
+
+/* Stops (false) or resumes (true) reading from the socket. */
+void wsc_read_enable(wsc_conn *c, bool on);
+
+/* Shrinks the socket's receive buffer (so a client that stops reading backs up the server). */
+void wsc_small_rcvbuf(wsc_conn *c, int bytes);
+
+/* Received text messages in order; *count set. Owned by the connection. */
+char *const *wsc_texts(wsc_conn *c, size_t *count);
+/* Waits for the next unread text message whose "type" is type, consuming the unread messages
+ * before it; returns it (owned by c) or NULL on timeout. */
+const char *wsc_next_of_type(wsc *w, wsc_conn *c, const char *type, int timeout_ms);
+
+uint64_t wsc_binary_count(const wsc_conn *c);
+bool wsc_is_open(const wsc_conn *c);
+bool wsc_failed(const wsc_conn *c);
+int wsc_close_code(const wsc_conn *c);
+const char *wsc_close_reason(const wsc_conn *c);
+
+#endif

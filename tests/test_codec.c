@@ -1,0 +1,644 @@
+/* Tests for server/codec: error bound on long sequences, skipping decoders, stride, test
+ * vectors (bit-exact, regenerated), and rejection of corrupt, truncated and absurd frames.
+ * With STRANDCAST_WRITE_VECTORS=1 the vector test rewrites proto/vectors/ instead. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+#include <zlib.h>
+
+#include "bench/codec_synth.h"
+#include "codec/codec.h"
+
+/* ---------------------------------------------------------------- helpers */
+
+static uint32_t rng_next(uint64_t *s)
+{
+    *s = *s * 6364136223846793005ull + 1442695040888963407ull;
+    return (uint32_t)(*s >> 33);
+}
+
+static void restamp_crc(uint8_t *frame, size_t len)
+{
+    uLong c = crc32(0L, Z_NULL, 0);
+    c = crc32(c, frame, 64);
+    c = crc32(c, frame + CODEC_HEADER_SIZE, (uInt)(len - CODEC_HEADER_SIZE));
+    for (int k = 0; k < 4; k++) frame[64 + k] = (uint8_t)(c >> (8 * k));
+}
+
+static double max_abs_err(const float *a, const float *b, size_t n)
+{
+    double m = 0;
+    for (size_t i = 0; i < n; i++) {
+        double e = fabs((double)a[i] - (double)b[i]);
+        if (!(e <= m)) m = e;
+    }
+    return m;
+}
+
+/* The input positions of the strands a frame at `stride` sends. */
+static void gather(const float *all, uint32_t nstrands, uint32_t nverts, uint32_t stride, float *out)
+{
+    size_t per = (size_t)nverts * 3u, o = 0;
+    for (uint32_t s = 0; s < nstrands; s += stride, o += per) memcpy(out + o, all + (size_t)s * per, per * sizeof *out);
+}
+
+/* ---------------------------------------------------------------- error bound on sequences */
+
+/* Encodes nframes of a synthetic animation; decoder A takes every frame, decoder B a random
+ * subset (always keyframes); both must give identical positions within the bound. */
+static void run_sequence(float bound, codec_synth_style style, uint32_t stride, uint32_t key_interval,
+                         uint32_t nstrands, uint32_t nverts, int nframes, uint64_t seed)
+{
+    codec_desc d = { .max_error_m = bound, .key_interval = key_interval, .stride = stride };
+    codec_encoder enc;
+    core_err err;
+    assert_int_equal(codec_encoder_init(&enc, &d, nstrands, nverts, &err), CORE_OK);
+    codec_decoder all, some;
+    codec_decoder_init(&all);
+    codec_decoder_init(&some);
+    codec_buf buf = { 0 };
+    size_t n = (size_t)nstrands * nverts * 3u, nsent = (size_t)enc.nstrands_sent * nverts * 3u;
+    float *in = malloc(n * sizeof *in), *want = malloc(nsent * sizeof *want);
+    float *outa = malloc(nsent * sizeof *outa), *outb = malloc(nsent * sizeof *outb);
+    assert_non_null(in);
+    assert_non_null(want);
+    assert_non_null(outa);
+    assert_non_null(outb);
+    double worst = 0;
+    int keys = 0, skipped = 0;
+    for (int f = 0; f < nframes; f++) {
+        double t = f / 60.0;
+        codec_synth_frame(nstrands, nverts, t, style, in);
+        bool force = (rng_next(&seed) % 23u) == 0;
+        assert_int_equal(codec_encode(&enc, in, (uint64_t)f + 100u, t, force, &buf, &err), CORE_OK);
+        gather(in, nstrands, nverts, stride, want);
+        codec_frame_info ia, ib;
+        core_status st = codec_decode(&all, buf.data, buf.len, outa, nsent, &ia, &err);
+        if (st) fail_msg("decode frame %d: %s", f, err.msg);
+        assert_true(ia.seq == (uint64_t)f + 100u && ia.sim_time == t);
+        assert_int_equal(ia.nstrands_sent, enc.nstrands_sent);
+        keys += ia.keyframe;
+        if (force) assert_true(ia.keyframe);
+        double e = max_abs_err(want, outa, nsent);
+        if (e > (double)bound) fail_msg("frame %d: error %.9g exceeds bound %.9g", f, e, (double)bound);
+        if (e > worst) worst = e;
+        if (ia.keyframe || rng_next(&seed) % 3u == 0) {
+            assert_int_equal(codec_decode(&some, buf.data, buf.len, outb, nsent, &ib, &err), CORE_OK);
+            assert_memory_equal(outa, outb, nsent * sizeof *outa);
+        } else {
+            skipped++;
+        }
+    }
+    assert_true(keys >= nframes / (int)key_interval);
+    assert_true(skipped > 0);
+    assert_true(worst > 0.2 * (double)bound); /* the bound is used, not trivially met */
+    free(in);
+    free(want);
+    free(outa);
+    free(outb);
+    codec_buf_free(&buf);
+    codec_decoder_free(&all);
+    codec_decoder_free(&some);
+    codec_encoder_free(&enc);
+}
+
+static void test_bound_all_styles(void **state)
+{
+    (void)state;
+    const float bounds[3] = { 5e-4f, 1e-4f, 2e-5f };
+    for (int b = 0; b < 3; b++) {
+        run_sequence(bounds[b], CODEC_SYNTH_GENTLE, 1, 30, 64, 16, 120, 1u + (uint64_t)b);
+        run_sequence(bounds[b], CODEC_SYNTH_VIOLENT, 1, 30, 64, 16, 120, 11u + (uint64_t)b);
+        run_sequence(bounds[b], CODEC_SYNTH_TELEPORT, 1, 30, 64, 16, 150, 21u + (uint64_t)b);
+        run_sequence(bounds[b], CODEC_SYNTH_VIOLENT, 3, 10, 100, 24, 90, 31u + (uint64_t)b);
+    }
+}
+
+/* Resets: positions jump between unrelated poses (rest pose vs. swung far away) mid-GOP. */
+static void test_bound_resets(void **state)
+{
+    (void)state;
+    const uint32_t ns = 50, nv = 20;
+    size_t n = (size_t)ns * nv * 3u;
+    float *in = malloc(n * sizeof *in), *out = malloc(n * sizeof *out);
+    codec_desc d = { .max_error_m = 2e-5f, .key_interval = 1000 };
+    codec_encoder enc;
+    codec_decoder dec;
+    core_err err;
+    codec_buf buf = { 0 };
+    assert_int_equal(codec_encoder_init(&enc, &d, ns, nv, &err), CORE_OK);
+    codec_decoder_init(&dec);
+    for (int f = 0; f < 40; f++) {
+        double t = (f % 2) ? 0.0 : 7.3 + f;
+        codec_synth_frame(ns, nv, t, (f % 3) ? CODEC_SYNTH_VIOLENT : CODEC_SYNTH_TELEPORT, in);
+        assert_int_equal(codec_encode(&enc, in, (uint64_t)f, t, false, &buf, &err), CORE_OK);
+        codec_frame_info info;
+        assert_int_equal(codec_decode(&dec, buf.data, buf.len, out, n, &info, &err), CORE_OK);
+        assert_true(info.keyframe == (f == 0));
+        assert_true(max_abs_err(in, out, n) <= 2e-5);
+    }
+    free(in);
+    free(out);
+    codec_buf_free(&buf);
+    codec_decoder_free(&dec);
+    codec_encoder_free(&enc);
+}
+
+/* Coordinates near float32 rounding limits and at several magnitudes still meet the bound. */
+static void test_bound_magnitudes(void **state)
+{
+    (void)state;
+    const uint32_t ns = 7, nv = 5;
+    size_t n = (size_t)ns * nv * 3u;
+    float in[7 * 5 * 3], out[7 * 5 * 3];
+    uint64_t seed = 99;
+    for (int b = 0; b < 3; b++) {
+        const float bound = b == 0 ? 1e-5f : b == 1 ? 2e-5f : 0.1f;
+        codec_desc d = { .max_error_m = bound };
+        codec_encoder enc;
+        codec_decoder dec;
+        core_err err;
+        codec_buf buf = { 0 };
+        assert_int_equal(codec_encoder_init(&enc, &d, ns, nv, &err), CORE_OK);
+        codec_decoder_init(&dec);
+        for (int f = 0; f < 50; f++) {
+            float scale = (float)(1u << (f % 4));
+            for (size_t i = 0; i < n; i++)
+                in[i] = scale * ((float)rng_next(&seed) / 4294967296.0f - 0.5f) + (float)(i % 3) * 0.25f;
+            assert_int_equal(codec_encode(&enc, in, (uint64_t)f, 0.0, false, &buf, &err), CORE_OK);
+            assert_int_equal(codec_decode(&dec, buf.data, buf.len, out, n, NULL, &err), CORE_OK);
+            assert_true(max_abs_err(in, out, n) <= (double)bound);
+        }
+        codec_buf_free(&buf);
+        codec_decoder_free(&dec);
+        codec_encoder_free(&enc);
+    }
+}
+
+/* ---------------------------------------------------------------- encoder argument checks */
+
+static void test_encoder_rejects(void **state)
+{
+    (void)state;
+    codec_encoder enc;
+    core_err err;
+    codec_desc bad = { .max_error_m = 0.5f };
+    assert_int_equal(codec_encoder_init(&enc, &bad, 4, 4, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "max_error_m"));
+    assert_int_equal(codec_encoder_init(&enc, NULL, 4, 1, &err), CORE_EINVAL);
+    assert_int_equal(codec_encoder_init(&enc, NULL, 0, 4, &err), CORE_EINVAL);
+    assert_int_equal(codec_encoder_init(&enc, NULL, 1u << 20, 4096, &err), CORE_EINVAL);
+    assert_int_equal(codec_encoder_init(&enc, NULL, 3, 4, &err), CORE_OK);
+    float xyz[36];
+    codec_buf buf = { 0 };
+    for (int i = 0; i < 36; i++) xyz[i] = 0.01f * (float)i;
+    xyz[17] = NAN;
+    assert_int_equal(codec_encode(&enc, xyz, 1, 0.0, false, &buf, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "not finite"));
+    xyz[17] = 1e9f;
+    assert_int_equal(codec_encode(&enc, xyz, 1, 0.0, false, &buf, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "out of range"));
+    xyz[17] = 0.5f;
+    assert_int_equal(codec_encode(&enc, xyz, 5, 0.0, false, &buf, &err), CORE_OK);
+    assert_int_equal(codec_encode(&enc, xyz, 5, 0.0, false, &buf, &err), CORE_EINVAL);
+    assert_int_equal(codec_encode(&enc, xyz, 6, NAN, false, &buf, &err), CORE_EINVAL);
+    assert_int_equal(codec_encode(&enc, xyz, 6, 0.1, false, &buf, &err), CORE_OK);
+    codec_buf_free(&buf);
+    codec_encoder_free(&enc);
+    codec_encoder_free(&enc); /* safe twice */
+}
+
+/* ---------------------------------------------------------------- corrupt frames */
+
+typedef struct frames3 {
+    codec_buf key, delta, key2;
+    float *want;
+    size_t n;
+} frames3;
+
+/* A keyframe, a delta against it, and a later keyframe (24 strands x 12 vertices). */
+static void make_frames(frames3 *f)
+{
+    const uint32_t ns = 24, nv = 12;
+    memset(f, 0, sizeof *f);
+    f->n = (size_t)ns * nv * 3u;
+    f->want = malloc(f->n * sizeof *f->want);
+    codec_encoder enc;
+    core_err err;
+    codec_desc d = { .key_interval = 100 };
+    assert_int_equal(codec_encoder_init(&enc, &d, ns, nv, &err), CORE_OK);
+    codec_synth_frame(ns, nv, 0.0, CODEC_SYNTH_VIOLENT, f->want);
+    assert_int_equal(codec_encode(&enc, f->want, 1, 0.0, false, &f->key, &err), CORE_OK);
+    codec_synth_frame(ns, nv, 1.1, CODEC_SYNTH_TELEPORT, f->want); /* large residuals: escapes */
+    assert_int_equal(codec_encode(&enc, f->want, 2, 0.5, false, &f->delta, &err), CORE_OK);
+    assert_int_equal(codec_encode(&enc, f->want, 3, 0.6, true, &f->key2, &err), CORE_OK);
+    codec_encoder_free(&enc);
+}
+
+static void free_frames(frames3 *f)
+{
+    codec_buf_free(&f->key);
+    codec_buf_free(&f->delta);
+    codec_buf_free(&f->key2);
+    free(f->want);
+}
+
+static void test_reference_rules(void **state)
+{
+    (void)state;
+    frames3 f;
+    make_frames(&f);
+    float *out = malloc(f.n * sizeof *out);
+    codec_decoder dec;
+    core_err err;
+    codec_frame_info info;
+    codec_decoder_init(&dec);
+    assert_int_equal(codec_decode(&dec, f.delta.data, f.delta.len, out, f.n, NULL, &err), CORE_ESTATE);
+    assert_non_null(strstr(err.msg, "keyframe 1"));
+    assert_int_equal(codec_decode(&dec, f.key.data, f.key.len, out, f.n - 1, NULL, &err), CORE_EINVAL);
+    assert_int_equal(codec_decode(&dec, f.key.data, f.key.len, out, f.n, &info, &err), CORE_OK);
+    assert_true(info.keyframe && info.seq == 1 && info.ref_seq == 1);
+    assert_int_equal(codec_decode(&dec, f.delta.data, f.delta.len, out, f.n, &info, &err), CORE_OK);
+    assert_true(!info.keyframe && info.seq == 2 && info.ref_seq == 1);
+    assert_true(max_abs_err(out, f.want, f.n) <= 1e-4);
+    assert_int_equal(codec_decode(&dec, f.key2.data, f.key2.len, out, f.n, &info, &err), CORE_OK);
+    assert_true(max_abs_err(out, f.want, f.n) <= 1e-4);
+    /* the old delta's keyframe has been replaced */
+    assert_int_equal(codec_decode(&dec, f.delta.data, f.delta.len, out, f.n, NULL, &err), CORE_ESTATE);
+    /* a failed keyframe leaves the held one intact */
+    f.key.data[f.key.len - 1] ^= 0x10;
+    assert_int_equal(codec_decode(&dec, f.key.data, f.key.len, out, f.n, NULL, &err), CORE_EFORMAT);
+    f.key.data[f.key.len - 1] ^= 0x10;
+    assert_int_equal(codec_decode(&dec, f.key.data, f.key.len, out, f.n, NULL, &err), CORE_OK);
+    assert_int_equal(codec_decode(&dec, f.delta.data, f.delta.len, out, f.n, NULL, &err), CORE_OK);
+    assert_true(max_abs_err(out, f.want, f.n) <= 1e-4);
+    free(out);
+    codec_decoder_free(&dec);
+    free_frames(&f);
+}
+
+/* Decoding must fail cleanly and leave the output untouched. */
+static void expect_reject(codec_decoder *dec, const uint8_t *data, size_t len, float *out, size_t n,
+                          core_status want)
+{
+    core_err err = { { 0 } };
+    for (size_t i = 0; i < n; i++) out[i] = -7.0f;
+    core_status st = codec_decode(dec, data, len, out, n, NULL, &err);
+    if (st != want) fail_msg("status %d, wanted %d (%s)", (int)st, (int)want, err.msg);
+    assert_true(strncmp(err.msg, "codec: ", 7) == 0);
+    for (size_t i = 0; i < n; i++) assert_true(out[i] == -7.0f);
+}
+
+static void test_truncated_prefixes(void **state)
+{
+    (void)state;
+    frames3 f;
+    make_frames(&f);
+    float *out = malloc(f.n * sizeof *out);
+    codec_decoder dec;
+    core_err err;
+    codec_decoder_init(&dec);
+    const codec_buf *fr[2] = { &f.key, &f.delta };
+    for (int k = 0; k < 2; k++) {
+        for (size_t len = 0; len < fr[k]->len; len++) {
+            uint8_t *copy = malloc(len ? len : 1); /* exact size: ASan sees any overread */
+            memcpy(copy, fr[k]->data, len);
+            expect_reject(&dec, copy, len, out, f.n, CORE_EFORMAT);
+            /* the same prefix claiming to be complete (payload length and CRC fixed up) */
+            if (len > CODEC_HEADER_SIZE) {
+                for (int b = 0; b < 4; b++) copy[60 + b] = (uint8_t)((len - CODEC_HEADER_SIZE) >> (8 * b));
+                restamp_crc(copy, len);
+                expect_reject(&dec, copy, len, out, f.n, CORE_EFORMAT);
+            }
+            free(copy);
+        }
+        if (k == 0) assert_int_equal(codec_decode(&dec, f.key.data, f.key.len, out, f.n, NULL, &err), CORE_OK);
+    }
+    free(out);
+    codec_decoder_free(&dec);
+    free_frames(&f);
+}
+
+static void test_bit_flips(void **state)
+{
+    (void)state;
+    frames3 f;
+    make_frames(&f);
+    float *out = malloc(f.n * sizeof *out);
+    codec_decoder dec;
+    core_err err;
+    codec_decoder_init(&dec);
+    uint64_t seed = 12345;
+    int deep_rejects = 0, deep_ok = 0;
+    const codec_buf *fr[2] = { &f.key, &f.delta };
+    for (int k = 0; k < 2; k++) {
+        uint8_t *copy = malloc(fr[k]->len);
+        for (int trial = 0; trial < 600; trial++) {
+            memcpy(copy, fr[k]->data, fr[k]->len);
+            int flips = 1 + (int)(rng_next(&seed) % 3u);
+            for (int b = 0; b < flips; b++) {
+                uint32_t bit = rng_next(&seed) % (uint32_t)(fr[k]->len * 8u);
+                copy[bit / 8u] ^= (uint8_t)(1u << (bit % 8u));
+            }
+            if (memcmp(copy, fr[k]->data, fr[k]->len) == 0) continue;
+            expect_reject(&dec, copy, fr[k]->len, out, f.n, CORE_EFORMAT);
+            /* Past the CRC: payload damage must be caught by the format checks or decode
+             * to finite, in-range values without touching memory it should not. */
+            if (trial % 2 == 0) {
+                memcpy(copy, fr[k]->data, fr[k]->len);
+                uint32_t bit = CODEC_HEADER_SIZE * 8u + rng_next(&seed) % (uint32_t)((fr[k]->len - CODEC_HEADER_SIZE) * 8u);
+                copy[bit / 8u] ^= (uint8_t)(1u << (bit % 8u));
+                restamp_crc(copy, fr[k]->len);
+                if (codec_decode(&dec, copy, fr[k]->len, out, f.n, NULL, &err) == CORE_OK) {
+                    deep_ok++;
+                    for (size_t i = 0; i < f.n; i++) assert_true(isfinite(out[i]) && fabsf(out[i]) < 1e4f);
+                    if (k == 0) /* a damaged keyframe was taken: restore the real one */
+                        assert_int_equal(codec_decode(&dec, f.key.data, f.key.len, out, f.n, NULL, &err), CORE_OK);
+                } else {
+                    deep_rejects++;
+                }
+            }
+        }
+        free(copy);
+        if (k == 0) assert_int_equal(codec_decode(&dec, f.key.data, f.key.len, out, f.n, NULL, &err), CORE_OK);
+    }
+    /* flips in the entropy-coded part break its end-state checks; flips in raw sign and
+     * mantissa bits decode to other in-range values (only the CRC can catch those) */
+    print_message("payload bit flips past the CRC: %d rejected, %d decoded\n", deep_rejects, deep_ok);
+    assert_true(deep_rejects > deep_ok / 4);
+    free(out);
+    codec_decoder_free(&dec);
+    free_frames(&f);
+}
+
+static void put32(uint8_t *p, uint32_t v)
+{
+    for (int k = 0; k < 4; k++) p[k] = (uint8_t)(v >> (8 * k));
+}
+
+static void put64(uint8_t *p, uint64_t v)
+{
+    for (int k = 0; k < 8; k++) p[k] = (uint8_t)(v >> (8 * k));
+}
+
+static void test_absurd_headers(void **state)
+{
+    (void)state;
+    frames3 f;
+    make_frames(&f);
+    float *out = malloc(f.n * sizeof *out);
+    codec_decoder dec;
+    codec_decoder_init(&dec);
+    uint8_t *c = malloc(f.key.len);
+    const double nan = NAN, huge = 1e300, zero = 0.0;
+    float fnan = NAN;
+    uint64_t u;
+    uint32_t u32;
+    for (int which = 0; which < 27; which++) {
+        memcpy(c, f.key.data, f.key.len);
+        switch (which) {
+        case 0: c[0] = 'X'; break;
+        case 1: c[4] = 2; break;
+        case 2: c[6] = 9; break;
+        case 3: c[7] = 0x81; break;
+        case 4: put64(c + 16, 0); break;                       /* keyframe ref != seq */
+        case 5: c[7] = 0; break;                               /* delta with ref == seq */
+        case 6: memcpy(&u, &nan, 8); put64(c + 24, u); break;  /* sim time */
+        case 7: memcpy(&u, &nan, 8); put64(c + 32, u); break;  /* step */
+        case 8: memcpy(&u, &zero, 8); put64(c + 32, u); break;
+        case 9: memcpy(&u, &huge, 8); put64(c + 32, u); break;
+        case 10: memcpy(&u32, &fnan, 4); put32(c + 40, u32); break;
+        case 11: put32(c + 40, 0x7f800000u); break;            /* bound = inf */
+        case 12: put32(c + 44, 0); break;                      /* total strands */
+        case 13: put32(c + 44, 0xffffffffu); break;
+        case 14: put32(c + 48, 0); break;                      /* sent */
+        case 15: put32(c + 48, 25); break;
+        case 16: put32(c + 52, 0); break;                      /* nverts */
+        case 17: put32(c + 52, 1); break;
+        case 18: put32(c + 52, 0xffffffffu); break;
+        case 19: put32(c + 56, 0); break;                      /* stride */
+        case 20: put32(c + 56, 0xffffffffu); break;
+        case 21: put32(c + 60, 0xffffffffu); break;            /* payload length */
+        case 22: put32(c + 60, 0); break;
+        case 23: put32(c + 44, 1u << 24); put32(c + 48, 1u << 24); break; /* too many vertices */
+        case 24: put32(c + 52, 11); break;                     /* layout vs payload */
+        case 25: put32(c + 44, 23); put32(c + 48, 23); break;
+        case 26: c[CODEC_HEADER_SIZE + 4] ^= 0xff; break;      /* tables */
+        }
+        restamp_crc(c, f.key.len);
+        expect_reject(&dec, c, f.key.len, out, f.n, CORE_EFORMAT);
+        codec_frame_info info;
+        core_err err;
+        if (which < 24) assert_int_equal(codec_peek_header(c, f.key.len, &info, &err), CORE_EFORMAT);
+    }
+    free(c);
+    /* a delta whose rigid motion is absurd */
+    core_err err;
+    assert_int_equal(codec_decode(&dec, f.key.data, f.key.len, out, f.n, NULL, &err), CORE_OK);
+    c = malloc(f.delta.len);
+    const float bad_motion[4] = { NAN, 2.5f, -INFINITY, 1e30f };
+    for (int k = 0; k < 4; k++) {
+        memcpy(c, f.delta.data, f.delta.len);
+        memcpy(&u32, &bad_motion[k], 4);
+        put32(c + CODEC_HEADER_SIZE + (k < 2 ? 4u * (uint32_t)k : 40u), u32);
+        restamp_crc(c, f.delta.len);
+        expect_reject(&dec, c, f.delta.len, out, f.n, CORE_EFORMAT);
+        assert_int_equal(codec_decode(&dec, c, f.delta.len, out, f.n, NULL, &err), CORE_EFORMAT);
+        assert_non_null(strstr(err.msg, "motion"));
+    }
+    assert_int_equal(codec_decode(&dec, f.delta.data, f.delta.len, out, f.n, NULL, &err), CORE_OK);
+    free(c);
+    free(out);
+    codec_decoder_free(&dec);
+    free_frames(&f);
+}
+
+/* ---------------------------------------------------------------- test vectors */
+
+typedef struct vstream {
+    const char *name;
+    uint32_t nstrands, nverts, stride, key_interval;
+    float bound;
+    codec_synth_style style;
+    int nframes;
+    double t0, dt;
+    int force_at; /* frame index encoded with force_key, or -1 */
+} vstream;
+
+static const vstream VSTREAMS[] = {
+    { "basic", 24, 12, 1, 3, 1e-4f, CODEC_SYNTH_GENTLE, 5, 0.0, 1.0 / 30.0, -1 },
+    { "stride3", 24, 12, 3, 30, 5e-4f, CODEC_SYNTH_VIOLENT, 4, 0.25, 1.0 / 60.0, 2 },
+    { "teleport", 16, 9, 1, 30, 2e-5f, CODEC_SYNTH_TELEPORT, 3, 0.95, 0.05, -1 },
+};
+
+static char *vpath(const char *dir, const char *name, int frame, const char *ext)
+{
+    static char buf[4][1024];
+    static int slot;
+    slot = (slot + 1) % 4;
+    if (frame >= 0) snprintf(buf[slot], sizeof buf[slot], "%s/%s_%d.%s", dir, name, frame, ext);
+    else snprintf(buf[slot], sizeof buf[slot], "%s/%s", dir, name);
+    return buf[slot];
+}
+
+static uint8_t *slurp(const char *path, size_t *len)
+{
+    FILE *fp = fopen(path, "rb");
+    if (!fp) fail_msg("cannot open %s (run with STRANDCAST_WRITE_VECTORS=1 to create it)", path);
+    fseek(fp, 0, SEEK_END);
+    long sz = ftell(fp);
+    fseek(fp, 0, SEEK_SET);
+    uint8_t *p = malloc(sz > 0 ? (size_t)sz : 1u);
+    assert_non_null(p);
+    assert_true(fread(p, 1, (size_t)sz, fp) == (size_t)sz);
+    fclose(fp);
+    *len = (size_t)sz;
+    return p;
+}
+
+/* Checks a generated artifact against the stored one, or writes it. */
+static void check_or_write(const char *path, const void *data, size_t len, bool write)
+{
+    if (write) {
+        FILE *fp = fopen(path, "wb");
+        assert_non_null(fp);
+        assert_true(fwrite(data, 1, len, fp) == len);
+        fclose(fp);
+        return;
+    }
+    size_t have;
+    uint8_t *stored = slurp(path, &have);
+    if (have != len || memcmp(stored, data, len) != 0)
+        fail_msg("%s differs from what the encoder produces now (format drift?)", path);
+    free(stored);
+}
+
+static void test_vectors(void **state)
+{
+    (void)state;
+    const char *src = getenv("STRANDCAST_SOURCE_DIR");
+    const char *w = getenv("STRANDCAST_WRITE_VECTORS");
+    bool write = w && strcmp(w, "1") == 0;
+    char dir[900];
+    snprintf(dir, sizeof dir, "%s/proto/vectors", src ? src : STRANDCAST_SOURCE_DIR);
+    char manifest[16384];
+    size_t mlen = (size_t)snprintf(manifest, sizeof manifest, "{\n  \"format_version\": %u,\n  \"streams\": [\n",
+                                   CODEC_VERSION);
+    for (size_t s = 0; s < sizeof VSTREAMS / sizeof VSTREAMS[0]; s++) {
+        const vstream *v = &VSTREAMS[s];
+        codec_desc d = { .max_error_m = v->bound, .key_interval = v->key_interval, .stride = v->stride };
+        codec_encoder enc;
+        codec_decoder dec;
+        core_err err;
+        codec_buf buf = { 0 };
+        assert_int_equal(codec_encoder_init(&enc, &d, v->nstrands, v->nverts, &err), CORE_OK);
+        codec_decoder_init(&dec);
+        size_t n = (size_t)v->nstrands * v->nverts * 3u, nsent = (size_t)enc.nstrands_sent * v->nverts * 3u;
+        float *in = malloc(n * sizeof *in), *want = malloc(nsent * sizeof *want), *out = malloc(nsent * sizeof *out);
+        mlen += (size_t)snprintf(manifest + mlen, sizeof manifest - mlen,
+                                 "    {\"name\": \"%s\", \"nstrands\": %u, \"nverts\": %u, \"stride\": %u, "
+                                 "\"nstrands_sent\": %u, \"max_error_m\": %.9g, \"key_interval\": %u, \"frames\": [\n",
+                                 v->name, v->nstrands, v->nverts, v->stride, enc.nstrands_sent, (double)v->bound,
+                                 v->key_interval);
+        for (int f = 0; f < v->nframes; f++) {
+            double t = v->t0 + v->dt * f;
+            if (write) {
+                codec_synth_frame(v->nstrands, v->nverts, t, v->style, in);
+                check_or_write(vpath(dir, v->name, f, "in.f32"), in, n * sizeof *in, true);
+            } else {
+                size_t len;
+                uint8_t *p = slurp(vpath(dir, v->name, f, "in.f32"), &len);
+                assert_int_equal(len, n * sizeof *in);
+                memcpy(in, p, len);
+                free(p);
+            }
+            uint64_t seq = 1000u + (uint64_t)f * 2u;
+            assert_int_equal(codec_encode(&enc, in, seq, t, f == v->force_at, &buf, &err), CORE_OK);
+            codec_frame_info info;
+            assert_int_equal(codec_decode(&dec, buf.data, buf.len, out, nsent, &info, &err), CORE_OK);
+            gather(in, v->nstrands, v->nverts, v->stride, want);
+            assert_true(max_abs_err(want, out, nsent) <= (double)v->bound);
+            check_or_write(vpath(dir, v->name, f, "bin"), buf.data, buf.len, write);
+            check_or_write(vpath(dir, v->name, f, "out.f32"), out, nsent * sizeof *out, write);
+            mlen += (size_t)snprintf(manifest + mlen, sizeof manifest - mlen,
+                                     "      {\"file\": \"%s_%d\", \"seq\": %llu, \"ref_seq\": %llu, "
+                                     "\"sim_time\": %.17g, \"keyframe\": %s, \"bytes\": %zu}%s\n",
+                                     v->name, f, (unsigned long long)seq, (unsigned long long)info.ref_seq, t,
+                                     info.keyframe ? "true" : "false", buf.len, f + 1 < v->nframes ? "," : "");
+        }
+        mlen += (size_t)snprintf(manifest + mlen, sizeof manifest - mlen, "    ]}%s\n",
+                                 s + 1 < sizeof VSTREAMS / sizeof VSTREAMS[0] ? "," : "");
+        free(in);
+        free(want);
+        free(out);
+        codec_buf_free(&buf);
+        codec_decoder_free(&dec);
+        codec_encoder_free(&enc);
+    }
+    mlen += (size_t)snprintf(manifest + mlen, sizeof manifest - mlen, "  ]\n}\n");
+    assert_true(mlen < sizeof manifest);
+    check_or_write(vpath(dir, "manifest.json", -1, ""), manifest, mlen, write);
+}
+
+/* Decodes the stored vectors (not the regenerated ones): every frame in order, then only the
+ * keyframes and the last frame of each stream, bit for bit against the stored positions. */
+static void test_vectors_decode(void **state)
+{
+    (void)state;
+    const char *src = getenv("STRANDCAST_SOURCE_DIR");
+    char dir[900];
+    snprintf(dir, sizeof dir, "%s/proto/vectors", src ? src : STRANDCAST_SOURCE_DIR);
+    for (size_t s = 0; s < sizeof VSTREAMS / sizeof VSTREAMS[0]; s++) {
+        const vstream *v = &VSTREAMS[s];
+        for (int pass = 0; pass < 2; pass++) {
+            codec_decoder dec;
+            codec_decoder_init(&dec);
+            int decoded = 0;
+            for (int f = 0; f < v->nframes; f++) {
+                size_t len, olen;
+                uint8_t *bin = slurp(vpath(dir, v->name, f, "bin"), &len);
+                uint8_t *want = slurp(vpath(dir, v->name, f, "out.f32"), &olen);
+                codec_frame_info info;
+                core_err err;
+                assert_int_equal(codec_peek_header(bin, len, &info, &err), CORE_OK);
+                if (pass == 0 || info.keyframe || f == v->nframes - 1) {
+                    float *out = malloc(olen);
+                    core_status st = codec_decode(&dec, bin, len, out, olen / sizeof(float), &info, &err);
+                    if (st) fail_msg("%s_%d: %s", v->name, f, err.msg);
+                    assert_int_equal(info.nverts, v->nverts);
+                    assert_int_equal(info.stride, v->stride);
+                    assert_memory_equal(out, want, olen);
+                    free(out);
+                    decoded++;
+                }
+                free(bin);
+                free(want);
+            }
+            assert_true(decoded >= 2);
+            codec_decoder_free(&dec);
+        }
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_vectors),
+        cmocka_unit_test(test_vectors_decode),
+        cmocka_unit_test(test_bound_all_styles),
+        cmocka_unit_test(test_bound_resets),
+        cmocka_unit_test(test_bound_magnitudes),
+        cmocka_unit_test(test_encoder_rejects),
+        cmocka_unit_test(test_reference_rules),
+        cmocka_unit_test(test_truncated_prefixes),
+        cmocka_unit_test(test_bit_flips),
+        cmocka_unit_test(test_absurd_headers),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,92 @@
+/* Tests for server/net's pure parts (UTF-8 validation, subprotocol lists, refcounted buffers);
+ * the server itself is exercised end to end by tests/it_net.c. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <string.h>
+
+#include "net/net_internal.h"
+
+static void test_utf8(void **state)
+{
+    (void)state;
+    static const char *const good[] = { "", "plain ascii", "caf\xc3\xa9", "\xe2\x82\xac", "\xf0\x9f\x98\x80",
+                                        "\xed\x9f\xbf", "\xee\x80\x80", "\xf4\x8f\xbf\xbf" };
+    for (size_t i = 0; i < sizeof good / sizeof good[0]; i++) assert_true(net_utf8_valid(good[i], strlen(good[i])));
+    static const char *const bad[] = {
+        "\xff", "\xfe\xff", "\x80", "caf\xc3", "\xc3\x28", "\xc0\xaf" /* overlong '/' */, "\xe0\x80\xaf",
+        "\xed\xa0\x80" /* surrogate */, "\xf4\x90\x80\x80" /* > U+10FFFF */, "\xf8\x88\x80\x80\x80", "\xe2\x82",
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
+        if (net_utf8_valid(bad[i], strlen(bad[i]))) fail_msg("accepted bad sequence %zu", i);
+    /* embedded NUL is valid UTF-8; the length, not the terminator, bounds the check */
+    assert_true(net_utf8_valid("a\0b", 3));
+    assert_false(net_utf8_valid("ok\xc3\xa9", 3));
+}
+
+static void test_token_list(void **state)
+{
+    (void)state;
+    assert_true(net_token_listed("strandcast.v1", "strandcast.v1"));
+    assert_true(net_token_listed("chat, strandcast.v1", "strandcast.v1"));
+    assert_true(net_token_listed(" strandcast.v1 ,x", "strandcast.v1"));
+    assert_true(net_token_listed("a,,strandcast.v1\t", "strandcast.v1"));
+    assert_false(net_token_listed("", "strandcast.v1"));
+    assert_false(net_token_listed("strandcast.v10", "strandcast.v1"));
+    assert_false(net_token_listed("strandcast.v", "strandcast.v1"));
+    assert_false(net_token_listed("xstrandcast.v1", "strandcast.v1"));
+    assert_false(net_token_listed("strandcast v1", "strandcast.v1"));
+}
+
+static void test_buffers(void **state)
+{
+    (void)state;
+    net_buf *b = net_buf_new(5);
+    assert_non_null(b);
+    memcpy(net_buf_data(b), "hello", 5);
+    assert_int_equal(net_buf_len(b), 5);
+    net_buf_ref(b);
+    net_buf_unref(b);
+    assert_memory_equal(net_buf_data(b), "hello", 5); /* still alive: one reference left */
+    net_buf_unref(b);
+    net_buf_unref(NULL);
+    assert_null(net_buf_new(SIZE_MAX - 4));
+}
+
+static void test_create_errors(void **state)
+{
+    (void)state;
+    net *n = NULL;
+    core_err err;
+    net_desc d = { 0 };
+    assert_int_equal(net_create(&n, &d, &err), CORE_EINVAL);
+    assert_null(n);
+    d.subprotocol = "strandcast.v1";
+    d.port = 70000;
+    assert_int_equal(net_create(&n, &d, &err), CORE_EINVAL);
+    /* a free port, then the same port again: the second bind fails with a clear error */
+    d.port = NET_PORT_ANY;
+    assert_int_equal(net_create(&n, &d, &err), CORE_OK);
+    assert_true(net_port(n) > 0);
+    net *m = NULL;
+    net_desc d2 = d;
+    d2.port = net_port(n);
+    assert_int_not_equal(net_create(&m, &d2, &err), CORE_OK);
+    assert_null(m);
+    assert_non_null(strstr(err.msg, "listen"));
+    net_destroy(n);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_utf8),
+        cmocka_unit_test(test_token_list),
+        cmocka_unit_test(test_buffers),
+        cmocka_unit_test(test_create_errors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,523 @@
+/* Tests for server/proto: every client message, every rejection path, hostile inputs, builders. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "proto/proto.h"
+
+typedef struct test_params {
+    float gravity;
+    int32_t substeps;
+    bool sph;
+    float stiffness;
+} test_params;
+
+static const core_param_info table[] = {
+    { "gravity", CORE_PARAM_FLOAT, offsetof(test_params, gravity), 0.0, 50.0, 9.81, "m/s^2", "Gravity." },
+    { "substeps", CORE_PARAM_INT, offsetof(test_params, substeps), 1, 16, 1, "", "Substeps." },
+    { "sph", CORE_PARAM_BOOL, offsetof(test_params, sph), 0, 1, 1, "", "SPH on." },
+    { "stiffness", CORE_PARAM_FLOAT, offsetof(test_params, stiffness), 0.0, 0.3, 0.2, "", "Stiffness \"quoted\"." },
+};
+static const char *const presets[] = { "none", "nod", "shake", "circle" };
+static const char *const styles[] = { "straight", "wavy", "curly" };
+static const proto_parser parser = { table, 4, presets, 4, styles, 3 };
+
+static proto_msg msg;
+static proto_error err;
+
+static core_status parse(const char *s) { return proto_parse(&parser, s, strlen(s), &msg, &err); }
+
+static void expect_ok(const char *s, proto_type t)
+{
+    core_status st = parse(s);
+    if (st != CORE_OK) fail_msg("rejected %s: %s %s %s", s, proto_code_name(err.code), err.field, err.message);
+    assert_int_equal(msg.type, t);
+}
+
+static void expect_err(const char *s, proto_code code, const char *field)
+{
+    core_status st = parse(s);
+    if (st == CORE_OK) fail_msg("accepted %s", s);
+    if (err.code != code || strcmp(err.field, field) != 0)
+        fail_msg("%s: got %s field '%s' (%s), want %s field '%s'", s, proto_code_name(err.code), err.field, err.message,
+                 proto_code_name(code), field);
+    assert_true(strlen(err.message) > 0);
+}
+
+/* Parses a builder's output (and frees it). */
+static cJSON *json(char *text)
+{
+    assert_non_null(text);
+    cJSON *j = cJSON_Parse(text);
+    assert_non_null(j);
+    proto_free(text);
+    return j;
+}
+
+static const char *str_of(const cJSON *o, const char *k)
+{
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, k);
+    assert_true(cJSON_IsString(v));
+    return v->valuestring;
+}
+
+static double num_of(const cJSON *o, const char *k)
+{
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, k);
+    assert_true(cJSON_IsNumber(v));
+    return v->valuedouble;
+}
+
+static void test_simple_messages(void **state)
+{
+    (void)state;
+    expect_ok("{\"type\":\"get_params\"}", PROTO_GET_PARAMS);
+    assert_int_equal(msg.id.kind, PROTO_ID_NONE);
+    expect_ok("{\"type\":\"reset\",\"id\":7}", PROTO_RESET);
+    assert_int_equal(msg.id.kind, PROTO_ID_NUMBER);
+    assert_true(msg.id.num == 7.0);
+    expect_ok(" {\"id\":\"abc\",\"type\":\"pause\"} \n", PROTO_PAUSE);
+    assert_int_equal(msg.id.kind, PROTO_ID_STRING);
+    assert_string_equal(msg.id.str, "abc");
+    expect_ok("{\"type\":\"resume\"}", PROTO_RESUME);
+    expect_ok("{\"type\":\"keyframe\"}", PROTO_KEYFRAME);
+    expect_ok("{\"type\":\"step\"}", PROTO_STEP);
+    assert_int_equal(msg.u.step.count, 1);
+    expect_ok("{\"type\":\"step\",\"count\":25}", PROTO_STEP);
+    assert_int_equal(msg.u.step.count, 25);
+}
+
+static void test_set_params(void **state)
+{
+    (void)state;
+    expect_ok("{\"type\":\"set_params\",\"id\":2,\"values\":{\"gravity\":0,\"sph\":false,\"substeps\":4}}", PROTO_SET_PARAMS);
+    assert_int_equal(msg.u.set_params.count, 3);
+    assert_int_equal(msg.u.set_params.v[0].index, 0);
+    assert_true(msg.u.set_params.v[0].value == 0.0);
+    assert_int_equal(msg.u.set_params.v[1].index, 2);
+    assert_true(msg.u.set_params.v[1].value == 0.0);
+    assert_int_equal(msg.u.set_params.v[2].index, 1);
+    assert_true(msg.u.set_params.v[2].value == 4.0);
+    expect_ok("{\"type\":\"set_params\",\"values\":{\"sph\":true,\"stiffness\":0.3,\"gravity\":50}}", PROTO_SET_PARAMS);
+    assert_true(msg.u.set_params.v[0].value == 1.0);
+
+    expect_err("{\"type\":\"set_params\"}", PROTO_ERR_BAD_FIELD, "values");
+    expect_err("{\"type\":\"set_params\",\"values\":[1]}", PROTO_ERR_BAD_FIELD, "values");
+    expect_err("{\"type\":\"set_params\",\"values\":{}}", PROTO_ERR_BAD_FIELD, "values");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gravty\":1}}", PROTO_ERR_UNKNOWN_PARAM, "values.gravty");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":\"1\"}}", PROTO_ERR_BAD_FIELD, "values.gravity");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":null}}", PROTO_ERR_BAD_FIELD, "values.gravity");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":true}}", PROTO_ERR_BAD_FIELD, "values.gravity");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":-1}}", PROTO_ERR_OUT_OF_RANGE, "values.gravity");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":50.0001}}", PROTO_ERR_OUT_OF_RANGE, "values.gravity");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":1e999}}", PROTO_ERR_NOT_FINITE, "values.gravity");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":-1e999}}", PROTO_ERR_NOT_FINITE, "values.gravity");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"substeps\":2.5}}", PROTO_ERR_BAD_FIELD, "values.substeps");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"substeps\":0}}", PROTO_ERR_OUT_OF_RANGE, "values.substeps");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"substeps\":1e300}}", PROTO_ERR_OUT_OF_RANGE, "values.substeps");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"sph\":1}}", PROTO_ERR_BAD_FIELD, "values.sph");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":1,\"gravity\":2}}", PROTO_ERR_BAD_FIELD, "values.gravity");
+    /* atomic: one bad value rejects the whole message */
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":1,\"stiffness\":0.5}}", PROTO_ERR_OUT_OF_RANGE,
+               "values.stiffness");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":1,\"sph\":true,\"substeps\":2,\"stiffness\":0,\"x\":1}}",
+               PROTO_ERR_TOO_LARGE, "values");
+}
+
+static void test_motion(void **state)
+{
+    (void)state;
+    expect_ok("{\"type\":\"motion\",\"t\":1234.5,\"position\":[0.1,-0.2,0.3],\"orientation\":[0,0,0,2]}", PROTO_MOTION);
+    assert_true(msg.u.motion.has_t);
+    assert_true(msg.u.motion.t == 1234.5);
+    assert_true(fabsf(msg.u.motion.position.y + 0.2f) < 1e-7f);
+    assert_true(msg.u.motion.orientation.w == 1.0f); /* normalized */
+    expect_ok("{\"type\":\"motion\",\"position\":[0,0,0],\"orientation\":[0.5,0.5,0.5,0.5]}", PROTO_MOTION);
+    assert_false(msg.u.motion.has_t);
+
+    expect_err("{\"type\":\"motion\",\"orientation\":[0,0,0,1]}", PROTO_ERR_BAD_FIELD, "position");
+    expect_err("{\"type\":\"motion\",\"position\":[0,0],\"orientation\":[0,0,0,1]}", PROTO_ERR_BAD_FIELD, "position");
+    expect_err("{\"type\":\"motion\",\"position\":[0,0,0,0],\"orientation\":[0,0,0,1]}", PROTO_ERR_BAD_FIELD, "position");
+    expect_err("{\"type\":\"motion\",\"position\":{\"x\":0},\"orientation\":[0,0,0,1]}", PROTO_ERR_BAD_FIELD, "position");
+    expect_err("{\"type\":\"motion\",\"position\":[0,\"1\",0],\"orientation\":[0,0,0,1]}", PROTO_ERR_BAD_FIELD, "position[1]");
+    expect_err("{\"type\":\"motion\",\"position\":[0,0,1e400],\"orientation\":[0,0,0,1]}", PROTO_ERR_NOT_FINITE, "position[2]");
+    expect_err("{\"type\":\"motion\",\"position\":[0,0,1000],\"orientation\":[0,0,0,1]}", PROTO_ERR_OUT_OF_RANGE, "position[2]");
+    expect_err("{\"type\":\"motion\",\"position\":[0,0,0],\"orientation\":[0,0,0,0]}", PROTO_ERR_OUT_OF_RANGE, "orientation");
+    expect_err("{\"type\":\"motion\",\"position\":[0,0,0],\"orientation\":[1e200,1e200,0,0]}", PROTO_ERR_OUT_OF_RANGE,
+               "orientation");
+    expect_err("{\"type\":\"motion\",\"t\":\"now\",\"position\":[0,0,0],\"orientation\":[0,0,0,1]}", PROTO_ERR_BAD_FIELD, "t");
+    expect_err("{\"type\":\"motion\",\"position\":[0,0,0],\"orientation\":[0,0,0,1],\"scale\":2}", PROTO_ERR_BAD_FIELD, "scale");
+}
+
+static void test_animate(void **state)
+{
+    (void)state;
+    expect_ok("{\"type\":\"animate\",\"preset\":\"shake\",\"speed\":2.5}", PROTO_ANIMATE);
+    assert_int_equal(msg.u.animate.preset, 2);
+    assert_true(msg.u.animate.speed == 2.5);
+    expect_ok("{\"type\":\"animate\",\"preset\":\"none\"}", PROTO_ANIMATE);
+    assert_int_equal(msg.u.animate.preset, 0);
+    assert_true(msg.u.animate.speed == 1.0);
+    expect_err("{\"type\":\"animate\",\"preset\":\"moonwalk\"}", PROTO_ERR_OUT_OF_RANGE, "preset");
+    assert_non_null(strstr(err.message, "nod")); /* lists the valid names */
+    expect_err("{\"type\":\"animate\",\"preset\":3}", PROTO_ERR_BAD_FIELD, "preset");
+    expect_err("{\"type\":\"animate\"}", PROTO_ERR_BAD_FIELD, "preset");
+    expect_err("{\"type\":\"animate\",\"preset\":\"nod\",\"speed\":-1}", PROTO_ERR_OUT_OF_RANGE, "speed");
+    expect_err("{\"type\":\"animate\",\"preset\":\"nod\",\"speed\":21}", PROTO_ERR_OUT_OF_RANGE, "speed");
+}
+
+static void test_step_errors(void **state)
+{
+    (void)state;
+    expect_err("{\"type\":\"step\",\"count\":0}", PROTO_ERR_OUT_OF_RANGE, "count");
+    expect_err("{\"type\":\"step\",\"count\":1001}", PROTO_ERR_OUT_OF_RANGE, "count");
+    expect_err("{\"type\":\"step\",\"count\":1.5}", PROTO_ERR_BAD_FIELD, "count");
+    expect_err("{\"type\":\"step\",\"count\":[1]}", PROTO_ERR_BAD_FIELD, "count");
+    expect_err("{\"type\":\"pause\",\"count\":1}", PROTO_ERR_BAD_FIELD, "count");
+}
+
+static void test_set_groom(void **state)
+{
+    (void)state;
+    expect_ok("{\"type\":\"set_groom\",\"style\":\"wavy\",\"strands\":1024,\"verts\":16,\"seed\":99}", PROTO_SET_GROOM);
+    assert_false(msg.u.set_groom.is_file);
+    assert_int_equal(msg.u.set_groom.style, 1);
+    assert_int_equal(msg.u.set_groom.strands, 1024);
+    assert_int_equal(msg.u.set_groom.verts, 16);
+    assert_true(msg.u.set_groom.has_seed);
+    assert_int_equal(msg.u.set_groom.seed, 99);
+    expect_ok("{\"type\":\"set_groom\",\"style\":\"curly\"}", PROTO_SET_GROOM);
+    assert_int_equal(msg.u.set_groom.strands, 0);
+    expect_ok("{\"type\":\"set_groom\",\"file\":\"ratboy/Ratboy_mohawk.tfx\",\"verts\":24}", PROTO_SET_GROOM);
+    assert_true(msg.u.set_groom.is_file);
+    assert_string_equal(msg.u.set_groom.file, "ratboy/Ratboy_mohawk.tfx");
+
+    expect_err("{\"type\":\"set_groom\"}", PROTO_ERR_BAD_FIELD, "style");
+    expect_err("{\"type\":\"set_groom\",\"style\":\"wavy\",\"file\":\"a.tfx\"}", PROTO_ERR_BAD_FIELD, "file");
+    expect_err("{\"type\":\"set_groom\",\"style\":\"bald\"}", PROTO_ERR_OUT_OF_RANGE, "style");
+    expect_err("{\"type\":\"set_groom\",\"file\":\"../secret.tfx\"}", PROTO_ERR_BAD_FIELD, "file");
+    expect_err("{\"type\":\"set_groom\",\"file\":\"a/../../b.tfx\"}", PROTO_ERR_BAD_FIELD, "file");
+    expect_err("{\"type\":\"set_groom\",\"file\":\"/etc/passwd\"}", PROTO_ERR_BAD_FIELD, "file");
+    expect_err("{\"type\":\"set_groom\",\"file\":\"a//b.tfx\"}", PROTO_ERR_BAD_FIELD, "file");
+    expect_err("{\"type\":\"set_groom\",\"file\":\"./a.tfx\"}", PROTO_ERR_BAD_FIELD, "file");
+    expect_err("{\"type\":\"set_groom\",\"file\":\"dir/\"}", PROTO_ERR_BAD_FIELD, "file");
+    expect_err("{\"type\":\"set_groom\",\"file\":\"\"}", PROTO_ERR_BAD_FIELD, "file");
+    expect_err("{\"type\":\"set_groom\",\"file\":\"a b.tfx\"}", PROTO_ERR_BAD_FIELD, "file");
+    expect_err("{\"type\":\"set_groom\",\"file\":\"a\\\\b.tfx\"}", PROTO_ERR_BAD_FIELD, "file");
+    expect_err("{\"type\":\"set_groom\",\"file\":\"caf\\u00e9.tfx\"}", PROTO_ERR_BAD_FIELD, "file");
+    char big[400];
+    snprintf(big, sizeof big, "{\"type\":\"set_groom\",\"file\":\"%0300d\"}", 0);
+    expect_err(big, PROTO_ERR_TOO_LARGE, "file");
+    expect_err("{\"type\":\"set_groom\",\"file\":\"a.tfx\",\"strands\":10}", PROTO_ERR_BAD_FIELD, "strands");
+    expect_err("{\"type\":\"set_groom\",\"style\":\"wavy\",\"strands\":0}", PROTO_ERR_OUT_OF_RANGE, "strands");
+    expect_err("{\"type\":\"set_groom\",\"style\":\"wavy\",\"verts\":1}", PROTO_ERR_OUT_OF_RANGE, "verts");
+    expect_err("{\"type\":\"set_groom\",\"style\":\"wavy\",\"strands\":65536,\"verts\":256}", PROTO_ERR_TOO_LARGE, "strands");
+    expect_err("{\"type\":\"set_groom\",\"style\":\"wavy\",\"seed\":-1}", PROTO_ERR_OUT_OF_RANGE, "seed");
+}
+
+static void test_subscribe(void **state)
+{
+    (void)state;
+    expect_ok("{\"type\":\"subscribe\",\"stride\":4,\"max_error\":0.001,\"max_rate\":30}", PROTO_SUBSCRIBE);
+    assert_true(msg.u.subscribe.has_stride && msg.u.subscribe.has_max_error && msg.u.subscribe.has_max_rate);
+    assert_int_equal(msg.u.subscribe.stride, 4);
+    assert_true(msg.u.subscribe.max_error == 0.001);
+    assert_true(msg.u.subscribe.max_rate == 30.0);
+    expect_ok("{\"type\":\"subscribe\",\"max_rate\":0}", PROTO_SUBSCRIBE);
+    assert_false(msg.u.subscribe.has_stride);
+    assert_true(msg.u.subscribe.has_max_rate);
+    expect_err("{\"type\":\"subscribe\",\"stride\":0}", PROTO_ERR_OUT_OF_RANGE, "stride");
+    expect_err("{\"type\":\"subscribe\",\"stride\":2.5}", PROTO_ERR_BAD_FIELD, "stride");
+    expect_err("{\"type\":\"subscribe\",\"max_error\":0}", PROTO_ERR_OUT_OF_RANGE, "max_error");
+    expect_err("{\"type\":\"subscribe\",\"max_error\":1}", PROTO_ERR_OUT_OF_RANGE, "max_error");
+    expect_err("{\"type\":\"subscribe\",\"max_rate\":-5}", PROTO_ERR_OUT_OF_RANGE, "max_rate");
+    expect_err("{\"type\":\"subscribe\",\"max_rate\":1e999}", PROTO_ERR_NOT_FINITE, "max_rate");
+    expect_err("{\"type\":\"subscribe\",\"strands\":\"all\"}", PROTO_ERR_BAD_FIELD, "strands");
+}
+
+static void test_envelope_errors(void **state)
+{
+    (void)state;
+    expect_err("", PROTO_ERR_BAD_JSON, "");
+    expect_err("{", PROTO_ERR_BAD_JSON, "");
+    expect_err("not json", PROTO_ERR_BAD_JSON, "");
+    expect_err("[{\"type\":\"reset\"}]", PROTO_ERR_BAD_JSON, "");
+    expect_err("null", PROTO_ERR_BAD_JSON, "");
+    expect_err("42", PROTO_ERR_BAD_JSON, "");
+    expect_err("\"reset\"", PROTO_ERR_BAD_JSON, "");
+    expect_err("{\"type\":\"reset\"} {\"type\":\"reset\"}", PROTO_ERR_BAD_JSON, "");
+    expect_err("{\"type\":\"reset\"}x", PROTO_ERR_BAD_JSON, "");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":NaN}}", PROTO_ERR_BAD_JSON, "");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":Infinity}}", PROTO_ERR_BAD_JSON, "");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":-Infinity}}", PROTO_ERR_BAD_JSON, "");
+    expect_err("{'type':'reset'}", PROTO_ERR_BAD_JSON, "");
+    expect_err("{}", PROTO_ERR_BAD_FIELD, "type");
+    expect_err("{\"type\":5}", PROTO_ERR_BAD_FIELD, "type");
+    expect_err("{\"type\":null}", PROTO_ERR_BAD_FIELD, "type");
+    expect_err("{\"type\":\"dance\"}", PROTO_ERR_UNKNOWN_TYPE, "type");
+    expect_err("{\"type\":\"RESET\"}", PROTO_ERR_UNKNOWN_TYPE, "type");
+    expect_err("{\"type\":\"reset\",\"extra\":1}", PROTO_ERR_BAD_FIELD, "extra");
+    expect_err("{\"type\":\"reset\",\"type\":\"pause\"}", PROTO_ERR_BAD_FIELD, "type");
+    /* ids */
+    expect_err("{\"type\":\"reset\",\"id\":{}}", PROTO_ERR_BAD_FIELD, "id");
+    expect_err("{\"type\":\"reset\",\"id\":[1]}", PROTO_ERR_BAD_FIELD, "id");
+    expect_err("{\"type\":\"reset\",\"id\":true}", PROTO_ERR_BAD_FIELD, "id");
+    expect_err("{\"type\":\"reset\",\"id\":1e999}", PROTO_ERR_NOT_FINITE, "id");
+    char longid[200];
+    snprintf(longid, sizeof longid, "{\"type\":\"reset\",\"id\":\"%065d\"}", 0);
+    expect_err(longid, PROTO_ERR_TOO_LARGE, "id");
+    /* the id is kept for the error reply when the rest is bad */
+    expect_err("{\"id\":\"q1\",\"type\":\"dance\"}", PROTO_ERR_UNKNOWN_TYPE, "type");
+    assert_int_equal(msg.id.kind, PROTO_ID_STRING);
+    assert_string_equal(msg.id.str, "q1");
+}
+
+static void test_hostile_inputs(void **state)
+{
+    (void)state;
+    /* deep nesting: refused by the parser's depth limit, without a crash */
+    size_t depth = 5000;
+    char *deep = malloc(2 * depth + 64);
+    size_t n = (size_t)sprintf(deep, "{\"type\":\"reset\",\"x\":");
+    for (size_t i = 0; i < depth; i++) deep[n++] = '[';
+    for (size_t i = 0; i < depth; i++) deep[n++] = ']';
+    deep[n++] = '}';
+    assert_int_equal(proto_parse(&parser, deep, n, &msg, &err), CORE_EINVAL);
+    assert_int_equal(err.code, PROTO_ERR_BAD_JSON);
+    /* moderately deep but valid JSON in an unknown field: a field error */
+    n = (size_t)sprintf(deep, "{\"type\":\"reset\",\"x\":");
+    for (size_t i = 0; i < 100; i++) deep[n++] = '[';
+    for (size_t i = 0; i < 100; i++) deep[n++] = ']';
+    deep[n++] = '}';
+    assert_int_equal(proto_parse(&parser, deep, n, &msg, &err), CORE_EINVAL);
+    assert_int_equal(err.code, PROTO_ERR_BAD_FIELD);
+    free(deep);
+
+    /* oversize message */
+    size_t big = PROTO_MAX_MESSAGE + 10;
+    char *huge = malloc(big);
+    memset(huge, ' ', big);
+    memcpy(huge, "{\"type\":\"reset\"}", 16);
+    assert_int_equal(proto_parse(&parser, huge, big, &msg, &err), CORE_EINVAL);
+    assert_int_equal(err.code, PROTO_ERR_TOO_LARGE);
+    /* just under the limit with trailing whitespace is fine */
+    assert_int_equal(proto_parse(&parser, huge, PROTO_MAX_MESSAGE, &msg, &err), CORE_OK);
+    free(huge);
+
+    /* not NUL-terminated: only len bytes are read */
+    const char buf[] = "{\"type\":\"reset\"}GARBAGE";
+    assert_int_equal(proto_parse(&parser, buf, 16, &msg, &err), CORE_OK);
+    /* embedded NUL */
+    const char nul[] = "{\"type\":\"reset\"}\0{}";
+    assert_int_equal(proto_parse(&parser, nul, sizeof nul - 1, &msg, &err), CORE_EINVAL);
+    assert_int_equal(err.code, PROTO_ERR_BAD_JSON);
+
+    /* huge numbers */
+    expect_err("{\"type\":\"step\",\"count\":123456789012345678901234567890}", PROTO_ERR_OUT_OF_RANGE, "count");
+    expect_err("{\"type\":\"step\",\"count\":-9e307}", PROTO_ERR_OUT_OF_RANGE, "count");
+    expect_ok("{\"type\":\"set_params\",\"values\":{\"gravity\":1e-320}}", PROTO_SET_PARAMS);
+
+    /* many fields */
+    char many[1024];
+    n = (size_t)sprintf(many, "{\"type\":\"reset\"");
+    for (int i = 0; i < 40; i++) n += (size_t)sprintf(many + n, ",\"f%d\":%d", i, i);
+    sprintf(many + n, "}");
+    expect_err(many, PROTO_ERR_BAD_FIELD, "f0");
+
+    /* unicode: escapes and raw UTF-8 in ids round-trip; lone surrogates are bad JSON */
+    expect_ok("{\"type\":\"reset\",\"id\":\"h\\u00e9llo \\ud83d\\ude00 \xe2\x82\xac\"}", PROTO_RESET);
+    assert_string_equal(msg.id.str, "h\xc3\xa9llo \xf0\x9f\x98\x80 \xe2\x82\xac");
+    cJSON *j = json(proto_build_ok(&msg.id, PROTO_RESET));
+    assert_string_equal(str_of(j, "id"), "h\xc3\xa9llo \xf0\x9f\x98\x80 \xe2\x82\xac");
+    cJSON_Delete(j);
+    expect_err("{\"type\":\"reset\",\"id\":\"\\ud800\"}", PROTO_ERR_BAD_JSON, "");
+    expect_ok("{\"type\":\"r\\u0065set\",\"id\":\"x\"}", PROTO_RESET); /* escapes in names are decoded */
+}
+
+static void test_build_error_and_ok(void **state)
+{
+    (void)state;
+    proto_id id = { .kind = PROTO_ID_NUMBER, .num = 42 };
+    proto_error e;
+    proto_fail(&e, PROTO_ERR_OUT_OF_RANGE, "values.gravity", "values.gravity = %g is outside [0, 50]", -1.0);
+    cJSON *j = json(proto_build_error(&id, &e));
+    assert_string_equal(str_of(j, "type"), "error");
+    assert_true(num_of(j, "id") == 42.0);
+    assert_string_equal(str_of(j, "code"), "out_of_range");
+    assert_string_equal(str_of(j, "field"), "values.gravity");
+    assert_non_null(strstr(str_of(j, "message"), "outside"));
+    cJSON_Delete(j);
+
+    proto_id none = { 0 };
+    j = json(proto_build_ok(&none, PROTO_SET_PARAMS));
+    assert_string_equal(str_of(j, "type"), "ok");
+    assert_string_equal(str_of(j, "request"), "set_params");
+    assert_null(cJSON_GetObjectItemCaseSensitive(j, "id"));
+    cJSON_Delete(j);
+
+    for (int c = PROTO_ERR_BAD_JSON; c <= PROTO_ERR_FAILED; c++) assert_string_not_equal(proto_code_name((proto_code)c), "unknown");
+    for (int t = PROTO_GET_PARAMS; t <= PROTO_KEYFRAME; t++) assert_string_not_equal(proto_type_name((proto_type)t), "unknown");
+}
+
+static void test_build_params(void **state)
+{
+    (void)state;
+    test_params v = { 9.81f, 3, true, 0.2f };
+    proto_id id = { .kind = PROTO_ID_STRING, .str = "g" };
+    cJSON *j = json(proto_build_params(&id, table, 4, &v, NULL, -1));
+    assert_string_equal(str_of(j, "type"), "params");
+    assert_string_equal(str_of(j, "id"), "g");
+    assert_true(cJSON_IsNull(cJSON_GetObjectItemCaseSensitive(j, "by")));
+    const cJSON *vals = cJSON_GetObjectItemCaseSensitive(j, "values");
+    assert_true(num_of(vals, "gravity") == 9.81); /* shortest float form, not 9.8100004196 */
+    assert_true(num_of(vals, "substeps") == 3.0);
+    assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(vals, "sph")));
+    assert_true(num_of(vals, "stiffness") == 0.2);
+    cJSON_Delete(j);
+
+    bool changed[4] = { true, false, false, false };
+    j = json(proto_build_params(NULL, table, 4, &v, changed, 3));
+    vals = cJSON_GetObjectItemCaseSensitive(j, "values");
+    assert_int_equal(cJSON_GetArraySize(vals), 1);
+    assert_true(num_of(j, "by") == 3.0);
+    cJSON_Delete(j);
+}
+
+static void make_groom(core_groom *g)
+{
+    core_err e;
+    assert_int_equal(core_groom_alloc(g, 3, 4, &e), CORE_OK);
+    for (uint32_t s = 0; s < 3; s++)
+        for (uint32_t k = 0; k < 4; k++) {
+            float *p = g->pos + 3 * (s * 4 + k);
+            p[0] = 0.1f * (float)s;
+            p[1] = -0.01f * (float)k * (float)(s + 1);
+            p[2] = 0.05f;
+        }
+    g->ncolliders = 3;
+    g->colliders[0] = (core_collider){ .kind = CORE_COLLIDER_SPHERE, .a = { 0, 0.1f, 0 }, .radius = 0.09f };
+    g->colliders[1] = (core_collider){ .kind = CORE_COLLIDER_CAPSULE, .a = { 0, -0.1f, 0 }, .b = { 0, -0.3f, 0 }, .radius = 0.05f };
+    g->colliders[2] = (core_collider){ .kind = CORE_COLLIDER_ELLIPSOID, .a = { 0, 0, 0 }, .radii = { 0.08f, 0.1f, 0.09f },
+                                       .rot = { 0, 0, 0, 1 } };
+}
+
+static void test_build_hello_and_groom(void **state)
+{
+    (void)state;
+    core_groom g = { 0 };
+    make_groom(&g);
+    proto_groom pg = { "procedural:straight", &g, 7 };
+    proto_groom_json gj;
+    core_err cerr;
+    assert_int_equal(proto_groom_json_build(&gj, &pg, &cerr), CORE_OK);
+    test_params v = { 0.0f, 2, false, 0.1f };
+    static const char *const files[] = { "ratboy/Ratboy_mohawk.tfx" };
+    proto_hello h = {
+        .server = "strandcastd", .version = "0.1.0", .client = 5, .groom = &gj, .head = core_xform_identity(),
+        .params = table, .nparams = 4, .values = &v, .presets = presets, .npresets = 4,
+        .animation = { "nod", 2.0 }, .styles = styles, .nstyles = 3, .files = files, .nfiles = 1,
+        .stream = { "strand", 1, 3, 1e-4, 0, 60, 30 }, .state = { true, 1.5, 90, { "nod", 2.0 } },
+    };
+    cJSON *j = json(proto_build_hello(&h));
+    assert_string_equal(str_of(j, "type"), "hello");
+    assert_string_equal(str_of(j, "subprotocol"), PROTO_SUBPROTOCOL);
+    assert_true(num_of(j, "protocol") == PROTO_VERSION);
+    assert_true(num_of(j, "client") == 5.0);
+    const cJSON *gr = cJSON_GetObjectItemCaseSensitive(j, "groom");
+    assert_string_equal(str_of(gr, "source"), "procedural:straight");
+    assert_true(num_of(gr, "strands") == 3 && num_of(gr, "verts") == 4 && num_of(gr, "seed") == 7);
+    const cJSON *rl = cJSON_GetObjectItemCaseSensitive(gr, "rest_lengths");
+    assert_int_equal(cJSON_GetArraySize(rl), 3);
+    assert_true(fabs(cJSON_GetArrayItem(rl, 2)->valuedouble - 0.03) < 1e-6);
+    const cJSON *roots = cJSON_GetObjectItemCaseSensitive(gr, "roots");
+    assert_int_equal(cJSON_GetArraySize(roots), 9);
+    assert_true(cJSON_GetArrayItem(roots, 3)->valuedouble == 0.1);
+    const cJSON *bounds = cJSON_GetObjectItemCaseSensitive(gr, "bounds");
+    assert_true(fabs(cJSON_GetArrayItem(bounds, 1)->valuedouble + 0.09) < 1e-6 && cJSON_GetArrayItem(bounds, 4)->valuedouble == 0.0);
+    const cJSON *col = cJSON_GetObjectItemCaseSensitive(j, "colliders");
+    assert_int_equal(cJSON_GetArraySize(col), 3);
+    assert_string_equal(str_of(cJSON_GetArrayItem(col, 0), "kind"), "sphere");
+    assert_true(num_of(cJSON_GetArrayItem(col, 0), "radius") == 0.09);
+    assert_string_equal(str_of(cJSON_GetArrayItem(col, 1), "kind"), "capsule");
+    assert_string_equal(str_of(cJSON_GetArrayItem(col, 2), "kind"), "ellipsoid");
+    assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(col, 2), "rotation")), 4);
+    const cJSON *params = cJSON_GetObjectItemCaseSensitive(j, "params");
+    const cJSON *schema = cJSON_GetObjectItemCaseSensitive(params, "schema");
+    assert_int_equal(cJSON_GetArraySize(schema), 4);
+    const cJSON *s0 = cJSON_GetArrayItem(schema, 0);
+    assert_string_equal(str_of(s0, "name"), "gravity");
+    assert_string_equal(str_of(s0, "type"), "float");
+    assert_true(num_of(s0, "max") == 50.0 && num_of(s0, "default") == 9.81);
+    assert_string_equal(str_of(s0, "unit"), "m/s^2");
+    assert_string_equal(str_of(cJSON_GetArrayItem(schema, 3), "help"), "Stiffness \"quoted\".");
+    assert_true(cJSON_IsBool(cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(schema, 2), "default")));
+    assert_true(num_of(cJSON_GetObjectItemCaseSensitive(params, "values"), "substeps") == 2.0);
+    assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(j, "presets")), 4);
+    const cJSON *grooms = cJSON_GetObjectItemCaseSensitive(j, "grooms");
+    assert_string_equal(cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(grooms, "files"), 0)->valuestring, files[0]);
+    const cJSON *stream = cJSON_GetObjectItemCaseSensitive(j, "stream");
+    assert_string_equal(str_of(stream, "codec"), "strand");
+    assert_true(num_of(stream, "keyframe_interval") == 30);
+    const cJSON *st = cJSON_GetObjectItemCaseSensitive(j, "state");
+    assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(st, "paused")));
+    assert_true(num_of(st, "steps") == 90);
+    assert_string_equal(str_of(cJSON_GetObjectItemCaseSensitive(st, "animation"), "preset"), "nod");
+    assert_true(num_of(cJSON_GetObjectItemCaseSensitive(j, "limits"), "max_message") == PROTO_MAX_MESSAGE);
+    cJSON_Delete(j);
+
+    j = json(proto_build_groom(&gj));
+    assert_string_equal(str_of(j, "type"), "groom");
+    assert_true(num_of(cJSON_GetObjectItemCaseSensitive(j, "groom"), "strands") == 3);
+    assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(j, "colliders")), 3);
+    cJSON_Delete(j);
+    proto_groom_json_free(&gj);
+    core_groom_free(&g);
+}
+
+static void test_build_state_stats_subscribed(void **state)
+{
+    (void)state;
+    proto_state s = { false, 2.25, 135, { "shake", 1.5 } };
+    proto_id id = { .kind = PROTO_ID_NUMBER, .num = 3 };
+    cJSON *j = json(proto_build_state(&id, &s));
+    assert_string_equal(str_of(j, "type"), "state");
+    assert_true(cJSON_IsFalse(cJSON_GetObjectItemCaseSensitive(j, "paused")));
+    assert_true(num_of(j, "sim_time") == 2.25);
+    assert_string_equal(str_of(cJSON_GetObjectItemCaseSensitive(j, "animation"), "preset"), "shake");
+    cJSON_Delete(j);
+
+    proto_stats st = { 59.5, 4.25, 0.5, 3, 10.0, 600, 1 };
+    j = json(proto_build_stats(&st));
+    assert_string_equal(str_of(j, "type"), "stats");
+    assert_true(num_of(j, "steps_per_s") == 59.5 && num_of(j, "clients") == 3 && num_of(j, "nan_resets") == 1);
+    cJSON_Delete(j);
+
+    proto_stream ps = { "strand", 4, 1024, 0.001, 30, 60, 30 };
+    j = json(proto_build_subscribed(&id, &ps));
+    assert_string_equal(str_of(j, "type"), "subscribed");
+    const cJSON *so = cJSON_GetObjectItemCaseSensitive(j, "stream");
+    assert_true(num_of(so, "stride") == 4 && num_of(so, "strands") == 1024 && num_of(so, "max_rate") == 30);
+    cJSON_Delete(j);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_simple_messages),   cmocka_unit_test(test_set_params),
+        cmocka_unit_test(test_motion),            cmocka_unit_test(test_animate),
+        cmocka_unit_test(test_step_errors),       cmocka_unit_test(test_set_groom),
+        cmocka_unit_test(test_subscribe),         cmocka_unit_test(test_envelope_errors),
+        cmocka_unit_test(test_hostile_inputs),    cmocka_unit_test(test_build_error_and_ok),
+        cmocka_unit_test(test_build_params),      cmocka_unit_test(test_build_hello_and_groom),
+        cmocka_unit_test(test_build_state_stats_subscribed),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,440 @@
+/* tests: the CPU reference solver (invariants, robustness, features, determinism). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "groom/groom.h"
+#include "sim/sim.h"
+
+#define PI 3.14159265358979323846
+
+typedef struct fixture {
+    core_groom groom;
+    sim s;
+    float *x;
+} fixture;
+
+static void make_style(fixture *f, groom_style style, uint32_t ns, uint32_t nv, const sim_params *p, int threads,
+                       bool colliders)
+{
+    core_err err;
+    groom_desc gd = { .style = style, .nstrands = ns, .nverts = nv, .seed = 7 };
+    assert_int_equal(groom_procedural(&gd, &f->groom, &err), CORE_OK);
+    if (!colliders) f->groom.ncolliders = 0;
+    sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = threads };
+    core_status st = sim_create(&f->s, &d, &f->groom, p, &err);
+    if (st != CORE_OK) fail_msg("sim_create: %s", err.msg);
+    f->x = malloc(sizeof(float) * 3 * ns * nv);
+    assert_non_null(f->x);
+}
+
+static void make(fixture *f, uint32_t ns, uint32_t nv, const sim_params *p, int threads, bool colliders)
+{
+    make_style(f, GROOM_STRAIGHT, ns, nv, p, threads, colliders);
+}
+
+static void drop(fixture *f)
+{
+    sim_destroy(&f->s);
+    core_groom_free(&f->groom);
+    free(f->x);
+}
+
+static void step(fixture *f)
+{
+    core_err err;
+    if (sim_step(&f->s, &err) != CORE_OK) fail_msg("sim_step: %s", err.msg);
+    assert_int_equal(sim_read_positions(&f->s, f->x, &err), CORE_OK);
+}
+
+/* Violent scripted head motion at time t (s): swings, nods and shakes of the given speed factor. */
+static core_xform head_motion(double t, double speed)
+{
+    double w = t * speed;
+    core_xform h = core_xform_identity();
+    h.pos = core_v3((float)(0.15 * sin(2.0 * PI * 1.3 * w)), (float)(0.08 * sin(2.0 * PI * 2.1 * w)),
+                    (float)(0.10 * sin(2.0 * PI * 0.7 * w)));
+    core_quat yaw = core_q_axis_angle(core_v3(0, 1, 0), (float)(1.2 * sin(2.0 * PI * 1.1 * w)));
+    core_quat pitch = core_q_axis_angle(core_v3(1, 0, 0), (float)(0.6 * sin(2.0 * PI * 1.7 * w)));
+    h.rot = core_q_norm(core_q_mul(yaw, pitch));
+    return h;
+}
+
+static float dist3(const float *a, const float *b)
+{
+    float dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+    return sqrtf(dx * dx + dy * dy + dz * dz);
+}
+
+static double max_segment_error(const fixture *f)
+{
+    double worst = 0.0;
+    uint32_t nv = f->groom.nverts;
+    for (uint32_t s = 0; s < f->groom.nstrands; s++)
+        for (uint32_t l = 1; l < nv; l++) {
+            size_t i = 3 * ((size_t)s * nv + l);
+            double rest = dist3(f->groom.pos + i, f->groom.pos + i - 3);
+            double now = dist3(f->x + i, f->x + i - 3);
+            double e = fabs(now / rest - 1.0);
+            if (!(e <= worst)) worst = e; /* NaN makes it fail */
+        }
+    return worst;
+}
+
+/* Mean distance of every vertex to its rest position under head transform h, and the mean
+ * strand length (for normalising). */
+static double mean_rest_distance(const fixture *f, core_xform h, double *strand_len)
+{
+    uint32_t ns = f->groom.nstrands, nv = f->groom.nverts;
+    double sum = 0.0, len = 0.0;
+    for (uint32_t s = 0; s < ns; s++)
+        for (uint32_t l = 0; l < nv; l++) {
+            size_t i = 3 * ((size_t)s * nv + l);
+            core_vec3 r = core_xform_point(h, core_v3(f->groom.pos[i], f->groom.pos[i + 1], f->groom.pos[i + 2]));
+            float rp[3] = { r.x, r.y, r.z };
+            sum += dist3(f->x + i, rp);
+            if (l > 0) len += dist3(f->groom.pos + i, f->groom.pos + i - 3);
+        }
+    *strand_len = len / ns;
+    return sum / ((double)ns * nv);
+}
+
+static void assert_all_finite(const fixture *f)
+{
+    size_t n = 3 * (size_t)f->groom.nstrands * f->groom.nverts;
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(f->x[i])) fail_msg("position %zu is not finite", i / 3);
+}
+
+/* Penetration depth of p into collider c (world space under h) relative to its radius. */
+static double relative_depth(const core_collider *c, core_xform h, const float *p)
+{
+    core_vec3 x = core_v3(p[0], p[1], p[2]);
+    core_vec3 a = core_xform_point(h, c->a);
+    switch (c->kind) {
+    case CORE_COLLIDER_SPHERE:
+        return (c->radius - core_v3_len(core_v3_sub(x, a))) / c->radius;
+    case CORE_COLLIDER_CAPSULE: {
+        core_vec3 b = core_xform_point(h, c->b), ab = core_v3_sub(b, a);
+        float t = core_v3_dot(core_v3_sub(x, a), ab) / core_v3_dot(ab, ab);
+        t = t < 0 ? 0 : t > 1 ? 1 : t;
+        return (c->radius - core_v3_len(core_v3_sub(x, core_v3_add(a, core_v3_scale(ab, t))))) / c->radius;
+    }
+    case CORE_COLLIDER_ELLIPSOID: {
+        core_vec3 u = core_q_rotate(core_q_conj(core_q_mul(h.rot, c->rot)), core_v3_sub(x, a));
+        core_vec3 s = core_v3(u.x / c->radii.x, u.y / c->radii.y, u.z / c->radii.z);
+        return 1.0 - core_v3_len(s); /* fraction of the radius along that direction */
+    }
+    }
+    return 0.0;
+}
+
+/* (1) Inextensibility: no colliders, 600 steps of violent head motion. */
+static void test_inextensibility(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    fixture f;
+    make(&f, 256, 24, &p, 2, false);
+    double worst = 0.0;
+    for (int i = 0; i < 600; i++) {
+        sim_set_motion(&f.s, head_motion(i * p.dt, 1.0));
+        step(&f);
+        double e = max_segment_error(&f);
+        if (!(e <= worst)) worst = e;
+    }
+    printf("max relative segment-length error over 600 steps: %.3g\n", worst);
+    assert_true(worst <= 1e-4);
+    drop(&f);
+}
+
+/* (2) Colliders: no vertex inside a collider by more than 1% of its radius after any step. */
+static void test_collisions(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    fixture f;
+    make(&f, 256, 24, &p, 2, true);
+    assert_true(f.groom.ncolliders >= 2);
+    double worst = -1.0;
+    for (int i = 0; i < 400; i++) {
+        core_xform h = head_motion(i * p.dt, 1.5);
+        sim_set_motion(&f.s, h);
+        step(&f);
+        for (size_t v = 0; v < (size_t)f.groom.nstrands * f.groom.nverts; v++) {
+            if (v % f.groom.nverts == 0) continue; /* roots are kinematic, placed by the groom */
+            for (uint32_t k = 0; k < f.groom.ncolliders; k++) {
+                double d = relative_depth(&f.groom.colliders[k], h, f.x + 3 * v);
+                if (d > worst) { worst = d; if (getenv("DBG")) printf("step %d vertex %zu level %zu collider %u kind %d depth %g\n", i, v, v % f.groom.nverts, k, f.groom.colliders[k].kind, d); }
+            }
+        }
+    }
+    printf("deepest penetration: %.3g of the collider radius\n", worst);
+    assert_true(worst <= 0.01);
+    drop(&f);
+}
+
+/* Mean distance between two position sets. */
+static double mean_distance(const float *a, const float *b, size_t nverts)
+{
+    double sum = 0.0;
+    for (size_t i = 0; i < nverts; i++) sum += dist3(a + 3 * i, b + 3 * i);
+    return sum / (double)nverts;
+}
+
+/* (3) Robustness (the hair-mesh paper's test): the hair settles under gravity, then 5 s of
+ * head motion at 10x speed, then 3 s of rest: it comes back to its rest pose (the pose it
+ * rests in under gravity with the head still) and nothing is NaN. */
+static void test_robustness(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    fixture f;
+    make(&f, 256, 24, &p, 2, true);
+    size_t nverts = (size_t)f.groom.nstrands * f.groom.nverts;
+    int settle = (int)lround(3.0 / p.dt), shake = (int)lround(5.0 / p.dt);
+    for (int i = 0; i < settle; i++) step(&f);
+    float *rest = malloc(sizeof(float) * 3 * nverts);
+    memcpy(rest, f.x, sizeof(float) * 3 * nverts);
+    double len, shaken = 0.0;
+    mean_rest_distance(&f, core_xform_identity(), &len);
+    for (int i = 0; i < shake; i++) {
+        sim_set_motion(&f.s, head_motion(i * p.dt, 10.0));
+        step(&f);
+        assert_all_finite(&f);
+        double d = mean_distance(f.x, rest, nverts);
+        if (d > shaken) shaken = d;
+    }
+    sim_set_motion(&f.s, core_xform_identity());
+    for (int i = 0; i < settle; i++) step(&f);
+    assert_all_finite(&f);
+    double d = mean_distance(f.x, rest, nverts);
+    printf("10x shaking moved the hair up to %.4f m (mean); after 3 s rest: %.4f m = %.2f%% of strand length\n",
+           shaken, d, 100.0 * d / len);
+    assert_true(shaken > 0.1 * len); /* the motion really was violent */
+    assert_true(d < 0.05 * len);
+    free(rest);
+    drop(&f);
+}
+
+static double settle_distance(bool shape, double *len)
+{
+    sim_params p;
+    sim_params_default(&p);
+    p.shape = shape;
+    p.sph = false;
+    fixture f;
+    make_style(&f, GROOM_CURLY, 256, 24, &p, 2, true);
+    for (int i = 0; i < 180; i++) step(&f);
+    double d = mean_rest_distance(&f, core_xform_identity(), len);
+    drop(&f);
+    return d;
+}
+
+/* (4) Shape preservation holds the settled hair closer to its styled rest shape (curls stay
+ * curled instead of being pulled straight by gravity). */
+static void test_shape_preservation(void **state)
+{
+    (void)state;
+    double len, on = settle_distance(true, &len), off = settle_distance(false, &len);
+    printf("settled mean distance to the curly rest shape: shape on %.4f m, off %.4f m\n", on, off);
+    assert_true(on < 0.8 * off);
+}
+
+/* Mean distance from each non-root vertex to the nearest vertex of another strand. */
+static double mean_nearest_other_strand(const fixture *f)
+{
+    uint32_t ns = f->groom.nstrands, nv = f->groom.nverts;
+    double sum = 0.0;
+    size_t cnt = 0;
+    for (uint32_t s = 0; s < ns; s++)
+        for (uint32_t l = nv / 2; l < nv; l++) {
+            const float *a = f->x + 3 * ((size_t)s * nv + l);
+            float best = INFINITY;
+            for (uint32_t t = 0; t < ns; t++) {
+                if (t == s) continue;
+                for (uint32_t m = 0; m < nv; m++) {
+                    float d = dist3(a, f->x + 3 * ((size_t)t * nv + m));
+                    if (d < best) best = d;
+                }
+            }
+            sum += best;
+            cnt++;
+        }
+    return sum / (double)cnt;
+}
+
+static double volume_with_sph(bool sph)
+{
+    sim_params p;
+    sim_params_default(&p);
+    p.sph = sph;
+    p.shape = false; /* as in the paper's figure 2b: hair-hair interaction alone gives volume */
+    p.repulsion = 0.5f;
+    p.sph_radius = 0.008f;
+    fixture f;
+    make(&f, 384, 16, &p, 2, true);
+    for (int i = 0; i < 120; i++) step(&f);
+    double d = mean_nearest_other_strand(&f);
+    drop(&f);
+    return d;
+}
+
+/* (5) SPH repulsion gives the hair volume: strands sit further apart. */
+static void test_sph_volume(void **state)
+{
+    (void)state;
+    double on = volume_with_sph(true), off = volume_with_sph(false);
+    printf("mean nearest other-strand distance: sph on %.5f m, off %.5f m\n", on, off);
+    assert_true(on > 1.05 * off);
+}
+
+/* (6) The same inputs give bitwise the same positions for any thread count. */
+static void test_determinism(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    p.sph_radius = 0.006f;
+    float *ref = NULL;
+    const int threads[] = { 1, 2, 3, 5 };
+    for (size_t k = 0; k < sizeof threads / sizeof threads[0]; k++) {
+        fixture f;
+        make(&f, 300, 12, &p, threads[k], true);
+        for (int i = 0; i < 40; i++) {
+            sim_set_motion(&f.s, head_motion(i * p.dt, 3.0));
+            step(&f);
+        }
+        size_t bytes = sizeof(float) * 3 * 300 * 12;
+        if (!ref) {
+            ref = malloc(bytes);
+            memcpy(ref, f.x, bytes);
+        } else {
+            assert_memory_equal(ref, f.x, bytes);
+        }
+        drop(&f);
+    }
+    free(ref);
+}
+
+/* Parameters are validated: type ranges and finiteness, with the field named. */
+static void test_param_validation(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    core_err err;
+    assert_int_equal(sim_params_validate(&p, &err), CORE_OK);
+    p.damping = NAN;
+    assert_int_equal(sim_params_validate(&p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "damping"));
+    sim_params_default(&p);
+    p.local_stiffness = 0.5f;
+    assert_int_equal(sim_params_validate(&p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "local_stiffness"));
+    sim_params_default(&p);
+    p.substeps = 0;
+    assert_int_equal(sim_params_validate(&p, &err), CORE_EINVAL);
+    fixture f;
+    sim_params_default(&p);
+    make(&f, 16, 8, &p, 1, true);
+    p.gravity = INFINITY;
+    assert_int_equal(sim_set_params(&f.s, &p, &err), CORE_EINVAL);
+    drop(&f);
+}
+
+/* Gravity and parameter changes take effect between steps. */
+static void test_param_changes(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    p.shape = false;
+    fixture f;
+    make(&f, 64, 12, &p, 1, false);
+    core_err err;
+    p.gravity = 0.0f;
+    assert_int_equal(sim_set_params(&f.s, &p, &err), CORE_OK);
+    for (int i = 0; i < 30; i++) step(&f);
+    double len, still = mean_rest_distance(&f, core_xform_identity(), &len);
+    p.gravity = 9.81f;
+    assert_int_equal(sim_set_params(&f.s, &p, &err), CORE_OK);
+    for (int i = 0; i < 30; i++) step(&f);
+    double fell = mean_rest_distance(&f, core_xform_identity(), &len);
+    printf("gravity off: %.5f m from rest; on: %.5f m\n", still, fell);
+    assert_true(still < 1e-4);
+    assert_true(fell > 0.01);
+    drop(&f);
+}
+
+/* A non-finite blow-up is contained: the strand is restored and counted. */
+static void test_nan_guard(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    fixture f;
+    make(&f, 32, 8, &p, 2, true);
+    size_t n = 3 * 32 * 8;
+    float *vel = calloc(n, sizeof *vel);
+    core_err err;
+    assert_int_equal(sim_read_state(&f.s, f.x, vel, &err), CORE_OK);
+    for (int l = 1; l < 8; l++) { /* strand 5 at the edge of float range: the prediction overflows */
+        f.x[3 * (5 * 8 + l)] = 3.4e38f;
+        vel[3 * (5 * 8 + l)] = 3.4e38f;
+    }
+    assert_int_equal(sim_write_state(&f.s, f.x, vel, &err), CORE_OK);
+    step(&f);
+    assert_all_finite(&f);
+    sim_stats st;
+    sim_get_stats(&f.s, &st);
+    assert_int_equal(st.nan_resets, 1);
+    vel[0] = NAN;
+    assert_int_equal(sim_write_state(&f.s, f.x, vel, &err), CORE_EINVAL);
+    free(vel);
+    drop(&f);
+}
+
+/* Roots follow the head transform exactly. */
+static void test_roots_follow_head(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    p.substeps = 3;
+    fixture f;
+    make(&f, 40, 8, &p, 2, true);
+    core_xform h = head_motion(0.37, 1.0);
+    sim_set_motion(&f.s, h);
+    step(&f);
+    for (uint32_t s = 0; s < 40; s++) {
+        const float *r = f.groom.pos + 3 * (size_t)s * 8;
+        core_vec3 want = core_xform_point(h, core_v3(r[0], r[1], r[2]));
+        const float *got = f.x + 3 * (size_t)s * 8;
+        assert_float_equal(got[0], want.x, 1e-6);
+        assert_float_equal(got[1], want.y, 1e-6);
+        assert_float_equal(got[2], want.z, 1e-6);
+    }
+    drop(&f);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_inextensibility),   cmocka_unit_test(test_collisions),
+        cmocka_unit_test(test_robustness),        cmocka_unit_test(test_shape_preservation),
+        cmocka_unit_test(test_sph_volume),        cmocka_unit_test(test_determinism),
+        cmocka_unit_test(test_param_validation),  cmocka_unit_test(test_param_changes),
+        cmocka_unit_test(test_nan_guard),         cmocka_unit_test(test_roots_follow_head),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
