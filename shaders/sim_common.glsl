@@ -6,6 +6,11 @@ const uint MAX_SUBSTEPS = 16u;
 const uint MAX_COLLIDERS = 32u;
 const uint MAX_NEIGHBORS = 64u;
 
+// Collision / rest-length alternations per vertex, then final passes over the colliders
+// (sim_cpu_chain.c COLLISION_ITERATIONS, CREVICE_PASSES).
+const uint COLLISION_ITERATIONS = 1u;
+const uint CREVICE_PASSES = 2u;
+
 const uint FLAG_SHAPE = 1u;
 const uint FLAG_SPH = 2u;
 const uint FLAG_COLLISIONS = 4u;
@@ -213,9 +218,11 @@ void chain_solve(uint s, uint l, uint k, vec3 pred, inout Chain ch)
     xs = len > 1e-12 ? ch.p - dd * (L / max(len, 1e-12)) : tgt;
     vec3 delta = xs - pred;
     if (F.ncolliders > 0u) {
-        xs = collide_all(xs, k);
-        xs = follow(ch.p, xs, r);
-        xs = collide_all(xs, k);
+        for (uint it = 0u; it < COLLISION_ITERATIONS; it++) {
+            xs = collide_all(xs, k);
+            xs = follow(ch.p, xs, r);
+        }
+        for (uint pass = 0u; pass < CREVICE_PASSES; pass++) xs = collide_all(xs, k);
     }
     if (l > 1u) {
         uint j = i - NS;
@@ -231,7 +238,7 @@ void chain_solve(uint s, uint l, uint k, vec3 pred, inout Chain ch)
     rq = rq * (1.0 / sqrt(max(rq.x * rq.x + rq.y * rq.y + rq.z * rq.z + rq.w * rq.w, 1e-30)));
     vec4 nq = qmul(ch.q, rq);
     ch.q = nq * (1.0 / sqrt(max(nq.x * nq.x + nq.y * nq.y + nq.z * nq.z + nq.w * nq.w, 1e-30)));
-    ch.bad = ch.bad || !finite3(xs);
+    ch.bad = ch.bad || !finite3(xs) || !finite3(delta) || !finite3(xo);
     ch.p = xs;
     ch.o = xo;
     ch.pr = rl;

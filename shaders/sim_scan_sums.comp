@@ -12,7 +12,7 @@ shared uint tmp[1024];
 void main()
 {
     uint t = gl_LocalInvocationID.x, nt = gl_WorkGroupSize.x;
-    uint nblocks = G.disp_blocks.w;
+    uint nblocks = G.dims.w / SCAN_BLOCK;
     uint carry = 0u;
     for (uint base = 0u; base < nblocks; base += nt) {
         uint v = base + t < nblocks ? BLOCK.d[base + t] : 0u;

@@ -1,26 +1,25 @@
 // shaders: buffers and helpers of the SPH stage (port of sim_cpu_sph.c): hash grid, stable
 // counting sort, capped nearest neighbours, density, pressure and viscosity.
 
-// Accelerations are h / (1/60 s)^2 per unit of the pressure term (host: F.kp).
-const uint SPH_MAX_CANDIDATES = 4096u; // candidates examined per particle before rows are skipped
-const uint SCAN_BLOCK = 512u;          // cells per scan workgroup
+const uint SPH_MAX_CANDIDATES = 1024u; // candidates within h gathered per particle (checked per block)
+const uint SPH_SCAN_BLOCK = 64u;       // candidates examined per block
+const uint SCAN_BLOCK = 512u;          // buckets per prefix-sum workgroup
+const uint MAX_COORD = 1048575u;       // cell coordinates are clamped to 20 bits
 
 layout(std430, set = 0, binding = 6) buffer GridBuf {
     uint bmin[3];      // bounding box as order-preserving uint encodings of floats
     uint bmax[3];
     uint pad0[2];
-    vec4 origin;       // xyz: grid origin, w: cell size
+    vec4 origin;       // xyz: grid origin (box minimum - one cell), w: cell size
     vec4 inv;          // x: 1 / cell size
-    uvec4 dims;        // cells along x, y, z; w: total cells
-    uvec4 disp_cells;  // indirect dispatch over cells (SIM_VK_WG per workgroup)
-    uvec4 disp_blocks; // indirect dispatch over scan blocks; w: number of blocks
+    uvec4 dims;        // cells along x, y, z (the hash's strides); w: buckets (a power of two)
 } G;
 layout(std430, set = 0, binding = 7) buffer CountBuf { uint d[]; } COUNT;  // per cell; zero between passes
 layout(std430, set = 0, binding = 8) buffer StartBuf { uint d[]; } START;  // per cell + 1: first sorted slot
 layout(std430, set = 0, binding = 9) buffer BlockBuf { uint d[]; } BLOCK;  // per scan block
 layout(std430, set = 0, binding = 10) buffer CellOfBuf { uint d[]; } CELL_OF; // per particle
 layout(std430, set = 0, binding = 11) buffer OrderBuf { uint d[]; } ORDER;   // sorted slot -> particle
-layout(std430, set = 0, binding = 12) buffer SxBuf { vec4 d[]; } SX;         // sorted positions
+layout(std430, set = 0, binding = 12) buffer SxBuf { vec4 d[]; } SX;         // sorted positions, w: strand bits
 layout(std430, set = 0, binding = 13) buffer SvBuf { vec4 d[]; } SV;         // sorted velocities
 layout(std430, set = 0, binding = 14) buffer RhoBuf { float d[]; } RHO;      // per sorted slot
 layout(std430, set = 0, binding = 15) buffer PressBuf { float d[]; } PRESS;  // per sorted slot
@@ -38,19 +37,19 @@ uint f2key(float f)
 }
 float key2f(uint k) { return uintBitsToFloat((k & 0x80000000u) != 0u ? k & 0x7fffffffu : ~k); }
 
-uint cell_coord(float p, float origin, float inv, uint dim)
+uint cell_coord(float p, float origin, float inv)
 {
     float f = (p - origin) * inv;
     if (!(f > 0.0)) return 0u; // also NaN
-    return f >= float(dim - 1u) ? dim - 1u : uint(f);
+    return f >= float(MAX_COORD) ? MAX_COORD : uint(f);
 }
 
-uint cell_of_pos(vec3 p)
+// The cell's linear index in the box grid folded into the power-of-two bucket table (uint
+// arithmetic wraps, which keeps the low bits the C backend's 64-bit index has).
+uint cell_hash(uint cx, uint cy, uint cz) { return ((cz * G.dims.y + cy) * G.dims.x + cx) & (G.dims.w - 1u); }
+
+uint bucket_of(vec3 p)
 {
-    uint cx = cell_coord(p.x, G.origin.x, G.inv.x, G.dims.x);
-    uint cy = cell_coord(p.y, G.origin.y, G.inv.x, G.dims.y);
-    uint cz = cell_coord(p.z, G.origin.z, G.inv.x, G.dims.z);
-    return (cz * G.dims.y + cy) * G.dims.x + cx;
+    return cell_hash(cell_coord(p.x, G.origin.x, G.inv.x), cell_coord(p.y, G.origin.y, G.inv.x),
+                     cell_coord(p.z, G.origin.z, G.inv.x));
 }
-
-uint slot_end(uint cell) { return START.d[cell]; } // START[ncells] = n

@@ -1,5 +1,5 @@
-// shaders: sorts each cell's slots by particle index (a stable counting sort overall, as the C
-// backend's) and gathers the sorted positions and velocities.
+// shaders: sorts each bucket's slots by particle index (a stable counting sort overall, as the
+// C backend's) and gathers the sorted positions (with the strand in w) and velocities.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "sim_common.glsl"
@@ -23,7 +23,7 @@ void main()
     }
     for (uint a = first; a < last; a++) {
         uint i = ORDER.d[a];
-        SX.d[a] = vec4(sph_pos(i), 0.0);
+        SX.d[a] = vec4(sph_pos(i), uintBitsToFloat(i % NS));
         SV.d[a] = vec4(sph_vel(i), 0.0);
     }
 }

@@ -10,7 +10,7 @@ void main()
 {
     uint i = gl_GlobalInvocationID.x;
     if (i >= NS * NV) return;
-    uint cell = cell_of_pos(sph_pos(i));
+    uint cell = bucket_of(sph_pos(i));
     CELL_OF.d[i] = cell;
     atomicAdd(COUNT.d[cell], 1u);
 }

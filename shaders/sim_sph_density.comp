@@ -1,6 +1,7 @@
-// shaders: per sorted slot, the cap nearest particles of other strands within h (a max-heap on
-// (r^2, slot) over the 9 rows of 3 cells around it, as sim_cpu_sph.c), the density over them
-// in heap order, the pressure (not in the rest-density pass), and the neighbour list.
+// shaders: per sorted slot, the particles of other strands within h in the buckets of the 27
+// cells around it (bucket ranges sorted and merged, scanned in blocks of SPH_SCAN_BLOCK until
+// SPH_MAX_CANDIDATES are gathered, as sim_cpu_sph.c), the cap nearest of them by (r^2, slot),
+// the density, the pressure (not in the rest-density pass) and the neighbour list.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "sim_common.glsl"
@@ -8,86 +9,123 @@
 
 layout(local_size_x_id = 0) in;
 
-float hr2[MAX_NEIGHBORS];
-uint hslot[MAX_NEIGHBORS];
-int hn, hcap;
+// The kept candidates: in gather order while at most cap are found, then a max-heap.
+float kr2[MAX_NEIGHBORS];
+uint kslot[MAX_NEIGHBORS];
+int kn, kcap;
 
-bool heap_less(int a, int b) { return hr2[a] < hr2[b] || (hr2[a] == hr2[b] && hslot[a] < hslot[b]); }
+bool key_less(int a, int b) { return kr2[a] < kr2[b] || (kr2[a] == kr2[b] && kslot[a] < kslot[b]); }
 
-void heap_swap(int a, int b)
+void key_swap(int a, int b)
 {
-    float r = hr2[a];
-    uint s = hslot[a];
-    hr2[a] = hr2[b];
-    hslot[a] = hslot[b];
-    hr2[b] = r;
-    hslot[b] = s;
+    float r = kr2[a];
+    uint s = kslot[a];
+    kr2[a] = kr2[b];
+    kslot[a] = kslot[b];
+    kr2[b] = r;
+    kslot[b] = s;
 }
 
-void heap_offer(float r2, uint slot)
+void sift_down(int i)
 {
-    if (hn < hcap) {
-        int i = hn++;
-        hr2[i] = r2;
-        hslot[i] = slot;
-        while (i > 0 && heap_less((i - 1) / 2, i)) {
-            heap_swap(i, (i - 1) / 2);
-            i = (i - 1) / 2;
-        }
-        return;
-    }
-    if (!(r2 < hr2[0] || (r2 == hr2[0] && slot < hslot[0]))) return;
-    hr2[0] = r2;
-    hslot[0] = slot;
-    int i = 0;
     for (;;) {
         int l = 2 * i + 1, r = l + 1, m = i;
-        if (l < hn && heap_less(m, l)) m = l;
-        if (r < hn && heap_less(m, r)) m = r;
-        if (m == i) break;
-        heap_swap(i, m);
+        if (l < kn && key_less(m, l)) m = l;
+        if (r < kn && key_less(m, r)) m = r;
+        if (m == i) return;
+        key_swap(i, m);
         i = m;
     }
+}
+
+// Offers candidate number m (0-based) of this particle.
+void offer(uint m, float r2, uint slot)
+{
+    if (kn < kcap) {
+        kr2[kn] = r2;
+        kslot[kn] = slot;
+        kn++;
+        return;
+    }
+    if (m == uint(kcap)) // the first overflow: the list becomes a max-heap
+        for (int i = kcap / 2 - 1; i >= 0; i--) sift_down(i);
+    if (!(r2 < kr2[0] || (r2 == kr2[0] && slot < kslot[0]))) return;
+    kr2[0] = r2;
+    kslot[0] = slot;
+    sift_down(0);
 }
 
 void main()
 {
     uint a = gl_GlobalInvocationID.x;
-    uint n = NS * NV;
-    if (a >= n) return;
-    uint cell = CELL_OF.d[ORDER.d[a]];
-    uint dx = G.dims.x, dy = G.dims.y, dz = G.dims.z, ncells = G.dims.w;
-    uint cx = cell % dx, cy = cell / dx % dy, cz = cell / dx / dy;
-    uint x0 = cx > 0u ? cx - 1u : 0u, x1 = cx + 1u < dx ? cx + 1u : dx - 1u;
-    vec3 xi = SX.d[a].xyz;
-    uint si = ORDER.d[a] % NS;
+    if (a >= NS * NV) return;
+    vec4 pa = SX.d[a];
+    vec3 xi = pa.xyz;
+    uint si = floatBitsToUint(pa.w);
+    uint cx = cell_coord(xi.x, G.origin.x, G.inv.x), cy = cell_coord(xi.y, G.origin.y, G.inv.x),
+         cz = cell_coord(xi.z, G.origin.z, G.inv.x);
+    // bucket ranges [lo, hi] of the 9 rows of 3 x-neighbours, split where the fold wraps,
+    // sorted by lo and merged
+    uint mask = G.dims.w - 1u;
+    uint rlo[18], rhi[18];
+    int n = 0;
+    for (uint z = cz - 1u; z != cz + 2u; z++)
+        for (uint y = cy - 1u; y != cy + 2u; y++) {
+            uint b0 = cell_hash(cx - 1u, y, z), b1 = (b0 + 2u) & mask;
+            uint seg_lo[2] = uint[2](b0, 0u), seg_hi[2] = uint[2](b1, b1);
+            int segs = 1;
+            if (b1 < b0) {
+                seg_hi[0] = mask;
+                segs = 2;
+            }
+            for (int k = 0; k < segs; k++) {
+                int i = n++;
+                while (i > 0 && rlo[i - 1] > seg_lo[k]) {
+                    rlo[i] = rlo[i - 1];
+                    rhi[i] = rhi[i - 1];
+                    i--;
+                }
+                rlo[i] = seg_lo[k];
+                rhi[i] = seg_hi[k];
+            }
+        }
+    int nr = 0;
+    for (int k = 0; k < n; k++) {
+        if (nr > 0 && rlo[k] <= rhi[nr - 1] + 1u) {
+            if (rhi[k] > rhi[nr - 1]) rhi[nr - 1] = rhi[k];
+        } else {
+            rlo[nr] = rlo[k];
+            rhi[nr] = rhi[k];
+            nr++;
+        }
+    }
     float h2 = F.h2;
-    hn = 0;
-    hcap = int(F.cap);
-    uint examined = 0u;
-    for (int oz = -1; oz <= 1; oz++) {
-        if ((oz < 0 && cz == 0u) || (oz > 0 && cz + 1u >= dz)) continue;
-        for (int oy = -1; oy <= 1; oy++) {
-            if ((oy < 0 && cy == 0u) || (oy > 0 && cy + 1u >= dy)) continue;
-            if (examined >= SPH_MAX_CANDIDATES) continue;
-            uint row = (uint(int(cz) + oz) * dy + uint(int(cy) + oy)) * dx;
-            uint rb = START.d[row + x0], re = START.d[row + x1 + 1u];
-            examined += re - rb;
-            for (uint j = rb; j < re; j++) {
-                vec3 d = SX.d[j].xyz - xi;
-                float r2 = d.x * d.x + d.y * d.y + d.z * d.z;
-                if (r2 < h2 && ORDER.d[j] % NS != si) heap_offer(r2, j);
+    kn = 0;
+    kcap = int(F.cap);
+    uint m = 0u;
+    for (int r = 0; r < nr; r++) {
+        uint rb = START.d[rlo[r]], re = START.d[rhi[r] + 1u];
+        for (uint j0 = rb; j0 < re && m < SPH_MAX_CANDIDATES; j0 += SPH_SCAN_BLOCK) {
+            uint j1 = re - j0 < SPH_SCAN_BLOCK ? re : j0 + SPH_SCAN_BLOCK;
+            for (uint j = j0; j < j1; j++) {
+                vec4 pj = SX.d[j];
+                float dx = pj.x - xi.x, dy = pj.y - xi.y, dz = pj.z - xi.z;
+                float r2 = (dx * dx + dy * dy) + dz * dz;
+                if (r2 < h2 && floatBitsToUint(pj.w) != si) {
+                    offer(m, r2, j);
+                    m++;
+                }
             }
         }
     }
     float rho = 1.0;
     uint cap = F.cap;
-    for (int k = 0; k < hn; k++) {
-        float q = 1.0 - hr2[k] * F.inv_h2;
+    for (int k = 0; k < kn; k++) {
+        float q = 1.0 - kr2[k] * F.inv_h2;
         rho += q * q * q;
-        NBR.d[a * cap + uint(k)] = hslot[k];
+        NBR.d[a * cap + uint(k)] = kslot[k];
     }
-    NNBR.d[a] = uint(hn);
+    NNBR.d[a] = uint(kn);
     RHO.d[a] = rho;
     PRESS.d[a] = max(rho * F.inv_rho0 - 1.0, 0.0);
 }

@@ -95,7 +95,7 @@ static core_status make_buffers(sim_vk *s, core_err *err)
         { &s->a, p3, SIM_VK_B_A, xfer, "sph accelerations" },
         { &s->rest_buf, p3, SIM_VK_B_REST, xfer, "rest positions" },
         { &s->strand, (size_t)s->ns * 8 * sizeof(float), SIM_VK_B_STRAND, 0, "chain state" },
-        { &s->grid, 128, SIM_VK_B_GRID, xfer | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, "sph grid" },
+        { &s->grid, 128, SIM_VK_B_GRID, xfer, "sph grid" },
         { &s->count, cells * sizeof(uint32_t), SIM_VK_B_COUNT, xfer, "sph cell counts" },
         { &s->start, (cells + 1) * sizeof(uint32_t), SIM_VK_B_START, 0, "sph cell starts" },
         { &s->block, blocks * sizeof(uint32_t), SIM_VK_B_BLOCK, 0, "sph scan blocks" },
@@ -181,15 +181,16 @@ static void vk_destroy(void *self)
     sim_vk_ctx_destroy(&s->ctx);
     free(s->rest);
     free(s->host_tmp);
+    free(s->perm);
     free(s);
 }
 
-/* Level-major xyz (GPU order) <-> strand-major xyz (interface order). */
+/* Level-major xyz in the GPU's strand order <-> strand-major xyz in the groom's order. */
 static void to_strand_major(const sim_vk *s, const float *lm, float *sm)
 {
     for (uint32_t st = 0; st < s->ns; st++)
         for (uint32_t l = 0; l < s->nv; l++) {
-            size_t i = (size_t)l * s->ns + st, o = (size_t)st * s->nv + l;
+            size_t i = (size_t)l * s->ns + st, o = (size_t)s->perm[st] * s->nv + l;
             memcpy(sm + 3 * o, lm + 3 * i, 3 * sizeof(float));
         }
 }
@@ -198,7 +199,7 @@ static void to_level_major(const sim_vk *s, const float *sm, float *lm)
 {
     for (uint32_t st = 0; st < s->ns; st++)
         for (uint32_t l = 0; l < s->nv; l++) {
-            size_t i = (size_t)l * s->ns + st, o = (size_t)st * s->nv + l;
+            size_t i = (size_t)l * s->ns + st, o = (size_t)s->perm[st] * s->nv + l;
             memcpy(lm + 3 * i, sm + 3 * o, 3 * sizeof(float));
         }
 }
@@ -463,13 +464,19 @@ static core_status create_impl(const sim_desc *desc, const sim_vk_options *opt, 
     s->head = s->prev_head = core_xform_identity();
     s->ncolliders = g->ncolliders;
     memcpy(s->colliders, g->colliders, sizeof s->colliders);
-    size_t budget = s->n * 2 > (1u << 16) ? s->n * 2 : (1u << 16);
-    s->cells_cap = budget + budget / 8 + 1024;
+    /* hash buckets: a power of two >= 2n (at least 4096), as the C backend */
+    s->cells_cap = 4096;
+    while (s->cells_cap < 2 * s->n) s->cells_cap *= 2;
     s->rest = malloc(s->n * 3 * sizeof(float));
     s->host_tmp = malloc(s->n * 3 * sizeof(float));
     if (!s->rest || !s->host_tmp) {
         vk_destroy(s);
         return core_fail(err, CORE_ENOMEM, "out of memory for %zu particles", s->n);
+    }
+    st = sim_vk_strand_order(g, &s->perm, err);
+    if (st != CORE_OK) {
+        vk_destroy(s);
+        return st;
     }
     to_level_major(s, g->pos, s->rest);
 #ifdef STRANDCAST_VK_DEBUG

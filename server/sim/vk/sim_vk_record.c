@@ -45,7 +45,7 @@ void sim_vk_record_sph(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set, bool
 
     bind(s, cmd, SIM_VK_P_SCAN_BLOCKS);
     push(s, cmd, 0, 0, mode, cells_cap);
-    vkCmdDispatchIndirect(cmd, s->grid.buf, 96);
+    vkCmdDispatch(cmd, (uint32_t)(s->cells_cap / SIM_VK_SCAN_BLOCK), 1, 1);
     sim_vk_barrier(cmd);
     bind(s, cmd, SIM_VK_P_SCAN_SUMS);
     push(s, cmd, 0, 0, mode, cells_cap);
@@ -53,7 +53,7 @@ void sim_vk_record_sph(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set, bool
     sim_vk_barrier(cmd);
     bind(s, cmd, SIM_VK_P_SCAN_ADD);
     push(s, cmd, 0, 0, mode, cells_cap);
-    vkCmdDispatchIndirect(cmd, s->grid.buf, 96);
+    vkCmdDispatch(cmd, (uint32_t)(s->cells_cap / SIM_VK_SCAN_BLOCK), 1, 1);
     sim_vk_barrier(cmd);
     bind(s, cmd, SIM_VK_P_SPH_SCATTER);
     push(s, cmd, 0, 0, mode, cells_cap);
@@ -61,7 +61,7 @@ void sim_vk_record_sph(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set, bool
     sim_vk_barrier(cmd);
     bind(s, cmd, SIM_VK_P_SPH_CELLSORT);
     push(s, cmd, 0, 0, mode, cells_cap);
-    vkCmdDispatchIndirect(cmd, s->grid.buf, 80);
+    vkCmdDispatch(cmd, groups(s->cells_cap, wg), 1, 1);
     sim_vk_barrier(cmd);
     stamp(s, cmd, queries, SIM_VK_S_SORT + 1);
 
