@@ -10,3 +10,12 @@ foreach(t hello_and_frames params_broadcast_and_physics motion_moves_roots bad_i
   add_test(NAME integration_${t} COMMAND it_net $<TARGET_FILE:strandcastd> test_${t})
   set_tests_properties(integration_${t} PROPERTIES TIMEOUT 120 LABELS integration)
 endforeach()
+
+# The JSON Schemas in proto/schema against sample messages and the real server (Node + ajv + ws).
+find_program(NODE_EXECUTABLE node)
+if(NOT NODE_EXECUTABLE)
+  message(FATAL_ERROR "node not found: install the Debian package 'nodejs' (or run .ci/deps)")
+endif()
+add_test(NAME protocol_schema COMMAND ${NODE_EXECUTABLE} --test ${CMAKE_CURRENT_SOURCE_DIR}/js/schema.test.mjs)
+set_tests_properties(protocol_schema PROPERTIES LABELS "integration;no_asan" TIMEOUT 120
+                     ENVIRONMENT "STRANDCASTD=$<TARGET_FILE:strandcastd>")
