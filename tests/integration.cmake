@@ -19,3 +19,8 @@ endif()
 add_test(NAME protocol_schema COMMAND ${NODE_EXECUTABLE} --test ${CMAKE_CURRENT_SOURCE_DIR}/js/schema.test.mjs)
 set_tests_properties(protocol_schema PROPERTIES LABELS "integration;no_asan" TIMEOUT 120
                      ENVIRONMENT "STRANDCASTD=$<TARGET_FILE:strandcastd>")
+
+# strandbench fanout drives the real daemon with the same WebSocket client as the tests.
+target_sources(strandbench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/support/wsc.c ${CMAKE_CURRENT_SOURCE_DIR}/support/daemon.c)
+target_include_directories(strandbench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
+add_dependencies(strandbench strandcastd)
