@@ -1,0 +1,14 @@
+# web: Node unit tests of the viewer's JavaScript modules (tests/js/NAME.test.mjs, node --test).
+find_program(STRANDCAST_NODE node)
+if(NOT STRANDCAST_NODE)
+  message(FATAL_ERROR "node not found: install the Debian package 'nodejs' (or run .ci/deps)")
+endif()
+
+# the viewer's own modules (web/codec.js has its own test, registered by codec.cmake)
+set(STRANDCAST_WEB_JS_TESTS backoff camera catmull frames geometry interp motion net panel_model pick
+    pixels rigid stats view_settings)
+foreach(name ${STRANDCAST_WEB_JS_TESTS})
+  add_test(NAME web_js_${name} COMMAND ${STRANDCAST_NODE} --test ${CMAKE_CURRENT_SOURCE_DIR}/js/${name}.test.mjs)
+  # pure JavaScript: nothing for the sanitizers to check, so it runs in the release tree only
+  set_tests_properties(web_js_${name} PROPERTIES LABELS "web;no_asan" TIMEOUT 120)
+endforeach()

@@ -1,0 +1,364 @@
+// The viewer application: wires the connection, decode worker, renderer, panel and input;
+// owns the scene state (groom, colliders, head pose, view settings) and the render loop.
+import { OrbitCamera } from './camera.js';
+import { DecoderClient } from './decoder_client.js';
+import { buildLayout } from './interp.js';
+import { Input } from './input.js';
+import { dragRotate, dragTranslate, motionMessage } from './motion.js';
+import { Connection, defaultUrl } from './net.js';
+import { Banner, statsText } from './overlay.js';
+import { Panel } from './panel.js';
+import { pickColliders } from './pick.js';
+import { Renderer } from './renderer.js';
+import { Ema, LatencyEstimator, RateMeter } from './stats.js';
+import { VIEW_SPECS, applySetting, defaultSettings } from './view_settings.js';
+
+const KEYFRAME_REQUEST_MS = 1000;
+
+function finiteArray(a, n) {
+  return Array.isArray(a) && (n === undefined || a.length === n) && a.every(Number.isFinite);
+}
+
+export class App {
+  constructor({ canvas, panelEl, statsEl, bannerEl, url }) {
+    this.canvas = canvas;
+    this.statsEl = statsEl;
+    this.banner = new Banner(bannerEl);
+    const gl = canvas.getContext('webgl2', { antialias: true, alpha: false, powerPreference: 'high-performance' });
+    if (!gl) throw new Error('This browser has no WebGL2: strandcast cannot draw the hair.');
+    this.gl = gl;
+    this.settings = defaultSettings();
+    this.camera = new OrbitCamera({ yaw: 0.5, pitch: 0.2, distance: 0.8, target: [0, 0.05, 0] });
+    this.renderer = new Renderer(canvas, gl);
+    this.maxTexW = Math.min(4096, gl.getParameter(gl.MAX_TEXTURE_SIZE));
+    // scene
+    this.groom = null;          // hello.groom
+    this.colliders = [];
+    this.roots = null;          // Float32Array, rest roots (head frame)
+    this.head = { position: new Float64Array(3), orientation: new Float64Array([0, 0, 0, 1]) };
+    this.drag = null;           // { mode, pos, q, worldPerPx } while dragging the head
+    this.dragHead = { position: new Float64Array(3), orientation: new Float64Array([0, 0, 0, 1]) };
+    this.motionDirty = false;
+    this.guideConfig = null;    // { pts, texW, texH, nrmOffset } from the worker
+    this.layoutPerGuide = 0;
+    this.lastKeyRequest = -Infinity;
+    this.paused = false;
+    // statistics
+    this.fps = new RateMeter(1000, 512);
+    this.frames = new RateMeter(1000, 512);
+    this.latency = new LatencyEstimator(10000, 1024);
+    this.decodeMs = new Ema(0.1);
+    this.prepareMs = new Ema(0.1);
+    this.uploadMs = new Ema(0.1);
+    this.seq = null;
+    this.serverStats = null;
+    this.framesRendered = 0;
+    this.framesUploaded = 0;
+    this.totals = { frames: 0, decodeMs: 0, prepareMs: 0, uploads: 0, uploadMs: 0 }; // for benchmarks
+    this.clientId = null;
+    this.lastOverlay = 0;
+    this.captureWaiters = [];
+    this.contextLost = false;
+    this.refused = null;
+
+    this.panel = new Panel(panelEl, {
+      setParams: (values) => this.send({ type: 'set_params', values }),
+      animate: (preset, speed) => this.send({ type: 'animate', preset, speed }),
+      reset: () => this.send({ type: 'reset' }),
+      pause: () => this.send({ type: 'pause' }),
+      resume: () => this.send({ type: 'resume' }),
+      step: () => this.send({ type: 'step', count: 1 }),
+      setGroom: (spec) => this.send({ type: 'set_groom', ...spec }),
+      setView: (name, value) => this.setView(name, value),
+    });
+    this.panel.buildView(VIEW_SPECS, this.settings);
+
+    this.decoder = new DecoderClient({
+      onConfigured: (cfg) => this._onConfigured(cfg),
+      onDecoded: (m) => this._onDecoded(m),
+      onError: (message, needKeyframe) => this._onDecodeError(message, needKeyframe),
+    });
+
+    this.input = new Input(canvas, this.camera, {
+      hitHead: (x, y) => this._hitHead(x, y),
+      headStart: (mode) => this._headStart(mode),
+      headDrag: (dx, dy) => this._headDrag(dx, dy),
+      headEnd: () => { this.drag = null; },
+    });
+
+    canvas.addEventListener('webglcontextlost', (e) => {
+      e.preventDefault();
+      this.contextLost = true;
+      this.banner.show('The WebGL context was lost; waiting for the browser to restore it…', true);
+    });
+    canvas.addEventListener('webglcontextrestored', () => {
+      this.contextLost = false;
+      this.renderer = new Renderer(canvas, gl);
+      this.layoutPerGuide = 0;
+      if (this.groom) this._applyGroom(this.groom, this.colliders);
+      this.banner.hide();
+    });
+
+    this.connection = new Connection(url || defaultUrl(location), {
+      onHello: (h) => this._onHello(h),
+      onMessage: (m) => this._onMessage(m),
+      onBinary: (data) => this._onBinary(data),
+      onStatus: (s) => this._onStatus(s),
+    });
+    this._loop = this._loop.bind(this);
+  }
+
+  start() {
+    this.connection.start();
+    requestAnimationFrame(this._loop);
+  }
+
+  send(msg) {
+    const id = this.connection.send(msg);
+    if (id === null) this.panel.showStatus('not connected: the change was not sent', true);
+    return id;
+  }
+
+  // Changes a viewer setting (also the hook tests use); returns false for a bad name or value.
+  setView(name, value) {
+    const rebuild = applySetting(this.settings, name, value);
+    if (rebuild === null) return false;
+    if (rebuild === 'layout') this._buildLayout();
+    if (rebuild === 'smoothing') this._configureWorker();
+    return true;
+  }
+
+  // ---- connection ----------------------------------------------------------------------
+
+  _onStatus(s) {
+    if (s.state === 'open') {
+      this.refused = null;
+      this.banner.hide();
+    } else if (s.state === 'refused') {
+      this.refused = s.reason;
+      this.banner.show(`Protocol version mismatch? ${s.reason}. Still retrying…`, true);
+    } else if (this.refused && (s.state === 'lost' || s.state === 'connecting')) {
+      this.banner.show(`Protocol version mismatch? ${this.refused}. Retrying (attempt ${s.attempt})…`, true);
+    } else if (s.state === 'lost') {
+      this.banner.show(`Connection to strandcastd lost (${s.reason}). Reconnecting in ${(s.delayMs / 1000).toFixed(1)} s (attempt ${s.attempt})…`, false);
+    } else if (s.state === 'connecting' && s.attempt > 0) {
+      this.banner.show(`Reconnecting to strandcastd (attempt ${s.attempt})…`, false);
+    } else if (s.state === 'mismatch') {
+      this.banner.show(`Protocol version mismatch: ${s.reason}. This page cannot talk to this server; reload the page from the server you want to use.`, true);
+    }
+  }
+
+  _onHello(h) {
+    if (!h.groom || !Number.isInteger(h.groom.strands) || !Number.isInteger(h.groom.verts) || h.groom.strands < 1 || h.groom.verts < 2) {
+      this.banner.show('The server sent a hello without a usable groom description.', true);
+      return;
+    }
+    this.limits = h.limits || {};
+    this.clientId = Number.isInteger(h.client) ? h.client : null;
+    this.panel.buildParams(h.params || {});
+    this.panel.buildMotion(h.presets, h.animation, this.limits);
+    this.panel.buildGrooms(h.grooms, h.groom, this.limits);
+    this.panel.updateState(h.state);
+    this.paused = !!(h.state && h.state.paused);
+    if (h.head && finiteArray(h.head.position, 3) && finiteArray(h.head.orientation, 4)) {
+      this.head.position.set(h.head.position);
+      this.head.orientation.set(h.head.orientation);
+    }
+    const first = !this.groom;
+    this.decoder.resetDecoder();
+    this._applyGroom(h.groom, h.colliders);
+    if (first && finiteArray(h.groom.bounds, 6)) this.camera.frame(h.groom.bounds);
+    this.panel.showStatus(`connected to ${h.server || 'server'} ${h.version || ''} as client ${h.client ?? '?'}`, false);
+  }
+
+  _onMessage(m) {
+    switch (m.type) {
+      case 'params': this.panel.updateParams(m.values); break;
+      case 'state':
+        this.panel.updateState(m);
+        if (typeof m.paused === 'boolean') this.paused = m.paused;
+        this.latency.reset();
+        break;
+      case 'groom': this.decoder.resetDecoder(); this._applyGroom(m.groom, m.colliders); break;
+      case 'stats': this.serverStats = m; break;
+      case 'error': {
+        const field = typeof m.field === 'string' ? m.field : '';
+        this.panel.showStatus(`server refused: ${m.code}${field ? ` (${field})` : ''}: ${m.message}`, true);
+        if (field.startsWith('values.')) this.panel.revertParam(field.slice(7));
+        break;
+      }
+      default: break;
+    }
+  }
+
+  _onBinary(data) {
+    this.decoder.push(data, performance.now());
+  }
+
+  // ---- groom, layout and worker configuration -------------------------------------------
+
+  _applyGroom(groom, colliders) {
+    if (!groom || !(groom.strands >= 1) || !(groom.verts >= 2)) return;
+    this.groom = groom;
+    this.colliders = Array.isArray(colliders) ? colliders : [];
+    const n = groom.strands;
+    this.roots = finiteArray(groom.roots, 3 * n) ? Float32Array.from(groom.roots) : new Float32Array(3 * n);
+    if (!finiteArray(groom.roots, 3 * n)) this.panel.showStatus('the groom has no root positions: render strands are not spread', true);
+    this.renderer.head.setColliders(this.colliders);
+    if (finiteArray(groom.bounds, 6)) this.renderer.setBounds(groom.bounds);
+    this.guideConfig = null;
+    this.renderer.hair.hasFrame = false;
+    this._buildLayout();
+    this._configureWorker();
+  }
+
+  _buildLayout() {
+    if (!this.groom || this.contextLost) return;
+    const per = this.settings.perGuide;
+    const layout = buildLayout(this.roots, this.groom.strands, per);
+    this.renderer.hair.setLayout(layout, per);
+    this.layoutPerGuide = per;
+  }
+
+  _configureWorker() {
+    if (!this.groom) return;
+    this.guideConfig = null;
+    this.decoder.configure(this.groom.strands, this.groom.verts, this.settings.segs, this.maxTexW, this.roots);
+  }
+
+  _onConfigured(cfg) {
+    this.guideConfig = cfg;
+    if (!this.contextLost) this.renderer.hair.setGuides(this.groom.strands, cfg.pts, cfg.texW, cfg.texH);
+  }
+
+  _onDecoded(m) {
+    this.frames.add(m.arrival, m.bytes);
+    this.latency.add(m.arrival, m.simTime);
+    this.decodeMs.add(m.decodeMs);
+    this.prepareMs.add(m.prepareMs);
+    this.totals.frames++;
+    this.totals.decodeMs += m.decodeMs;
+    this.totals.prepareMs += m.prepareMs;
+    this.seq = m.seq;
+  }
+
+  _onDecodeError(message, needKeyframe) {
+    const now = performance.now();
+    if (needKeyframe && now - this.lastKeyRequest > KEYFRAME_REQUEST_MS) {
+      this.lastKeyRequest = now;
+      this.connection.send({ type: 'keyframe' });
+    } else if (!needKeyframe) {
+      this.panel.showStatus(`frame rejected: ${message}`, true);
+    }
+  }
+
+  // ---- head dragging --------------------------------------------------------------------
+
+  _hitHead(x, y) {
+    if (!this.colliders.length || !this.settings.colliders) return false;
+    this.camera.update(this.canvas.clientWidth / Math.max(1, this.canvas.clientHeight));
+    const o = [0, 0, 0], d = [0, 0, 0];
+    this.camera.ray(x, y, o, d);
+    return pickColliders(o, d, this.colliders, this.head) >= 0;
+  }
+
+  _headStart(mode) {
+    const p = this.head.position, e = this.camera.eye, f = this.camera.forward;
+    const depth = Math.max(0.01, (p[0] - e[0]) * f[0] + (p[1] - e[1]) * f[1] + (p[2] - e[2]) * f[2]);
+    this.drag = {
+      mode,
+      pos: Float64Array.from(p),
+      q: Float64Array.from(this.head.orientation),
+      worldPerPx: this.camera.pixelSize(depth, this.canvas.clientHeight),
+    };
+    this.dragHead.position.set(p);
+    this.dragHead.orientation.set(this.head.orientation);
+  }
+
+  _headDrag(dx, dy) {
+    const d = this.drag;
+    if (!d) return;
+    if (d.mode === 'move') dragTranslate(this.dragHead.position, d.pos, this.camera.right, this.camera.up, dx, dy, d.worldPerPx);
+    else dragRotate(this.dragHead.orientation, d.q, this.camera.right, this.camera.up, dx, dy, 0.01);
+    this.motionDirty = true;
+  }
+
+  // ---- the render loop ------------------------------------------------------------------
+
+  _loop(now) {
+    requestAnimationFrame(this._loop);
+    if (this.contextLost) return;
+    this.fps.add(now);
+    const f = this.decoder.take();
+    if (f) {
+      if (this.guideConfig && f.gen === this.decoder.gen && this.renderer.hair.texW === this.guideConfig.texW) {
+        const t0 = performance.now();
+        this.renderer.hair.upload(f.buf, this.guideConfig.nrmOffset);
+        const dt = performance.now() - t0;
+        this.uploadMs.add(dt);
+        this.totals.uploads++;
+        this.totals.uploadMs += dt;
+        this.framesUploaded++;
+        if (f.head) {
+          this.head.position.set(f.head.position);
+          this.head.orientation.set(f.head.orientation);
+        }
+      }
+      this.decoder.recycle(f);
+    }
+    if (this.motionDirty && this.drag) {
+      this.motionDirty = false;
+      this.connection.send(motionMessage(now, this.dragHead.position, this.dragHead.orientation));
+    }
+    this.renderer.render(this.camera, this.settings, this.drag ? this.dragHead : this.head);
+    this.framesRendered++;
+    if (this.captureWaiters.length) this._capture();
+    if (now - this.lastOverlay > 250) {
+      this.lastOverlay = now;
+      this.statsEl.textContent = statsText(this.snapshot(now));
+    }
+  }
+
+  // Current statistics (also read by the end-to-end test).
+  snapshot(now = performance.now()) {
+    const fps = this.frames.perSecond(now), bps = this.frames.bytesPerSecond(now);
+    const verts = this.groom ? this.groom.strands * this.groom.verts : 0;
+    const s = this.serverStats || {};
+    return {
+      renderFps: this.fps.perSecond(now),
+      framesPerSec: fps,
+      kbitPerSec: (bps * 8) / 1000,
+      bytesPerVertex: fps > 0 && verts > 0 ? bps / fps / verts : NaN,
+      latencyMs: this.latency.value,
+      decodeMs: this.decodeMs.value,
+      prepareMs: this.prepareMs.value,
+      uploadMs: this.uploadMs.value,
+      serverStepsPerSec: s.steps_per_s,
+      serverStepMs: s.step_ms,
+      clients: s.clients,
+      seq: this.seq,
+      guides: this.groom ? this.groom.strands : 0,
+      verts: this.groom ? this.groom.verts : 0,
+      renderStrands: this.renderer.hair.count,
+      perGuide: this.layoutPerGuide,
+      framesRendered: this.framesRendered,
+      framesUploaded: this.framesUploaded,
+      paused: this.paused,
+    };
+  }
+
+  // Resolves with the pixels of the next rendered frame: { width, height, rgba: Uint8Array }
+  // (bottom row first, as GL reads them).
+  capture() {
+    return new Promise((resolve) => this.captureWaiters.push(resolve));
+  }
+
+  _capture() {
+    const gl = this.gl, w = this.renderer.width, h = this.renderer.height;
+    const rgba = new Uint8Array(w * h * 4);
+    gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, rgba);
+    const waiters = this.captureWaiters;
+    this.captureWaiters = [];
+    for (const r of waiters) r({ width: w, height: h, rgba });
+  }
+}

@@ -1,0 +1,139 @@
+// Draws the hair: guide-point textures, the render-strand instance buffer and the two passes
+// (light-space depth for shadows, Kajiya-Kay shaded ribbons).
+import { createProgram } from './gl_util.js';
+import { DEPTH_FS, HAIR_FS, HAIR_VS } from './shaders.js';
+import { INSTANCE_STRIDE } from './interp.js';
+
+function makeTexture(gl) {
+  const t = gl.createTexture();
+  gl.bindTexture(gl.TEXTURE_2D, t);
+  gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+  gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+  gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE);
+  gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE);
+  return t;
+}
+
+export class HairRenderer {
+  constructor(gl) {
+    this.gl = gl;
+    this.main = createProgram(gl, HAIR_VS, HAIR_FS, 'hair');
+    this.depth = createProgram(gl, HAIR_VS, DEPTH_FS, 'hair shadow');
+    this.posTex = makeTexture(gl);
+    this.nrmTex = makeTexture(gl);
+    this.instances = gl.createBuffer();
+    this.vao = gl.createVertexArray();      // every render strand
+    this.guideVao = gl.createVertexArray(); // render strand 0 of each guide (shadow pass)
+    this.count = 0;
+    this.nguides = 0;
+    this.pts = 0;
+    this.texW = 0;
+    this.texH = 0;
+    this.hasFrame = false;
+  }
+
+  // Sizes the guide textures for nguides smoothed guides of pts points in a texW x texH
+  // layout (texel k = guide * pts + point, row-major). Forgets the current frame.
+  setGuides(nguides, pts, texW, texH) {
+    const gl = this.gl;
+    this.nguides = nguides; this.pts = pts; this.texW = texW; this.texH = texH;
+    for (const t of [this.posTex, this.nrmTex]) {
+      gl.bindTexture(gl.TEXTURE_2D, t);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGB32F, texW, texH, 0, gl.RGB, gl.FLOAT, null);
+    }
+    this.hasFrame = false;
+  }
+
+  // Replaces the render strands (layout from interp.js buildLayout with perGuide per guide).
+  setLayout(layout, perGuide) {
+    const gl = this.gl;
+    gl.bindBuffer(gl.ARRAY_BUFFER, this.instances);
+    gl.bufferData(gl.ARRAY_BUFFER, layout.data, gl.STATIC_DRAW);
+    this._attribs(this.vao, INSTANCE_STRIDE);
+    this._attribs(this.guideVao, INSTANCE_STRIDE * perGuide);
+    gl.bindVertexArray(null);
+    this.count = layout.count;
+  }
+
+  _attribs(vao, stride) {
+    const gl = this.gl;
+    gl.bindVertexArray(vao);
+    gl.bindBuffer(gl.ARRAY_BUFFER, this.instances);
+    gl.enableVertexAttribArray(0);
+    gl.vertexAttribIPointer(0, 3, gl.UNSIGNED_INT, stride, 0);
+    gl.vertexAttribDivisor(0, 1);
+    for (let k = 0; k < 3; k++) {
+      gl.enableVertexAttribArray(1 + k);
+      gl.vertexAttribPointer(1 + k, 2, gl.FLOAT, false, stride, 12 + 8 * k);
+      gl.vertexAttribDivisor(1 + k, 1);
+    }
+  }
+
+  // Uploads one smoothed frame: positions at float 0 and normals at float nrmOffset of buf,
+  // each texW * texH * 3 floats. Allocates nothing.
+  upload(buf, nrmOffset) {
+    const gl = this.gl;
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
+    gl.bindTexture(gl.TEXTURE_2D, this.posTex);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, this.texW, this.texH, gl.RGB, gl.FLOAT, buf, 0);
+    gl.bindTexture(gl.TEXTURE_2D, this.nrmTex);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, this.texW, this.texH, gl.RGB, gl.FLOAT, buf, nrmOffset);
+    this.hasFrame = true;
+  }
+
+  _common(prog, v, s, widthPx) {
+    const gl = this.gl, u = prog.u;
+    gl.useProgram(prog.program);
+    gl.activeTexture(gl.TEXTURE0);
+    gl.bindTexture(gl.TEXTURE_2D, this.posTex);
+    gl.uniform1i(u.uPos, 0);
+    gl.activeTexture(gl.TEXTURE1);
+    gl.bindTexture(gl.TEXTURE_2D, this.nrmTex);
+    gl.uniform1i(u.uNrm, 1);
+    gl.uniform1i(u.uTexW, this.texW);
+    gl.uniform1i(u.uPts, this.pts);
+    gl.uniformMatrix4fv(u.uViewProj, false, v.viewProj);
+    gl.uniform3f(u.uEye, v.eye[0], v.eye[1], v.eye[2]);
+    gl.uniform3f(u.uViewDir, v.viewDir[0], v.viewDir[1], v.viewDir[2]);
+    gl.uniform1i(u.uOrtho, v.ortho ? 1 : 0);
+    gl.uniform3f(u.uFwd, v.fwd[0], v.fwd[1], v.fwd[2]);
+    gl.uniform2f(u.uPxScale, v.pxScale[0], v.pxScale[1]);
+    gl.uniform1f(u.uWidthPx, widthPx);
+    gl.uniform1f(u.uTipWidth, s.tipWidth);
+    gl.uniform1f(u.uMulti, s.multi);
+    gl.uniform1f(u.uSpread, s.spread);
+    gl.uniform1f(u.uTipSpread, s.tipSpread);
+  }
+
+  // Light-space depth of the guides' strands into the bound shadow map (view v: the light).
+  drawDepth(v, s) {
+    if (!this.hasFrame || !this.count) return;
+    const gl = this.gl;
+    this._common(this.depth, v, s, 3);
+    gl.bindVertexArray(this.guideVao);
+    gl.drawArraysInstanced(gl.TRIANGLE_STRIP, 0, 2 * this.pts, this.nguides);
+    gl.bindVertexArray(null);
+  }
+
+  // Shaded ribbons of every render strand (view v: the camera; light: { dir, shadow }).
+  draw(v, s, light, shadow) {
+    if (!this.hasFrame || !this.count) return;
+    const gl = this.gl, u = this.main.u;
+    this._common(this.main, v, s, s.widthPx);
+    gl.uniform3f(u.uLightDir, light[0], light[1], light[2]);
+    gl.uniform3f(u.uHairColor, s.hairColorLinear[0], s.hairColorLinear[1], s.hairColorLinear[2]);
+    gl.uniform3f(u.uSpecColor, s.specColor[0], s.specColor[1], s.specColor[2]);
+    gl.uniform1f(u.uShift1, s.shift1);
+    gl.uniform1f(u.uShift2, s.shift2);
+    gl.uniform1f(u.uExp1, s.exp1);
+    gl.uniform1f(u.uExp2, s.exp2);
+    gl.uniform1f(u.uSpec1, s.spec1);
+    gl.uniform1f(u.uSpec2, s.spec2);
+    gl.uniform1f(u.uAmbient, s.ambient);
+    gl.uniform1f(u.uRootAO, s.rootAO);
+    shadow.bindUniforms(u, 2, s.shadows, s.absorb);
+    gl.bindVertexArray(this.vao);
+    gl.drawArraysInstanced(gl.TRIANGLE_STRIP, 0, 2 * this.pts, this.count);
+    gl.bindVertexArray(null);
+  }
+}

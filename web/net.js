@@ -1,0 +1,166 @@
+// The WebSocket connection to strandcastd: subprotocol check, JSON control messages, binary
+// strand frames, a silence watchdog, and reconnects with backoff after a lost connection.
+import { Backoff } from './backoff.js';
+
+export const SUBPROTOCOL = 'strandcast.v1';
+export const PROTOCOL_VERSION = 1;
+// The server sends stats about once a second; a connection silent for this long is taken as
+// half-open (sleep, NAT drop) and reopened. Generous, as a loaded server may step slowly.
+const WATCHDOG_MS = 30000;
+
+// The endpoint for a page served by strandcastd: same host, ws or wss like the page.
+export function defaultUrl(loc) {
+  return `${loc.protocol === 'https:' ? 'wss' : 'ws'}://${loc.host}/`;
+}
+
+// Callbacks (all optional): onHello(hello), onMessage(msg) for every other JSON message,
+// onBinary(ArrayBuffer), onStatus({ state: 'connecting' | 'open' | 'lost' | 'refused' |
+// 'mismatch', attempt, delayMs, reason }). 'refused' (the server is up but keeps refusing the
+// handshake) keeps retrying; 'mismatch' (hello names another protocol) stops. Call start() once.
+export class Connection {
+  constructor(url, callbacks, backoffOptions) {
+    this.url = url;
+    this.cb = callbacks;
+    this.backoff = new Backoff(backoffOptions);
+    this.ws = null;
+    this.nextId = 1;
+    this.stopped = false;
+    this.helloSeen = false;
+    this.lastMessage = 0;
+    this.timer = null;
+    this.watchdog = null;
+    this.bytesIn = 0;
+    this.refusals = 0; // handshakes refused in a row while the HTTP side answered
+  }
+
+  _status(s) { if (this.cb.onStatus) this.cb.onStatus(s); }
+
+  start() {
+    this.stopped = false;
+    this._open();
+    this.watchdog = setInterval(() => {
+      if (this.ws && this.ws.readyState === WebSocket.OPEN && performance.now() - this.lastMessage > WATCHDOG_MS) {
+        this.ws.close(4000, 'no data from the server');
+        this._lost('no data from the server for ' + WATCHDOG_MS / 1000 + ' s');
+      }
+    }, 1000);
+  }
+
+  // Stops for good (no more reconnects).
+  stop(reason) {
+    this.stopped = true;
+    clearTimeout(this.timer);
+    clearInterval(this.watchdog);
+    if (this.ws) {
+      const ws = this.ws;
+      this.ws = null;
+      ws.onopen = ws.onmessage = ws.onclose = ws.onerror = null;
+      try { ws.close(1000, reason || 'closed by the page'); } catch { /* already closing */ }
+    }
+  }
+
+  get open() { return !!this.ws && this.ws.readyState === WebSocket.OPEN && this.helloSeen; }
+
+  // Sends a control message; returns its id (assigned when missing) or null when not connected.
+  send(msg) {
+    if (!this.open) return null;
+    if (msg.id === undefined && msg.type !== 'motion') msg.id = this.nextId++;
+    this.ws.send(JSON.stringify(msg));
+    return msg.id === undefined ? 0 : msg.id;
+  }
+
+  _open() {
+    this._status({ state: 'connecting', attempt: this.backoff.attempt });
+    let ws;
+    try {
+      ws = new WebSocket(this.url, SUBPROTOCOL);
+    } catch (e) {
+      this._lost(`cannot open ${this.url}: ${e.message}`);
+      return;
+    }
+    ws.binaryType = 'arraybuffer';
+    this.ws = ws;
+    this.helloSeen = false;
+    ws.onopen = () => {
+      this.lastMessage = performance.now();
+      if (ws.protocol !== SUBPROTOCOL) {
+        this._mismatch(`the server did not accept the subprotocol ${SUBPROTOCOL} (it answered "${ws.protocol}")`);
+      }
+    };
+    ws.onmessage = (ev) => this._message(ev.data);
+    let opened = false;
+    ws.addEventListener('open', () => { opened = true; this.refusals = 0; });
+    ws.onclose = (ev) => {
+      if (this.ws !== ws) return;
+      const why = ev.reason ? `${ev.reason} (code ${ev.code})` : `code ${ev.code}`;
+      if (!this.helloSeen && ev.code === 1002) this._mismatch(`the server refused the connection: ${why}`);
+      else if (!opened) this._refused(why);
+      else this._lost(why);
+    };
+    ws.onerror = () => { /* onclose follows with the details */ };
+  }
+
+  _message(data) {
+    this.lastMessage = performance.now();
+    if (typeof data !== 'string') {
+      this.bytesIn += data.byteLength;
+      if (this.helloSeen && this.cb.onBinary) this.cb.onBinary(data);
+      return;
+    }
+    this.bytesIn += data.length;
+    let msg;
+    try {
+      msg = JSON.parse(data);
+    } catch {
+      console.warn('strandcast: ignoring a text message that is not JSON');
+      return;
+    }
+    if (!msg || typeof msg !== 'object' || typeof msg.type !== 'string') return;
+    if (msg.type === 'hello') {
+      if (msg.protocol !== PROTOCOL_VERSION) {
+        this._mismatch(`the server speaks protocol ${JSON.stringify(msg.protocol)} (${msg.server || 'unknown server'} ${msg.version || ''}), this page speaks protocol ${PROTOCOL_VERSION}`);
+        return;
+      }
+      this.helloSeen = true;
+      this.backoff.reset();
+      this._status({ state: 'open' });
+      if (this.cb.onHello) this.cb.onHello(msg);
+      return;
+    }
+    if (this.helloSeen && this.cb.onMessage) this.cb.onMessage(msg);
+  }
+
+  // The handshake failed. Browsers hide why; if the server still answers HTTP it is up and
+  // refused the WebSocket, which strandcastd does for a subprotocol (version) it does not speak.
+  _refused(why) {
+    this._lost(`the WebSocket handshake failed (${why})`);
+    const httpUrl = this.url.replace(/^ws/, 'http');
+    fetch(httpUrl, { method: 'HEAD', cache: 'no-store' }).then((r) => {
+      if (this.stopped || this.helloSeen) return;
+      if (r.status < 500 && ++this.refusals >= 2) {
+        this._status({ state: 'refused', reason: `the server at ${httpUrl} answers HTTP but refused the ${SUBPROTOCOL} WebSocket ${this.refusals} times: most likely a protocol version mismatch (reload the page from that server)` });
+      }
+    }, () => { this.refusals = 0; });
+  }
+
+  _mismatch(reason) {
+    this._status({ state: 'mismatch', reason });
+    this.stop('protocol mismatch');
+  }
+
+  _lost(reason) {
+    if (this.stopped) return;
+    if (this.ws) {
+      const ws = this.ws;
+      this.ws = null;
+      ws.onopen = ws.onmessage = ws.onclose = ws.onerror = null;
+      try { ws.close(); } catch { /* already closed */ }
+    }
+    this.helloSeen = false;
+    const attempt = this.backoff.attempt + 1;
+    const delayMs = this.backoff.next();
+    this._status({ state: 'lost', attempt, delayMs, reason });
+    clearTimeout(this.timer);
+    this.timer = setTimeout(() => this._open(), delayMs);
+  }
+}

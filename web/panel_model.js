@@ -1,0 +1,93 @@
+// Parameter panel model: the server's parameter schema turned into validated control specs.
+
+// A "nice" slider step (1, 2 or 5 times a power of ten) giving about `divisions` steps.
+export function niceStep(min, max, divisions = 1000) {
+  const span = max - min;
+  if (!(span > 0) || !Number.isFinite(span)) return 1;
+  const raw = span / divisions;
+  const e = Math.floor(Math.log10(raw));
+  const m = raw / Math.pow(10, e);
+  const nice = m < 1.5 ? 1 : m < 3.5 ? 2 : m < 7.5 ? 5 : 10;
+  // divide by a power of ten for small steps so that 5e-5 comes out exact
+  return e < 0 ? nice / Math.pow(10, -e) : nice * Math.pow(10, e);
+}
+
+function decimalsOf(step) {
+  if (!(step > 0) || step >= 1) return 0;
+  return Math.min(8, Math.ceil(-Math.log10(step) - 1e-9));
+}
+
+// Builds control specs from a schema array (hello.params.schema). Each valid entry becomes
+// { name, label, kind: 'float'|'int'|'bool', min, max, step, decimals, unit, help, def };
+// invalid entries are left out and described in problems (strings). Pure.
+export function buildControls(schema) {
+  const controls = [], problems = [];
+  if (!Array.isArray(schema)) return { controls, problems: ['params.schema is not an array'] };
+  const seen = new Set();
+  schema.forEach((e, i) => {
+    if (!e || typeof e !== 'object') { problems.push(`schema[${i}] is not an object`); return; }
+    const name = e.name;
+    if (typeof name !== 'string' || !name) { problems.push(`schema[${i}] has no name`); return; }
+    if (seen.has(name)) { problems.push(`schema[${i}]: duplicate parameter ${name}`); return; }
+    const kind = e.type;
+    if (kind !== 'float' && kind !== 'int' && kind !== 'bool') {
+      problems.push(`parameter ${name}: unknown type ${JSON.stringify(kind)}`);
+      return;
+    }
+    const c = {
+      name,
+      label: name.replace(/_/g, ' '),
+      kind,
+      unit: typeof e.unit === 'string' ? e.unit : '',
+      help: typeof e.help === 'string' ? e.help : '',
+      min: 0, max: 1, step: 1, decimals: 0, def: 0,
+    };
+    if (kind === 'bool') {
+      c.def = e.default === true || e.default === 1;
+    } else {
+      const min = Number(e.min), max = Number(e.max);
+      if (!Number.isFinite(min) || !Number.isFinite(max) || !(max >= min)) {
+        problems.push(`parameter ${name}: bad range [${e.min}, ${e.max}]`);
+        return;
+      }
+      c.min = min; c.max = max;
+      c.step = kind === 'int' ? 1 : niceStep(min, max);
+      c.decimals = kind === 'int' ? 0 : decimalsOf(c.step);
+      const d = Number(e.default);
+      c.def = Number.isFinite(d) ? Math.min(max, Math.max(min, d)) : min;
+    }
+    seen.add(name);
+    controls.push(c);
+  });
+  return { controls, problems };
+}
+
+// Turns a raw input (number, string from an <input>, boolean) into a valid value for control c,
+// clamped to its range (ints rounded), or null when it is not a finite number / boolean. Pure.
+export function coerceValue(c, raw) {
+  if (c.kind === 'bool') {
+    if (raw === true || raw === 'true' || raw === 1 || raw === '1') return true;
+    if (raw === false || raw === 'false' || raw === 0 || raw === '0') return false;
+    return null;
+  }
+  if (typeof raw === 'string' && raw.trim() === '') return null;
+  const v = typeof raw === 'number' ? raw : Number(raw);
+  if (!Number.isFinite(v)) return null;
+  const clamped = Math.min(c.max, Math.max(c.min, v));
+  return c.kind === 'int' ? Math.round(clamped) : clamped;
+}
+
+// Text shown beside a control: the value with the step's decimals and the unit.
+export function formatValue(c, v) {
+  if (c.kind === 'bool') return v ? 'on' : 'off';
+  if (typeof v !== 'number' || !Number.isFinite(v)) return '—';
+  const s = v.toFixed(c.kind === 'int' ? 0 : c.decimals);
+  return c.unit ? `${s} ${c.unit}` : s;
+}
+
+// Tooltip for a control: help text, range and default.
+export function describe(c) {
+  if (c.kind === 'bool') return `${c.help}${c.help ? ' ' : ''}(default ${c.def ? 'on' : 'off'})`;
+  const u = c.unit ? ` ${c.unit}` : '';
+  return `${c.help}${c.help ? ' ' : ''}Range ${c.min}–${c.max}${u}, default ${c.def}${u}.`;
+}

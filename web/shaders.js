@@ -1,0 +1,206 @@
+// GLSL ES 3.00 sources: hair ribbons (main and shadow passes) and the collider meshes.
+
+// Hair vertex shader. Each instance is one render strand; vertex 2 i and 2 i + 1 are the two
+// edges of the ribbon at smoothed point i. Guide points (Catmull-Rom smoothed by the worker)
+// and their normals come from two RGB32F textures, point k of guide g at texel g * uPts + k.
+// The render strand is sum_j w_j guide_j (multi-strand interpolation, w1, w2 = barycentric
+// weights times uMulti) plus an offset in guide 0's (normal, binormal) frame that grows from
+// root to tip (single-strand interpolation). The ribbon is expanded sideways, perpendicular to
+// the tangent and the view direction, to uWidthPx pixels tapering to uTipWidth at the tip.
+export const HAIR_VS = `#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+uniform sampler2D uPos;
+uniform sampler2D uNrm;
+uniform int uTexW;
+uniform int uPts;
+uniform mat4 uViewProj;
+uniform vec3 uEye;
+uniform vec3 uViewDir;
+uniform int uOrtho;
+uniform vec3 uFwd;
+uniform vec2 uPxScale;
+uniform float uWidthPx;
+uniform float uTipWidth;
+uniform float uMulti;
+uniform float uSpread;
+uniform float uTipSpread;
+layout(location = 0) in uvec3 aGuides;
+layout(location = 1) in vec2 aBary;
+layout(location = 2) in vec2 aOffset;
+layout(location = 3) in vec2 aRand;
+out vec3 vPos;
+out vec3 vTan;
+out float vT;
+out float vShade;
+
+vec3 fetchPoint(sampler2D s, uint g, int i) {
+  int k = int(g) * uPts + i;
+  return texelFetch(s, ivec2(k % uTexW, k / uTexW), 0).xyz;
+}
+
+void main() {
+  int last = max(1, int(float(uPts - 1) * aRand.x + 0.5));
+  int i = min(gl_VertexID >> 1, last);
+  float side = (gl_VertexID & 1) == 0 ? -0.5 : 0.5;
+  int ia = max(i - 1, 0);
+  int ib = min(i + 1, uPts - 1);
+  float w1 = aBary.x * uMulti;
+  float w2 = aBary.y * uMulti;
+  float w0 = 1.0 - w1 - w2;
+  vec3 p = w0 * fetchPoint(uPos, aGuides.x, i);
+  vec3 d = w0 * (fetchPoint(uPos, aGuides.x, ib) - fetchPoint(uPos, aGuides.x, ia));
+  if (w1 > 0.0) {
+    p += w1 * fetchPoint(uPos, aGuides.y, i);
+    d += w1 * (fetchPoint(uPos, aGuides.y, ib) - fetchPoint(uPos, aGuides.y, ia));
+  }
+  if (w2 > 0.0) {
+    p += w2 * fetchPoint(uPos, aGuides.z, i);
+    d += w2 * (fetchPoint(uPos, aGuides.z, ib) - fetchPoint(uPos, aGuides.z, ia));
+  }
+  float dl = length(d);
+  vec3 T = dl > 1e-12 ? d / dl : vec3(0.0, -1.0, 0.0);
+  vec3 N = fetchPoint(uNrm, aGuides.x, i);
+  N -= dot(N, T) * T;
+  float nl = length(N);
+  N = nl > 1e-6 ? N / nl : (abs(T.y) < 0.9 ? normalize(cross(T, vec3(0.0, 1.0, 0.0))) : normalize(cross(T, vec3(1.0, 0.0, 0.0))));
+  vec3 B = cross(T, N);
+  float t = float(i) / float(uPts - 1);
+  p += (aOffset.x * N + aOffset.y * B) * (uSpread * mix(1.0, uTipSpread, t));
+  vec3 view = uOrtho == 1 ? uViewDir : p - uEye;
+  vec3 s = cross(T, view);
+  float sl = length(s);
+  s = sl > 1e-12 ? s / sl : N;
+  float depth = uOrtho == 1 ? 0.0 : dot(p - uEye, uFwd);
+  float width = uWidthPx * (uPxScale.x * depth + uPxScale.y) * mix(1.0, uTipWidth, t);
+  vec3 q = p + s * (side * width);
+  vPos = q;
+  vTan = T;
+  vT = t;
+  vShade = aRand.y;
+  gl_Position = uViewProj * vec4(q, 1.0);
+}
+`;
+
+// Shadow-map passes only write depth.
+export const DEPTH_FS = `#version 300 es
+precision mediump float;
+void main() {}
+`;
+
+// Opacity shadow from a light-space depth map of the hair and head: the world distance a point
+// lies behind the first occluder along the light, times an absorption per metre, gives the
+// transmitted light exp(-uAbsorb * depth) (a deep-opacity style estimate, 4 taps).
+const SHADOW_FN = `
+uniform highp sampler2D uShadow;
+uniform mat4 uLightViewProj;
+uniform float uShadowDepth;
+uniform float uShadowBias;
+uniform float uAbsorb;
+uniform vec2 uShadowTexel;
+uniform int uShadowOn;
+
+float lightTransmit(vec3 pos) {
+  if (uShadowOn == 0) return 1.0;
+  vec4 lp = uLightViewProj * vec4(pos, 1.0);
+  vec3 s = lp.xyz / lp.w * 0.5 + 0.5;
+  if (s.x < 0.0 || s.y < 0.0 || s.x > 1.0 || s.y > 1.0 || s.z > 1.0) return 1.0;
+  float sum = 0.0;
+  for (int k = 0; k < 4; k++) {
+    vec2 o = (vec2(float(k & 1), float(k >> 1)) - 0.5) * uShadowTexel;
+    float d = texture(uShadow, s.xy + o).r;
+    float behind = max(0.0, (s.z - d) * uShadowDepth - uShadowBias);
+    sum += exp(-uAbsorb * behind);
+  }
+  return 0.25 * sum;
+}
+`;
+
+// Kajiya-Kay hair shading: diffuse from sin(T, L); two specular lobes with the tangent shifted
+// towards the root (primary, light-coloured) and the tip (secondary, hair-coloured), after
+// Scheuermann; root darkening and the opacity shadow for self-shadowing.
+export const HAIR_FS = `#version 300 es
+precision highp float;
+in vec3 vPos;
+in vec3 vTan;
+in float vT;
+in float vShade;
+uniform vec3 uEye;
+uniform vec3 uLightDir;
+uniform vec3 uHairColor;
+uniform vec3 uSpecColor;
+uniform float uShift1;
+uniform float uShift2;
+uniform float uExp1;
+uniform float uExp2;
+uniform float uSpec1;
+uniform float uSpec2;
+uniform float uAmbient;
+uniform float uRootAO;
+out vec4 outColor;
+${SHADOW_FN}
+float kkSpec(vec3 T, vec3 H, float e) {
+  float th = dot(T, H);
+  float sinTH = sqrt(max(0.0, 1.0 - th * th));
+  return smoothstep(-1.0, 0.0, th) * pow(sinTH, e);
+}
+
+void main() {
+  vec3 T = normalize(vTan);
+  vec3 V = normalize(uEye - vPos);
+  vec3 L = uLightDir;
+  vec3 H = normalize(L + V);
+  float tl = dot(T, L);
+  float diffuse = sqrt(max(0.0, 1.0 - tl * tl));
+  vec3 N = V - dot(V, T) * T;
+  float nl = length(N);
+  N = nl > 1e-6 ? N / nl : V;
+  vec3 T1 = normalize(T + uShift1 * N);
+  vec3 T2 = normalize(T + uShift2 * N);
+  float light = lightTransmit(vPos);
+  float ao = mix(uRootAO, 1.0, smoothstep(0.0, 0.3, vT));
+  vec3 base = uHairColor * mix(0.75, 1.2, vShade);
+  vec3 c = base * ao * (uAmbient + (1.0 - uAmbient) * diffuse * light);
+  c += light * ao * (uSpec1 * kkSpec(T1, H, uExp1) * uSpecColor + uSpec2 * kkSpec(T2, H, uExp2) * base);
+  outColor = vec4(pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)), 1.0);
+}
+`;
+
+export const HEAD_VS = `#version 300 es
+precision highp float;
+uniform mat4 uViewProj;
+uniform mat4 uModel;
+uniform mat3 uNormalMat;
+layout(location = 0) in vec3 aPos;
+layout(location = 1) in vec3 aNormal;
+out vec3 vPos;
+out vec3 vNormal;
+void main() {
+  vec4 w = uModel * vec4(aPos, 1.0);
+  vPos = w.xyz;
+  vNormal = uNormalMat * aNormal;
+  gl_Position = uViewProj * w;
+}
+`;
+
+export const HEAD_FS = `#version 300 es
+precision highp float;
+in vec3 vPos;
+in vec3 vNormal;
+uniform vec3 uEye;
+uniform vec3 uLightDir;
+uniform vec3 uColor;
+out vec4 outColor;
+${SHADOW_FN}
+void main() {
+  vec3 N = normalize(vNormal);
+  vec3 V = normalize(uEye - vPos);
+  if (dot(N, V) < 0.0) N = -N;
+  float lambert = max(0.0, dot(N, uLightDir));
+  float light = lightTransmit(vPos + N * uShadowBias);
+  float rim = pow(1.0 - max(0.0, dot(N, V)), 3.0);
+  vec3 c = uColor * (0.25 + 0.75 * lambert * light) + 0.08 * rim;
+  outColor = vec4(pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)), 1.0);
+}
+`;
