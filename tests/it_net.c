@@ -14,6 +14,7 @@
 #include <string.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "codec/codec.h"
@@ -762,6 +763,65 @@ static void test_reader_that_never_reads_is_closed(void **state)
     assert_int_equal(watch->bad, 0);
 }
 
+/* Runs exe with args to completion; returns its exit status and what it printed (both streams). */
+static int run_capture(const char *exe, const char *const *args, char *out, size_t cap)
+{
+    int fds[2];
+    assert_int_equal(pipe(fds), 0);
+    pid_t pid = fork();
+    if (pid == 0) {
+        dup2(fds[1], 1);
+        dup2(fds[1], 2);
+        close(fds[0]);
+        char *argv[32];
+        int n = 0;
+        argv[n++] = (char *)exe;
+        for (; args[n - 1] && n < 31; n++) argv[n] = (char *)args[n - 1];
+        argv[n] = NULL;
+        execv(exe, argv);
+        _exit(127);
+    }
+    close(fds[1]);
+    size_t len = 0;
+    ssize_t r;
+    while ((r = read(fds[0], out + len, cap - 1 - len)) > 0) len += (size_t)r;
+    out[len] = '\0';
+    close(fds[0]);
+    int status;
+    waitpid(pid, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+static void test_flags(void **state)
+{
+    const config *cfg = *state;
+    static char out[16384];
+    const char *help[] = { "--help", NULL };
+    assert_int_equal(run_capture(cfg->exe, help, out, sizeof out), 0);
+    static const char *const flags[] = { "--groom", "--strands", "--verts", "--seed", "--backend", "--device", "--threads",
+                                         "--listen", "--port", "--web", "--assets", "--rate", "--max-error",
+                                         "--keyframe-interval", "--client-buffer", "--no-net", "--steps", "default" };
+    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++)
+        if (!strstr(out, flags[i])) fail_msg("--help does not mention %s", flags[i]);
+    static const char *const bad[][3] = {
+        { "--strands", "0", NULL }, { "--strands", "12x", NULL }, { "--bogus", NULL, NULL }, { "--port", "70000", NULL },
+        { "--port", NULL, NULL },   { "--backend", "gpu", NULL }, { "--max-error", "1", NULL }, { "--rate", "nan", NULL },
+        { "--web", "/nonexistent-dir", NULL }, { "--no-net=1", NULL, NULL }, { "--steps", "-1", NULL },
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        int rc = run_capture(cfg->exe, bad[i], out, sizeof out);
+        char name[32];
+        snprintf(name, sizeof name, "%.*s", (int)strcspn(bad[i][0], "="), bad[i][0]);
+        if (rc != 2 || !strstr(out, name)) fail_msg("%s %s: exit %d, said: %s", bad[i][0], bad[i][1] ? bad[i][1] : "", rc, out);
+    }
+    const char *missing[] = { "--no-net", "--groom", "/nonexistent/x.tfx", NULL };
+    assert_int_equal(run_capture(cfg->exe, missing, out, sizeof out), 1);
+    assert_non_null(strstr(out, "x.tfx"));
+    const char *run[] = { "--no-net", "--steps", "5", "--strands", "16", "--verts", "4", "--threads", "1", NULL };
+    assert_int_equal(run_capture(cfg->exe, run, out, sizeof out), 0);
+    assert_non_null(strstr(out, "stopped after 5 steps"));
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2) {
@@ -782,6 +842,7 @@ int main(int argc, char **argv)
         cmocka_unit_test_prestate_setup_teardown(test_pause_step_subscribe_groom, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_slow_client_skips, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_sigterm_closes_clients, setup, teardown, &cfg),
+        cmocka_unit_test_prestate(test_flags, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_reader_that_never_reads_is_closed, setup, teardown, &cfg),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
