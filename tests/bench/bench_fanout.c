@@ -21,6 +21,7 @@ typedef struct fanout_opts {
     int ncases;
     double seconds;
     double max_rate;
+    double server_rate; /* the daemon's --rate; 0 = its default (60) */
     int strands, verts;
     const char *daemon;
     bool json;
@@ -96,12 +97,13 @@ static int parse_opts(int argc, char **argv, fanout_opts *o)
             continue;
         }
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            puts("usage: strandbench fanout [--clients 1,10,100] [--seconds S] [--rate HZ] [--strands N] [--verts N]\n"
-                 "                          [--daemon PATH] [--json]\n"
+            puts("usage: strandbench fanout [--clients 1,10,100] [--seconds S] [--rate HZ] [--server-rate HZ]\n"
+                 "                          [--strands N] [--verts N] [--daemon PATH] [--json]\n"
                  "Starts strandcastd (default scene unless --strands/--verts) on a free loopback port, connects N\n"
                  "WebSocket clients from one thread (each subscribes with max_rate HZ, default 30; 0 = every frame),\n"
                  "and measures over S seconds (default 5): sim steps/s, frames per client per second, server CPU\n"
-                 "(fraction of one core, /proc). A 0-client run first gives the sim's baseline on this machine.");
+                 "(fraction of one core, /proc). A 0-client run first gives the sim's baseline on this machine.\n"
+                 "--server-rate passes --rate to the daemon (frames it publishes per second; default 60).");
             return 1;
         }
         if (!v) {
@@ -131,6 +133,9 @@ static int parse_opts(int argc, char **argv, fanout_opts *o)
         } else if (strcmp(a, "--rate") == 0) {
             o->max_rate = atof(v);
             if (!(o->max_rate >= 0 && o->max_rate <= 240)) return fprintf(stderr, "fanout: --rate in [0, 240]\n"), 2;
+        } else if (strcmp(a, "--server-rate") == 0) {
+            o->server_rate = atof(v);
+            if (!(o->server_rate >= 1 && o->server_rate <= 1000)) return fprintf(stderr, "fanout: --server-rate in [1, 1000]\n"), 2;
         } else if (strcmp(a, "--strands") == 0) {
             o->strands = atoi(v);
         } else if (strcmp(a, "--verts") == 0) {
@@ -175,7 +180,9 @@ static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_
     char strands[16], verts[16];
     snprintf(strands, sizeof strands, "%d", o->strands ? o->strands : 4096);
     snprintf(verts, sizeof verts, "%d", o->verts ? o->verts : 32);
-    char *argv[] = { (char *)exe, "--port", "0", "--strands", strands, "--verts", verts, NULL };
+    char rate[32];
+    snprintf(rate, sizeof rate, "%g", o->server_rate ? o->server_rate : 60.0);
+    char *argv[] = { (char *)exe, "--port", "0", "--strands", strands, "--verts", verts, "--rate", rate, NULL };
     daemon_proc d;
     if (daemon_start(&d, exe, argv, 30000) != 0) {
         fprintf(stderr, "fanout: could not start %s\n", exe);
@@ -245,8 +252,10 @@ int bench_fanout_main(int argc, char **argv)
     fanout_result base;
     if (run_case(&o, exe, 0, &base)) return 1;
     if (!o.json) {
-        printf("fanout: %d strands x %d verts, clients subscribe at max_rate %g, %g s per case, %ld cores\n",
-               o.strands ? o.strands : 4096, o.verts ? o.verts : 32, o.max_rate, o.seconds, cores);
+        printf("fanout: %d strands x %d verts, server publishes %g frames/s, clients subscribe at max_rate %g, "
+               "%g s per case, %ld cores\n",
+               o.strands ? o.strands : 4096, o.verts ? o.verts : 32, o.server_rate ? o.server_rate : 60.0, o.max_rate,
+               o.seconds, cores);
         printf("baseline (0 clients): %.1f sim steps/s, server CPU %.2f cores\n", base.steps_per_s, base.server_cpu);
         printf("%8s %12s %10s %14s %14s %10s %11s %10s\n", "clients", "steps/s", "vs base", "frames/cl/s", "min frames/s",
                "MB/s", "server CPU", "bench CPU");
@@ -256,11 +265,12 @@ int bench_fanout_main(int argc, char **argv)
         if (run_case(&o, exe, o.clients[i], &r)) return 1;
         double ratio = base.steps_per_s > 0 ? r.steps_per_s / base.steps_per_s : 0;
         if (o.json) {
-            printf("{\"bench\":\"fanout\",\"clients\":%d,\"strands\":%d,\"verts\":%d,\"max_rate\":%g,\"seconds\":%g,"
+            printf("{\"bench\":\"fanout\",\"clients\":%d,\"strands\":%d,\"verts\":%d,\"max_rate\":%g,\"server_rate\":%g,\"seconds\":%g,"
                    "\"sim_steps_per_s\":%.2f,\"baseline_steps_per_s\":%.2f,\"frames_per_client_per_s\":%.2f,"
                    "\"min_frames_per_client_per_s\":%.2f,\"mbytes_per_s\":%.3f,\"frames_skipped_per_s\":%.1f,"
                    "\"server_cpu\":%.3f,\"bench_cpu\":%.3f,\"cores\":%ld}\n",
-                   r.clients, o.strands ? o.strands : 4096, o.verts ? o.verts : 32, o.max_rate, o.seconds, r.steps_per_s,
+                   r.clients, o.strands ? o.strands : 4096, o.verts ? o.verts : 32, o.max_rate,
+                   o.server_rate ? o.server_rate : 60.0, o.seconds, r.steps_per_s,
                    base.steps_per_s, r.fpc, r.fpc_min, r.mbytes_per_s, r.skipped_per_s, r.server_cpu, r.bench_cpu, cores);
         } else {
             printf("%8d %12.1f %9.2fx %14.1f %14.1f %10.2f %11.2f %10.2f\n", r.clients, r.steps_per_s, ratio, r.fpc,
