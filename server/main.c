@@ -26,7 +26,7 @@ static void usage(FILE *f)
             "  --device N             Vulkan physical device index (default 0 = first suitable)\n"
             "  --threads N            CPU solver threads (default 0 = every online core)\n"
             "Network\n"
-            "  --listen ADDR          address to bind (default 127.0.0.1; 0.0.0.0 = every interface)\n"
+            "  --listen ADDR          IP address to bind (default 127.0.0.1; localhost; ::1; 0.0.0.0 = every interface)\n"
             "  --port N               TCP port (default 7681; 0 = a free port, printed at start-up)\n"
             "  --web DIR              folder served at / (default %s/web)\n"
             "  --assets DIR           folder whose .tfx/.hair files clients may pick with set_groom\n"

@@ -78,6 +78,17 @@ static void test_create_errors(void **state)
     assert_null(m);
     assert_non_null(strstr(err.msg, "listen"));
     net_destroy(n);
+    /* only IP literals of this machine: never a silent fallback to every interface */
+    static const char *const bad_addr[] = { "bogus-host", "10.255.255.1", "256.1.1.1" };
+    for (size_t i = 0; i < 3; i++) {
+        d.listen = bad_addr[i];
+        assert_int_not_equal(net_create(&m, &d, &err), CORE_OK);
+        assert_null(m);
+        assert_non_null(strstr(err.msg, bad_addr[i]));
+    }
+    d.listen = "::1";
+    assert_int_equal(net_create(&n, &d, &err), CORE_OK);
+    net_destroy(n);
 }
 
 int main(void)
