@@ -135,6 +135,8 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     info.retry_and_idle_policy = &n->retry;
     /* UTF-8 is checked per reassembled message in net_session.c (so the close is counted) */
     info.options = LWS_SERVER_OPTION_EXPLICIT_VHOSTS;
+    /* an IPv4 address on lws' IPv6 socket ends up bound to every interface: use an IPv4 socket */
+    if (n->listen && !strchr(n->listen, ':')) info.options |= LWS_SERVER_OPTION_DISABLE_IPV6;
     info.vhost_name = "strandcast";
     info.timeout_secs = 10;
     n->ctx = lws_create_context(&info);
