@@ -59,6 +59,7 @@ typedef struct app_tier {
     uint32_t subscribers;
     bool force_key;
     bool ready;               /* encoder initialised for the current groom */
+    bool failing;             /* the last encode failed (logged once until one succeeds) */
     codec_encoder enc;
 } app_tier;
 

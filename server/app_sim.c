@@ -109,6 +109,12 @@ void *app_sim_main(void *arg)
                 break;
             }
             total++;
+            sim_stats ss;
+            sim_get_stats(&a->sim, &ss);
+            pthread_mutex_lock(&a->stats_mu); /* /metrics counters stay exact between stats windows */
+            a->stats.steps = ss.steps;
+            a->stats.sim_time = ss.sim_time;
+            pthread_mutex_unlock(&a->stats_mu);
             if (a->paused && --a->step_budget == 0) {
                 proto_state s = app_state(a);
                 app_send(a, NET_ALL, proto_build_state(NULL, &s), 0);

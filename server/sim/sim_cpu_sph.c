@@ -17,6 +17,8 @@
 /* Elements of padding after the sorted SoA arrays (one AVX2 vector). */
 #define SPH_PAD 8
 
+#define MAX0(a) ((a) > 0.0f ? (a) : 0.0f)
+
 typedef struct sph_ctx {
     sim_cpu *c;
     float *const *pos;
@@ -89,8 +91,8 @@ static void bounds_job(void *vctx, int tid, int nt)
     for (int k = 0; k < 3; k++) {
         const float *p = ctx->pos[k];
         for (size_t i = b; i < e; i++) {
-            lo[k] = fminf(lo[k], p[i]);
-            hi[k] = fmaxf(hi[k], p[i]);
+            lo[k] = p[i] < lo[k] ? p[i] : lo[k]; /* not fminf/fmaxf: these vectorize */
+            hi[k] = p[i] > hi[k] ? p[i] : hi[k];
         }
         ctx->bmin[tid][k] = lo[k];
         ctx->bmax[tid][k] = hi[k];
@@ -256,17 +258,26 @@ static void select_smallest(uint64_t *keys, size_t n, size_t k)
     }
 }
 
-/* The bucket ranges [lo, hi] covering the 27 cells around (cx,cy,cz): one run of three
+/* The lower corner, along one axis, of the 2 cells (of size 2h) that hold every point within h
+ * of p: the cell of p and the neighbour on the side of the half p lies in. */
+static inline uint32_t lower_cell(float p, float origin, float inv)
+{
+    float f = (p - origin) * inv;
+    uint32_t c = cell_coord(p, origin, inv);
+    return f - (float)c < 0.5f ? c - 1 : c;
+}
+
+/* The bucket ranges [lo, hi] covering the 2x2x2 cells from corner (x0,y0,z0): one run of two
  * buckets per row of x-neighbours (split where the fold wraps), sorted and merged so no
  * bucket is visited twice. Returns the number of ranges. */
-static int neighbour_ranges(const sim_cpu_sph *s, uint32_t cx, uint32_t cy, uint32_t cz, uint32_t lo[18],
-                            uint32_t hi[18])
+static int neighbour_ranges(const sim_cpu_sph *s, uint32_t x0, uint32_t y0, uint32_t z0, uint32_t lo[8],
+                            uint32_t hi[8])
 {
     const uint32_t mask = (uint32_t)s->ncells - 1;
     int n = 0;
-    for (uint32_t z = cz - 1; z != cz + 2; z++)
-        for (uint32_t y = cy - 1; y != cy + 2; y++) {
-            uint32_t a = cell_hash(s, cx - 1, y, z), b = (a + 2) & mask;
+    for (uint32_t z = z0; z != z0 + 2; z++)
+        for (uint32_t y = y0; y != y0 + 2; y++) {
+            uint32_t a = cell_hash(s, x0, y, z), b = (a + 1) & mask;
             uint32_t seg_lo[2] = { a, 0 }, seg_hi[2] = { b, b };
             int segs = 1;
             if (b < a) { /* wrapped: [a, mask] and [0, b] */
@@ -305,16 +316,16 @@ static void density_job(void *vctx, int tid, int nt)
     size_t b, e;
     sim_pool_range(s->ncells, tid, nt, 1, &b, &e);
     uint64_t keys[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK];
-    uint32_t ccx = UINT32_MAX, ccy = 0, ccz = 0; /* cell whose neighbour ranges are in rlo/rhi */
-    uint32_t rlo[18], rhi[18];
+    uint32_t ccx = UINT32_MAX, ccy = 0, ccz = 0; /* corner whose neighbour ranges are in rlo/rhi */
+    uint32_t rlo[8], rhi[8];
     int nr = 0;
     for (size_t bucket = b; bucket < e; bucket++) {
         uint32_t first = s->cell_start[bucket], last = s->cell_start[bucket + 1];
         for (uint32_t i = first; i < last; i++) {
             const float xi = s->sx[i], yi = s->sy[i], zi = s->sz[i];
             const uint32_t si = s->strand[i];
-            uint32_t cx = cell_coord(xi, s->origin[0], s->inv_cell), cy = cell_coord(yi, s->origin[1], s->inv_cell),
-                     cz = cell_coord(zi, s->origin[2], s->inv_cell);
+            uint32_t cx = lower_cell(xi, s->origin[0], s->inv_cell), cy = lower_cell(yi, s->origin[1], s->inv_cell),
+                     cz = lower_cell(zi, s->origin[2], s->inv_cell);
             if (cx != ccx || cy != ccy || cz != ccz) {
                 ccx = cx, ccy = cy, ccz = cz;
                 nr = neighbour_ranges(s, cx, cy, cz, rlo, rhi);
@@ -357,7 +368,7 @@ static void pressure_job(void *vctx, int tid, int nt)
     size_t b, e;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     const float inv_rho0 = 1.0f / (c->params.rest_density * c->rho_rest);
-    for (size_t i = b; i < e; i++) s->sv[4 * i + 3] = fmaxf(s->sp[4 * i + 3] * inv_rho0 - 1.0f, 0.0f);
+    for (size_t i = b; i < e; i++) s->sv[4 * i + 3] = MAX0(s->sp[4 * i + 3] * inv_rho0 - 1.0f);
 }
 
 static void force_job(void *vctx, int tid, int nt)
@@ -381,7 +392,7 @@ static void force_job(void *vctx, int tid, int nt)
             const float *pj = s->sp + 4 * (size_t)j, *vj = s->sv + 4 * (size_t)j;
             float dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
             float r = sqrtf(dx * dx + dy * dy + dz * dz);
-            float q = 1.0f - r * inv_h;
+            float q = MAX0(1.0f - r * inv_h); /* a kept neighbour may have moved beyond h */
             float inv_rhoj = 1.0f / pj[3];
             if (r > 1e-9f) {
                 float f = (Pi + vj[3]) * 0.5f * inv_rhoj * q * q / r;
@@ -405,8 +416,49 @@ static void force_job(void *vctx, int tid, int nt)
     }
 }
 
-core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt, double *out_mean_rho,
-                             core_err *err)
+/* Reused lists: refresh the sorted copies from the current state (same slot order). */
+static void regather_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu *c = ctx->c;
+    sim_cpu_sph *s = &c->sph;
+    size_t b, e;
+    sim_pool_range(c->n, tid, nt, 64, &b, &e);
+    for (size_t slot = b; slot < e; slot++) {
+        const uint32_t i = s->order[slot];
+        for (int k = 0; k < 3; k++) {
+            s->sp[4 * slot + k] = ctx->pos[k][i];
+            s->sv[4 * slot + k] = ctx->vel[k][i];
+        }
+    }
+}
+
+/* Reused lists: density over the kept neighbours at their current distances. */
+static void density_reuse_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu *c = ctx->c;
+    sim_cpu_sph *s = &c->sph;
+    const float inv_h2 = 1.0f / (c->params.sph_radius * c->params.sph_radius);
+    const int cap = c->params.neighbor_cap;
+    size_t b, e;
+    sim_pool_range(c->n, tid, nt, 64, &b, &e);
+    for (size_t i = b; i < e; i++) {
+        const float *pi = s->sp + 4 * i;
+        const uint32_t *nb = s->nbr + i * (size_t)cap;
+        float rho = 1.0f;
+        for (int k = 0; k < s->nnbr[i]; k++) {
+            const float *pj = s->sp + 4 * (size_t)nb[k];
+            float dx = pj[0] - pi[0], dy = pj[1] - pi[1], dz = pj[2] - pi[2];
+            float q = MAX0(1.0f - ((dx * dx + dy * dy) + dz * dz) * inv_h2);
+            rho += q * q * q;
+        }
+        s->sp[4 * i + 3] = rho;
+    }
+}
+
+core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt, bool rebuild,
+                             double *out_mean_rho, core_err *err)
 {
     sph_ctx *ctx = calloc(1, sizeof *ctx);
     if (!ctx) return core_fail(err, CORE_ENOMEM, "out of memory");
@@ -415,6 +467,14 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
     ctx->vel = vel;
     ctx->dt = dt;
     sim_cpu_sph *s = &c->sph;
+    if (!rebuild && s->lists_valid && vel) {
+        sim_pool_run(&c->pool, regather_job, ctx);
+        sim_pool_run(&c->pool, density_reuse_job, ctx);
+        sim_pool_run(&c->pool, pressure_job, ctx);
+        sim_pool_run(&c->pool, force_job, ctx);
+        free(ctx);
+        return CORE_OK;
+    }
     int nt = c->pool.nthreads;
     sim_pool_run(&c->pool, bounds_job, ctx);
     float lo[3], hi[3];
@@ -423,9 +483,9 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
         for (int t = 1; t < nt; t++) lo[k] = fminf(lo[k], ctx->bmin[t][k]), hi[k] = fmaxf(hi[k], ctx->bmax[t][k]);
         if (!isfinite(lo[k]) || !isfinite(hi[k])) lo[k] = hi[k] = 0.0f; /* non-finite strands are reset after */
     }
-    /* cells of size h hashed into a power-of-two table of at least 2n buckets; a cell's
-     * neighbours within h lie in the 27 cells around it */
-    s->cell_size = c->params.sph_radius;
+    /* cells of size 2h hashed into a power-of-two table of at least 2n buckets; the points
+     * within h of a particle lie in the 2x2x2 cells on its side of its own cell */
+    s->cell_size = 2.0f * c->params.sph_radius;
     s->inv_cell = 1.0f / s->cell_size;
     s->ncells = 4096;
     while (s->ncells < 2 * c->n) s->ncells *= 2;
@@ -444,6 +504,7 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
     sim_pool_run(&c->pool, scan_fill_job, ctx);
     sim_pool_run(&c->pool, scatter_job, ctx);
     sim_pool_run(&c->pool, density_job, ctx);
+    s->lists_valid = out_mean_rho == NULL; /* lists of the rest pose are not reused */
     if (out_mean_rho) {
         double sum = 0.0; /* serial, in sorted order: the same bits for any thread count */
         for (size_t i = 0; i < c->n; i++) sum += s->sp[4 * i + 3];
