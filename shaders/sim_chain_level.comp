@@ -3,18 +3,19 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "sim_common.glsl"
+#include "sim_chain.glsl"
 
-layout(local_size_x_id = 0) in;
+layout(local_size_x_id = 0) in; // CHUNK
 
 void main()
 {
     uint s = gl_GlobalInvocationID.x;
-    if (s >= NS) return;
+    bool live = s < NS;
     uint k = PC.substep, l = PC.level;
     Chain ch;
     if (l == 1u) {
-        ch = chain_root(s, k);
-    } else {
+        ch = chain_root(live, s, k);
+    } else if (live) {
         uint j = (l - 1u) * NS + s; // level l - 1 is written by this pass: its x is still old
         vec4 pb = STRAND.d[2u * s];
         ch.p = pb.xyz;
@@ -22,8 +23,11 @@ void main()
         ch.q = STRAND.d[2u * s + 1u];
         ch.o = ldX(j);
         ch.pr = ldRest(j);
+    } else {
+        ch = chain_root(false, s, k);
     }
-    chain_solve(s, l, k, chain_predict(l * NS + s), ch);
+    chain_solve(live, s, l, k, live ? chain_predict(l * NS + s) : vec3(0.0), ch);
+    if (!live) return;
     if (l == NV - 1u) {
         chain_finish(s, k, ch);
     } else {

@@ -10,7 +10,7 @@ layout(std430, set = 0, binding = 6) buffer GridBuf {
     uint bmin[3];      // bounding box as order-preserving uint encodings of floats
     uint bmax[3];
     uint pad0[2];
-    vec4 origin;       // xyz: grid origin (box minimum - one cell), w: cell size
+    vec4 origin;       // xyz: grid origin (box minimum - one cell), w: cell size (2h)
     vec4 inv;          // x: 1 / cell size
     uvec4 dims;        // cells along x, y, z (the hash's strides); w: buckets (a power of two)
 } G;
@@ -42,6 +42,15 @@ uint cell_coord(float p, float origin, float inv)
     float f = (p - origin) * inv;
     if (!(f > 0.0)) return 0u; // also NaN
     return f >= float(MAX_COORD) ? MAX_COORD : uint(f);
+}
+
+// The lower corner, along one axis, of the 2 cells (of size 2h) that hold every point within h
+// of p: the cell of p and the neighbour on the side of the half p lies in.
+uint lower_cell(float p, float origin, float inv)
+{
+    float f = (p - origin) * inv;
+    uint c = cell_coord(p, origin, inv);
+    return f - float(c) < 0.5 ? c - 1u : c;
 }
 
 // The cell's linear index in the box grid folded into the power-of-two bucket table (uint

@@ -1,5 +1,5 @@
-// shaders: per sorted slot, the particles of other strands within h in the buckets of the 27
-// cells around it (bucket ranges sorted and merged, scanned in blocks of SPH_SCAN_BLOCK until
+// shaders: per sorted slot, the particles of other strands within h in the buckets of the 2x2x2
+// cells (size 2h) around it (bucket ranges sorted and merged, scanned in blocks of SPH_SCAN_BLOCK until
 // SPH_MAX_CANDIDATES are gathered, as sim_cpu_sph.c), the cap nearest of them by (r^2, slot),
 // the density, the pressure (not in the rest-density pass) and the neighbour list.
 #version 450
@@ -62,16 +62,16 @@ void main()
     vec4 pa = SX.d[a];
     vec3 xi = pa.xyz;
     uint si = floatBitsToUint(pa.w);
-    uint cx = cell_coord(xi.x, G.origin.x, G.inv.x), cy = cell_coord(xi.y, G.origin.y, G.inv.x),
-         cz = cell_coord(xi.z, G.origin.z, G.inv.x);
-    // bucket ranges [lo, hi] of the 9 rows of 3 x-neighbours, split where the fold wraps,
-    // sorted by lo and merged
+    // bucket ranges [lo, hi] of the 2x2x2 cells (of size 2h) on this particle's side of its
+    // cell: one run of two buckets per row, split where the fold wraps, sorted by lo, merged
+    uint x0 = lower_cell(xi.x, G.origin.x, G.inv.x), y0 = lower_cell(xi.y, G.origin.y, G.inv.x),
+         z0 = lower_cell(xi.z, G.origin.z, G.inv.x);
     uint mask = G.dims.w - 1u;
-    uint rlo[18], rhi[18];
+    uint rlo[8], rhi[8];
     int n = 0;
-    for (uint z = cz - 1u; z != cz + 2u; z++)
-        for (uint y = cy - 1u; y != cy + 2u; y++) {
-            uint b0 = cell_hash(cx - 1u, y, z), b1 = (b0 + 2u) & mask;
+    for (uint z = z0; z != z0 + 2u; z++)
+        for (uint y = y0; y != y0 + 2u; y++) {
+            uint b0 = cell_hash(x0, y, z), b1 = (b0 + 1u) & mask;
             uint seg_lo[2] = uint[2](b0, 0u), seg_hi[2] = uint[2](b1, b1);
             int segs = 1;
             if (b1 < b0) {
@@ -127,5 +127,5 @@ void main()
     }
     NNBR.d[a] = uint(kn);
     RHO.d[a] = rho;
-    PRESS.d[a] = max(rho * F.inv_rho0 - 1.0, 0.0);
+    PRESS.d[a] = max0(rho * F.inv_rho0 - 1.0);
 }

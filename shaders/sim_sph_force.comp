@@ -21,7 +21,7 @@ void main()
         vec3 pj = SX.d[j].xyz, vj = SV.d[j].xyz;
         vec3 d = pi - pj;
         float r = sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
-        float q = 1.0 - r * F.inv_h;
+        float q = max0(1.0 - r * F.inv_h); // a kept neighbour may have moved beyond h
         float inv_rhoj = 1.0 / RHO.d[j];
         if (r > 1e-9) {
             float f = (Pi + PRESS.d[j]) * 0.5 * inv_rhoj * q * q / r;

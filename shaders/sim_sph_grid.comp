@@ -1,5 +1,5 @@
 // shaders: SPH grid set-up from the bounding box (one thread), as sim_cpu_sph.c: cells of size
-// h from one cell below the box minimum, (box / h) + 2 cells per axis (at most 2^20), hashed
+// 2h from one cell below the box minimum, (box / 2h) + 2 cells per axis (at most 2^20), hashed
 // into PC.arg1 buckets.
 #version 450
 #extension GL_GOOGLE_include_directive : require
@@ -18,7 +18,7 @@ float floor_exact(float a, float b)
 
 void main()
 {
-    float cell = F.h, inv = 1.0 / cell;
+    float cell = 2.0 * F.h, inv = 1.0 / cell;
     vec3 origin;
     uvec3 dims;
     for (int k = 0; k < 3; k++) {

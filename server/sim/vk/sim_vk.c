@@ -237,6 +237,7 @@ static core_status reset_state(sim_vk *s, core_err *err)
     core_status st = upload_state(s, s->host_tmp, NULL, true, err);
     if (st != CORE_OK) return st;
     s->prev_head = s->head;
+    s->lists_valid = false;
     memset(s->stats_buf.map, 0, 16);
     sim_stats zero;
     memset(&zero, 0, sizeof zero);
@@ -249,12 +250,12 @@ static core_status compute_rho_rest(sim_vk *s, int slot, core_err *err)
 {
     sim_vk_frame_in in = {
         .params = &s->params, .sph = true, .rho_rest = 1.0f, .prev_head = s->prev_head, .head = s->head,
-        .ncolliders = s->ncolliders, .colliders = s->colliders, .nv = s->nv,
+        .ncolliders = s->ncolliders, .colliders = s->colliders, .nv = s->nv, .max_segment = s->max_segment,
     };
     sim_vk_frame_fill(&in, s->slots[slot].frame.map);
     core_status st = sim_vk_once_begin(&s->ctx, &s->once, err);
     if (st != CORE_OK) return fail_sticky(s, st, err);
-    sim_vk_record_sph(s, s->once.cmd, s->pipes.sets[slot], true, VK_NULL_HANDLE);
+    sim_vk_record_sph(s, s->once.cmd, s->pipes.sets[slot], SIM_VK_SPH_REST, VK_NULL_HANDLE);
     VkBufferCopy c = { 0, 0, s->n * sizeof(float) };
     vkCmdCopyBuffer(s->once.cmd, s->rho.buf, s->staging.buf, 1, &c);
     st = sim_vk_once_submit_wait(&s->ctx, &s->once, err);
@@ -264,6 +265,7 @@ static core_status compute_rho_rest(sim_vk *s, int slot, core_err *err)
     for (size_t i = 0; i < s->n; i++) sum += rho[i];
     s->rho_rest = (float)(sum / (double)s->n);
     s->rho_rest_valid = true;
+    s->lists_valid = false; /* the rest pose's lists are not reused */
     return CORE_OK;
 }
 
@@ -285,7 +287,7 @@ static core_status vk_step(void *self, core_err *err)
     sim_vk_frame_in in = {
         .params = &s->params, .sph = sph, .rho_rest = s->rho_rest_valid ? s->rho_rest : 1.0f,
         .prev_head = s->prev_head, .head = s->head, .ncolliders = s->ncolliders, .colliders = s->colliders,
-        .nv = s->nv,
+        .nv = s->nv, .max_segment = s->max_segment,
     };
     sim_vk_frame_fill(&in, sl->frame.map);
 
@@ -303,7 +305,10 @@ static core_status vk_step(void *self, core_err *err)
     }
     sim_vk_barrier(cmd); /* after the previous step and any transfer */
     if (sph) {
-        sim_vk_record_sph(s, cmd, s->pipes.sets[f], false, sl->queries);
+        /* the lists are rebuilt every neighbor_rebuild steps (counted since create or reset) */
+        bool rebuild = !s->lists_valid || s->stats.steps % (uint64_t)s->params.neighbor_rebuild == 0;
+        sim_vk_record_sph(s, cmd, s->pipes.sets[f], rebuild ? SIM_VK_SPH_REBUILD : SIM_VK_SPH_REUSE, sl->queries);
+        s->lists_valid = true;
     } else if (sl->queries) {
         for (uint32_t k = SIM_VK_S_GRID; k <= SIM_VK_S_FORCE; k++)
             vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, sl->queries, k + 1);
@@ -368,6 +373,7 @@ static core_status vk_write_state(void *self, const float *xyz, const float *vel
     to_level_major(s, xyz, s->host_tmp);
     st = upload_state(s, s->host_tmp, vtmp, false, err);
     free(vtmp);
+    if (st == CORE_OK) s->lists_valid = false;
     return st;
 }
 
@@ -399,7 +405,10 @@ static core_status vk_set_params(void *self, const sim_params *p, core_err *err)
         if (st == CORE_OK) st = make_nbr(s, (uint32_t)p->neighbor_cap, err);
         if (st != CORE_OK) return st;
     }
-    if (p->sph_radius != s->params.sph_radius || p->neighbor_cap != s->params.neighbor_cap) s->rho_rest_valid = false;
+    if (p->sph_radius != s->params.sph_radius || p->neighbor_cap != s->params.neighbor_cap) {
+        s->rho_rest_valid = false;
+        s->lists_valid = false;
+    }
     s->params = *p;
     return CORE_OK;
 }
@@ -415,19 +424,14 @@ static void vk_get_stats(void *self, sim_stats *out)
     if (!s->ctx.timestamps) out->nstages = 0;
 }
 
-/* Chooses the chain strategy and the group size that fits in shared memory. */
+/* Chooses the chain strategy: GROUP needs a chunk's predictions in shared memory. */
 static sim_vk_chain_cfg choose_chain(const sim_vk_ctx *c, sim_vk_chain want, uint32_t nv)
 {
-    sim_vk_chain_cfg cfg = { want == SIM_VK_CHAIN_DEFAULT ? SIM_VK_CHAIN_GROUP : want, 0 };
-    if (cfg.strategy != SIM_VK_CHAIN_GROUP) return cfg;
-    uint32_t fit = c->props.limits.maxComputeSharedMemorySize / (3u * (uint32_t)sizeof(float) * nv);
-    uint32_t gs = fit < SIM_VK_WG ? fit : SIM_VK_WG;
-    if (gs >= 8) gs &= ~7u;
-    if (gs == 0) {
+    sim_vk_chain_cfg cfg = { want == SIM_VK_CHAIN_DEFAULT ? SIM_VK_CHAIN_GROUP : want };
+    /* pred[3 * CHUNK * nv] floats + the chunk's box (2 * CHUNK vec3, 16 B each) + a flag */
+    uint64_t need = 12ull * SIM_VK_CHUNK * nv + 32ull * SIM_VK_CHUNK + 16;
+    if (cfg.strategy == SIM_VK_CHAIN_GROUP && need > c->props.limits.maxComputeSharedMemorySize)
         cfg.strategy = SIM_VK_CHAIN_LEVEL;
-        return cfg;
-    }
-    cfg.group_strands = gs;
     return cfg;
 }
 
@@ -479,6 +483,11 @@ static core_status create_impl(const sim_desc *desc, const sim_vk_options *opt, 
         return st;
     }
     to_level_major(s, g->pos, s->rest);
+    for (size_t i = s->ns; i < s->n; i++) { /* as the C backend: over the internal order */
+        float dx = s->rest[3 * i] - s->rest[3 * (i - s->ns)], dy = s->rest[3 * i + 1] - s->rest[3 * (i - s->ns) + 1],
+              dz = s->rest[3 * i + 2] - s->rest[3 * (i - s->ns) + 2];
+        s->max_segment = fmaxf(s->max_segment, sqrtf(dx * dx + dy * dy + dz * dz));
+    }
 #ifdef STRANDCAST_VK_DEBUG
     const bool validation = true;
 #else

@@ -139,6 +139,8 @@ typedef enum sim_vk_pipe_id {
     SIM_VK_P_SPH_CELLSORT,
     SIM_VK_P_SPH_DENSITY,
     SIM_VK_P_SPH_FORCE,
+    SIM_VK_P_SPH_REGATHER,
+    SIM_VK_P_SPH_REUSE,
     SIM_VK_NPIPES
 } sim_vk_pipe_id;
 
@@ -155,7 +157,6 @@ typedef struct sim_vk_spec {
     uint32_t wg;      /* constant_id 0: local_size_x */
     uint32_t ns;      /* constant_id 1: strands */
     uint32_t nv;      /* constant_id 2: vertices per strand */
-    uint32_t gs;      /* constant_id 3: strands per workgroup (group strategy) */
 } sim_vk_spec;
 
 typedef struct sim_vk_pipes {
@@ -167,10 +168,12 @@ typedef struct sim_vk_pipes {
     uint32_t wg[SIM_VK_NPIPES]; /* workgroup size of each pipeline */
 } sim_vk_pipes;
 
-/* Chain-pass strategies (see sim_vk.h). */
+/* Strands per chain workgroup: the C backend's chunk (collider culling is per chunk). */
+#define SIM_VK_CHUNK 64
+
+/* Chain-pass strategy (see sim_vk.h). */
 typedef struct sim_vk_chain_cfg {
     sim_vk_chain strategy;
-    uint32_t group_strands; /* strands per workgroup for SIM_VK_CHAIN_GROUP */
 } sim_vk_chain_cfg;
 
 /* Creates the set layout, pipeline layout, descriptor pool and sets, and every pipeline with
@@ -194,18 +197,18 @@ typedef struct sim_vk_gxf {
 } sim_vk_gxf;
 
 typedef struct sim_vk_gcollider {
-    float a[4];         /* w: kind */
-    float b[4];         /* w: radius */
-    float radii[4];
-    float inv_radii[4];
-    float rot[4];
+    float a[4];        /* w: kind */
+    float b[4];        /* w: radius */
+    float lo[4], hi[4]; /* world bounding box (culling) */
+    float m[3][4];     /* ellipsoid: rows of world offset -> unit-sphere coordinates */
+    float nrm[3][4];   /* ellipsoid: rows of unit-sphere coordinates -> world offset */
 } sim_vk_gcollider;
 
 typedef struct sim_vk_frame {
     float accel[4];
     float dt_k, inv_dt_k, damping, h;
     float h2, inv_h2, inv_h, kp;
-    float mu_dt, inv_step_dt, inv_rho0, pad0;
+    float mu_dt, inv_step_dt, inv_rho0, grow;
     uint32_t substeps, ncolliders, flags, cap;
     sim_vk_gxf head[SIM_VK_MAX_SUBSTEPS];
     sim_vk_gcollider col[SIM_VK_MAX_SUBSTEPS * SIM_VK_MAX_COLLIDERS];
@@ -224,6 +227,7 @@ typedef struct sim_vk_frame_in {
     uint32_t ncolliders;
     const core_collider *colliders;
     uint32_t nv;
+    float max_segment;     /* longest rest segment (collider culling margin) */
 } sim_vk_frame_in;
 
 /* Fills out (sim_vk_frame_size(in->nv) bytes) with the step's parameters: substep head
@@ -272,6 +276,8 @@ typedef struct sim_vk {
     uint32_t nbr_cap;     /* neighbour slots per particle NBR holds */
     float rho_rest;
     bool rho_rest_valid;
+    bool lists_valid;     /* ORDER/NBR describe the current particles and may be reused */
+    float max_segment;    /* longest rest segment */
     sim_vk_buf x, v, a, rest_buf, strand, grid, count, start, block, cell_of, order, sx, sv, rho, press, nbr, nnbr;
     sim_vk_buf stats_buf; /* READBACK: nan counter */
     sim_vk_buf staging;   /* READBACK: 6n floats for uploads and readbacks */
@@ -283,10 +289,16 @@ typedef struct sim_vk {
     core_err broken_err;
 } sim_vk;
 
-/* Records the SPH passes (grid, sort, density; and forces unless rest_pass) into cmd with
- * descriptor set `set`; rest_pass reads REST with zero velocities. Timestamps go to
- * queries (may be VK_NULL_HANDLE) at indices SIM_VK_S_* + 1. */
-void sim_vk_record_sph(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set, bool rest_pass, VkQueryPool queries);
+/* How an SPH pass gets its neighbours. */
+typedef enum sim_vk_sph_mode {
+    SIM_VK_SPH_REST,    /* rest-density pass: grid, sort, search on REST with zero velocities */
+    SIM_VK_SPH_REBUILD, /* grid, sort, search on the current state, then forces */
+    SIM_VK_SPH_REUSE    /* the last lists at the current distances, then forces */
+} sim_vk_sph_mode;
+
+/* Records an SPH pass into cmd with descriptor set `set`. Timestamps go to queries (may be
+ * VK_NULL_HANDLE) at indices SIM_VK_S_* + 1 (every stage gets one). */
+void sim_vk_record_sph(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set, sim_vk_sph_mode mode, VkQueryPool queries);
 
 /* Records the chain pass for every substep (after the SPH passes). */
 void sim_vk_record_chain(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set);

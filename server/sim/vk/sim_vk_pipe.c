@@ -28,15 +28,17 @@ static pipe_src source_of(sim_vk_pipe_id id, sim_vk_chain strategy)
         [SIM_VK_P_SPH_CELLSORT] = SRC(sim_sph_cellsort),
         [SIM_VK_P_SPH_DENSITY] = SRC(sim_sph_density),
         [SIM_VK_P_SPH_FORCE] = SRC(sim_sph_force),
+        [SIM_VK_P_SPH_REGATHER] = SRC(sim_sph_regather),
+        [SIM_VK_P_SPH_REUSE] = SRC(sim_sph_reuse),
     };
     if (id == SIM_VK_P_CHAIN) return strategy == SIM_VK_CHAIN_GROUP ? chain_group : chain_level;
     return table[id];
 }
 
-static uint32_t wg_of(sim_vk_pipe_id id, const sim_vk_chain_cfg *chain)
+static uint32_t wg_of(sim_vk_pipe_id id)
 {
     switch (id) {
-    case SIM_VK_P_CHAIN: return chain->strategy == SIM_VK_CHAIN_GROUP ? chain->group_strands : SIM_VK_WG;
+    case SIM_VK_P_CHAIN: return SIM_VK_CHUNK;
     case SIM_VK_P_SCAN_BLOCKS:
     case SIM_VK_P_SCAN_SUMS:
     case SIM_VK_P_SCAN_ADD: return SIM_VK_SCAN_BLOCK / 2;
@@ -123,9 +125,8 @@ static core_status create_pipeline(sim_vk_ctx *c, sim_vk_pipes *p, sim_vk_pipe_i
         { 0, offsetof(sim_vk_spec, wg), sizeof(uint32_t) },
         { 1, offsetof(sim_vk_spec, ns), sizeof(uint32_t) },
         { 2, offsetof(sim_vk_spec, nv), sizeof(uint32_t) },
-        { 3, offsetof(sim_vk_spec, gs), sizeof(uint32_t) },
     };
-    VkSpecializationInfo si = { 4, entries, sizeof *spec, spec };
+    VkSpecializationInfo si = { 3, entries, sizeof *spec, spec };
     VkComputePipelineCreateInfo ci = {
         .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
         .stage = {
@@ -150,7 +151,7 @@ core_status sim_vk_pipes_init(sim_vk_ctx *c, sim_vk_pipes *p, uint32_t ns, uint3
     memset(p, 0, sizeof *p);
     core_status st = create_layouts(c, p, err);
     for (int id = 0; id < SIM_VK_NPIPES && st == CORE_OK; id++) {
-        sim_vk_spec spec = { wg_of((sim_vk_pipe_id)id, chain), ns, nv, chain->group_strands };
+        sim_vk_spec spec = { wg_of((sim_vk_pipe_id)id), ns, nv };
         p->wg[id] = spec.wg;
         st = create_pipeline(c, p, (sim_vk_pipe_id)id, &spec, chain->strategy, err);
     }
