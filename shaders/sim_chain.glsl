@@ -4,40 +4,63 @@
 
 const uint CHUNK = 64u;
 
-// Per-level reduction of the chunk's bounding box: xyz min in [0, CHUNK), max in [CHUNK, 2 CHUNK).
-shared vec3 chunk_box[2u * CHUNK];
-shared uint chunk_nan;
+// The chunk's bounding box per level as order-preserving uint keys (atomic min/max): three
+// buffers in turn, so that one barrier per level separates writing, reading and resetting.
+// [6 * b + 0..2] min, [6 * b + 3..5] max; box_nan[b]: a NaN was seen.
+shared uint box_key[18];
+shared uint box_nan[3];
 
-// Pushes p out of one collider onto its surface.
-vec3 collide_one(vec3 p, Collider w)
+uint fkey(float f)
 {
-    uint kind = uint(w.a.w);
-    vec3 c = w.a.xyz;
+    uint u = floatBitsToUint(f);
+    return (u & 0x80000000u) != 0u ? ~u : u | 0x80000000u;
+}
+float keyf(uint k) { return uintBitsToFloat((k & 0x80000000u) != 0u ? k & 0x7fffffffu : ~k); }
+
+void box_reset(uint b)
+{
+    for (uint k = 0u; k < 3u; k++) {
+        box_key[6u * b + k] = 0xffffffffu;
+        box_key[6u * b + 3u + k] = 0u;
+    }
+    box_nan[b] = 0u;
+}
+
+// Pushes p out of collider ci (its world pose this substep) onto its surface. The fields are
+// read where they are used: a collider is 160 bytes and most pushes need 32 of them.
+vec3 collide_one(vec3 p, uint ci)
+{
+    vec4 a = F.col[ci].a;
+    uint kind = uint(a.w);
+    vec3 c = a.xyz;
     if (kind == 2u) {
         vec3 d = p - c;
-        float sx = w.m[0].x * d.x + w.m[0].y * d.y + w.m[0].z * d.z;
-        float sy = w.m[1].x * d.x + w.m[1].y * d.y + w.m[1].z * d.z;
-        float sz = w.m[2].x * d.x + w.m[2].y * d.y + w.m[2].z * d.z;
+        vec3 m0 = F.col[ci].m[0].xyz, m1 = F.col[ci].m[1].xyz, m2 = F.col[ci].m[2].xyz;
+        float sx = m0.x * d.x + m0.y * d.y + m0.z * d.z;
+        float sy = m1.x * d.x + m1.y * d.y + m1.z * d.z;
+        float sz = m2.x * d.x + m2.y * d.y + m2.z * d.z;
         float sl = sqrt(sx * sx + sy * sy + sz * sz);
         if (!(sl < 1.0)) return p;
         bool degenerate = sl < 1e-12;
         float k = 1.0 / max(sl, 1e-12);
         float ux = degenerate ? 0.0 : sx * k, uy = degenerate ? 1.0 : sy * k, uz = degenerate ? 0.0 : sz * k;
-        float px = w.nrm[0].x * ux + w.nrm[0].y * uy + w.nrm[0].z * uz;
-        float py = w.nrm[1].x * ux + w.nrm[1].y * uy + w.nrm[1].z * uz;
-        float pz = w.nrm[2].x * ux + w.nrm[2].y * uy + w.nrm[2].z * uz;
+        vec3 n0 = F.col[ci].nrm[0].xyz, n1 = F.col[ci].nrm[1].xyz, n2 = F.col[ci].nrm[2].xyz;
+        float px = n0.x * ux + n0.y * uy + n0.z * uz;
+        float py = n1.x * ux + n1.y * uy + n1.z * uz;
+        float pz = n2.x * ux + n2.y * uy + n2.z * uz;
         return vec3(c.x + px, c.y + py, c.z + pz);
     }
-    vec3 e = kind == 1u ? w.b.xyz - w.a.xyz : vec3(0.0);
+    vec4 b = F.col[ci].b;
+    vec3 e = kind == 1u ? b.xyz - a.xyz : vec3(0.0);
     float ee = e.x * e.x + e.y * e.y + e.z * e.z;
     float inv_ee = kind == 1u && ee > 0.0 ? 1.0 / ee : 0.0;
-    vec3 d0 = p - w.a.xyz;
+    vec3 d0 = p - a.xyz;
     float t = (d0.x * e.x + d0.y * e.y + d0.z * e.z) * inv_ee;
     t = min(max(t, 0.0), 1.0);
-    c = w.a.xyz + e * t;
+    c = a.xyz + e * t;
     vec3 d = p - c;
     float dl = v3len(d);
-    float r = w.b.w;
+    float r = b.w;
     if (!(dl < r)) return p;
     float k = r / max(dl, 1e-12);
     return vec3(c.x + d.x * k, dl < 1e-12 ? c.y + r : c.y + d.y * k, c.z + d.z * k);
@@ -55,38 +78,37 @@ vec3 follow(vec3 p, vec3 c, vec3 r)
 // The colliders the chunk can reach at this level, in the C backend's order: those whose box
 // overlaps the chunk's box of positions and parents (grown by the longest segment), then
 // those overlapping the box grown by the colliders taken, until nothing changes. Every
-// invocation of the workgroup must call it (it synchronises); inactive ones pass live = false.
-uint chunk_colliders(bool live, vec3 c, vec3 p, uint k, out uint hit[MAX_COLLIDERS])
+// invocation of the workgroup calls it with the same box buffer b (it synchronises); buffer b
+// must have been reset before the previous barrier; thread 0 resets buffer `next`. hit[]
+// receives indices into F.col.
+uint chunk_colliders(bool live, vec3 c, vec3 p, uint k, uint b, uint next, out uint hit[MAX_COLLIDERS])
 {
-    uint t = gl_LocalInvocationID.x;
     bool nan = live && (any(greaterThan(floatBitsToUint(c) & 0x7fffffffu, uvec3(0x7f800000u))) ||
-                          any(greaterThan(floatBitsToUint(p) & 0x7fffffffu, uvec3(0x7f800000u))));
-    if (t == 0u) chunk_nan = 0u;
-    chunk_box[t] = live && !nan ? min(c, p) : vec3(uintBitsToFloat(0x7f800000u));
-    chunk_box[CHUNK + t] = live && !nan ? max(c, p) : vec3(-uintBitsToFloat(0x7f800000u));
-    barrier();
-    if (nan) atomicOr(chunk_nan, 1u);
-    for (uint w = CHUNK / 2u; w > 0u; w /= 2u) {
-        if (t < w) {
-            chunk_box[t] = min(chunk_box[t], chunk_box[t + w]);
-            chunk_box[CHUNK + t] = max(chunk_box[CHUNK + t], chunk_box[CHUNK + t + w]);
+                        any(greaterThan(floatBitsToUint(p) & 0x7fffffffu, uvec3(0x7f800000u))));
+    if (nan) atomicOr(box_nan[b], 1u);
+    if (live && !nan) {
+        vec3 lo = min(c, p), hi = max(c, p);
+        for (uint j = 0u; j < 3u; j++) {
+            atomicMin(box_key[6u * b + j], fkey(lo[j]));
+            atomicMax(box_key[6u * b + 3u + j], fkey(hi[j]));
         }
-        barrier();
     }
-    vec3 lo = chunk_box[0] - F.grow, hi = chunk_box[CHUNK] + F.grow;
-    bool finite = chunk_nan == 0u;
-    barrier(); // everyone has read the box before the next level overwrites it
+    barrier();
+    vec3 lo = vec3(keyf(box_key[6u * b]), keyf(box_key[6u * b + 1u]), keyf(box_key[6u * b + 2u])) - F.grow;
+    vec3 hi = vec3(keyf(box_key[6u * b + 3u]), keyf(box_key[6u * b + 4u]), keyf(box_key[6u * b + 5u])) + F.grow;
+    bool finite = box_nan[b] == 0u;
+    if (gl_LocalInvocationID.x == 0u && next != b) box_reset(next);
     uint nhit = 0u, taken = 0u;
     for (bool grew = true; grew;) {
         grew = false;
         for (uint j = 0u; j < F.ncolliders; j++) {
-            Collider w = F.col[k * MAX_COLLIDERS + j];
-            bool overlap = all(lessThanEqual(lo, w.hi.xyz)) && all(greaterThanEqual(hi, w.lo.xyz));
+            vec3 wlo = F.col[k * MAX_COLLIDERS + j].lo.xyz, whi = F.col[k * MAX_COLLIDERS + j].hi.xyz;
+            bool overlap = all(lessThanEqual(lo, whi)) && all(greaterThanEqual(hi, wlo));
             if ((taken & (1u << j)) != 0u || !(overlap || !finite)) continue;
             taken |= 1u << j;
-            hit[nhit++] = j;
-            lo = min(lo, w.lo.xyz);
-            hi = max(hi, w.hi.xyz);
+            hit[nhit++] = k * MAX_COLLIDERS + j;
+            lo = min(lo, wlo);
+            hi = max(hi, whi);
             grew = true;
         }
     }
@@ -131,8 +153,9 @@ vec3 chain_predict(uint i)
 // Level l >= 1 of strand s from its prediction: global shape (11), local shape (12),
 // follow the leader (13), collisions; finalises level l - 1 >= 1 with the DFTL velocity
 // correction (14) and moves the chain state on to level l. Every invocation of the workgroup
-// calls it (collider culling synchronises); inactive ones (past the last strand) write nothing.
-void chain_solve(bool live, uint s, uint l, uint k, vec3 pred, inout Chain ch)
+// calls it with the same box buffers b, next (see chunk_colliders); inactive ones (past the
+// last strand) write nothing.
+void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred, inout Chain ch)
 {
     Xf hd = F.head[k];
     uint i = l * NS + s;
@@ -151,15 +174,15 @@ void chain_solve(bool live, uint s, uint l, uint k, vec3 pred, inout Chain ch)
     vec3 delta = xs - pred;
     if (F.ncolliders > 0u) {
         uint hit[MAX_COLLIDERS];
-        uint nhit = chunk_colliders(live, xs, ch.p, k, hit);
+        uint nhit = chunk_colliders(live, xs, ch.p, k, b, next, hit);
         if (nhit > 0u) {
             for (uint it = 0u; it < COLLISION_ITERATIONS; it++) {
-                for (uint h = 0u; h < nhit; h++) xs = collide_one(xs, F.col[k * MAX_COLLIDERS + hit[h]]);
+                for (uint h = 0u; h < nhit; h++) xs = collide_one(xs, hit[h]);
                 xs = follow(ch.p, xs, r);
             }
             uint passes = nhit > 1u ? CREVICE_PASSES : 1u;
             for (uint pass = 0u; pass < passes; pass++)
-                for (uint h = 0u; h < nhit; h++) xs = collide_one(xs, F.col[k * MAX_COLLIDERS + hit[h]]);
+                for (uint h = 0u; h < nhit; h++) xs = collide_one(xs, hit[h]);
         }
     }
     if (live && l > 1u) {

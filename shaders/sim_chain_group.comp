@@ -24,6 +24,10 @@ void main()
         pred[3u * slot + 1u] = x.y;
         pred[3u * slot + 2u] = x.z;
     }
+    if (gl_LocalInvocationID.x == 0u) {
+        box_reset(1u); /* the box buffers of levels 1 and 2; level l resets that of l + 2 */
+        box_reset(2u);
+    }
     barrier();
     // phase 2: the serial chain, one thread per strand, the chunk in step for collider culling
     uint s = s0 + t;
@@ -31,7 +35,7 @@ void main()
     Chain ch = chain_root(live, s, k);
     for (uint l = 1u; l < NV; l++) {
         uint slot = l * CHUNK + t;
-        chain_solve(live, s, l, k, vec3(pred[3u * slot], pred[3u * slot + 1u], pred[3u * slot + 2u]), ch);
+        chain_solve(live, s, l, k, l % 3u, (l + 2u) % 3u, vec3(pred[3u * slot], pred[3u * slot + 1u], pred[3u * slot + 2u]), ch);
     }
     if (live) chain_finish(s, k, ch);
 }

@@ -26,7 +26,11 @@ void main()
     } else {
         ch = chain_root(false, s, k);
     }
-    chain_solve(live, s, l, k, live ? chain_predict(l * NS + s) : vec3(0.0), ch);
+    if (F.ncolliders > 0u) { // the chunk's box buffer starts empty
+        if (gl_LocalInvocationID.x == 0u) box_reset(0u);
+        barrier();
+    }
+    chain_solve(live, s, l, k, 0u, 0u, live ? chain_predict(l * NS + s) : vec3(0.0), ch);
     if (!live) return;
     if (l == NV - 1u) {
         chain_finish(s, k, ch);

@@ -33,7 +33,7 @@ struct Collider {
 };
 
 // Per-step parameters (host-computed, so the derived values have the C backend's bits).
-layout(std430, set = 0, binding = 0) readonly buffer FrameBuf {
+layout(std430, set = 0, binding = 0) restrict readonly buffer FrameBuf {
     vec4 accel;        // gravity + wind (xyz)
     float dt_k;        // substep length
     float inv_dt_k;    // 1 / dt_k
@@ -57,14 +57,14 @@ layout(std430, set = 0, binding = 0) readonly buffer FrameBuf {
 } F;
 
 // Particle arrays, level-major (i = level * NS + strand), 3 packed floats per particle.
-layout(std430, set = 0, binding = 1) buffer XBuf { float d[]; } X;
-layout(std430, set = 0, binding = 2) buffer VBuf { float d[]; } V;
-layout(std430, set = 0, binding = 3) buffer ABuf { float d[]; } A;
-layout(std430, set = 0, binding = 4) readonly buffer RestBuf { float d[]; } REST;
+layout(std430, set = 0, binding = 1) restrict buffer XBuf { float d[]; } X;
+layout(std430, set = 0, binding = 2) restrict buffer VBuf { float d[]; } V;
+layout(std430, set = 0, binding = 3) restrict buffer ABuf { float d[]; } A;
+layout(std430, set = 0, binding = 4) restrict readonly buffer RestBuf { float d[]; } REST;
 // Per strand: [2s] = last solved position (xyz), [2s + 1] = frame quaternion.
-layout(std430, set = 0, binding = 5) buffer StrandBuf { vec4 d[]; } STRAND;
+layout(std430, set = 0, binding = 5) restrict buffer StrandBuf { vec4 d[]; } STRAND;
 
-layout(std430, set = 0, binding = 18) buffer StatsBuf {
+layout(std430, set = 0, binding = 18) restrict buffer StatsBuf {
     uint nan_resets;
     uint pad[3];
 } STATS;

@@ -6,7 +6,7 @@ const uint SPH_SCAN_BLOCK = 64u;       // candidates examined per block
 const uint SCAN_BLOCK = 512u;          // buckets per prefix-sum workgroup
 const uint MAX_COORD = 1048575u;       // cell coordinates are clamped to 20 bits
 
-layout(std430, set = 0, binding = 6) buffer GridBuf {
+layout(std430, set = 0, binding = 6) restrict buffer GridBuf {
     uint bmin[3];      // bounding box as order-preserving uint encodings of floats
     uint bmax[3];
     uint pad0[2];
@@ -14,17 +14,17 @@ layout(std430, set = 0, binding = 6) buffer GridBuf {
     vec4 inv;          // x: 1 / cell size
     uvec4 dims;        // cells along x, y, z (the hash's strides); w: buckets (a power of two)
 } G;
-layout(std430, set = 0, binding = 7) buffer CountBuf { uint d[]; } COUNT;  // per cell; zero between passes
-layout(std430, set = 0, binding = 8) buffer StartBuf { uint d[]; } START;  // per cell + 1: first sorted slot
-layout(std430, set = 0, binding = 9) buffer BlockBuf { uint d[]; } BLOCK;  // per scan block
-layout(std430, set = 0, binding = 10) buffer CellOfBuf { uint d[]; } CELL_OF; // per particle
-layout(std430, set = 0, binding = 11) buffer OrderBuf { uint d[]; } ORDER;   // sorted slot -> particle
-layout(std430, set = 0, binding = 12) buffer SxBuf { vec4 d[]; } SX;         // sorted positions, w: strand bits
-layout(std430, set = 0, binding = 13) buffer SvBuf { vec4 d[]; } SV;         // sorted velocities
-layout(std430, set = 0, binding = 14) buffer RhoBuf { float d[]; } RHO;      // per sorted slot
-layout(std430, set = 0, binding = 15) buffer PressBuf { float d[]; } PRESS;  // per sorted slot
-layout(std430, set = 0, binding = 16) buffer NbrBuf { uint d[]; } NBR;       // per sorted slot: cap slots
-layout(std430, set = 0, binding = 17) buffer NnbrBuf { uint d[]; } NNBR;     // per sorted slot
+layout(std430, set = 0, binding = 7) restrict buffer CountBuf { uint d[]; } COUNT;  // per cell; zero between passes
+layout(std430, set = 0, binding = 8) restrict buffer StartBuf { uint d[]; } START;  // per cell + 1: first sorted slot
+layout(std430, set = 0, binding = 9) restrict buffer BlockBuf { uint d[]; } BLOCK;  // per scan block
+layout(std430, set = 0, binding = 10) restrict buffer CellOfBuf { uint d[]; } CELL_OF; // per particle
+layout(std430, set = 0, binding = 11) restrict buffer OrderBuf { uint d[]; } ORDER;   // sorted slot -> particle
+layout(std430, set = 0, binding = 12) restrict buffer SxBuf { vec4 d[]; } SX;         // sorted positions, w: strand bits
+layout(std430, set = 0, binding = 13) restrict buffer SvBuf { vec4 d[]; } SV;         // sorted velocities
+layout(std430, set = 0, binding = 14) restrict buffer RhoBuf { float d[]; } RHO;      // per sorted slot
+layout(std430, set = 0, binding = 15) restrict buffer PressBuf { float d[]; } PRESS;  // per sorted slot
+layout(std430, set = 0, binding = 16) restrict buffer NbrBuf { uint d[]; } NBR;       // per sorted slot: cap slots
+layout(std430, set = 0, binding = 17) restrict buffer NnbrBuf { uint d[]; } NNBR;     // per sorted slot
 
 // PC.arg0 == 1: the rest-density pass (positions from REST, zero velocities).
 vec3 sph_pos(uint i) { return PC.arg0 == 1u ? ldRest(i) : ldX(i); }
