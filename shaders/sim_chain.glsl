@@ -10,13 +10,6 @@ const uint CHUNK = 64u;
 shared uint box_key[18];
 shared uint box_nan[3];
 
-uint fkey(float f)
-{
-    uint u = floatBitsToUint(f);
-    return (u & 0x80000000u) != 0u ? ~u : u | 0x80000000u;
-}
-float keyf(uint k) { return uintBitsToFloat((k & 0x80000000u) != 0u ? k & 0x7fffffffu : ~k); }
-
 void box_reset(uint b)
 {
     for (uint k = 0u; k < 3u; k++) {

@@ -113,6 +113,14 @@ vec3 qrot(vec4 q, vec3 v)
 }
 vec3 xf_point(Xf x, vec3 p) { return qrot(x.rot, p) + x.pos.xyz; }
 
+// Order-preserving uint encoding of a float (for atomic min/max) and back.
+uint fkey(float f)
+{
+    uint u = floatBitsToUint(f);
+    return (u & 0x80000000u) != 0u ? ~u : u | 0x80000000u;
+}
+float keyf(uint k) { return uintBitsToFloat((k & 0x80000000u) != 0u ? k & 0x7fffffffu : ~k); }
+
 // a > 0 ? a : 0 (the C backend's MAX0).
 float max0(float a) { return a > 0.0 ? a : 0.0; }
 

@@ -30,13 +30,6 @@ layout(std430, set = 0, binding = 17) restrict buffer NnbrBuf { uint d[]; } NNBR
 vec3 sph_pos(uint i) { return PC.arg0 == 1u ? ldRest(i) : ldX(i); }
 vec3 sph_vel(uint i) { return PC.arg0 == 1u ? vec3(0.0) : ldV(i); }
 
-uint f2key(float f)
-{
-    uint u = floatBitsToUint(f);
-    return (u & 0x80000000u) != 0u ? ~u : u | 0x80000000u;
-}
-float key2f(uint k) { return uintBitsToFloat((k & 0x80000000u) != 0u ? k & 0x7fffffffu : ~k); }
-
 uint cell_coord(float p, float origin, float inv)
 {
     float f = (p - origin) * inv;

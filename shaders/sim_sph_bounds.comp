@@ -19,7 +19,7 @@ void main()
         vec3 p = sph_pos(i);
         for (int k = 0; k < 3; k++) {
             if ((floatBitsToUint(p[k]) & 0x7fffffffu) > 0x7f800000u) continue; // NaN
-            lo[k] = f2key(p[k]);
+            lo[k] = fkey(p[k]);
             hi[k] = lo[k];
         }
     }

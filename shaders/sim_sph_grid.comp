@@ -22,7 +22,7 @@ void main()
     vec3 origin;
     uvec3 dims;
     for (int k = 0; k < 3; k++) {
-        float lo = key2f(G.bmin[k]), hi = key2f(G.bmax[k]);
+        float lo = keyf(G.bmin[k]), hi = keyf(G.bmax[k]);
         bool ok = G.bmin[k] != 0xffffffffu && (floatBitsToUint(lo) & 0x7f800000u) != 0x7f800000u &&
                   (floatBitsToUint(hi) & 0x7f800000u) != 0x7f800000u;
         if (!ok) {

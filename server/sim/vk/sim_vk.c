@@ -427,9 +427,10 @@ static void vk_get_stats(void *self, sim_stats *out)
 /* Chooses the chain strategy: GROUP needs a chunk's predictions in shared memory. */
 static sim_vk_chain_cfg choose_chain(const sim_vk_ctx *c, sim_vk_chain want, uint32_t nv)
 {
-    sim_vk_chain_cfg cfg = { want == SIM_VK_CHAIN_DEFAULT ? SIM_VK_CHAIN_GROUP : want };
-    /* pred[3 * CHUNK * nv] floats + the chunk's box (2 * CHUNK vec3, 16 B each) + a flag */
-    uint64_t need = 12ull * SIM_VK_CHUNK * nv + 32ull * SIM_VK_CHUNK + 16;
+    /* LEVEL measured 2.4-2.9x faster than GROUP on lavapipe (BENCHMARKS.md) */
+    sim_vk_chain_cfg cfg = { want == SIM_VK_CHAIN_DEFAULT ? SIM_VK_CHAIN_LEVEL : want };
+    /* pred[3 * CHUNK * nv] floats + the three chunk boxes (18 + 3 uints), rounded up */
+    uint64_t need = 12ull * SIM_VK_CHUNK * nv + 128;
     if (cfg.strategy == SIM_VK_CHAIN_GROUP && need > c->props.limits.maxComputeSharedMemorySize)
         cfg.strategy = SIM_VK_CHAIN_LEVEL;
     return cfg;

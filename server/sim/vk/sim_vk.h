@@ -15,12 +15,12 @@ const sim_vtable *sim_vk_vtable(void);
 /* How the serial chain along each strand is spread over the GPU.
  * LEVEL: the paper's particle-level parallelism, one dispatch per level (all strands of a
  *        level in parallel, a barrier between levels).
- * GROUP: one workgroup per group of strands; the group's particles are predicted in parallel
- *        into shared memory, one thread per strand walks its chain there, then the group
- *        writes back in parallel; one dispatch per substep. Needs nverts small enough for the
- *        group to fit in shared memory; create falls back to LEVEL otherwise. */
+ * GROUP: one workgroup per chunk of 64 strands: the chunk's particles are predicted in
+ *        parallel into shared memory, then one thread per strand walks its chain from there;
+ *        one dispatch per substep. Needs 768 * nverts bytes of shared memory (nverts <= 42 on
+ *        lavapipe, <= 63 with 48 KiB); create falls back to LEVEL otherwise. */
 typedef enum sim_vk_chain {
-    SIM_VK_CHAIN_DEFAULT = 0, /* the faster one as measured (see BENCHMARKS.md) */
+    SIM_VK_CHAIN_DEFAULT = 0, /* the faster one as measured on lavapipe: LEVEL (BENCHMARKS.md) */
     SIM_VK_CHAIN_LEVEL,
     SIM_VK_CHAIN_GROUP
 } sim_vk_chain;
