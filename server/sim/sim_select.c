@@ -16,17 +16,21 @@ static core_status create_kind(sim *s, const sim_desc *desc, sim_backend_kind ki
     return sim_create(s, &d, groom, params, err);
 }
 
-/* Seconds per step of s over TRIAL_STEPS steps (positions read back at the end, so queued
- * GPU work is counted), or a negative value when a step fails. */
-static double time_steps(sim *s, float *xyz)
+/* Seconds per step of s over up to TRIAL_STEPS steps after a warm-up step (positions read back
+ * at the end, so queued GPU work is counted); it stops early once budget seconds have passed
+ * (the backend is then clearly the slower one). Negative when a step fails. */
+static double time_steps(sim *s, float *xyz, double budget)
 {
     core_err err;
     if (sim_step(s, &err) != CORE_OK || sim_read_positions(s, xyz, &err) != CORE_OK) return -1.0;
     unsigned long long t0 = core_now_ns();
-    for (int i = 0; i < TRIAL_STEPS; i++)
-        if (sim_step(s, &err) != CORE_OK) return -1.0;
-    if (sim_read_positions(s, xyz, &err) != CORE_OK) return -1.0;
-    return (double)(core_now_ns() - t0) * 1e-9 / TRIAL_STEPS;
+    int done = 0;
+    while (done < TRIAL_STEPS) {
+        if (sim_step(s, &err) != CORE_OK || sim_read_positions(s, xyz, &err) != CORE_OK) return -1.0;
+        done++;
+        if ((double)(core_now_ns() - t0) * 1e-9 > budget) break;
+    }
+    return (double)(core_now_ns() - t0) * 1e-9 / done;
 }
 
 static core_status pick_faster(sim *s, const sim_desc *desc, const core_groom *groom, const sim_params *params,
@@ -45,7 +49,8 @@ static core_status pick_faster(sim *s, const sim_desc *desc, const core_groom *g
     }
     size_t n = (size_t)groom->nstrands * groom->nverts;
     float *xyz = malloc(n * 3 * sizeof(float));
-    double t_cpu = xyz ? time_steps(s, xyz) : -1.0, t_vk = xyz ? time_steps(&vk, xyz) : -1.0;
+    double t_cpu = xyz ? time_steps(s, xyz, 1e9) : -1.0;
+    double t_vk = xyz ? time_steps(&vk, xyz, t_cpu > 0.0 ? 2.0 * TRIAL_STEPS * t_cpu : 1e9) : -1.0;
     free(xyz);
     bool use_vk = t_vk > 0.0 && (t_cpu < 0.0 || t_vk < t_cpu);
     core_log(CORE_LOG_INFO, "sim",
