@@ -24,6 +24,7 @@ typedef struct fanout_opts {
     double server_rate; /* the daemon's --rate; 0 = its default (60) */
     int strands, verts;
     const char *daemon;
+    const char *params; /* a set_params "values" object sent before measuring, or NULL */
     bool json;
 } fanout_opts;
 
@@ -103,7 +104,8 @@ static int parse_opts(int argc, char **argv, fanout_opts *o)
                  "WebSocket clients from one thread (each subscribes with max_rate HZ, default 30; 0 = every frame),\n"
                  "and measures over S seconds (default 5): sim steps/s, frames per client per second, server CPU\n"
                  "(fraction of one core, /proc). A 0-client run first gives the sim's baseline on this machine.\n"
-                 "--server-rate passes --rate to the daemon (frames it publishes per second; default 60).");
+                 "--server-rate passes --rate to the daemon (frames it publishes per second; default 60).\n"
+                 "--params '{\"sph\":false}' sends set_params first (e.g. to separate solver cost from fan-out cost).");
             return 1;
         }
         if (!v) {
@@ -140,6 +142,9 @@ static int parse_opts(int argc, char **argv, fanout_opts *o)
             o->strands = atoi(v);
         } else if (strcmp(a, "--verts") == 0) {
             o->verts = atoi(v);
+        } else if (strcmp(a, "--params") == 0) {
+            if (v[0] != '{' || strlen(v) > 1000) return fprintf(stderr, "fanout: --params wants a JSON object\n"), 2;
+            o->params = v;
         } else if (strcmp(a, "--daemon") == 0) {
             o->daemon = v;
         } else {
@@ -189,6 +194,19 @@ static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_
         return 1;
     }
     wsc *w = wsc_new();
+    if (o->params) {
+        /* a control client changes the scene's parameters and stays connected */
+        wsc_conn *ctl = wsc_connect(w, d.port, "strandcast.v1", NULL, NULL);
+        char msg[1100];
+        snprintf(msg, sizeof msg, "{\"type\":\"set_params\",\"values\":%s}", o->params);
+        wsc_send_text(ctl, msg);
+        if (!wsc_wait_open(w, ctl, 10000) || !wsc_next_of_type(w, ctl, "ok", 10000)) {
+            fprintf(stderr, "fanout: the daemon refused --params %s\n", o->params);
+            wsc_free(w);
+            daemon_stop(&d, SIGTERM, 15000);
+            return 1;
+        }
+    }
     client_count *counts = calloc((size_t)(nclients ? nclients : 1), sizeof *counts);
     wsc_conn **conns = calloc((size_t)(nclients ? nclients : 1), sizeof *conns);
     char sub[96];
@@ -256,6 +274,7 @@ int bench_fanout_main(int argc, char **argv)
                "%g s per case, %ld cores\n",
                o.strands ? o.strands : 4096, o.verts ? o.verts : 32, o.server_rate ? o.server_rate : 60.0, o.max_rate,
                o.seconds, cores);
+        if (o.params) printf("scene parameters changed with set_params %s\n", o.params);
         printf("baseline (0 clients): %.1f sim steps/s, server CPU %.2f cores\n", base.steps_per_s, base.server_cpu);
         printf("%8s %12s %10s %14s %14s %10s %11s %10s\n", "clients", "steps/s", "vs base", "frames/cl/s", "min frames/s",
                "MB/s", "server CPU", "bench CPU");
@@ -268,10 +287,11 @@ int bench_fanout_main(int argc, char **argv)
             printf("{\"bench\":\"fanout\",\"clients\":%d,\"strands\":%d,\"verts\":%d,\"max_rate\":%g,\"server_rate\":%g,\"seconds\":%g,"
                    "\"sim_steps_per_s\":%.2f,\"baseline_steps_per_s\":%.2f,\"frames_per_client_per_s\":%.2f,"
                    "\"min_frames_per_client_per_s\":%.2f,\"mbytes_per_s\":%.3f,\"frames_skipped_per_s\":%.1f,"
-                   "\"server_cpu\":%.3f,\"bench_cpu\":%.3f,\"cores\":%ld}\n",
+                   "\"server_cpu\":%.3f,\"bench_cpu\":%.3f,\"cores\":%ld,\"params\":%s}\n",
                    r.clients, o.strands ? o.strands : 4096, o.verts ? o.verts : 32, o.max_rate,
                    o.server_rate ? o.server_rate : 60.0, o.seconds, r.steps_per_s,
-                   base.steps_per_s, r.fpc, r.fpc_min, r.mbytes_per_s, r.skipped_per_s, r.server_cpu, r.bench_cpu, cores);
+                   base.steps_per_s, r.fpc, r.fpc_min, r.mbytes_per_s, r.skipped_per_s, r.server_cpu, r.bench_cpu, cores,
+                   o.params ? o.params : "null");
         } else {
             printf("%8d %12.1f %9.2fx %14.1f %14.1f %10.2f %11.2f %10.2f\n", r.clients, r.steps_per_s, ratio, r.fpc,
                    r.fpc_min, r.mbytes_per_s, r.server_cpu, r.bench_cpu);
