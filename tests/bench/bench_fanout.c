@@ -78,7 +78,7 @@ static double thread_cpu_s(pid_t pid, const char *comm)
     struct dirent *de;
     while ((de = readdir(d))) {
         if (de->d_name[0] == '.') continue;
-        char path[128], name[64] = "";
+        char path[384], name[64] = "";
         snprintf(path, sizeof path, "%s/%s/comm", dir, de->d_name);
         FILE *f = fopen(path, "r");
         if (!f) continue;
