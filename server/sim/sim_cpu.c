@@ -80,6 +80,7 @@ static void cpu_reset(void *self)
         c->a[0][i] = c->a[1][i] = c->a[2][i] = 0.0f;
     }
     c->prev_head = c->head;
+    c->sph.lists_valid = false;
     memset(c->nan_per_thread, 0, sizeof c->nan_per_thread);
     c->stats.steps = 0;
     c->stats.sim_time = 0.0;
@@ -108,8 +109,10 @@ static core_status cpu_set_params(void *self, const sim_params *p, core_err *err
 {
     (void)err;
     sim_cpu *c = self;
-    if (p->sph_radius != c->params.sph_radius || p->neighbor_cap != c->params.neighbor_cap)
+    if (p->sph_radius != c->params.sph_radius || p->neighbor_cap != c->params.neighbor_cap) {
         c->rho_rest_valid = false;
+        c->sph.lists_valid = false;
+    }
     c->params = *p;
     update_stiffness(c);
     return CORE_OK;
@@ -189,12 +192,13 @@ static core_status cpu_step(void *self, core_err *err)
     if (sph) {
         if (!c->rho_rest_valid) {
             double mean;
-            core_status st = sim_cpu_sph_pass(c, c->rest, NULL, dt, &mean, err);
+            core_status st = sim_cpu_sph_pass(c, c->rest, NULL, dt, true, &mean, err);
             if (st != CORE_OK) return st;
             c->rho_rest = (float)mean;
             c->rho_rest_valid = true;
         }
-        core_status st = sim_cpu_sph_pass(c, c->x, c->v, dt, NULL, err);
+        bool rebuild = c->stats.steps % (uint64_t)c->params.neighbor_rebuild == 0;
+        core_status st = sim_cpu_sph_pass(c, c->x, c->v, dt, rebuild, NULL, err);
         if (st != CORE_OK) return st;
         t1 = core_now_ns();
     }
@@ -253,6 +257,7 @@ static core_status cpu_write_state(void *self, const float *xyz, const float *ve
                 c->v[k][i] = vel ? vel[o + k] : 0.0f;
             }
         }
+    c->sph.lists_valid = false;
     return CORE_OK;
 }
 
