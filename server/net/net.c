@@ -367,18 +367,19 @@ static void set_stream(net_session *s, uint32_t stream, double max_rate)
 static void apply_frame(net *n, net_event *e)
 {
     net_slot *sl = &n->slots[e->stream];
+    sl->count++;
     if (e->key) {
         net_buf_unref(sl->key);
         net_buf_ref(e->buf);
         sl->key = e->buf;
         sl->key_seq = e->seq;
+        sl->key_count = sl->count;
     }
     net_buf_unref(sl->latest);
     sl->latest = e->buf;
     e->buf = NULL;
     sl->latest_seq = e->seq;
     sl->latest_key_seq = sl->key_seq;
-    sl->count++;
 }
 
 static void apply(net *n, net_event *e)
