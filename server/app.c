@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/prctl.h>
 #include <time.h>
 
 #include "app_internal.h"
@@ -78,6 +79,7 @@ static void teardown(app *a)
 
 static void *net_main(void *arg)
 {
+    prctl(PR_SET_NAME, "sc-net"); /* thread names let tools (strandbench fanout) split CPU time */
     net_run(arg);
     return NULL;
 }

@@ -1,6 +1,7 @@
 /* app: the sim thread: commands at step boundaries, real-time fixed steps, publishing, stats. */
 #include <stdio.h>
 #include <string.h>
+#include <sys/prctl.h>
 
 #include "app_internal.h"
 
@@ -89,6 +90,7 @@ static void update_stats(app *a, unsigned long long now)
 void *app_sim_main(void *arg)
 {
     app *a = arg;
+    prctl(PR_SET_NAME, "sc-sim");
     unsigned long long next = core_now_ns();
     a->win_start_ns = a->log_start_ns = next;
     uint64_t total = 0;

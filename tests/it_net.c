@@ -669,7 +669,7 @@ static void test_pause_step_subscribe_groom(void **state)
     /* at most 20/s; and no fewer than 60% of what the server published, up to that rate (the
      * sanitizer build may simulate slower than real time) */
     double expect = fmin(40.0, (double)other);
-    if ((double)got > 40.0 + 3.0 || (double)got < 0.6 * expect)
+    if ((double)got > 40.0 + 2.0 || (double)got < 0.6 * expect)
         fail_msg("%llu frames in 2 s at max_rate 20 (full-rate client: %llu)", (unsigned long long)got,
                  (unsigned long long)other);
     assert_int_equal(v2->info.nstrands_sent, NSTRANDS);

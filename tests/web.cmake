@@ -12,3 +12,12 @@ foreach(name ${STRANDCAST_WEB_JS_TESTS})
   # pure JavaScript: nothing for the sanitizers to check, so it runs in the release tree only
   set_tests_properties(web_js_${name} PROPERTIES LABELS "web;no_asan" TIMEOUT 120)
 endforeach()
+
+# The browser end-to-end test: the release daemon serving web/, headless Chromium (SwiftShader
+# WebGL2) through playwright-core (tests/node_modules, installed by .ci/deps), a second
+# WebSocket client (npm ws). Prints the viewer benchmark lines ({"bench":"web_e2e",...}); the
+# screenshot and logs go to <build>/e2e/. SwiftShader is slow, hence the long timeout.
+add_test(NAME web_e2e
+  COMMAND ${STRANDCAST_NODE} ${CMAKE_CURRENT_SOURCE_DIR}/e2e/e2e.mjs
+          --daemon $<TARGET_FILE:strandcastd> --web ${PROJECT_SOURCE_DIR}/web --out ${CMAKE_BINARY_DIR}/e2e)
+set_tests_properties(web_e2e PROPERTIES LABELS "web;e2e;no_asan" TIMEOUT 2400 RUN_SERIAL TRUE)

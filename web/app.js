@@ -1,19 +1,18 @@
-// The viewer application: wires the connection, decode worker, renderer, panel and input;
-// owns the scene state (groom, colliders, head pose, view settings) and the render loop.
+// The viewer application: wires the stream worker (connection and decoding), the renderer, the
+// panel and input; owns the scene state (groom, colliders, head pose, view settings) and the
+// render loop.
 import { OrbitCamera } from './camera.js';
-import { DecoderClient } from './decoder_client.js';
 import { buildLayout } from './interp.js';
 import { Input } from './input.js';
 import { dragRotate, dragTranslate, motionMessage } from './motion.js';
-import { Connection, defaultUrl } from './net.js';
+import { defaultUrl } from './net.js';
 import { Banner, statsText } from './overlay.js';
 import { Panel } from './panel.js';
 import { pickColliders } from './pick.js';
 import { Renderer } from './renderer.js';
+import { StreamClient } from './stream_client.js';
 import { Ema, LatencyEstimator, RateMeter } from './stats.js';
 import { VIEW_SPECS, applySetting, defaultSettings } from './view_settings.js';
-
-const KEYFRAME_REQUEST_MS = 1000;
 
 function finiteArray(a, n) {
   return Array.isArray(a) && (n === undefined || a.length === n) && a.every(Number.isFinite);
@@ -39,9 +38,8 @@ export class App {
     this.drag = null;           // { mode, pos, q, worldPerPx } while dragging the head
     this.dragHead = { position: new Float64Array(3), orientation: new Float64Array([0, 0, 0, 1]) };
     this.motionDirty = false;
-    this.guideConfig = null;    // { pts, texW, texH, nrmOffset } from the worker
+    this.guideConfig = null;    // { pts, texW, texH, tanOffset } from the worker
     this.layoutPerGuide = 0;
-    this.lastKeyRequest = -Infinity;
     this.paused = false;
     // statistics
     this.fps = new RateMeter(1000, 512);
@@ -54,11 +52,17 @@ export class App {
     this.serverStats = null;
     this.framesRendered = 0;
     this.framesUploaded = 0;
-    this.totals = { frames: 0, decodeMs: 0, prepareMs: 0, uploads: 0, uploadMs: 0 }; // for benchmarks
+    this.totals = { frames: 0, decodeMs: 0, prepareMs: 0, uploads: 0, uploadMs: 0, draws: 0, drawMs: 0 }; // for benchmarks
+    // Benchmark mode: wait for the GPU before and after each upload and draw, so that their
+    // times are their own and not the wait for earlier work (slower overall; tests only).
+    this.benchmarkTiming = false;
+    this.syncPixel = new Uint8Array(4);
     this.clientId = null;
     this.lastOverlay = 0;
     this.captureWaiters = [];
     this.contextLost = false;
+    this.dirty = true;                  // something changed since the last drawn frame
+    this.viewKey = new Float64Array(8); // camera and canvas size at the last drawn frame
     this.refused = null;
 
     this.panel = new Panel(panelEl, {
@@ -73,17 +77,21 @@ export class App {
     });
     this.panel.buildView(VIEW_SPECS, this.settings);
 
-    this.decoder = new DecoderClient({
+    this.url = url || defaultUrl(location);
+    this.stream = new StreamClient({
+      onHello: (h) => this._onHello(h),
+      onMessage: (m) => this._onMessage(m),
+      onStatus: (s) => this._onStatus(s),
       onConfigured: (cfg) => this._onConfigured(cfg),
       onDecoded: (m) => this._onDecoded(m),
-      onError: (message, needKeyframe) => this._onDecodeError(message, needKeyframe),
+      onError: (message) => this.panel.showStatus(message, true),
     });
 
     this.input = new Input(canvas, this.camera, {
       hitHead: (x, y) => this._hitHead(x, y),
       headStart: (mode) => this._headStart(mode),
       headDrag: (dx, dy) => this._headDrag(dx, dy),
-      headEnd: () => { this.drag = null; },
+      headEnd: () => { this.drag = null; this.dirty = true; },
     });
 
     canvas.addEventListener('webglcontextlost', (e) => {
@@ -95,26 +103,21 @@ export class App {
       this.contextLost = false;
       this.renderer = new Renderer(canvas, gl);
       this.layoutPerGuide = 0;
+      this.dirty = true;
       if (this.groom) this._applyGroom(this.groom, this.colliders);
       this.banner.hide();
     });
 
-    this.connection = new Connection(url || defaultUrl(location), {
-      onHello: (h) => this._onHello(h),
-      onMessage: (m) => this._onMessage(m),
-      onBinary: (data) => this._onBinary(data),
-      onStatus: (s) => this._onStatus(s),
-    });
     this._loop = this._loop.bind(this);
   }
 
   start() {
-    this.connection.start();
+    this.stream.start(this.url);
     requestAnimationFrame(this._loop);
   }
 
   send(msg) {
-    const id = this.connection.send(msg);
+    const id = this.stream.send(msg);
     if (id === null) this.panel.showStatus('not connected: the change was not sent', true);
     return id;
   }
@@ -123,6 +126,7 @@ export class App {
   setView(name, value) {
     const rebuild = applySetting(this.settings, name, value);
     if (rebuild === null) return false;
+    this.dirty = true;
     if (rebuild === 'layout') this._buildLayout();
     if (rebuild === 'smoothing') this._configureWorker();
     return true;
@@ -131,6 +135,7 @@ export class App {
   // ---- connection ----------------------------------------------------------------------
 
   _onStatus(s) {
+    if (s.state !== 'connecting') console.info(`strandcast: connection ${s.state}${s.reason ? `: ${s.reason}` : ''}`);
     if (s.state === 'open') {
       this.refused = null;
       this.banner.hide();
@@ -165,7 +170,6 @@ export class App {
       this.head.orientation.set(h.head.orientation);
     }
     const first = !this.groom;
-    this.decoder.resetDecoder();
     this._applyGroom(h.groom, h.colliders);
     if (first && finiteArray(h.groom.bounds, 6)) this.camera.frame(h.groom.bounds);
     this.panel.showStatus(`connected to ${h.server || 'server'} ${h.version || ''} as client ${h.client ?? '?'}`, false);
@@ -179,7 +183,7 @@ export class App {
         if (typeof m.paused === 'boolean') this.paused = m.paused;
         this.latency.reset();
         break;
-      case 'groom': this.decoder.resetDecoder(); this._applyGroom(m.groom, m.colliders); break;
+      case 'groom': this._applyGroom(m.groom, m.colliders); break;
       case 'stats': this.serverStats = m; break;
       case 'error': {
         const field = typeof m.field === 'string' ? m.field : '';
@@ -189,10 +193,6 @@ export class App {
       }
       default: break;
     }
-  }
-
-  _onBinary(data) {
-    this.decoder.push(data, performance.now());
   }
 
   // ---- groom, layout and worker configuration -------------------------------------------
@@ -208,6 +208,7 @@ export class App {
     if (finiteArray(groom.bounds, 6)) this.renderer.setBounds(groom.bounds);
     this.guideConfig = null;
     this.renderer.hair.hasFrame = false;
+    this.dirty = true;
     this._buildLayout();
     this._configureWorker();
   }
@@ -216,14 +217,14 @@ export class App {
     if (!this.groom || this.contextLost) return;
     const per = this.settings.perGuide;
     const layout = buildLayout(this.roots, this.groom.strands, per);
-    this.renderer.hair.setLayout(layout, per);
+    this.renderer.hair.setLayout(layout);
     this.layoutPerGuide = per;
   }
 
   _configureWorker() {
     if (!this.groom) return;
     this.guideConfig = null;
-    this.decoder.configure(this.groom.strands, this.groom.verts, this.settings.segs, this.maxTexW, this.roots);
+    this.stream.configure(this.groom.strands, this.groom.verts, this.settings.segs, this.maxTexW, this.roots);
   }
 
   _onConfigured(cfg) {
@@ -240,16 +241,6 @@ export class App {
     this.totals.decodeMs += m.decodeMs;
     this.totals.prepareMs += m.prepareMs;
     this.seq = m.seq;
-  }
-
-  _onDecodeError(message, needKeyframe) {
-    const now = performance.now();
-    if (needKeyframe && now - this.lastKeyRequest > KEYFRAME_REQUEST_MS) {
-      this.lastKeyRequest = now;
-      this.connection.send({ type: 'keyframe' });
-    } else if (!needKeyframe) {
-      this.panel.showStatus(`frame rejected: ${message}`, true);
-    }
   }
 
   // ---- head dragging --------------------------------------------------------------------
@@ -285,34 +276,69 @@ export class App {
 
   // ---- the render loop ------------------------------------------------------------------
 
+  // Waits until the GPU has carried out every command so far: a one-pixel read is a full sync
+  // point in every WebGL implementation (gl.finish() is not, in Chromium). Benchmark mode only.
+  _sync() {
+    const gl = this.gl;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, this.syncPixel);
+  }
+
+  // True when the camera or the canvas size changed since the last call. Allocates nothing.
+  _viewChanged() {
+    const k = this.viewKey, c = this.camera;
+    const v0 = c.yaw, v1 = c.pitch, v2 = c.distance, v3 = c.target[0], v4 = c.target[1], v5 = c.target[2];
+    const v6 = this.canvas.clientWidth, v7 = this.canvas.clientHeight;
+    const changed = k[0] !== v0 || k[1] !== v1 || k[2] !== v2 || k[3] !== v3 || k[4] !== v4 || k[5] !== v5 || k[6] !== v6 || k[7] !== v7;
+    k[0] = v0; k[1] = v1; k[2] = v2; k[3] = v3; k[4] = v4; k[5] = v5; k[6] = v6; k[7] = v7;
+    return changed;
+  }
+
+  // One animation frame: upload the newest decoded frame, send pending head motion, and draw
+  // when anything changed (every frame with the "redraw every frame" setting).
   _loop(now) {
     requestAnimationFrame(this._loop);
     if (this.contextLost) return;
-    this.fps.add(now);
-    const f = this.decoder.take();
+    const moved = this._viewChanged();
+    let draw = moved || this.dirty || this.settings.continuous || this.captureWaiters.length > 0;
+    this.dirty = false;
+    const f = this.stream.take();
     if (f) {
-      if (this.guideConfig && f.gen === this.decoder.gen && this.renderer.hair.texW === this.guideConfig.texW) {
+      if (this.guideConfig && f.gen === this.stream.gen && this.renderer.hair.texW === this.guideConfig.texW) {
+        if (this.benchmarkTiming) this._sync();
         const t0 = performance.now();
-        this.renderer.hair.upload(f.buf, this.guideConfig.nrmOffset);
+        this.renderer.hair.upload(f.buf, this.guideConfig.tanOffset);
+        if (this.benchmarkTiming) this._sync();
         const dt = performance.now() - t0;
         this.uploadMs.add(dt);
         this.totals.uploads++;
         this.totals.uploadMs += dt;
         this.framesUploaded++;
+        draw = true;
         if (f.head) {
           this.head.position.set(f.head.position);
           this.head.orientation.set(f.head.orientation);
         }
       }
-      this.decoder.recycle(f);
+      this.stream.recycle(f);
     }
     if (this.motionDirty && this.drag) {
       this.motionDirty = false;
-      this.connection.send(motionMessage(now, this.dragHead.position, this.dragHead.orientation));
+      draw = true;
+      this.stream.send(motionMessage(now, this.dragHead.position, this.dragHead.orientation));
     }
-    this.renderer.render(this.camera, this.settings, this.drag ? this.dragHead : this.head);
-    this.framesRendered++;
-    if (this.captureWaiters.length) this._capture();
+    if (draw) {
+      this.fps.add(now);
+      const t0 = performance.now();
+      this.renderer.render(this.camera, this.settings, this.drag ? this.dragHead : this.head);
+      if (this.benchmarkTiming) {
+        this._sync();
+        this.totals.draws++;
+        this.totals.drawMs += performance.now() - t0;
+      }
+      this.framesRendered++;
+      if (this.captureWaiters.length) this._capture();
+    }
     if (now - this.lastOverlay > 250) {
       this.lastOverlay = now;
       this.statsEl.textContent = statsText(this.snapshot(now));

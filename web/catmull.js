@@ -20,15 +20,15 @@ export function catmullWeights(segs) {
 }
 
 // Smooths nstrands strands of nverts vertices (strand-major xyz in src, starting at float
-// srcOff) into dst (strand-major xyz, smoothedCount(nverts, segs) points per strand, starting at
-// float dstOff). The curve passes through every control vertex; the missing neighbours at the
-// two ends are mirrored (p[-1] = 2 p[0] - p[1]). weights comes from catmullWeights(segs).
-// Allocates nothing.
-export function smoothStrands(dst, dstOff, src, srcOff, nstrands, nverts, segs, weights) {
+// srcOff) into dst: smoothedCount(nverts, segs) points per strand, strand-major, point k at
+// float dstOff + stride * k (stride 3 for packed xyz, 4 to leave a fourth slot untouched). The
+// curve passes through every control vertex; the missing neighbours at the two ends are
+// mirrored (p[-1] = 2 p[0] - p[1]). weights comes from catmullWeights(segs). Allocates nothing.
+export function smoothStrands(dst, dstOff, stride, src, srcOff, nstrands, nverts, segs, weights) {
   const pts = smoothedCount(nverts, segs);
   for (let s = 0; s < nstrands; s++) {
     const base = srcOff + 3 * s * nverts;
-    let o = dstOff + 3 * s * pts;
+    let o = dstOff + stride * s * pts;
     for (let j = 0; j < nverts - 1; j++) {
       const i1 = base + 3 * j, i2 = i1 + 3;
       for (let c = 0; c < 3; c++) {
@@ -37,10 +37,10 @@ export function smoothStrands(dst, dstOff, src, srcOff, nstrands, nverts, segs, 
         const p3 = j < nverts - 2 ? src[i2 + 3 + c] : 2 * p2 - p1;
         for (let k = 0; k < segs; k++) {
           const w = 4 * k;
-          dst[o + 3 * k + c] = weights[w] * p0 + weights[w + 1] * p1 + weights[w + 2] * p2 + weights[w + 3] * p3;
+          dst[o + stride * k + c] = weights[w] * p0 + weights[w + 1] * p1 + weights[w + 2] * p2 + weights[w + 3] * p3;
         }
       }
-      o += 3 * segs;
+      o += stride * segs;
     }
     const last = base + 3 * (nverts - 1);
     dst[o] = src[last]; dst[o + 1] = src[last + 1]; dst[o + 2] = src[last + 2];

@@ -20,10 +20,11 @@ export class HairRenderer {
     this.main = createProgram(gl, HAIR_VS, HAIR_FS, 'hair');
     this.depth = createProgram(gl, HAIR_VS, DEPTH_FS, 'hair shadow');
     this.posTex = makeTexture(gl);
-    this.nrmTex = makeTexture(gl);
-    this.instances = gl.createBuffer();
-    this.vao = gl.createVertexArray();      // every render strand
-    this.guideVao = gl.createVertexArray(); // render strand 0 of each guide (shadow pass)
+    this.tanTex = makeTexture(gl);
+    this.instances = gl.createBuffer();      // every render strand
+    this.guideInstances = gl.createBuffer(); // render strand 0 of each guide (shadow pass)
+    this.vao = gl.createVertexArray();
+    this.guideVao = gl.createVertexArray();
     this.count = 0;
     this.nguides = 0;
     this.pts = 0;
@@ -32,33 +33,35 @@ export class HairRenderer {
     this.hasFrame = false;
   }
 
-  // Sizes the guide textures for nguides smoothed guides of pts points in a texW x texH
-  // layout (texel k = guide * pts + point, row-major). Forgets the current frame.
+  // Sizes the two RGBA32F guide textures for nguides smoothed guides of pts points in a
+  // texW x texH layout (texel k = guide * pts + point, row-major). Forgets the current frame.
   setGuides(nguides, pts, texW, texH) {
     const gl = this.gl;
     this.nguides = nguides; this.pts = pts; this.texW = texW; this.texH = texH;
-    for (const t of [this.posTex, this.nrmTex]) {
+    for (const t of [this.posTex, this.tanTex]) {
       gl.bindTexture(gl.TEXTURE_2D, t);
-      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGB32F, texW, texH, 0, gl.RGB, gl.FLOAT, null);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, texW, texH, 0, gl.RGBA, gl.FLOAT, null);
     }
     this.hasFrame = false;
   }
 
-  // Replaces the render strands (layout from interp.js buildLayout with perGuide per guide).
-  setLayout(layout, perGuide) {
+  // Replaces the render strands (a layout from interp.js buildLayout).
+  setLayout(layout) {
     const gl = this.gl;
     gl.bindBuffer(gl.ARRAY_BUFFER, this.instances);
     gl.bufferData(gl.ARRAY_BUFFER, layout.data, gl.STATIC_DRAW);
-    this._attribs(this.vao, INSTANCE_STRIDE);
-    this._attribs(this.guideVao, INSTANCE_STRIDE * perGuide);
+    gl.bindBuffer(gl.ARRAY_BUFFER, this.guideInstances);
+    gl.bufferData(gl.ARRAY_BUFFER, layout.guideData, gl.STATIC_DRAW);
+    this._attribs(this.vao, this.instances, INSTANCE_STRIDE);
+    this._attribs(this.guideVao, this.guideInstances, INSTANCE_STRIDE);
     gl.bindVertexArray(null);
     this.count = layout.count;
   }
 
-  _attribs(vao, stride) {
+  _attribs(vao, buffer, stride) {
     const gl = this.gl;
     gl.bindVertexArray(vao);
-    gl.bindBuffer(gl.ARRAY_BUFFER, this.instances);
+    gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
     gl.enableVertexAttribArray(0);
     gl.vertexAttribIPointer(0, 3, gl.UNSIGNED_INT, stride, 0);
     gl.vertexAttribDivisor(0, 1);
@@ -69,15 +72,15 @@ export class HairRenderer {
     }
   }
 
-  // Uploads one smoothed frame: positions at float 0 and normals at float nrmOffset of buf,
-  // each texW * texH * 3 floats. Allocates nothing.
-  upload(buf, nrmOffset) {
+  // Uploads one smoothed frame from the worker: the (position, a) image at float 0 and the
+  // (tangent, b) image at float tanOffset of buf, each texW * texH * 4 floats. Allocates nothing.
+  upload(buf, tanOffset) {
     const gl = this.gl;
     gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
     gl.bindTexture(gl.TEXTURE_2D, this.posTex);
-    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, this.texW, this.texH, gl.RGB, gl.FLOAT, buf, 0);
-    gl.bindTexture(gl.TEXTURE_2D, this.nrmTex);
-    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, this.texW, this.texH, gl.RGB, gl.FLOAT, buf, nrmOffset);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, this.texW, this.texH, gl.RGBA, gl.FLOAT, buf, 0);
+    gl.bindTexture(gl.TEXTURE_2D, this.tanTex);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, this.texW, this.texH, gl.RGBA, gl.FLOAT, buf, tanOffset);
     this.hasFrame = true;
   }
 
@@ -88,8 +91,8 @@ export class HairRenderer {
     gl.bindTexture(gl.TEXTURE_2D, this.posTex);
     gl.uniform1i(u.uPos, 0);
     gl.activeTexture(gl.TEXTURE1);
-    gl.bindTexture(gl.TEXTURE_2D, this.nrmTex);
-    gl.uniform1i(u.uNrm, 1);
+    gl.bindTexture(gl.TEXTURE_2D, this.tanTex);
+    gl.uniform1i(u.uTan, 1);
     gl.uniform1i(u.uTexW, this.texW);
     gl.uniform1i(u.uPts, this.pts);
     gl.uniformMatrix4fv(u.uViewProj, false, v.viewProj);

@@ -94,8 +94,9 @@ function median(values) {
 // get random barycentric weights towards the guide's two nearest neighbours (only those within
 // maxBlend times the median guide spacing, so strands never blend across a parting) and a
 // random offset in a disc whose radius is the distance to the nearest guide (0.5 * spacing when
-// isolated). Deterministic for a seed. Returns { count, data: ArrayBuffer, spacing } where
-// spacing is the median nearest-guide distance in metres.
+// isolated). Deterministic for a seed. Returns { count, data: ArrayBuffer, guideData:
+// ArrayBuffer, spacing }: guideData holds render strand 0 of every guide alone (the guides
+// themselves, for the shadow pass), spacing is the median nearest-guide distance in metres.
 export function buildLayout(roots, nguides, perGuide, { seed = 1, maxBlend = 3, lengthJitter = 0.15 } = {}) {
   const nb = nearestTwo(roots, nguides);
   const spacing = median(nb.d1) || 0.005;
@@ -126,5 +127,8 @@ export function buildLayout(roots, nguides, perGuide, { seed = 1, maxBlend = 3, 
       f32[o + 8] = rand();
     }
   }
-  return { count, data, spacing };
+  const guideData = new ArrayBuffer(nguides * INSTANCE_STRIDE);
+  const dst = new Uint8Array(guideData), src = new Uint8Array(data);
+  for (let g = 0; g < nguides; g++) dst.set(src.subarray(g * perGuide * INSTANCE_STRIDE, (g * perGuide + 1) * INSTANCE_STRIDE), g * INSTANCE_STRIDE);
+  return { count, data, guideData, spacing };
 }

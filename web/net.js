@@ -135,7 +135,7 @@ export class Connection {
   _refused(why) {
     this._lost(`the WebSocket handshake failed (${why})`);
     const httpUrl = this.url.replace(/^ws/, 'http');
-    fetch(httpUrl, { method: 'HEAD', cache: 'no-store' }).then((r) => {
+    fetch(httpUrl, { cache: 'no-store' }).then((r) => {
       if (this.stopped || this.helloSeen) return;
       if (r.status < 500 && ++this.refusals >= 2) {
         this._status({ state: 'refused', reason: `the server at ${httpUrl} answers HTTP but refused the ${SUBPROTOCOL} WebSocket ${this.refusals} times: most likely a protocol version mismatch (reload the page from that server)` });

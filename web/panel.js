@@ -45,14 +45,16 @@ function controlRow(c, value, onChange, dataAttr) {
   const release = () => { dragging = false; };
   range.addEventListener('pointerup', release);
   range.addEventListener('pointercancel', release);
+  // the number box shows the exact value (a server value may lie between slider steps)
+  const text = (v) => (c.kind === 'int' ? String(v) : String(Number(Number(v).toPrecision(6))));
   const show = (v) => {
     range.value = String(v);
-    num.value = c.kind === 'int' ? String(v) : Number(v).toFixed(c.decimals);
+    num.value = text(v);
   };
   range.addEventListener('input', () => {
     const v = coerceValue(c, range.value);
     if (v === null) return;
-    num.value = c.kind === 'int' ? String(v) : v.toFixed(c.decimals);
+    num.value = text(v);
     onChange(v, false);
   });
   range.addEventListener('change', () => {

@@ -1,18 +1,21 @@
 // GLSL ES 3.00 sources: hair ribbons (main and shadow passes) and the collider meshes.
 
 // Hair vertex shader. Each instance is one render strand; vertex 2 i and 2 i + 1 are the two
-// edges of the ribbon at smoothed point i. Guide points (Catmull-Rom smoothed by the worker)
-// and their normals come from two RGB32F textures, point k of guide g at texel g * uPts + k.
-// The render strand is sum_j w_j guide_j (multi-strand interpolation, w1, w2 = barycentric
-// weights times uMulti) plus an offset in guide 0's (normal, binormal) frame that grows from
-// root to tip (single-strand interpolation). The ribbon is expanded sideways, perpendicular to
-// the tangent and the view direction, to uWidthPx pixels tapering to uTipWidth at the tip.
+// edges of the ribbon at smoothed point i. The worker's Catmull-Rom smoothed guides come in two
+// RGBA32F textures, point k of guide g at texel g * uPts + k: (position, a) and (tangent, b),
+// where the guide's normal is a b1 + b b2 with (b1, b2) the tangent's basis (frames.js
+// tangentBasis, rebuilt here from the same float32 tangent). The render strand is
+// sum_j w_j guide_j (multi-strand interpolation, w1, w2 = barycentric weights times uMulti)
+// plus an offset in guide 0's (normal, binormal) frame that grows from root to tip
+// (single-strand interpolation); it takes guide 0's tangent. The ribbon is expanded sideways,
+// perpendicular to the tangent and the view direction, to uWidthPx pixels tapering to
+// uTipWidth at the tip.
 export const HAIR_VS = `#version 300 es
 precision highp float;
 precision highp int;
 precision highp sampler2D;
 uniform sampler2D uPos;
-uniform sampler2D uNrm;
+uniform sampler2D uTan;
 uniform int uTexW;
 uniform int uPts;
 uniform mat4 uViewProj;
@@ -35,36 +38,27 @@ out vec3 vTan;
 out float vT;
 out float vShade;
 
-vec3 fetchPoint(sampler2D s, uint g, int i) {
+ivec2 texel(uint g, int i) {
   int k = int(g) * uPts + i;
-  return texelFetch(s, ivec2(k % uTexW, k / uTexW), 0).xyz;
+  return ivec2(k % uTexW, k / uTexW);
 }
 
 void main() {
   int last = max(1, int(float(uPts - 1) * aRand.x + 0.5));
   int i = min(gl_VertexID >> 1, last);
   float side = (gl_VertexID & 1) == 0 ? -0.5 : 0.5;
-  int ia = max(i - 1, 0);
-  int ib = min(i + 1, uPts - 1);
   float w1 = aBary.x * uMulti;
   float w2 = aBary.y * uMulti;
-  float w0 = 1.0 - w1 - w2;
-  vec3 p = w0 * fetchPoint(uPos, aGuides.x, i);
-  vec3 d = w0 * (fetchPoint(uPos, aGuides.x, ib) - fetchPoint(uPos, aGuides.x, ia));
-  if (w1 > 0.0) {
-    p += w1 * fetchPoint(uPos, aGuides.y, i);
-    d += w1 * (fetchPoint(uPos, aGuides.y, ib) - fetchPoint(uPos, aGuides.y, ia));
-  }
-  if (w2 > 0.0) {
-    p += w2 * fetchPoint(uPos, aGuides.z, i);
-    d += w2 * (fetchPoint(uPos, aGuides.z, ib) - fetchPoint(uPos, aGuides.z, ia));
-  }
-  float dl = length(d);
-  vec3 T = dl > 1e-12 ? d / dl : vec3(0.0, -1.0, 0.0);
-  vec3 N = fetchPoint(uNrm, aGuides.x, i);
-  N -= dot(N, T) * T;
-  float nl = length(N);
-  N = nl > 1e-6 ? N / nl : (abs(T.y) < 0.9 ? normalize(cross(T, vec3(0.0, 1.0, 0.0))) : normalize(cross(T, vec3(1.0, 0.0, 0.0))));
+  vec4 A = texelFetch(uPos, texel(aGuides.x, i), 0);
+  vec4 D = texelFetch(uTan, texel(aGuides.x, i), 0);
+  vec3 p = (1.0 - w1 - w2) * A.xyz;
+  if (w1 > 0.0) p += w1 * texelFetch(uPos, texel(aGuides.y, i), 0).xyz;
+  if (w2 > 0.0) p += w2 * texelFetch(uPos, texel(aGuides.z, i), 0).xyz;
+  vec3 T = D.xyz;
+  float sg = T.z >= 0.0 ? 1.0 : -1.0;
+  float ba = -1.0 / (sg + T.z);
+  float bb = T.x * T.y * ba;
+  vec3 N = A.w * vec3(1.0 + sg * T.x * T.x * ba, sg * bb, -sg * T.x) + D.w * vec3(bb, sg + T.y * T.y * ba, -T.y);
   vec3 B = cross(T, N);
   float t = float(i) / float(uPts - 1);
   p += (aOffset.x * N + aOffset.y * B) * (uSpread * mix(1.0, uTipSpread, t));

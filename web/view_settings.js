@@ -25,6 +25,7 @@ export const VIEW_SPECS = [
   { name: 'lightAzimuth', label: 'light azimuth', kind: 'float', min: -180, max: 180, step: 1, def: 35, help: 'Light direction around the vertical axis, degrees.' },
   { name: 'lightElevation', label: 'light elevation', kind: 'float', min: -89, max: 89, step: 1, def: 40, help: 'Light height above the horizon, degrees.' },
   { name: 'colliders', label: 'show head', kind: 'bool', def: true, help: 'Draw the head and colliders.' },
+  { name: 'continuous', label: 'redraw every frame', kind: 'bool', def: false, help: 'Draw on every display frame, not only when something changed (to measure the render rate).' },
 ];
 
 // A settings object holding every spec's default, plus the derived linear colours.

@@ -93,6 +93,11 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     if (!d->subprotocol || !*d->subprotocol) return core_fail(err, CORE_EINVAL, "net: a subprotocol name is required");
     if (d->port < NET_PORT_ANY || d->port > 65535)
         return core_fail(err, CORE_EINVAL, "net: port %d is outside [0, 65535]", d->port);
+    const char *listen = d->listen && *d->listen ? d->listen : "127.0.0.1";
+    if (strcmp(listen, "localhost") == 0) listen = "127.0.0.1";
+    if (strcmp(listen, "0.0.0.0") == 0 || strcmp(listen, "*") == 0) listen = NULL;
+    core_status st = listen ? check_listen(listen, err) : CORE_OK;
+    if (st != CORE_OK) return st;
     net *n = calloc(1, sizeof *n);
     if (!n) return core_fail(err, CORE_ENOMEM, "net: out of memory");
     n->desc = *d;
@@ -100,11 +105,6 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     if (n->desc.text_queue <= 0) n->desc.text_queue = NET_DEFAULT_TEXT_QUEUE;
     if (n->desc.ping_s <= 0) n->desc.ping_s = NET_DEFAULT_PING_S;
     if (n->desc.sndbuf <= 0) n->desc.sndbuf = NET_DEFAULT_SNDBUF;
-    const char *listen = d->listen && *d->listen ? d->listen : "127.0.0.1";
-    if (strcmp(listen, "localhost") == 0) listen = "127.0.0.1";
-    if (strcmp(listen, "0.0.0.0") == 0 || strcmp(listen, "*") == 0) listen = NULL;
-    core_status st = listen ? check_listen(listen, err) : CORE_OK;
-    if (st != CORE_OK) return st;
     n->listen = dup_or_null(listen);
     n->web_dir = dup_or_null(d->web_dir);
     n->subprotocol = dup_or_null(d->subprotocol);
@@ -367,18 +367,19 @@ static void set_stream(net_session *s, uint32_t stream, double max_rate)
 static void apply_frame(net *n, net_event *e)
 {
     net_slot *sl = &n->slots[e->stream];
+    sl->count++;
     if (e->key) {
         net_buf_unref(sl->key);
         net_buf_ref(e->buf);
         sl->key = e->buf;
         sl->key_seq = e->seq;
+        sl->key_count = sl->count;
     }
     net_buf_unref(sl->latest);
     sl->latest = e->buf;
     e->buf = NULL;
     sl->latest_seq = e->seq;
     sl->latest_key_seq = sl->key_seq;
-    sl->count++;
 }
 
 static void apply(net *n, net_event *e)

@@ -1,5 +1,6 @@
 /* strandbench fanout: N loopback WebSocket clients on the real strandcastd; sim rate, frames per
  * client and server CPU. */
+#include <dirent.h>
 #include <errno.h>
 #include <limits.h>
 #include <signal.h>
@@ -24,6 +25,7 @@ typedef struct fanout_opts {
     double server_rate; /* the daemon's --rate; 0 = its default (60) */
     int strands, verts;
     const char *daemon;
+    const char *params; /* a set_params "values" object sent before measuring, or NULL */
     bool json;
 } fanout_opts;
 
@@ -65,6 +67,40 @@ static double proc_cpu_s(pid_t pid)
     return (double)(utime + stime) / (double)sysconf(_SC_CLK_TCK);
 }
 
+/* CPU seconds of the process's threads named comm (e.g. "sc-net", set by strandcastd). */
+static double thread_cpu_s(pid_t pid, const char *comm)
+{
+    char dir[64];
+    snprintf(dir, sizeof dir, "/proc/%d/task", (int)pid);
+    DIR *d = opendir(dir);
+    if (!d) return -1;
+    double total = 0;
+    struct dirent *de;
+    while ((de = readdir(d))) {
+        if (de->d_name[0] == '.') continue;
+        char path[384], name[64] = "";
+        snprintf(path, sizeof path, "%s/%s/comm", dir, de->d_name);
+        FILE *f = fopen(path, "r");
+        if (!f) continue;
+        if (fgets(name, sizeof name, f)) name[strcspn(name, "\n")] = '\0';
+        fclose(f);
+        if (strcmp(name, comm) != 0) continue;
+        snprintf(path, sizeof path, "%s/%s/stat", dir, de->d_name);
+        f = fopen(path, "r");
+        if (!f) continue;
+        char buf[1024];
+        size_t n = fread(buf, 1, sizeof buf - 1, f);
+        fclose(f);
+        buf[n] = '\0';
+        const char *p = strrchr(buf, ')');
+        unsigned long ut = 0, st = 0;
+        if (p && sscanf(p + 2, "%*c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %lu %lu", &ut, &st) == 2)
+            total += (double)(ut + st) / (double)sysconf(_SC_CLK_TCK);
+    }
+    closedir(d);
+    return total;
+}
+
 static double self_cpu_s(void)
 {
     struct rusage ru;
@@ -102,8 +138,10 @@ static int parse_opts(int argc, char **argv, fanout_opts *o)
                  "Starts strandcastd (default scene unless --strands/--verts) on a free loopback port, connects N\n"
                  "WebSocket clients from one thread (each subscribes with max_rate HZ, default 30; 0 = every frame),\n"
                  "and measures over S seconds (default 5): sim steps/s, frames per client per second, server CPU\n"
-                 "(fraction of one core, /proc). A 0-client run first gives the sim's baseline on this machine.\n"
-                 "--server-rate passes --rate to the daemon (frames it publishes per second; default 60).");
+                 "(fraction of one core, /proc; the net thread's share and its CPU per frame delivered to one client\n"
+                 "are robust to other load). A 0-client run first gives the sim's baseline on this machine.\n"
+                 "--server-rate passes --rate to the daemon (frames it publishes per second; default 60).\n"
+                 "--params '{\"sph\":false}' sends set_params first (e.g. to separate solver cost from fan-out cost).");
             return 1;
         }
         if (!v) {
@@ -140,6 +178,9 @@ static int parse_opts(int argc, char **argv, fanout_opts *o)
             o->strands = atoi(v);
         } else if (strcmp(a, "--verts") == 0) {
             o->verts = atoi(v);
+        } else if (strcmp(a, "--params") == 0) {
+            if (v[0] != '{' || strlen(v) > 1000) return fprintf(stderr, "fanout: --params wants a JSON object\n"), 2;
+            o->params = v;
         } else if (strcmp(a, "--daemon") == 0) {
             o->daemon = v;
         } else {
@@ -173,6 +214,8 @@ static const char *find_daemon(const fanout_opts *o, char *buf, size_t cap)
 typedef struct fanout_result {
     int clients;
     double steps_per_s, fpc, fpc_min, mbytes_per_s, server_cpu, bench_cpu, skipped_per_s;
+    double net_cpu;             /* the net thread's share, cores */
+    double net_us_per_frame;    /* net thread CPU per frame delivered to one client */
 } fanout_result;
 
 static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_result *res)
@@ -189,6 +232,19 @@ static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_
         return 1;
     }
     wsc *w = wsc_new();
+    if (o->params) {
+        /* a control client changes the scene's parameters and stays connected */
+        wsc_conn *ctl = wsc_connect(w, d.port, "strandcast.v1", NULL, NULL);
+        char msg[1100];
+        snprintf(msg, sizeof msg, "{\"type\":\"set_params\",\"values\":%s}", o->params);
+        wsc_send_text(ctl, msg);
+        if (!wsc_wait_open(w, ctl, 10000) || !wsc_next_of_type(w, ctl, "ok", 10000)) {
+            fprintf(stderr, "fanout: the daemon refused --params %s\n", o->params);
+            wsc_free(w);
+            daemon_stop(&d, SIGTERM, 15000);
+            return 1;
+        }
+    }
     client_count *counts = calloc((size_t)(nclients ? nclients : 1), sizeof *counts);
     wsc_conn **conns = calloc((size_t)(nclients ? nclients : 1), sizeof *conns);
     char sub[96];
@@ -201,14 +257,14 @@ static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_
     wsc_run(w, 2000); /* warm up: hellos, keyframes, the sim settling */
     double steps0 = metric(d.port, "strandcast_steps_total");
     double skip0 = metric(d.port, "strandcast_frames_skipped_total");
-    double cpu0 = proc_cpu_s(d.pid), self0 = self_cpu_s(), t0 = now_s();
+    double cpu0 = proc_cpu_s(d.pid), net0 = thread_cpu_s(d.pid, "sc-net"), self0 = self_cpu_s(), t0 = now_s();
     uint64_t *f0 = calloc((size_t)(nclients ? nclients : 1), sizeof *f0), b0 = 0;
     for (int i = 0; i < nclients; i++) {
         f0[i] = counts[i].frames;
         b0 += counts[i].bytes;
     }
     wsc_run(w, (int)(o->seconds * 1000));
-    double t1 = now_s(), cpu1 = proc_cpu_s(d.pid), self1 = self_cpu_s();
+    double t1 = now_s(), cpu1 = proc_cpu_s(d.pid), net1 = thread_cpu_s(d.pid, "sc-net"), self1 = self_cpu_s();
     double steps1 = metric(d.port, "strandcast_steps_total");
     double skip1 = metric(d.port, "strandcast_frames_skipped_total");
     double wall = t1 - t0;
@@ -227,6 +283,8 @@ static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_
     res->server_cpu = (cpu1 - cpu0) / wall;
     res->bench_cpu = (self1 - self0) / wall;
     res->skipped_per_s = (skip1 - skip0) / wall;
+    res->net_cpu = (net1 - net0) / wall;
+    res->net_us_per_frame = total ? (net1 - net0) / (double)total * 1e6 : 0;
     wsc_free(w);
     free(counts);
     free(conns);
@@ -256,9 +314,10 @@ int bench_fanout_main(int argc, char **argv)
                "%g s per case, %ld cores\n",
                o.strands ? o.strands : 4096, o.verts ? o.verts : 32, o.server_rate ? o.server_rate : 60.0, o.max_rate,
                o.seconds, cores);
+        if (o.params) printf("scene parameters changed with set_params %s\n", o.params);
         printf("baseline (0 clients): %.1f sim steps/s, server CPU %.2f cores\n", base.steps_per_s, base.server_cpu);
-        printf("%8s %12s %10s %14s %14s %10s %11s %10s\n", "clients", "steps/s", "vs base", "frames/cl/s", "min frames/s",
-               "MB/s", "server CPU", "bench CPU");
+        printf("%8s %9s %8s %12s %12s %8s %11s %9s %12s %10s\n", "clients", "steps/s", "vs base", "frames/cl/s",
+               "min fr/cl/s", "MB/s", "server CPU", "net CPU", "net us/frame", "bench CPU");
     }
     for (int i = 0; i < o.ncases; i++) {
         fanout_result r;
@@ -268,13 +327,16 @@ int bench_fanout_main(int argc, char **argv)
             printf("{\"bench\":\"fanout\",\"clients\":%d,\"strands\":%d,\"verts\":%d,\"max_rate\":%g,\"server_rate\":%g,\"seconds\":%g,"
                    "\"sim_steps_per_s\":%.2f,\"baseline_steps_per_s\":%.2f,\"frames_per_client_per_s\":%.2f,"
                    "\"min_frames_per_client_per_s\":%.2f,\"mbytes_per_s\":%.3f,\"frames_skipped_per_s\":%.1f,"
-                   "\"server_cpu\":%.3f,\"bench_cpu\":%.3f,\"cores\":%ld}\n",
+                   "\"server_cpu\":%.3f,\"net_thread_cpu\":%.3f,\"net_us_per_client_frame\":%.1f,"
+                   "\"bench_cpu\":%.3f,\"cores\":%ld,\"params\":%s}\n",
                    r.clients, o.strands ? o.strands : 4096, o.verts ? o.verts : 32, o.max_rate,
                    o.server_rate ? o.server_rate : 60.0, o.seconds, r.steps_per_s,
-                   base.steps_per_s, r.fpc, r.fpc_min, r.mbytes_per_s, r.skipped_per_s, r.server_cpu, r.bench_cpu, cores);
+                   base.steps_per_s, r.fpc, r.fpc_min, r.mbytes_per_s, r.skipped_per_s, r.server_cpu, r.net_cpu,
+                   r.net_us_per_frame, r.bench_cpu, cores,
+                   o.params ? o.params : "null");
         } else {
-            printf("%8d %12.1f %9.2fx %14.1f %14.1f %10.2f %11.2f %10.2f\n", r.clients, r.steps_per_s, ratio, r.fpc,
-                   r.fpc_min, r.mbytes_per_s, r.server_cpu, r.bench_cpu);
+            printf("%8d %9.1f %7.2fx %12.1f %12.1f %8.2f %11.2f %9.3f %12.1f %10.2f\n", r.clients, r.steps_per_s, ratio,
+                   r.fpc, r.fpc_min, r.mbytes_per_s, r.server_cpu, r.net_cpu, r.net_us_per_frame, r.bench_cpu);
         }
         fflush(stdout);
     }

@@ -125,3 +125,13 @@ test('offsets spread evenly over the disc (mean squared radius = R^2 / 2)', () =
   assert.ok(Math.abs(ms / (0.01 ** 2 / 2) - 1) < 0.08, `mean squared radius ratio ${ms / (0.01 ** 2 / 2)}`);
   assert.ok(Math.abs(mx) < 0.0005 && Math.abs(my) < 0.0005);
 });
+
+test('guideData holds render strand 0 of every guide', () => {
+  const roots = scalp(50);
+  const L = buildLayout(roots, 50, 7);
+  assert.equal(L.guideData.byteLength, 50 * INSTANCE_STRIDE);
+  const all = new Uint8Array(L.data), g = new Uint8Array(L.guideData);
+  for (let k = 0; k < 50; k++) {
+    assert.deepEqual(g.subarray(k * INSTANCE_STRIDE, (k + 1) * INSTANCE_STRIDE), all.subarray(k * 7 * INSTANCE_STRIDE, (k * 7 + 1) * INSTANCE_STRIDE));
+  }
+});

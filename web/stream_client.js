@@ -1,0 +1,80 @@
+// Page side of the stream worker: starts the connection, sends control messages, configures
+// the guide buffers, keeps only the newest decoded frame for the next render and hands older
+// buffers straight back to the worker.
+
+export class StreamClient {
+  // callbacks: onHello(hello), onMessage(msg), onStatus(status) (see net.js Connection),
+  // onConfigured({ gen, pts, texW, texH, tanOffset }), onDecoded(frame) for statistics (every
+  // decoded frame; frame.arrival is on this page's performance.now() clock), onError(message).
+  constructor(callbacks) {
+    this.cb = callbacks;
+    this.worker = new Worker(new URL('./stream_worker.js', import.meta.url), { type: 'module' });
+    this.worker.onmessage = (ev) => this._onMessage(ev.data);
+    this.worker.onerror = (ev) => this.cb.onError(`stream worker failed: ${ev.message || 'load error'}`);
+    this.gen = 0;
+    this.pending = null; // newest decoded frame not yet uploaded
+    this.open = false;   // a hello arrived and the connection has not been lost since
+    this.nextId = 1;
+    this.recycleMsg = { type: 'recycle', gen: 0, buf: null }; // reused: no allocation per frame
+    this.transfer = [null];
+  }
+
+  // Connects to url (ws:// or wss://); backoff: reconnect delay options (backoff.js).
+  start(url, backoff) {
+    this.worker.postMessage({ type: 'start', url, backoff });
+  }
+
+  // Sends a control message; returns its id (assigned unless it is a motion message, which
+  // gets no reply) or null when not connected.
+  send(msg) {
+    if (!this.open) return null;
+    if (msg.id === undefined && msg.type !== 'motion') msg.id = this.nextId++;
+    this.worker.postMessage({ type: 'send', message: msg });
+    return msg.id === undefined ? 0 : msg.id;
+  }
+
+  // (Re)configures for nstrands x nverts guides smoothed with segs points per span; rest roots
+  // (head frame, xyz per strand) let the worker recover the head pose.
+  configure(nstrands, nverts, segs, maxTexW, restRoots) {
+    this.gen++;
+    this.pending = null;
+    this.worker.postMessage({ type: 'config', gen: this.gen, nstrands, nverts, segs, maxTexW, restRoots: Float32Array.from(restRoots) });
+  }
+
+  // The newest decoded frame, once; the caller uploads it and then calls recycle(frame).
+  take() {
+    const f = this.pending;
+    this.pending = null;
+    return f;
+  }
+
+  recycle(frame) {
+    this.recycleMsg.gen = frame.gen;
+    this.recycleMsg.buf = frame.buf;
+    this.transfer[0] = frame.buf.buffer;
+    this.worker.postMessage(this.recycleMsg, this.transfer);
+    this.recycleMsg.buf = null;
+    this.transfer[0] = null;
+  }
+
+  _onMessage(m) {
+    switch (m.type) {
+      case 'frame':
+        m.arrival -= performance.timeOrigin;
+        if (m.gen !== this.gen) { this.recycle(m); return; }
+        if (this.pending) this.recycle(this.pending);
+        this.pending = m;
+        this.cb.onDecoded(m);
+        break;
+      case 'hello': this.open = true; this.cb.onHello(m.hello); break;
+      case 'message': this.cb.onMessage(m.message); break;
+      case 'status':
+        if (m.status.state !== 'open') this.open = false;
+        this.cb.onStatus(m.status);
+        break;
+      case 'configured': if (m.gen === this.gen) this.cb.onConfigured(m); break;
+      case 'error': this.cb.onError(m.message); break;
+      default: break;
+    }
+  }
+}

@@ -1,0 +1,126 @@
+// Worker: holds the WebSocket to strandcastd (so frames keep being read, and pings answered,
+// however busy the page's main thread is drawing), decodes strand frames with codec.js, smooths
+// the guides (Catmull-Rom), computes their tangents, normals and the head pose, and posts the
+// newest result back in transferable Float32Arrays that the page returns for reuse (at most
+// POOL buffers exist per configuration; frames decoded while none is free are not posted).
+// A buffer holds two RGBA32F texture images of texW x texH texels, point k of guide g at texel
+// g * pts + k: (position xyz, normal coordinate a), then (tangent xyz, normal coordinate b).
+// Control messages pass through to the page as parsed objects.
+import { StrandDecoder } from './codec.js';
+import { catmullWeights, smoothedCount, smoothStrands } from './catmull.js';
+import { strandFrames } from './frames.js';
+import { Connection } from './net.js';
+import { fitRigid, rigidScratch } from './rigid.js';
+
+const POOL = 3;
+const KEYFRAME_REQUEST_MS = 1000;
+
+const st = {
+  gen: 0,
+  nstrands: 0,
+  nverts: 0,
+  segs: 2,
+  pts: 0,
+  texW: 0,
+  texH: 0,
+  block: 0,           // floats per texture image (texW * texH * 4)
+  basis: new Float64Array(6),
+  restRoots: null,
+  free: [],
+  allocated: 0,
+  weights: null,
+  rootState: null,
+  head: { q: [0, 0, 0, 1], t: [0, 0, 0] },
+  rigid: rigidScratch(),
+  decoder: new StrandDecoder(),
+  connection: null,
+  lastKeyRequest: -Infinity,
+};
+
+// { type: 'config', gen, nstrands, nverts, segs, maxTexW, restRoots: Float32Array }
+function configure(m) {
+  st.gen = m.gen;
+  st.nstrands = m.nstrands;
+  st.nverts = m.nverts;
+  st.segs = m.segs;
+  st.pts = smoothedCount(m.nverts, m.segs);
+  const texels = st.nstrands * st.pts;
+  st.texW = Math.max(1, Math.min(m.maxTexW, texels));
+  st.texH = Math.max(1, Math.ceil(texels / st.texW));
+  st.block = st.texW * st.texH * 4;
+  st.restRoots = m.restRoots;
+  st.free = [];
+  st.allocated = 0;
+  st.weights = catmullWeights(m.segs);
+  st.rootState = new Float32Array(3 * st.nstrands);
+  st.head = { q: [0, 0, 0, 1], t: [0, 0, 0] };
+  postMessage({ type: 'configured', gen: st.gen, pts: st.pts, texW: st.texW, texH: st.texH, tanOffset: st.block });
+}
+
+function takeBuffer() {
+  if (st.free.length) return st.free.pop();
+  if (st.allocated < POOL) {
+    st.allocated++;
+    return new Float32Array(2 * st.block);
+  }
+  return null;
+}
+
+function requestKeyframe() {
+  const now = performance.now();
+  if (now - st.lastKeyRequest < KEYFRAME_REQUEST_MS) return;
+  st.lastKeyRequest = now;
+  st.connection.send({ type: 'keyframe' });
+}
+
+function onFrame(data) {
+  // arrival on the epoch clock: the page's performance.now() has another origin
+  const arrival = performance.timeOrigin + performance.now();
+  const bytes = new Uint8Array(data);
+  const t0 = performance.now();
+  let info;
+  try {
+    info = st.decoder.decode(bytes);
+  } catch (e) {
+    if (/needs keyframe/.test(e.message)) requestKeyframe();
+    else postMessage({ type: 'error', message: e.message });
+    return;
+  }
+  const decoded = info.positions;
+  const t1 = performance.now();
+  if (info.nstrandsSent !== st.nstrands || info.nverts !== st.nverts) return; // not configured for it (yet)
+  const buf = takeBuffer();
+  if (!buf) return; // the page has not drawn the previous ones yet: skip this frame
+  smoothStrands(buf, 0, 4, decoded, 0, st.nstrands, st.nverts, st.segs, st.weights);
+  strandFrames(buf, 0, buf, st.block, st.nstrands, st.pts, st.rootState, st.basis);
+  const headOk = st.restRoots && st.restRoots.length === 3 * st.nstrands &&
+    fitRigid(st.head, st.restRoots, decoded, 0, 3 * st.nverts, st.nstrands, Math.max(1, Math.floor(st.nstrands / 256)), st.rigid);
+  const t2 = performance.now();
+  postMessage({
+    type: 'frame', gen: st.gen, buf, arrival,
+    seq: info.seq, simTime: info.simTime, keyframe: info.keyframe, bytes: data.byteLength,
+    head: headOk ? { position: st.head.t.slice(), orientation: st.head.q.slice() } : null,
+    decodeMs: t1 - t0, prepareMs: t2 - t1,
+  }, [buf.buffer]);
+}
+
+function start(url, backoff) {
+  st.connection = new Connection(url, {
+    onHello: (h) => { st.decoder.reset(); postMessage({ type: 'hello', hello: h }); },
+    onMessage: (m) => {
+      if (m.type === 'groom') st.decoder.reset();
+      postMessage({ type: 'message', message: m });
+    },
+    onBinary: onFrame,
+    onStatus: (s) => postMessage({ type: 'status', status: s }),
+  }, backoff);
+  st.connection.start();
+}
+
+self.onmessage = (ev) => {
+  const m = ev.data;
+  if (m.type === 'start') start(m.url, m.backoff);
+  else if (m.type === 'send') st.connection.send(m.message);
+  else if (m.type === 'config') configure(m);
+  else if (m.type === 'recycle') { if (m.gen === st.gen && m.buf.length === 2 * st.block && st.free.length < POOL) st.free.push(m.buf); }
+};
