@@ -33,11 +33,11 @@ static void usage(void)
          "Table 1 scenes) with each feature set, one step = one 1/60 s frame with one substep (the\n"
          "paper's Algorithm 1 per frame), and reports steps/s, ns per particle-step and the fraction\n"
          "of the memory bandwidth (a memcpy measured in the same run) the step's traffic reaches.\n"
-         "The SPH smoothing length is 3 mm x sqrt(4096 / strands) (it follows the strand spacing).\n"
          "--backend both runs each case on the C and the Vulkan backend and prints them side by side\n"
          "with the ratio; Vulkan rows carry the per-stage GPU time of the last step (timestamps).\n"
          "--device N picks the Vulkan device (0 = automatic, N >= 1 = vulkaninfo's GPU<N-1>);\n"
-         "--vk-chain picks the Vulkan chain strategy (default: the faster one as measured).");
+         "--vk-chain picks the Vulkan chain strategy (default: the faster one as measured).\n"
+         "The SPH smoothing length is 3 mm x sqrt(4096 / strands) (it follows the strand spacing).");
 }
 
 /* Bytes a step must move at least: per particle and substep the chain reads x, v, rest
@@ -59,9 +59,9 @@ typedef struct bench_opts {
 
 typedef struct bench_result {
     double sps, ns_pp, bw;
+    const char *backend;
     int substeps;
     float sph_radius;
-    const char *backend;
     sim_stats stats; /* of the last step (per-stage GPU time for Vulkan) */
 } bench_result;
 
