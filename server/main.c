@@ -23,7 +23,7 @@ static void usage(FILE *f)
             "  --seed N               procedural groom seed (default: the groom module's fixed seed)\n"
             "Solver\n"
             "  --backend B            auto | cpu | vulkan (default auto: a hardware Vulkan device, else cpu)\n"
-            "  --device N             Vulkan physical device index (default 0 = first suitable)\n"
+            "  --device N             Vulkan device: 0 = automatic (default), N = vulkaninfo's GPU<N-1>\n"
             "  --threads N            CPU solver threads (default 0 = every online core)\n"
             "Network\n"
             "  --listen ADDR          IP address to bind (default 127.0.0.1; localhost; ::1; 0.0.0.0 = every interface)\n"

@@ -5,6 +5,7 @@
 
 #include "sim_cpu.h"
 #include "sim_cpu_internal.h"
+#include "sim_order.h"
 
 static void update_stiffness(sim_cpu *c)
 {
@@ -14,60 +15,6 @@ static void update_stiffness(sim_cpu *c)
         c->sg[l] = c->params.shape ? c->params.global_stiffness * fade : 0.0f;
         c->sl[l] = c->params.shape ? c->params.local_stiffness * fade : 0.0f;
     }
-}
-
-static uint32_t spread_bits(uint32_t v) /* 10 bits -> every third bit */
-{
-    v &= 0x3ff;
-    v = (v | (v << 16)) & 0x030000ff;
-    v = (v | (v << 8)) & 0x0300f00f;
-    v = (v | (v << 4)) & 0x030c30c3;
-    v = (v | (v << 2)) & 0x09249249;
-    return v;
-}
-
-typedef struct morton_key {
-    uint32_t code, strand;
-} morton_key;
-
-static int morton_cmp(const void *a, const void *b)
-{
-    const morton_key *x = a, *y = b;
-    if (x->code != y->code) return x->code < y->code ? -1 : 1;
-    return x->strand < y->strand ? -1 : x->strand > y->strand;
-}
-
-/* Orders strands by the Morton code of their root so that the strands a worker processes
- * together are close in space (collider culling, SPH locality). Caller frees. */
-static uint32_t *spatial_order(const core_groom *g)
-{
-    uint32_t *perm = malloc(g->nstrands * sizeof *perm);
-    morton_key *keys = malloc(g->nstrands * sizeof *keys);
-    if (!perm || !keys) {
-        free(perm);
-        free(keys);
-        return NULL;
-    }
-    float lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
-    for (uint32_t s = 0; s < g->nstrands; s++)
-        for (int k = 0; k < 3; k++) {
-            float v = g->pos[3 * (size_t)s * g->nverts + k];
-            lo[k] = fminf(lo[k], v), hi[k] = fmaxf(hi[k], v);
-        }
-    for (uint32_t s = 0; s < g->nstrands; s++) {
-        uint32_t code = 0;
-        for (int k = 0; k < 3; k++) {
-            float ext = hi[k] - lo[k];
-            float f = ext > 0.0f ? (g->pos[3 * (size_t)s * g->nverts + k] - lo[k]) / ext : 0.0f;
-            code |= spread_bits((uint32_t)(f * 1023.0f)) << k;
-        }
-        keys[s].code = code;
-        keys[s].strand = s;
-    }
-    qsort(keys, g->nstrands, sizeof *keys, morton_cmp);
-    for (uint32_t s = 0; s < g->nstrands; s++) perm[s] = keys[s].strand;
-    free(keys);
-    return perm;
 }
 
 static void cpu_reset(void *self)
@@ -150,8 +97,7 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
     }
     c->sg = malloc(c->nv * sizeof(float));
     c->sl = malloc(c->nv * sizeof(float));
-    c->perm = spatial_order(g);
-    if (!ok || !c->sg || !c->sl || !c->perm) {
+    if (!ok || !c->sg || !c->sl || sim_strand_order(g, &c->perm, err) != CORE_OK) {
         cpu_destroy(c);
         return core_fail(err, CORE_ENOMEM, "out of memory for %zu particles", n);
     }

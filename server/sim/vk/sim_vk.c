@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "sim_vk_internal.h"
+#include "../sim_order.h"
 
 static const char *const stage_names[SIM_VK_NSTAGES] = { "sph_grid", "sph_sort", "sph_density", "sph_force", "chain" };
 
@@ -478,7 +479,7 @@ static core_status create_impl(const sim_desc *desc, const sim_vk_options *opt, 
         vk_destroy(s);
         return core_fail(err, CORE_ENOMEM, "out of memory for %zu particles", s->n);
     }
-    st = sim_vk_strand_order(g, &s->perm, err);
+    st = sim_strand_order(g, &s->perm, err);
     if (st != CORE_OK) {
         vk_destroy(s);
         return st;

@@ -100,12 +100,6 @@ core_status sim_vk_once_submit_wait(sim_vk_ctx *c, sim_vk_once *o, core_err *err
 /* Records a full memory barrier from compute/transfer writes to compute/transfer/host access. */
 void sim_vk_barrier(VkCommandBuffer cmd);
 
-/* ---- strand order (sim_vk_order.c) --------------------------------------------------- */
-
-/* The GPU's strand order: internal strand s is groom strand (*out)[s], roots sorted by their
- * Morton code in the roots' bounding box (ties by index), as the C backend orders them, so
- * both backends sort SPH particles identically. *out is malloc'd; the caller frees it. Pure. */
-core_status sim_vk_strand_order(const core_groom *g, uint32_t **out, core_err *err);
 
 /* ---- SPIR-V patching (sim_vk_spirv.c) ------------------------------------------------ */
 
@@ -269,7 +263,7 @@ typedef struct sim_vk {
     core_xform head, prev_head;
     uint32_t ncolliders;
     core_collider colliders[CORE_MAX_COLLIDERS];
-    uint32_t *perm;       /* internal strand -> groom strand (sim_vk_strand_order) */
+    uint32_t *perm;       /* internal strand -> groom strand (sim_strand_order, shared with the C backend) */
     float *rest;          /* host copy, level-major xyz in internal strand order (reset) */
     float *host_tmp;      /* 3n floats of conversion space */
     size_t cells_cap;     /* SPH hash buckets (a power of two) */

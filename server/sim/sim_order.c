@@ -1,9 +1,10 @@
-/* sim_vk: the strand order on the GPU: roots sorted by Morton code, exactly as the C backend
- * orders them (sim_cpu.c spatial_order), so that both sort SPH particles identically. */
+/* sim: the strand order every backend uses: roots sorted by Morton code, so that strands
+ * processed together are near each other in space (collider culling, SPH locality) and all
+ * backends see the same particle order. */
 #include <math.h>
 #include <stdlib.h>
 
-#include "sim_vk_internal.h"
+#include "sim_order.h"
 
 static uint32_t spread_bits(uint32_t v) /* 10 bits -> every third bit */
 {
@@ -26,7 +27,7 @@ static int key_cmp(const void *a, const void *b)
     return x->strand < y->strand ? -1 : x->strand > y->strand;
 }
 
-core_status sim_vk_strand_order(const core_groom *g, uint32_t **out, core_err *err)
+core_status sim_strand_order(const core_groom *g, uint32_t **out, core_err *err)
 {
     *out = NULL;
     uint32_t *perm = malloc(g->nstrands * sizeof *perm);
