@@ -187,18 +187,57 @@ static void scatter_job(void *vctx, int tid, int nt)
     }
 }
 
-/* Appends to keys[] the candidates j in [b, e) within h (r2 < h2) that belong to another
- * strand than si, as (r2 bits << 32 | j); returns the new count. r2 = (dx*dx + dy*dy) + dz*dz
- * in both paths, so the AVX2 and the scalar code give the same keys. */
+#ifdef __AVX2__
+/* For each 8-bit lane mask, the indices of its set lanes packed low to high, 4 bits each:
+ * the permutation that compacts the selected lanes of a vector to its front. */
+static const uint32_t compact_lut[256] = {
+    0x00000000, 0x00000000, 0x00000001, 0x00000010, 0x00000002, 0x00000020, 0x00000021, 0x00000210,
+    0x00000003, 0x00000030, 0x00000031, 0x00000310, 0x00000032, 0x00000320, 0x00000321, 0x00003210,
+    0x00000004, 0x00000040, 0x00000041, 0x00000410, 0x00000042, 0x00000420, 0x00000421, 0x00004210,
+    0x00000043, 0x00000430, 0x00000431, 0x00004310, 0x00000432, 0x00004320, 0x00004321, 0x00043210,
+    0x00000005, 0x00000050, 0x00000051, 0x00000510, 0x00000052, 0x00000520, 0x00000521, 0x00005210,
+    0x00000053, 0x00000530, 0x00000531, 0x00005310, 0x00000532, 0x00005320, 0x00005321, 0x00053210,
+    0x00000054, 0x00000540, 0x00000541, 0x00005410, 0x00000542, 0x00005420, 0x00005421, 0x00054210,
+    0x00000543, 0x00005430, 0x00005431, 0x00054310, 0x00005432, 0x00054320, 0x00054321, 0x00543210,
+    0x00000006, 0x00000060, 0x00000061, 0x00000610, 0x00000062, 0x00000620, 0x00000621, 0x00006210,
+    0x00000063, 0x00000630, 0x00000631, 0x00006310, 0x00000632, 0x00006320, 0x00006321, 0x00063210,
+    0x00000064, 0x00000640, 0x00000641, 0x00006410, 0x00000642, 0x00006420, 0x00006421, 0x00064210,
+    0x00000643, 0x00006430, 0x00006431, 0x00064310, 0x00006432, 0x00064320, 0x00064321, 0x00643210,
+    0x00000065, 0x00000650, 0x00000651, 0x00006510, 0x00000652, 0x00006520, 0x00006521, 0x00065210,
+    0x00000653, 0x00006530, 0x00006531, 0x00065310, 0x00006532, 0x00065320, 0x00065321, 0x00653210,
+    0x00000654, 0x00006540, 0x00006541, 0x00065410, 0x00006542, 0x00065420, 0x00065421, 0x00654210,
+    0x00006543, 0x00065430, 0x00065431, 0x00654310, 0x00065432, 0x00654320, 0x00654321, 0x06543210,
+    0x00000007, 0x00000070, 0x00000071, 0x00000710, 0x00000072, 0x00000720, 0x00000721, 0x00007210,
+    0x00000073, 0x00000730, 0x00000731, 0x00007310, 0x00000732, 0x00007320, 0x00007321, 0x00073210,
+    0x00000074, 0x00000740, 0x00000741, 0x00007410, 0x00000742, 0x00007420, 0x00007421, 0x00074210,
+    0x00000743, 0x00007430, 0x00007431, 0x00074310, 0x00007432, 0x00074320, 0x00074321, 0x00743210,
+    0x00000075, 0x00000750, 0x00000751, 0x00007510, 0x00000752, 0x00007520, 0x00007521, 0x00075210,
+    0x00000753, 0x00007530, 0x00007531, 0x00075310, 0x00007532, 0x00075320, 0x00075321, 0x00753210,
+    0x00000754, 0x00007540, 0x00007541, 0x00075410, 0x00007542, 0x00075420, 0x00075421, 0x00754210,
+    0x00007543, 0x00075430, 0x00075431, 0x00754310, 0x00075432, 0x00754320, 0x00754321, 0x07543210,
+    0x00000076, 0x00000760, 0x00000761, 0x00007610, 0x00000762, 0x00007620, 0x00007621, 0x00076210,
+    0x00000763, 0x00007630, 0x00007631, 0x00076310, 0x00007632, 0x00076320, 0x00076321, 0x00763210,
+    0x00000764, 0x00007640, 0x00007641, 0x00076410, 0x00007642, 0x00076420, 0x00076421, 0x00764210,
+    0x00007643, 0x00076430, 0x00076431, 0x00764310, 0x00076432, 0x00764320, 0x00764321, 0x07643210,
+    0x00000765, 0x00007650, 0x00007651, 0x00076510, 0x00007652, 0x00076520, 0x00076521, 0x00765210,
+    0x00007653, 0x00076530, 0x00076531, 0x00765310, 0x00076532, 0x00765320, 0x00765321, 0x07653210,
+    0x00007654, 0x00076540, 0x00076541, 0x00765410, 0x00076542, 0x00765420, 0x00765421, 0x07654210,
+    0x00076543, 0x00765430, 0x00765431, 0x07654310, 0x00765432, 0x07654320, 0x07654321, 0x76543210,
+};
+#endif
+
+/* Appends to r2s[]/idx[] the candidates j in [b, e) within h (r2 < h2) that belong to another
+ * strand than si, in slot order; returns the new count. The buffers need 8 spare entries.
+ * r2 = (dx*dx + dy*dy) + dz*dz in both paths, so AVX2 and scalar code give the same lists. */
 static size_t gather_candidates(const sim_cpu_sph *s, uint32_t b, uint32_t e, float x, float y, float z, float h2,
-                                uint32_t si, uint64_t *keys, size_t m)
+                                uint32_t si, float *r2s, uint32_t *idx, size_t m)
 {
     uint32_t j = b;
 #ifdef __AVX2__
     const __m256 vx = _mm256_set1_ps(x), vy = _mm256_set1_ps(y), vz = _mm256_set1_ps(z), vh2 = _mm256_set1_ps(h2);
     const __m256i vsi = _mm256_set1_epi32((int)si);
-    float r2s[8];
     const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256i nibbles = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
     for (; j < e; j += 8) { /* the arrays are padded by 8, so the last block may read past e */
         __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(s->sx + j), vx);
         __m256 dy = _mm256_sub_ps(_mm256_loadu_ps(s->sy + j), vy);
@@ -208,24 +247,20 @@ static size_t gather_candidates(const sim_cpu_sph *s, uint32_t b, uint32_t e, fl
         __m256i inside = _mm256_cmpgt_epi32(_mm256_set1_epi32((int)(e - j)), lanes);
         __m256 ok = _mm256_andnot_ps(_mm256_castsi256_ps(same), _mm256_castsi256_ps(inside));
         unsigned mask = (unsigned)_mm256_movemask_ps(_mm256_and_ps(ok, _mm256_cmp_ps(r2, vh2, _CMP_LT_OQ)));
-        if (!mask) continue;
-        _mm256_storeu_ps(r2s, r2);
-        while (mask) {
-            unsigned q = (unsigned)__builtin_ctz(mask);
-            uint32_t bits;
-            memcpy(&bits, &r2s[q], sizeof bits);
-            keys[m++] = (uint64_t)bits << 32 | (j + q);
-            mask &= mask - 1;
-        }
+        /* branch-free: store the compacted lanes, advance by the number selected */
+        __m256i perm = _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)compact_lut[mask]), nibbles),
+                                        _mm256_set1_epi32(15));
+        _mm256_storeu_ps(r2s + m, _mm256_permutevar8x32_ps(r2, perm));
+        __m256i slots = _mm256_add_epi32(_mm256_set1_epi32((int)j), lanes);
+        _mm256_storeu_si256((__m256i *)(idx + m), _mm256_permutevar8x32_epi32(slots, perm));
+        m += (size_t)__builtin_popcount(mask);
     }
-    return m;
 #endif
     for (; j < e; j++) {
         float dx = s->sx[j] - x, dy = s->sy[j] - y, dz = s->sz[j] - z;
         float r2 = (dx * dx + dy * dy) + dz * dz;
-        uint32_t bits;
-        memcpy(&bits, &r2, sizeof bits);
-        keys[m] = (uint64_t)bits << 32 | j;
+        r2s[m] = r2;
+        idx[m] = j;
         m += (r2 < h2) & (s->strand[j] != si);
     }
     return m;
@@ -316,6 +351,8 @@ static void density_job(void *vctx, int tid, int nt)
     size_t b, e;
     sim_pool_range(s->ncells, tid, nt, 1, &b, &e);
     uint64_t keys[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK];
+    float r2s[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK + SPH_PAD];
+    uint32_t idx[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK + SPH_PAD];
     uint32_t ccx = UINT32_MAX, ccy = 0, ccz = 0; /* corner whose neighbour ranges are in rlo/rhi */
     uint32_t rlo[8], rhi[8];
     int nr = 0;
@@ -330,29 +367,35 @@ static void density_job(void *vctx, int tid, int nt)
                 ccx = cx, ccy = cy, ccz = cz;
                 nr = neighbour_ranges(s, cx, cy, cz, rlo, rhi);
             }
-            /* candidates within h of another strand; key = (r2 bits, slot): ordered like
-             * (r2, slot) because r2 >= 0, so the cap keeps the nearest, ties by slot */
+            /* candidates within h of another strand, in slot order */
             size_t m = 0;
             for (int r = 0; r < nr; r++) {
                 const uint32_t rb = s->cell_start[rlo[r]], re = s->cell_start[rhi[r] + 1];
                 for (uint32_t j0 = rb; j0 < re && m < SPH_MAX_CANDIDATES; j0 += SPH_SCAN_BLOCK) {
                     uint32_t j1 = re - j0 < SPH_SCAN_BLOCK ? re : j0 + SPH_SCAN_BLOCK;
-                    m = gather_candidates(s, j0, j1, xi, yi, zi, h2, si, keys, m);
+                    m = gather_candidates(s, j0, j1, xi, yi, zi, h2, si, r2s, idx, m);
                 }
             }
-            if (m > (size_t)cap) {
+            if (m > (size_t)cap) { /* keep the cap nearest: key (r2 bits, slot) orders like (r2, slot) */
+                for (size_t k = 0; k < m; k++) {
+                    uint32_t bits;
+                    memcpy(&bits, &r2s[k], sizeof bits);
+                    keys[k] = (uint64_t)bits << 32 | idx[k];
+                }
                 select_smallest(keys, m, (size_t)cap);
                 m = (size_t)cap;
+                for (size_t k = 0; k < m; k++) {
+                    uint32_t bits = (uint32_t)(keys[k] >> 32);
+                    memcpy(&r2s[k], &bits, sizeof bits);
+                    idx[k] = (uint32_t)keys[k];
+                }
             }
             float rho = 1.0f;
             uint32_t *out = s->nbr + (size_t)i * (size_t)cap;
             for (size_t k = 0; k < m; k++) {
-                float r2;
-                uint32_t bits = (uint32_t)(keys[k] >> 32);
-                memcpy(&r2, &bits, sizeof r2);
-                float q = 1.0f - r2 * inv_h2;
+                float q = 1.0f - r2s[k] * inv_h2;
                 rho += q * q * q;
-                out[k] = (uint32_t)keys[k];
+                out[k] = idx[k];
             }
             s->nnbr[i] = (uint8_t)m;
             s->sp[4 * (size_t)i + 3] = rho;
