@@ -276,12 +276,19 @@ static void level_bounds(const chunk_tmp *t, size_t cnt, float lo[3], float hi[3
     lo[0] = l0, lo[1] = l1, lo[2] = l2, hi[0] = h0, hi[1] = h1, hi[2] = h2;
 }
 
+static bool box_overlaps(const float lo[3], const float hi[3], const sim_cpu_wcollider *w)
+{
+    return lo[0] <= w->hi[0] && hi[0] >= w->lo[0] && lo[1] <= w->hi[1] && hi[1] >= w->lo[1] && lo[2] <= w->hi[2] &&
+           hi[2] >= w->lo[2];
+}
+
 /* Alternates pushes out of the colliders with the rest-length projection so a vertex sliding
  * on a surface keeps close to its rest length; ends outside every collider.
- * Culling: a vertex only ever moves within its parent's rest-length sphere or onto the
- * surface of a collider it hit, so a collider whose box misses the chunk's box (grown by the
- * segment length and by the boxes of the colliders already hit) cannot be reached. The chunks
- * are the same for any thread count, so culling never changes results. */
+ * Culling: the colliders whose box meets the chunk's box (this level and its parents, grown by
+ * the longest segment: the rest-length projection stays within that) are processed; a push can
+ * still carry a point into a collider that was skipped, so the final positions are checked
+ * against the skipped ones and the passes repeat with any they meet. The chunks are the same
+ * for any thread count, so culling never changes results. */
 static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s0, size_t cnt)
 {
     float lo[3], hi[3];
@@ -293,27 +300,23 @@ static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s
     const sim_cpu_wcollider *hit[CORE_MAX_COLLIDERS];
     bool taken[CORE_MAX_COLLIDERS] = { false };
     uint32_t nhit = 0;
-    for (bool grew = true; grew;) {
-        grew = false;
-        for (uint32_t k = 0; k < ctx->nwc; k++) {
-            const sim_cpu_wcollider *w = &ctx->wc[k];
-            bool overlap = true;
-            for (int d = 0; d < 3; d++) overlap = overlap && lo[d] <= w->hi[d] && hi[d] >= w->lo[d];
-            if (taken[k] || !(overlap || !finite)) continue;
-            taken[k] = true;
-            hit[nhit++] = w;
-            for (int d = 0; d < 3; d++) lo[d] = MINF(lo[d], w->lo[d]), hi[d] = MAXF(hi[d], w->hi[d]);
-            grew = true;
+    for (uint32_t k = 0; k < ctx->nwc; k++)
+        if (!finite || box_overlaps(lo, hi, &ctx->wc[k])) taken[k] = true, hit[nhit++] = &ctx->wc[k];
+    while (nhit > 0) {
+        for (int it = 0; it < COLLISION_ITERATIONS; it++) {
+            for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
+            level_refollow(ctx, t, o, s0, cnt);
         }
+        const int passes = nhit > 1 ? CREVICE_PASSES : 1; /* settle points in a crevice between colliders */
+        for (int pass = 0; pass < passes; pass++)
+            for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
+        float flo[3], fhi[3];
+        level_bounds(t, cnt, flo, fhi);
+        uint32_t added = 0;
+        for (uint32_t k = 0; k < ctx->nwc; k++)
+            if (!taken[k] && box_overlaps(flo, fhi, &ctx->wc[k])) taken[k] = true, hit[nhit++] = &ctx->wc[k], added++;
+        if (added == 0) break;
     }
-    if (nhit == 0) return;
-    for (int it = 0; it < COLLISION_ITERATIONS; it++) {
-        for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
-        level_refollow(ctx, t, o, s0, cnt);
-    }
-    const int passes = nhit > 1 ? CREVICE_PASSES : 1; /* settle points in a crevice between colliders */
-    for (int pass = 0; pass < passes; pass++)
-        for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
 }
 
 static void chain_chunk(const chain_ctx *ctx, chunk_tmp *restrict t, size_t s0, size_t cnt, uint64_t *nan_count)
