@@ -276,6 +276,38 @@ static void level_bounds(const chunk_tmp *t, size_t cnt, float lo[3], float hi[3
     lo[0] = l0, lo[1] = l1, lo[2] = l2, hi[0] = h0, hi[1] = h1, hi[2] = h2;
 }
 
+/* Number of the points (x,y,z)[0..n) strictly inside one collider (no change to them). */
+static size_t count_inside(const sim_cpu_wcollider *w, const float *restrict x, const float *restrict y,
+                           const float *restrict z, size_t n)
+{
+    size_t inside = 0;
+    if (w->kind == CORE_COLLIDER_ELLIPSOID) {
+        const float *M = w->to_unit;
+        for (size_t s = 0; s < n; s++) {
+            const float dx = x[s] - w->a.x, dy = y[s] - w->a.y, dz = z[s] - w->a.z;
+            const float sx = M[0] * dx + M[1] * dy + M[2] * dz;
+            const float sy = M[3] * dx + M[4] * dy + M[5] * dz;
+            const float sz = M[6] * dx + M[7] * dy + M[8] * dz;
+            inside += sx * sx + sy * sy + sz * sz < 1.0f;
+        }
+        return inside;
+    }
+    const float ax = w->a.x, ay = w->a.y, az = w->a.z, r2 = w->radius * w->radius;
+    float ex = 0.0f, ey = 0.0f, ez = 0.0f, inv_ee = 0.0f;
+    if (w->kind == CORE_COLLIDER_CAPSULE) {
+        ex = w->b.x - ax, ey = w->b.y - ay, ez = w->b.z - az;
+        float ee = ex * ex + ey * ey + ez * ez;
+        inv_ee = ee > 0.0f ? 1.0f / ee : 0.0f;
+    }
+    for (size_t s = 0; s < n; s++) {
+        float t = ((x[s] - ax) * ex + (y[s] - ay) * ey + (z[s] - az) * ez) * inv_ee;
+        t = MINF(MAXF(t, 0.0f), 1.0f);
+        float dx = x[s] - (ax + ex * t), dy = y[s] - (ay + ey * t), dz = z[s] - (az + ez * t);
+        inside += dx * dx + dy * dy + dz * dz < r2;
+    }
+    return inside;
+}
+
 static bool box_overlaps(const float lo[3], const float hi[3], const sim_cpu_wcollider *w)
 {
     return lo[0] <= w->hi[0] && hi[0] >= w->lo[0] && lo[1] <= w->hi[1] && hi[1] >= w->lo[1] && lo[2] <= w->hi[2] &&
@@ -287,7 +319,7 @@ static bool box_overlaps(const float lo[3], const float hi[3], const sim_cpu_wco
  * Culling: the colliders whose box meets the chunk's box (this level and its parents, grown by
  * the longest segment: the rest-length projection stays within that) are processed; a push can
  * still carry a point into a collider that was skipped, so the final positions are checked
- * against the skipped ones and the passes repeat with any they meet. The chunks are the same
+ * against the skipped ones and the passes repeat with any that holds one of them. The chunks are the same
  * for any thread count, so culling never changes results. */
 static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s0, size_t cnt)
 {
@@ -314,7 +346,8 @@ static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s
         level_bounds(t, cnt, flo, fhi);
         uint32_t added = 0;
         for (uint32_t k = 0; k < ctx->nwc; k++)
-            if (!taken[k] && box_overlaps(flo, fhi, &ctx->wc[k])) taken[k] = true, hit[nhit++] = &ctx->wc[k], added++;
+            if (!taken[k] && box_overlaps(flo, fhi, &ctx->wc[k]) && count_inside(&ctx->wc[k], t->cx, t->cy, t->cz, cnt))
+                taken[k] = true, hit[nhit++] = &ctx->wc[k], added++;
         if (added == 0) break;
     }
 }
