@@ -176,6 +176,7 @@ async function measure(page, perGuide, seconds) {
     kbit_per_s: round(b.s.kbitPerSec, 0),
     bytes_per_vertex: round(b.s.bytesPerVertex, 3),
     server_steps_per_s: round(b.s.serverStepsPerSec, 1),
+    antialias: b.s.antialias,
     seconds: round(dt, 1),
   };
 }
