@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/prctl.h>
 #include <time.h>
 
 #include "app_internal.h"
@@ -78,6 +79,7 @@ static void teardown(app *a)
 
 static void *net_main(void *arg)
 {
+    prctl(PR_SET_NAME, "sc-net"); /* thread names let tools (strandbench fanout) split CPU time */
     net_run(arg);
     return NULL;
 }
@@ -114,7 +116,10 @@ core_status app_run(const app_desc *desc, core_err *err)
     bool sim_started = false, net_started = false;
     if (st == CORE_OK && a->net) {
         const char *host = a->d.listen && *a->d.listen ? a->d.listen : "127.0.0.1";
-        printf("strandcastd: open http://%s:%d/  (WebSocket subprotocol %s)\n", host, net_port(a->net), PROTO_SUBPROTOCOL);
+        bool any = strcmp(host, "0.0.0.0") == 0 || strcmp(host, "*") == 0;
+        bool v6 = strchr(host, ':') != NULL;
+        printf("strandcastd: open http://%s%s%s:%d/  (WebSocket subprotocol %s%s)\n", v6 ? "[" : "", any ? "127.0.0.1" : host,
+               v6 ? "]" : "", net_port(a->net), PROTO_SUBPROTOCOL, any ? "; listening on every interface" : "");
         fflush(stdout);
         if (pthread_create(&net_thread, NULL, net_main, a->net) != 0) st = core_fail(err, CORE_EBACKEND, "cannot start the net thread");
         else net_started = true;

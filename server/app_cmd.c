@@ -209,6 +209,11 @@ static void subscribe(app *a, uint32_t client, const proto_msg *m)
                    "every stream slot is taken by other stride/max_error settings; pick settings another client uses");
         return;
     }
+    if (!a->tiers[tier].ready) {
+        app_tier_release(a, tier);
+        reply_fail(a, client, &m->id, PROTO_ERR_FAILED, "", "the stream's encoder could not be set up (see the server log)");
+        return;
+    }
     app_tier_release(a, c->tier);
     c->tier = tier;
     c->stride = stride;

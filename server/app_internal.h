@@ -59,6 +59,7 @@ typedef struct app_tier {
     uint32_t subscribers;
     bool force_key;
     bool ready;               /* encoder initialised for the current groom */
+    bool failing;             /* the last encode failed (logged once until one succeeds) */
     codec_encoder enc;
 } app_tier;
 
@@ -153,9 +154,12 @@ void app_reply_error(app *a, uint32_t client, const proto_id *id, const proto_er
 /* Sends text (freed here) to a client or NET_ALL; ignores NULL (out of memory) and --no-net. */
 void app_send(app *a, uint32_t client, char *text, unsigned flags);
 
-/* Groom handling (sim thread at run time, main thread at start-up). */
+/* Groom handling (main thread at start-up, sim thread afterwards). Each fills *out (zeroed on
+ * failure; the caller owns it and frees it with app_groom_free) with the groom and its JSON. */
+/* A procedural groom: style name, counts (0 = 4096 strands, 32 vertices) and seed (0 = default). */
 core_status app_groom_load_style(app *a, const char *style, uint32_t strands, uint32_t verts, uint64_t seed,
                                  app_groom *out, core_err *err);
+/* A .tfx/.hair file at path, shown to clients as "file:<label>"; verts 0 = the file's count. */
 core_status app_groom_load_path(app *a, const char *path, const char *label, uint32_t verts, app_groom *out,
                                 core_err *err);
 void app_groom_free(app_groom *g);
@@ -163,17 +167,23 @@ void app_groom_free(app_groom *g);
 void app_list_assets(app *a);
 void app_free_assets(app *a);
 
-/* Streams (sim thread). */
+/* Streams (sim thread). A tier is one codec encoder and one net stream, shared by every
+ * client with the same (stride, max_error). */
+/* Adds a subscriber to the matching tier (creating it; its first frame is a keyframe); returns
+ * the tier index, or -1 when all NET_MAX_STREAMS are taken by other settings. */
 int app_tier_acquire(app *a, int32_t stride, double max_error);
+/* Drops a subscriber; the last one frees the encoder and the net stream. */
 void app_tier_release(app *a, int tier);
 /* Re-initialises every tier's encoder for the current groom (after a groom change). */
 void app_tiers_reset(app *a);
 void app_tiers_free(app *a);
-/* Encodes a->xyz once per tier with subscribers and publishes the frames. */
+/* Encodes a->xyz once per tier with subscribers and publishes the frames (one seq per call). */
 void app_publish(app *a);
+/* Strands per frame at a stride: ceil(nstrands / stride). */
 uint32_t app_tier_strands(const app *a, int32_t stride);
 
-/* Commands (sim thread). */
+/* Commands (sim thread): carries out one command at a step boundary and sends its replies and
+ * broadcasts. */
 void app_handle(app *a, app_cmd *c);
 /* The sim thread's body (pthread start routine; arg = app). */
 void *app_sim_main(void *arg);

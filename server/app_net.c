@@ -30,23 +30,27 @@ static void post(app *a, const app_cmd *c, const proto_id *id)
     app_reply_error(a, c->client, id, &e);
 }
 
-void app_on_open(void *user, uint32_t client)
+/* Opens and closes must not be lost (a client would get no hello, or keep its stream alive):
+ * when the mailbox is full, wait for the sim thread to make room. */
+static void post_essential(app *a, const app_cmd *c)
 {
-    app *a = user;
-    app_cmd c = { .kind = APP_CMD_OPEN, .client = client };
-    if (app_mailbox_post(&a->mb, &c) != CORE_OK) core_log(CORE_LOG_WARN, "app", "client %u: mailbox full at connect", client);
-}
-
-void app_on_close(void *user, uint32_t client)
-{
-    app *a = user;
-    app_cmd c = { .kind = APP_CMD_CLOSE, .client = client };
-    /* a close must not be lost (it releases the client's stream): wait for room */
-    while (app_mailbox_post(&a->mb, &c) != CORE_OK && !atomic_load(&a->sim_done)) {
+    while (app_mailbox_post(&a->mb, c) != CORE_OK && !atomic_load(&a->sim_done)) {
         struct timespec ms = { 0, 1000000 };
         app_mailbox_wake(&a->mb);
         nanosleep(&ms, NULL);
     }
+}
+
+void app_on_open(void *user, uint32_t client)
+{
+    app_cmd c = { .kind = APP_CMD_OPEN, .client = client };
+    post_essential(user, &c);
+}
+
+void app_on_close(void *user, uint32_t client)
+{
+    app_cmd c = { .kind = APP_CMD_CLOSE, .client = client };
+    post_essential(user, &c);
 }
 
 void app_on_text(void *user, uint32_t client, const char *text, size_t len)

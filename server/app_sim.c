@@ -1,6 +1,7 @@
 /* app: the sim thread: commands at step boundaries, real-time fixed steps, publishing, stats. */
 #include <stdio.h>
 #include <string.h>
+#include <sys/prctl.h>
 
 #include "app_internal.h"
 
@@ -89,6 +90,7 @@ static void update_stats(app *a, unsigned long long now)
 void *app_sim_main(void *arg)
 {
     app *a = arg;
+    prctl(PR_SET_NAME, "sc-sim");
     unsigned long long next = core_now_ns();
     a->win_start_ns = a->log_start_ns = next;
     uint64_t total = 0;
@@ -109,6 +111,12 @@ void *app_sim_main(void *arg)
                 break;
             }
             total++;
+            sim_stats ss;
+            sim_get_stats(&a->sim, &ss);
+            pthread_mutex_lock(&a->stats_mu); /* /metrics counters stay exact between stats windows */
+            a->stats.steps = ss.steps;
+            a->stats.sim_time = ss.sim_time;
+            pthread_mutex_unlock(&a->stats_mu);
             if (a->paused && --a->step_budget == 0) {
                 proto_state s = app_state(a);
                 app_send(a, NET_ALL, proto_build_state(NULL, &s), 0);

@@ -82,10 +82,14 @@ void app_publish(app *a)
         if (!t->used || !t->ready || t->subscribers == 0) continue;
         core_err err;
         if (codec_encode(&t->enc, a->xyz, seq, ss.sim_time, t->force_key, &a->enc_buf, &err) != CORE_OK) {
-            core_log(CORE_LOG_WARN, "app", "stream %d: frame %llu not sent: %s", i, (unsigned long long)seq, err.msg);
+            if (!t->failing)
+                core_log(CORE_LOG_WARN, "app", "stream %d: frames not sent from %llu on: %s", i, (unsigned long long)seq, err.msg);
+            t->failing = true;
             t->force_key = true;
             continue;
         }
+        if (t->failing) core_log(CORE_LOG_INFO, "app", "stream %d: frames flow again", i);
+        t->failing = false;
         t->force_key = false;
         codec_frame_info info;
         if (codec_peek_header(a->enc_buf.data, a->enc_buf.len, &info, &err) != CORE_OK) continue;

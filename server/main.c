@@ -23,10 +23,10 @@ static void usage(FILE *f)
             "  --seed N               procedural groom seed (default: the groom module's fixed seed)\n"
             "Solver\n"
             "  --backend B            auto | cpu | vulkan (default auto: a hardware Vulkan device, else cpu)\n"
-            "  --device N             Vulkan physical device index (default 0 = first suitable)\n"
+            "  --device N             Vulkan device: 0 = automatic (default), N = vulkaninfo's GPU<N-1>\n"
             "  --threads N            CPU solver threads (default 0 = every online core)\n"
             "Network\n"
-            "  --listen ADDR          address to bind (default 127.0.0.1; 0.0.0.0 = every interface)\n"
+            "  --listen ADDR          IP address to bind (default 127.0.0.1; localhost; ::1; 0.0.0.0 = every interface)\n"
             "  --port N               TCP port (default 7681; 0 = a free port, printed at start-up)\n"
             "  --web DIR              folder served at / (default %s/web)\n"
             "  --assets DIR           folder whose .tfx/.hair files clients may pick with set_groom\n"
@@ -135,7 +135,7 @@ static int parse_args(int argc, char **argv, app_desc *d, bool *verts_given)
             if (!(rc = parse_u64(flag, value, 2, PROTO_MAX_VERTS, &u))) d->verts = (uint32_t)u;
             *verts_given = true;
         } else if (strcmp(flag, "--seed") == 0) {
-            if (!(rc = parse_u64(flag, value, 0, ULLONG_MAX, &u))) d->seed = u;
+            if (!(rc = parse_u64(flag, value, 0, 9007199254740991ull, &u))) d->seed = u; /* exact in JSON */
         } else if (strcmp(flag, "--backend") == 0) {
             if (strcmp(value, "auto") == 0) d->backend = SIM_BACKEND_AUTO;
             else if (strcmp(value, "cpu") == 0) d->backend = SIM_BACKEND_CPU;

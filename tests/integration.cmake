@@ -6,7 +6,22 @@ target_include_directories(it_net PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
 target_link_libraries(it_net PRIVATE strandcast PkgConfig::CMOCKA)
 add_dependencies(it_net strandcastd)
 foreach(t hello_and_frames params_broadcast_and_physics motion_moves_roots bad_inputs_keep_stream
-          subprotocol_refused http_static_and_metrics pause_step_subscribe_groom slow_client_skips)
+          subprotocol_refused http_static_and_metrics pause_step_subscribe_groom slow_client_skips
+          sigterm_closes_clients reader_that_never_reads_is_closed flags)
   add_test(NAME integration_${t} COMMAND it_net $<TARGET_FILE:strandcastd> test_${t})
   set_tests_properties(integration_${t} PROPERTIES TIMEOUT 120 LABELS integration)
 endforeach()
+
+# The JSON Schemas in proto/schema against sample messages and the real server (Node + ajv + ws).
+find_program(NODE_EXECUTABLE node)
+if(NOT NODE_EXECUTABLE)
+  message(FATAL_ERROR "node not found: install the Debian package 'nodejs' (or run .ci/deps)")
+endif()
+add_test(NAME protocol_schema COMMAND ${NODE_EXECUTABLE} --test ${CMAKE_CURRENT_SOURCE_DIR}/js/schema.test.mjs)
+set_tests_properties(protocol_schema PROPERTIES LABELS "integration;no_asan" TIMEOUT 120
+                     ENVIRONMENT "STRANDCASTD=$<TARGET_FILE:strandcastd>")
+
+# strandbench fanout drives the real daemon with the same WebSocket client as the tests.
+target_sources(strandbench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/support/wsc.c ${CMAKE_CURRENT_SOURCE_DIR}/support/daemon.c)
+target_include_directories(strandbench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
+add_dependencies(strandbench strandcastd)

@@ -12,7 +12,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "codec/codec.h"
@@ -133,8 +135,10 @@ static int setup(void **state)
     char strands[16], verts[16];
     snprintf(strands, sizeof strands, "%d", NSTRANDS);
     snprintf(verts, sizeof verts, "%d", NVERTS);
-    char *argv[] = { (char *)fx->cfg->exe, "--port", "0", "--strands", strands, "--verts", verts, "--threads", "1",
-                     "--web", fx->web, "--assets", fx->assets, "--client-buffer", "8192", NULL };
+    /* --backend cpu: the auto probe would load lavapipe, whose Mesa/LLVM allocations LeakSanitizer
+     * reports from an unloaded module in the sanitizer tree (the Vulkan tests cover auto) */
+    char *argv[] = { (char *)fx->cfg->exe, "--port", "0", "--backend", "cpu", "--strands", strands, "--verts", verts,
+                     "--threads", "1", "--web", fx->web, "--assets", fx->assets, "--client-buffer", "8192", NULL };
     assert_int_equal(daemon_start(&fx->d, fx->cfg->exe, argv, 20000), 0);
     fx->w = wsc_new();
     assert_non_null(fx->w);
@@ -146,7 +150,7 @@ static int teardown(void **state)
 {
     fixture *fx = *state;
     wsc_free(fx->w);
-    int rc = daemon_stop(&fx->d, SIGTERM, 15000);
+    int rc = fx->d.pid ? daemon_stop(&fx->d, SIGTERM, 15000) : 0; /* 0: the test stopped it itself */
     for (int i = 0; i < fx->nviews; i++) {
         codec_decoder_free(&fx->views[i].dec);
         free(fx->views[i].xyz);
@@ -667,7 +671,7 @@ static void test_pause_step_subscribe_groom(void **state)
     /* at most 20/s; and no fewer than 60% of what the server published, up to that rate (the
      * sanitizer build may simulate slower than real time) */
     double expect = fmin(40.0, (double)other);
-    if ((double)got > 40.0 + 3.0 || (double)got < 0.6 * expect)
+    if ((double)got > 40.0 + 2.0 || (double)got < 0.6 * expect)
         fail_msg("%llu frames in 2 s at max_rate 20 (full-rate client: %llu)", (unsigned long long)got,
                  (unsigned long long)other);
     assert_int_equal(v2->info.nstrands_sent, NSTRANDS);
@@ -724,6 +728,103 @@ static void test_slow_client_skips(void **state)
     http_reply_free(&r);
 }
 
+static void test_sigterm_closes_clients(void **state)
+{
+    fixture *fx = *state;
+    view *v;
+    wsc_conn *a = connect_view(fx, &v), *b = connect_view(fx, NULL);
+    wait_frames(fx, v, 5);
+    kill(fx->d.pid, SIGTERM);
+    assert_int_equal(wsc_wait_closed(fx->w, a, WAIT_MS), 1001);
+    assert_int_equal(wsc_wait_closed(fx->w, b, WAIT_MS), 1001);
+    assert_string_equal(wsc_close_reason(a), "server shutting down");
+    /* exit status 0: a clean shutdown (the sanitizer build also fails on any leak) */
+    assert_int_equal(daemon_stop(&fx->d, 0, 15000), 0);
+}
+
+static void test_reader_that_never_reads_is_closed(void **state)
+{
+    fixture *fx = *state;
+    view *watch;
+    connect_view(fx, &watch);
+    wait_frames(fx, watch, 2);
+    /* a client floods requests and never reads: its replies pile up in a bounded queue,
+     * then the server gives up on it (1008) while everyone else keeps streaming */
+    int fd = rawws_open(fx->d.port, SUBPROTOCOL);
+    assert_true(fd >= 0);
+    int small = 4096;
+    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+    static const char req[] = "{\"type\":\"get_params\"}";
+    for (int i = 0; i < 3000; i++)
+        if (rawws_send(fd, 1, req, sizeof req - 1, true) != 0) break;
+    uint64_t before = watch->ok;
+    wsc_run(fx->w, 1500);
+    assert_int_equal(rawws_close_code(fd, WAIT_MS), 1008);
+    rawws_free(fd);
+    wait_frames(fx, watch, before + 10);
+    assert_int_equal(watch->bad, 0);
+}
+
+/* Runs exe with args to completion; returns its exit status and what it printed (both streams). */
+static int run_capture(const char *exe, const char *const *args, char *out, size_t cap)
+{
+    int fds[2];
+    assert_int_equal(pipe(fds), 0);
+    pid_t pid = fork();
+    if (pid == 0) {
+        dup2(fds[1], 1);
+        dup2(fds[1], 2);
+        close(fds[0]);
+        char *argv[32];
+        int n = 0;
+        argv[n++] = (char *)exe;
+        for (; args[n - 1] && n < 31; n++) argv[n] = (char *)args[n - 1];
+        argv[n] = NULL;
+        execv(exe, argv);
+        _exit(127);
+    }
+    close(fds[1]);
+    size_t len = 0;
+    ssize_t r;
+    while ((r = read(fds[0], out + len, cap - 1 - len)) > 0) len += (size_t)r;
+    out[len] = '\0';
+    close(fds[0]);
+    int status;
+    waitpid(pid, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+static void test_flags(void **state)
+{
+    const config *cfg = *state;
+    static char out[16384];
+    const char *help[] = { "--help", NULL };
+    assert_int_equal(run_capture(cfg->exe, help, out, sizeof out), 0);
+    static const char *const flags[] = { "--groom", "--strands", "--verts", "--seed", "--backend", "--device", "--threads",
+                                         "--listen", "--port", "--web", "--assets", "--rate", "--max-error",
+                                         "--keyframe-interval", "--client-buffer", "--no-net", "--steps", "default" };
+    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++)
+        if (!strstr(out, flags[i])) fail_msg("--help does not mention %s", flags[i]);
+    static const char *const bad[][3] = {
+        { "--strands", "0", NULL }, { "--strands", "12x", NULL }, { "--bogus", NULL, NULL }, { "--port", "70000", NULL },
+        { "--port", NULL, NULL },   { "--backend", "gpu", NULL }, { "--max-error", "1", NULL }, { "--rate", "nan", NULL },
+        { "--web", "/nonexistent-dir", NULL }, { "--no-net=1", NULL, NULL }, { "--steps", "-1", NULL },
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        int rc = run_capture(cfg->exe, bad[i], out, sizeof out);
+        char name[32];
+        snprintf(name, sizeof name, "%.*s", (int)strcspn(bad[i][0], "="), bad[i][0]);
+        if (rc != 2 || !strstr(out, name)) fail_msg("%s %s: exit %d, said: %s", bad[i][0], bad[i][1] ? bad[i][1] : "", rc, out);
+    }
+    const char *missing[] = { "--no-net", "--groom", "/nonexistent/x.tfx", NULL };
+    assert_int_equal(run_capture(cfg->exe, missing, out, sizeof out), 1);
+    assert_non_null(strstr(out, "x.tfx"));
+    const char *run[] = { "--no-net", "--steps", "5", "--backend", "cpu", "--strands", "16", "--verts", "4",
+                          "--threads", "1", NULL };
+    assert_int_equal(run_capture(cfg->exe, run, out, sizeof out), 0);
+    assert_non_null(strstr(out, "stopped after 5 steps"));
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2) {
@@ -743,6 +844,9 @@ int main(int argc, char **argv)
         cmocka_unit_test_prestate_setup_teardown(test_http_static_and_metrics, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_pause_step_subscribe_groom, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_slow_client_skips, setup, teardown, &cfg),
+        cmocka_unit_test_prestate_setup_teardown(test_sigterm_closes_clients, setup, teardown, &cfg),
+        cmocka_unit_test_prestate(test_flags, &cfg),
+        cmocka_unit_test_prestate_setup_teardown(test_reader_that_never_reads_is_closed, setup, teardown, &cfg),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

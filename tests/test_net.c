@@ -6,6 +6,8 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include <arpa/inet.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "net/net_internal.h"
@@ -56,6 +58,36 @@ static void test_buffers(void **state)
     assert_null(net_buf_new(SIZE_MAX - 4));
 }
 
+/* The IPv4 address a TCP port listens on, from /proc/net/tcp (host order); 0 when not found. */
+static unsigned listen_addr4(int port)
+{
+    FILE *f = fopen("/proc/net/tcp", "r");
+    if (!f) return 0;
+    char line[512];
+    unsigned found = 0;
+    while (fgets(line, sizeof line, f)) {
+        unsigned addr, p, st;
+        if (sscanf(line, " %*d: %8X:%4X %*8X:%*4X %2X", &addr, &p, &st) == 3 && (int)p == port && st == 0x0A) {
+            found = ntohl(addr) == 0 ? 0xffffffffu : ntohl(addr);
+            break;
+        }
+    }
+    fclose(f);
+    return found; /* 0xffffffff = bound to 0.0.0.0 */
+}
+
+static void test_binds_only_the_address(void **state)
+{
+    (void)state;
+    net *n = NULL;
+    core_err err;
+    net_desc d = { .subprotocol = "strandcast.v1", .port = NET_PORT_ANY };
+    assert_int_equal(net_create(&n, &d, &err), CORE_OK); /* default 127.0.0.1 */
+    unsigned a = listen_addr4(net_port(n));
+    if (a != 0x7f000001u) fail_msg("listening on %08x, want 127.0.0.1 only", a);
+    net_destroy(n);
+}
+
 static void test_create_errors(void **state)
 {
     (void)state;
@@ -78,6 +110,17 @@ static void test_create_errors(void **state)
     assert_null(m);
     assert_non_null(strstr(err.msg, "listen"));
     net_destroy(n);
+    /* only IP literals of this machine: never a silent fallback to every interface */
+    static const char *const bad_addr[] = { "bogus-host", "10.255.255.1", "256.1.1.1" };
+    for (size_t i = 0; i < 3; i++) {
+        d.listen = bad_addr[i];
+        assert_int_not_equal(net_create(&m, &d, &err), CORE_OK);
+        assert_null(m);
+        assert_non_null(strstr(err.msg, bad_addr[i]));
+    }
+    d.listen = "::1";
+    assert_int_equal(net_create(&n, &d, &err), CORE_OK);
+    net_destroy(n);
 }
 
 int main(void)
@@ -87,6 +130,7 @@ int main(void)
         cmocka_unit_test(test_token_list),
         cmocka_unit_test(test_buffers),
         cmocka_unit_test(test_create_errors),
+        cmocka_unit_test(test_binds_only_the_address),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -149,7 +149,7 @@ static void test_motion(void **state)
     expect_err("{\"type\":\"motion\",\"position\":{\"x\":0},\"orientation\":[0,0,0,1]}", PROTO_ERR_BAD_FIELD, "position");
     expect_err("{\"type\":\"motion\",\"position\":[0,\"1\",0],\"orientation\":[0,0,0,1]}", PROTO_ERR_BAD_FIELD, "position[1]");
     expect_err("{\"type\":\"motion\",\"position\":[0,0,1e400],\"orientation\":[0,0,0,1]}", PROTO_ERR_NOT_FINITE, "position[2]");
-    expect_err("{\"type\":\"motion\",\"position\":[0,0,1000],\"orientation\":[0,0,0,1]}", PROTO_ERR_OUT_OF_RANGE, "position[2]");
+    expect_err("{\"type\":\"motion\",\"position\":[0,0,5.5],\"orientation\":[0,0,0,1]}", PROTO_ERR_OUT_OF_RANGE, "position[2]");
     expect_err("{\"type\":\"motion\",\"position\":[0,0,0],\"orientation\":[0,0,0,0]}", PROTO_ERR_OUT_OF_RANGE, "orientation");
     expect_err("{\"type\":\"motion\",\"position\":[0,0,0],\"orientation\":[1e200,1e200,0,0]}", PROTO_ERR_OUT_OF_RANGE,
                "orientation");

@@ -391,8 +391,9 @@ function dequantize(q, positions, n, step) {
 const inRange = (q) => q > -MAX_QUANT && q < MAX_QUANT;
 
 // Rebuilds strand `base` (per = 3 * nverts coordinates) of P from residuals R with the
-// predictions of proto/CODEC.md; K is the keyframe, the previous strand starts at base - per.
-// Returns false on an out-of-range coordinate.
+// predictions of proto/CODEC.md; K is the moved keyframe, the previous strand starts at
+// base - per. One loop per prediction, the previous vertices carried in locals. Returns false
+// on an out-of-range coordinate (|q| >= 2^26; values stay below 2^31 until the first one).
 function reconstruct(key, mode, P, K, base, per, R) {
   const hasN = base > 0, end = base + per;
   // root
@@ -413,61 +414,65 @@ function reconstruct(key, mode, P, K, base, per, R) {
     if (!inRange(q)) return false;
     P[i] = q;
   }
-  let i = base + 6, r = 6;
-  if (key) {
-    if (mode === 1 && hasN) {
-      for (; i < end; i++, r++) {
-        const q = P[i - 3] + P[i - per] - P[i - 3 - per] + R[r];
-        if (!inRange(q)) return false;
-        P[i] = q;
-      }
-    } else if (mode === 2) {
-      for (; i < end && r < 9; i++, r++) {
-        const q = 2 * P[i - 3] - P[i - 6] + R[r];
-        if (!inRange(q)) return false;
-        P[i] = q;
-      }
-      for (; i < end; i++, r++) {
-        const q = 3 * P[i - 3] - 3 * P[i - 6] + P[i - 9] + R[r];
-        if (!inRange(q)) return false;
-        P[i] = q;
-      }
-    } else {
-      for (; i < end; i++, r++) {
-        const q = 2 * P[i - 3] - P[i - 6] + R[r];
-        if (!inRange(q)) return false;
-        P[i] = q;
-      }
+  if (end - base <= 6) return true;
+  const L = 67108863, L2 = 134217726; // |q| < 2^26  <=>  (q + L) >>> 0 <= L2
+  let bad = 0, i = base + 6, r = 6;
+  let a0 = P[i - 3], a1 = P[i - 2], a2 = P[i - 1]; // vertex v - 1
+  let b0 = P[i - 6], b1 = P[i - 5], b2 = P[i - 4]; // vertex v - 2
+  let q0, q1, q2;
+  if (key && mode === 1 && hasN) { // the neighbour's segment
+    for (; i < end; i += 3, r += 3) {
+      const n = i - per;
+      q0 = a0 + P[n] - P[n - 3] + R[r];
+      q1 = a1 + P[n + 1] - P[n - 2] + R[r + 1];
+      q2 = a2 + P[n + 2] - P[n - 1] + R[r + 2];
+      bad |= (((q0 + L) >>> 0) > L2) | (((q1 + L) >>> 0) > L2) | (((q2 + L) >>> 0) > L2);
+      P[i] = q0; P[i + 1] = q1; P[i + 2] = q2;
+      a0 = q0; a1 = q1; a2 = q2;
     }
-  } else if (mode === 1) {
-    for (; i < end; i++, r++) {
-      const q = P[i - 3] + K[i] - K[i - 3] + (P[i - 3] - K[i - 3]) - (P[i - 6] - K[i - 6]) + R[r];
-      if (!inRange(q)) return false;
-      P[i] = q;
+  } else if (key ? mode === 2 : mode === 3) { // smooth linear (linear at vertex 2)
+    q0 = 2 * a0 - b0 + R[r]; q1 = 2 * a1 - b1 + R[r + 1]; q2 = 2 * a2 - b2 + R[r + 2];
+    bad |= (((q0 + L) >>> 0) > L2) | (((q1 + L) >>> 0) > L2) | (((q2 + L) >>> 0) > L2);
+    P[i] = q0; P[i + 1] = q1; P[i + 2] = q2;
+    let c0 = b0, c1 = b1, c2 = b2;
+    b0 = a0; b1 = a1; b2 = a2; a0 = q0; a1 = q1; a2 = q2;
+    for (i += 3, r += 3; i < end; i += 3, r += 3) {
+      // previous vertex + (a - c) / 2 rounded half to even (codec_smooth)
+      let d = a0 - c0; q0 = a0 + ((d + ((d >> 1) & 1)) >> 1) + R[r];
+      d = a1 - c1; q1 = a1 + ((d + ((d >> 1) & 1)) >> 1) + R[r + 1];
+      d = a2 - c2; q2 = a2 + ((d + ((d >> 1) & 1)) >> 1) + R[r + 2];
+      bad |= (((q0 + L) >>> 0) > L2) | (((q1 + L) >>> 0) > L2) | (((q2 + L) >>> 0) > L2);
+      P[i] = q0; P[i + 1] = q1; P[i + 2] = q2;
+      c0 = b0; c1 = b1; c2 = b2; b0 = a0; b1 = a1; b2 = a2; a0 = q0; a1 = q1; a2 = q2;
     }
-  } else if (mode === 2) {
-    for (; i < end; i++, r++) {
-      const q = 2 * P[i - 3] - P[i - 6] + R[r];
-      if (!inRange(q)) return false;
-      P[i] = q;
+  } else if (key || mode === 2) { // linear
+    for (; i < end; i += 3, r += 3) {
+      q0 = 2 * a0 - b0 + R[r]; q1 = 2 * a1 - b1 + R[r + 1]; q2 = 2 * a2 - b2 + R[r + 2];
+      bad |= (((q0 + L) >>> 0) > L2) | (((q1 + L) >>> 0) > L2) | (((q2 + L) >>> 0) > L2);
+      P[i] = q0; P[i + 1] = q1; P[i + 2] = q2;
+      b0 = a0; b1 = a1; b2 = a2; a0 = q0; a1 = q1; a2 = q2;
     }
-  } else if (mode === 3) {
-    for (; i < end && r < 9; i++, r++) {
-      const q = 2 * P[i - 3] - P[i - 6] + R[r];
-      if (!inRange(q)) return false;
-      P[i] = q;
+  } else if (mode === 1) { // the keyframe's segment plus the change of displacement
+    let k0 = K[i - 3], k1 = K[i - 2], k2 = K[i - 1], l0 = K[i - 6], l1 = K[i - 5], l2 = K[i - 4];
+    for (; i < end; i += 3, r += 3) {
+      const n0 = K[i], n1 = K[i + 1], n2 = K[i + 2];
+      q0 = a0 + n0 - k0 + (a0 - k0) - (b0 - l0) + R[r];
+      q1 = a1 + n1 - k1 + (a1 - k1) - (b1 - l1) + R[r + 1];
+      q2 = a2 + n2 - k2 + (a2 - k2) - (b2 - l2) + R[r + 2];
+      bad |= (((q0 + L) >>> 0) > L2) | (((q1 + L) >>> 0) > L2) | (((q2 + L) >>> 0) > L2);
+      P[i] = q0; P[i + 1] = q1; P[i + 2] = q2;
+      b0 = a0; b1 = a1; b2 = a2; a0 = q0; a1 = q1; a2 = q2;
+      l0 = k0; l1 = k1; l2 = k2; k0 = n0; k1 = n1; k2 = n2;
     }
-    for (; i < end; i++, r++) {
-      const q = 3 * P[i - 3] - 3 * P[i - 6] + P[i - 9] + R[r];
-      if (!inRange(q)) return false;
-      P[i] = q;
-    }
-  } else {
-    for (; i < end; i++, r++) {
-      const q = P[i - 3] + K[i] - K[i - 3] + R[r];
-      if (!inRange(q)) return false;
-      P[i] = q;
+  } else { // the keyframe's segment
+    let k0 = K[i - 3], k1 = K[i - 2], k2 = K[i - 1];
+    for (; i < end; i += 3, r += 3) {
+      const n0 = K[i], n1 = K[i + 1], n2 = K[i + 2];
+      q0 = a0 + n0 - k0 + R[r]; q1 = a1 + n1 - k1 + R[r + 1]; q2 = a2 + n2 - k2 + R[r + 2];
+      bad |= (((q0 + L) >>> 0) > L2) | (((q1 + L) >>> 0) > L2) | (((q2 + L) >>> 0) > L2);
+      P[i] = q0; P[i + 1] = q1; P[i + 2] = q2;
+      a0 = q0; a1 = q1; a2 = q2; k0 = n0; k1 = n1; k2 = n2;
     }
   }
-  return true;
+  return bad === 0;
 }

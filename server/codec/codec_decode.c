@@ -139,7 +139,7 @@ static bool reconstruct(bool key, uint32_t mode, int32_t *restrict P, const int3
                 if (!in_range(q)) return false;
                 P[i] = q;
             }
-            REBUILD(3 * P[i - 3] - 3 * P[i - 6] + P[i - 9])
+            REBUILD(codec_smooth(P, (uint32_t)i))
         } else {
             REBUILD(2 * P[i - 3] - P[i - 6])
         }
@@ -153,7 +153,7 @@ static bool reconstruct(bool key, uint32_t mode, int32_t *restrict P, const int3
             if (!in_range(q)) return false;
             P[i] = q;
         }
-        REBUILD(3 * P[i - 3] - 3 * P[i - 6] + P[i - 9])
+        REBUILD(codec_smooth(P, (uint32_t)i))
     } else {
         REBUILD(P[i - 3] + K[i] - K[i - 3])
     }

@@ -106,7 +106,7 @@ static uint32_t residuals(bool key, uint32_t mode, const int32_t *restrict P, co
             if (mode == 2u)
                 for (; i < n && i < 9; i++) r[i] = P[i] - (2 * P[i - 3] - P[i - 6]);
             if (mode == 2u)
-                for (; i < n; i++) r[i] = P[i] - (3 * P[i - 3] - 3 * P[i - 6] + P[i - 9]);
+                for (; i < n; i++) r[i] = P[i] - codec_smooth(P, (uint32_t)i);
             else
                 for (; i < n; i++) r[i] = P[i] - (2 * P[i - 3] - P[i - 6]);
         }
@@ -116,7 +116,7 @@ static uint32_t residuals(bool key, uint32_t mode, const int32_t *restrict P, co
         for (; i < n; i++) r[i] = P[i] - (2 * P[i - 3] - P[i - 6]);
     } else if (mode == 3u) {
         for (; i < n && i < 9; i++) r[i] = P[i] - (2 * P[i - 3] - P[i - 6]);
-        for (; i < n; i++) r[i] = P[i] - (3 * P[i - 3] - 3 * P[i - 6] + P[i - 9]);
+        for (; i < n; i++) r[i] = P[i] - codec_smooth(P, (uint32_t)i);
     } else {
         for (; i < n; i++) r[i] = P[i] - (P[i - 3] + K[i] - K[i - 3]);
     }

@@ -23,8 +23,8 @@
 #define CODEC_NSYM (CODEC_NCLASS * CODEC_NCLASS * CODEC_NCLASS)
 
 /* Prediction modes, chosen per strand. */
-#define CODEC_KEY_MODES 3u       /* keyframes: linear, neighbour segment, quadratic */
-#define CODEC_DELTA_MODES 4u     /* deltas: key segment, displacement, linear, quadratic */
+#define CODEC_KEY_MODES 3u       /* keyframes: linear, neighbour segment, smooth linear */
+#define CODEC_DELTA_MODES 4u     /* deltas: key segment, displacement, linear, smooth linear */
 
 /* Context tables: strand mode, roots, first segment, body by the previous vertex's top class. */
 #define CODEC_NBODY 6u
@@ -51,6 +51,19 @@ static inline uint32_t codec_body_table(uint32_t c0, uint32_t c1, uint32_t c2)
     return CODEC_T_BODY + (m < CODEC_NBODY - 1u ? m : CODEC_NBODY - 1u);
 }
 
+/* d / 2 rounded half to even (arithmetic shifts; exact for any int32 d). */
+static inline int32_t codec_half(int32_t d)
+{
+    return (d + ((d >> 1) & 1)) >> 1;
+}
+
+/* Smooth linear prediction at coordinate index i (vertex >= 3): the previous vertex plus the
+ * mean of the two previous segments (less amplification of quantisation noise than 2a - b). */
+static inline int32_t codec_smooth(const int32_t *P, uint32_t i)
+{
+    return P[i - 3u] + codec_half(P[i - 3u] - P[i - 9u]);
+}
+
 /* Predicted lattice coordinate of vertex v (>= 1), axis a, of the current strand.
  * P: this strand so far (this frame); K: the same strand in the motion-compensated keyframe
  * (deltas only);
@@ -63,7 +76,7 @@ static inline int32_t codec_predict(bool key, uint32_t mode, const int32_t *P, c
     if (key) {
         if (mode == 1u && N) return P[p] + N[i] - N[p];
         if (v == 1u) return N ? P[p] + N[i] - N[p] : P[p];
-        if (mode == 2u && v >= 3u) return 3 * P[p] - 3 * P[pp] + P[i - 9u];
+        if (mode == 2u && v >= 3u) return codec_smooth(P, i);
         return 2 * P[p] - P[pp];
     }
     switch (mode) {
@@ -76,7 +89,7 @@ static inline int32_t codec_predict(bool key, uint32_t mode, const int32_t *P, c
     case 3u:
         if (v == 1u) break;
         if (v == 2u) return 2 * P[p] - P[pp];
-        return 3 * P[p] - 3 * P[pp] + P[i - 9u];
+        return codec_smooth(P, i);
     default:
         break;
     }

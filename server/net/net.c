@@ -1,7 +1,12 @@
 /* net: the lws context (one vhost: files, /metrics, WebSocket), its loop, and the ordered inbox. */
+#include <arpa/inet.h>
+#include <errno.h>
+#include <netinet/in.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include "net_internal.h"
 
@@ -19,6 +24,33 @@ static char *dup_or_null(const char *s)
     char *d = malloc(n);
     if (d) memcpy(d, s, n);
     return d;
+}
+
+/* The listen address must be an IP literal of this machine (lws would otherwise fall back to
+ * every interface, or to not listening at all). */
+static core_status check_listen(const char *addr, core_err *err)
+{
+    struct sockaddr_storage ss;
+    memset(&ss, 0, sizeof ss);
+    socklen_t len;
+    int family;
+    if (inet_pton(AF_INET, addr, &((struct sockaddr_in *)&ss)->sin_addr) == 1) {
+        family = AF_INET;
+        len = sizeof(struct sockaddr_in);
+    } else if (inet_pton(AF_INET6, addr, &((struct sockaddr_in6 *)&ss)->sin6_addr) == 1) {
+        family = AF_INET6;
+        len = sizeof(struct sockaddr_in6);
+    } else {
+        return core_fail(err, CORE_EINVAL, "net: listen address \"%s\" is not an IPv4 or IPv6 address", addr);
+    }
+    ss.ss_family = (sa_family_t)family;
+    int fd = socket(family, SOCK_STREAM, 0);
+    if (fd < 0) return core_fail(err, CORE_EIO, "net: cannot open a socket: %s", strerror(errno));
+    int rc = bind(fd, (struct sockaddr *)&ss, len);
+    int e = errno;
+    close(fd);
+    if (rc != 0) return core_fail(err, CORE_EIO, "net: cannot listen on %s: %s", addr, strerror(e));
+    return CORE_OK;
 }
 
 static void setup_mounts(net *n)
@@ -61,6 +93,11 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     if (!d->subprotocol || !*d->subprotocol) return core_fail(err, CORE_EINVAL, "net: a subprotocol name is required");
     if (d->port < NET_PORT_ANY || d->port > 65535)
         return core_fail(err, CORE_EINVAL, "net: port %d is outside [0, 65535]", d->port);
+    const char *listen = d->listen && *d->listen ? d->listen : "127.0.0.1";
+    if (strcmp(listen, "localhost") == 0) listen = "127.0.0.1";
+    if (strcmp(listen, "0.0.0.0") == 0 || strcmp(listen, "*") == 0) listen = NULL;
+    core_status st = listen ? check_listen(listen, err) : CORE_OK;
+    if (st != CORE_OK) return st;
     net *n = calloc(1, sizeof *n);
     if (!n) return core_fail(err, CORE_ENOMEM, "net: out of memory");
     n->desc = *d;
@@ -68,8 +105,6 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     if (n->desc.text_queue <= 0) n->desc.text_queue = NET_DEFAULT_TEXT_QUEUE;
     if (n->desc.ping_s <= 0) n->desc.ping_s = NET_DEFAULT_PING_S;
     if (n->desc.sndbuf <= 0) n->desc.sndbuf = NET_DEFAULT_SNDBUF;
-    const char *listen = d->listen && *d->listen ? d->listen : "127.0.0.1";
-    if (strcmp(listen, "0.0.0.0") == 0 || strcmp(listen, "*") == 0) listen = NULL;
     n->listen = dup_or_null(listen);
     n->web_dir = dup_or_null(d->web_dir);
     n->subprotocol = dup_or_null(d->subprotocol);
@@ -100,6 +135,8 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     info.retry_and_idle_policy = &n->retry;
     /* UTF-8 is checked per reassembled message in net_session.c (so the close is counted) */
     info.options = LWS_SERVER_OPTION_EXPLICIT_VHOSTS;
+    /* an IPv4 address on lws' IPv6 socket ends up bound to every interface: use an IPv4 socket */
+    if (n->listen && !strchr(n->listen, ':')) info.options |= LWS_SERVER_OPTION_DISABLE_IPV6;
     info.vhost_name = "strandcast";
     info.timeout_secs = 10;
     n->ctx = lws_create_context(&info);
@@ -114,6 +151,10 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
                          listen ? listen : "*", info.port);
     }
     n->port = lws_get_vhost_listen_port(n->vhost);
+    if (n->port <= 0) {
+        net_destroy(n);
+        return core_fail(err, CORE_EIO, "net: not listening on %s (port %d)", listen ? listen : "*", info.port);
+    }
     *out = n;
     return CORE_OK;
 }
@@ -326,18 +367,19 @@ static void set_stream(net_session *s, uint32_t stream, double max_rate)
 static void apply_frame(net *n, net_event *e)
 {
     net_slot *sl = &n->slots[e->stream];
+    sl->count++;
     if (e->key) {
         net_buf_unref(sl->key);
         net_buf_ref(e->buf);
         sl->key = e->buf;
         sl->key_seq = e->seq;
+        sl->key_count = sl->count;
     }
     net_buf_unref(sl->latest);
     sl->latest = e->buf;
     e->buf = NULL;
     sl->latest_seq = e->seq;
     sl->latest_key_seq = sl->key_seq;
-    sl->count++;
 }
 
 static void apply(net *n, net_event *e)

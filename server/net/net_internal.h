@@ -34,6 +34,7 @@ typedef struct net_slot {
     net_buf *latest, *key;
     uint64_t latest_seq, latest_key_seq, key_seq;
     uint64_t count;       /* frames published on the stream; the latest is number `count` */
+    uint64_t key_count;   /* the retained keyframe's number */
 } net_slot;
 
 /* One WebSocket connection (lws per-session data, net thread only). */

@@ -154,22 +154,27 @@ static int send_frame(net *n, net_session *s, struct lws *wsi)
         lws_set_timer_usecs(wsi, (lws_usec_t)((s->next_due_ns - now) / 1000 + 1));
         return 0;
     }
+    uint64_t sent;
     if (!s->has_key || s->key_seq != sl->latest_key_seq) {
         if (!sl->key || sl->key_seq != sl->latest_key_seq) return 0; /* undecodable until the next keyframe */
         if (write_buf(n, wsi, sl->key, LWS_WRITE_BINARY)) return -1;
         atomic_fetch_add(&n->frames_sent, 1);
         s->has_key = true;
         s->key_seq = sl->key_seq;
-        if (sl->latest_seq != sl->key_seq) {
-            lws_callback_on_writable(wsi); /* the newest frame follows */
+        if (sl->latest_seq != sl->key_seq && s->max_rate <= 0) {
+            lws_callback_on_writable(wsi); /* the newest frame follows at once */
             return 0;
         }
+        /* the keyframe is the newest, or (rate-capped client) it is this slot's frame: the
+         * newest frame waits for the next slot, so the cap holds */
+        sent = sl->key_count;
     } else {
         if (write_buf(n, wsi, sl->latest, LWS_WRITE_BINARY)) return -1;
         atomic_fetch_add(&n->frames_sent, 1);
+        sent = sl->count;
     }
-    if (s->last_count && sl->count > s->last_count + 1) atomic_fetch_add(&n->frames_skipped, sl->count - s->last_count - 1);
-    s->last_count = sl->count;
+    if (s->last_count && sent > s->last_count + 1) atomic_fetch_add(&n->frames_skipped, sent - s->last_count - 1);
+    if (sent > s->last_count) s->last_count = sent;
     if (s->max_rate > 0) {
         uint64_t period = (uint64_t)(1e9 / s->max_rate);
         /* keep the average rate; after a stall start afresh rather than burst */

@@ -22,9 +22,9 @@
 #define PROTO_MAX_VERTICES (2u * 1024u * 1024u) /* strands x verts of a requested groom */
 #define PROTO_MAX_STEP 1000           /* largest "step" count */
 #define PROTO_MAX_SPEED 20.0          /* largest animation speed factor */
-#define PROTO_MAX_POSITION 100.0      /* largest |head position| component, m */
+#define PROTO_MAX_POSITION 5.0        /* largest |head position| component, m (the codec's float32 bound) */
 #define PROTO_MAX_STRIDE 4096
-#define PROTO_MIN_ERROR 1e-6          /* subscribe max_error range, m */
+#define PROTO_MIN_ERROR 1e-5          /* subscribe max_error range, m (the codec's lower bound) */
 #define PROTO_MAX_ERROR 1e-2
 #define PROTO_MAX_RATE 240.0          /* subscribe max_rate, Hz (0 = the server's rate) */
 

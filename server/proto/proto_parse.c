@@ -261,7 +261,7 @@ static core_status parse_motion(const cJSON *root, proto_msg *m, proto_error *e)
     if ((st = get_vector(root, "position", 3, pos, e)) != CORE_OK) return st;
     if ((st = get_vector(root, "orientation", 4, q, e)) != CORE_OK) return st;
     for (int i = 0; i < 3; i++) {
-        char field[16];
+        char field[32];
         snprintf(field, sizeof field, "position[%d]", i);
         if ((st = check_range(field, pos[i], -PROTO_MAX_POSITION, PROTO_MAX_POSITION, e)) != CORE_OK) return st;
     }

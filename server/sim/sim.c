@@ -3,6 +3,8 @@
 
 #include "sim.h"
 #include "sim_cpu.h"
+#include "sim_select.h"
+#include "vk/sim_vk.h"
 
 core_status sim_create(sim *s, const sim_desc *desc, const core_groom *groom, const sim_params *params,
                        core_err *err)
@@ -14,10 +16,9 @@ core_status sim_create(sim *s, const sim_desc *desc, const core_groom *groom, co
     if (st != CORE_OK) return st;
     const sim_vtable *vt = NULL;
     switch (desc->backend) {
-    case SIM_BACKEND_AUTO:
+    case SIM_BACKEND_AUTO: return sim_select_auto(s, desc, groom, params, err);
     case SIM_BACKEND_CPU: vt = sim_cpu_vtable(); break;
-    case SIM_BACKEND_VULKAN:
-        return core_fail(err, CORE_EUNSUPPORTED, "the Vulkan backend is not built into this binary");
+    case SIM_BACKEND_VULKAN: vt = sim_vk_vtable(); break;
     }
     st = vt->create(desc, groom, params, &s->self, err);
     if (st != CORE_OK) return st;

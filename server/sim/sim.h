@@ -25,6 +25,7 @@ typedef struct sim_params {
     float sph_radius;         /* SPH smoothing length h, m */
     float rest_density;       /* SPH rest density as a multiple of the groom's rest-pose mean */
     int32_t neighbor_cap;     /* SPH neighbours kept per particle (nearest first) */
+    int32_t neighbor_rebuild; /* steps between SPH neighbour-list rebuilds */
     bool shape;               /* global + local shape constraints on */
     bool sph;                 /* hair-hair interaction on */
     bool collisions;          /* character colliders on */
@@ -53,7 +54,8 @@ typedef enum sim_backend_kind { SIM_BACKEND_AUTO = 0, SIM_BACKEND_CPU, SIM_BACKE
 typedef struct sim_desc {
     sim_backend_kind backend; /* AUTO: see sim_create */
     int threads;              /* CPU worker threads; 0 = number of online cores */
-    int device;               /* Vulkan physical device index; 0 = first suitable */
+    int device;               /* Vulkan device: 0 = automatic (discrete, integrated, virtual, then
+                                 CPU); N >= 1 = physical device N-1 (vulkaninfo's GPU<N-1>) */
 } sim_desc;
 
 /* Counters a backend keeps; read with sim_get_stats. */
@@ -91,8 +93,9 @@ typedef struct sim {
 } sim;
 
 /* Creates a solver for groom (copied; the caller keeps ownership of groom) with params
- * (validated). backend AUTO picks a hardware Vulkan device when present, else the CPU
- * backend. On failure *s is zeroed and err says why. The sim is used from one thread at
+ * (validated). backend AUTO uses a hardware Vulkan device when present; with only a CPU Vulkan
+ * device (lavapipe) it times a few steps of each backend on this groom and keeps the faster;
+ * if Vulkan set-up fails it falls back to the CPU backend and logs why. On failure *s is zeroed and err says why. The sim is used from one thread at
  * a time (the sim thread). */
 core_status sim_create(sim *s, const sim_desc *desc, const core_groom *groom, const sim_params *params,
                        core_err *err);

@@ -5,6 +5,7 @@
 
 #include "sim_cpu.h"
 #include "sim_cpu_internal.h"
+#include "sim_order.h"
 
 static void update_stiffness(sim_cpu *c)
 {
@@ -14,60 +15,6 @@ static void update_stiffness(sim_cpu *c)
         c->sg[l] = c->params.shape ? c->params.global_stiffness * fade : 0.0f;
         c->sl[l] = c->params.shape ? c->params.local_stiffness * fade : 0.0f;
     }
-}
-
-static uint32_t spread_bits(uint32_t v) /* 10 bits -> every third bit */
-{
-    v &= 0x3ff;
-    v = (v | (v << 16)) & 0x030000ff;
-    v = (v | (v << 8)) & 0x0300f00f;
-    v = (v | (v << 4)) & 0x030c30c3;
-    v = (v | (v << 2)) & 0x09249249;
-    return v;
-}
-
-typedef struct morton_key {
-    uint32_t code, strand;
-} morton_key;
-
-static int morton_cmp(const void *a, const void *b)
-{
-    const morton_key *x = a, *y = b;
-    if (x->code != y->code) return x->code < y->code ? -1 : 1;
-    return x->strand < y->strand ? -1 : x->strand > y->strand;
-}
-
-/* Orders strands by the Morton code of their root so that the strands a worker processes
- * together are close in space (collider culling, SPH locality). Caller frees. */
-static uint32_t *spatial_order(const core_groom *g)
-{
-    uint32_t *perm = malloc(g->nstrands * sizeof *perm);
-    morton_key *keys = malloc(g->nstrands * sizeof *keys);
-    if (!perm || !keys) {
-        free(perm);
-        free(keys);
-        return NULL;
-    }
-    float lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
-    for (uint32_t s = 0; s < g->nstrands; s++)
-        for (int k = 0; k < 3; k++) {
-            float v = g->pos[3 * (size_t)s * g->nverts + k];
-            lo[k] = fminf(lo[k], v), hi[k] = fmaxf(hi[k], v);
-        }
-    for (uint32_t s = 0; s < g->nstrands; s++) {
-        uint32_t code = 0;
-        for (int k = 0; k < 3; k++) {
-            float ext = hi[k] - lo[k];
-            float f = ext > 0.0f ? (g->pos[3 * (size_t)s * g->nverts + k] - lo[k]) / ext : 0.0f;
-            code |= spread_bits((uint32_t)(f * 1023.0f)) << k;
-        }
-        keys[s].code = code;
-        keys[s].strand = s;
-    }
-    qsort(keys, g->nstrands, sizeof *keys, morton_cmp);
-    for (uint32_t s = 0; s < g->nstrands; s++) perm[s] = keys[s].strand;
-    free(keys);
-    return perm;
 }
 
 static void cpu_reset(void *self)
@@ -80,6 +27,7 @@ static void cpu_reset(void *self)
         c->a[0][i] = c->a[1][i] = c->a[2][i] = 0.0f;
     }
     c->prev_head = c->head;
+    c->sph.lists_valid = false;
     memset(c->nan_per_thread, 0, sizeof c->nan_per_thread);
     c->stats.steps = 0;
     c->stats.sim_time = 0.0;
@@ -108,8 +56,10 @@ static core_status cpu_set_params(void *self, const sim_params *p, core_err *err
 {
     (void)err;
     sim_cpu *c = self;
-    if (p->sph_radius != c->params.sph_radius || p->neighbor_cap != c->params.neighbor_cap)
+    if (p->sph_radius != c->params.sph_radius || p->neighbor_cap != c->params.neighbor_cap) {
         c->rho_rest_valid = false;
+        c->sph.lists_valid = false;
+    }
     c->params = *p;
     update_stiffness(c);
     return CORE_OK;
@@ -147,8 +97,7 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
     }
     c->sg = malloc(c->nv * sizeof(float));
     c->sl = malloc(c->nv * sizeof(float));
-    c->perm = spatial_order(g);
-    if (!ok || !c->sg || !c->sl || !c->perm) {
+    if (!ok || !c->sg || !c->sl || sim_strand_order(g, &c->perm, err) != CORE_OK) {
         cpu_destroy(c);
         return core_fail(err, CORE_ENOMEM, "out of memory for %zu particles", n);
     }
@@ -189,12 +138,13 @@ static core_status cpu_step(void *self, core_err *err)
     if (sph) {
         if (!c->rho_rest_valid) {
             double mean;
-            core_status st = sim_cpu_sph_pass(c, c->rest, NULL, dt, &mean, err);
+            core_status st = sim_cpu_sph_pass(c, c->rest, NULL, dt, true, &mean, err);
             if (st != CORE_OK) return st;
             c->rho_rest = (float)mean;
             c->rho_rest_valid = true;
         }
-        core_status st = sim_cpu_sph_pass(c, c->x, c->v, dt, NULL, err);
+        bool rebuild = c->stats.steps % (uint64_t)c->params.neighbor_rebuild == 0;
+        core_status st = sim_cpu_sph_pass(c, c->x, c->v, dt, rebuild, NULL, err);
         if (st != CORE_OK) return st;
         t1 = core_now_ns();
     }
@@ -253,6 +203,7 @@ static core_status cpu_write_state(void *self, const float *xyz, const float *ve
                 c->v[k][i] = vel ? vel[o + k] : 0.0f;
             }
         }
+    c->sph.lists_valid = false;
     return CORE_OK;
 }
 

@@ -7,7 +7,7 @@
 /* Strands processed together by one worker; the per-strand temporaries stay in L1. */
 #define CHUNK 64
 /* Collision / rest-length alternations per vertex. */
-#define COLLISION_ITERATIONS 2
+#define COLLISION_ITERATIONS 1
 /* Final alternating passes over overlapping colliders (concave crevices converge slowly). */
 #define CREVICE_PASSES 2
 
@@ -45,6 +45,16 @@ void sim_cpu_world_colliders(const sim_cpu *c, core_xform head, sim_cpu_wcollide
         out[k].radius = in->radius;
         out[k].radii = in->radii;
         out[k].rot = core_q_norm(core_q_mul(head.rot, in->rot));
+        core_vec3 ax[3] = { core_q_rotate(out[k].rot, core_v3(1, 0, 0)), core_q_rotate(out[k].rot, core_v3(0, 1, 0)),
+                            core_q_rotate(out[k].rot, core_v3(0, 0, 1)) }; /* columns of R */
+        const float rad[3] = { in->radii.x, in->radii.y, in->radii.z };
+        for (int i = 0; i < 3; i++) {
+            const float col[3] = { ax[i].x, ax[i].y, ax[i].z };
+            for (int j = 0; j < 3; j++) {
+                out[k].to_unit[3 * i + j] = rad[i] > 0.0f ? col[j] / rad[i] : 0.0f; /* row i = axis i / r_i */
+                out[k].from_unit[3 * j + i] = col[j] * rad[i];                    /* column i = axis i * r_i */
+            }
+        }
         float r = in->radius;
         if (in->kind == CORE_COLLIDER_ELLIPSOID) r = MAXF(in->radii.x, MAXF(in->radii.y, in->radii.z));
         core_vec3 b = in->kind == CORE_COLLIDER_CAPSULE ? out[k].b : out[k].a;
@@ -83,22 +93,21 @@ static void collide(const sim_cpu_wcollider *w, float *restrict x, float *restri
         break;
     }
     case CORE_COLLIDER_ELLIPSOID: {
-        const float qx = w->rot.x, qy = w->rot.y, qz = w->rot.z, qw = w->rot.w;
+        const float *M = w->to_unit, *N = w->from_unit;
         const float cx = w->a.x, cy = w->a.y, cz = w->a.z;
-        const float irx = 1.0f / w->radii.x, iry = 1.0f / w->radii.y, irz = 1.0f / w->radii.z;
-        float topx, topy, topz; /* where a point at the exact centre goes */
-        QROT(qx, qy, qz, qw, 0.0f, w->radii.y, 0.0f, topx, topy, topz);
         for (size_t s = 0; s < n; s++) {
             const float dx = x[s] - cx, dy = y[s] - cy, dz = z[s] - cz;
-            float ux, uy, uz;
-            QROT(-qx, -qy, -qz, qw, dx, dy, dz, ux, uy, uz);
-            const float sx = ux * irx, sy = uy * iry, sz = uz * irz;
+            const float sx = M[0] * dx + M[1] * dy + M[2] * dz;
+            const float sy = M[3] * dx + M[4] * dy + M[5] * dz;
+            const float sz = M[6] * dx + M[7] * dy + M[8] * dz;
             const float sl = sqrtf(sx * sx + sy * sy + sz * sz);
             const bool inside = sl < 1.0f, degenerate = sl < 1e-12f;
             const float k = 1.0f / MAXF(sl, 1e-12f);
-            float px, py, pz;
-            QROT(qx, qy, qz, qw, ux * k, uy * k, uz * k, px, py, pz);
-            px = degenerate ? topx : px, py = degenerate ? topy : py, pz = degenerate ? topz : pz;
+            /* push along the unit-sphere direction; a point at the exact centre goes to +y */
+            const float ux = degenerate ? 0.0f : sx * k, uy = degenerate ? 1.0f : sy * k, uz = degenerate ? 0.0f : sz * k;
+            const float px = N[0] * ux + N[1] * uy + N[2] * uz;
+            const float py = N[3] * ux + N[4] * uy + N[5] * uz;
+            const float pz = N[6] * ux + N[7] * uy + N[8] * uz;
             x[s] = inside ? cx + px : x[s];
             y[s] = inside ? cy + py : y[s];
             z[s] = inside ? cz + pz : z[s];
@@ -302,7 +311,8 @@ static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s
         for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
         level_refollow(ctx, t, o, s0, cnt);
     }
-    for (int pass = 0; pass < CREVICE_PASSES; pass++) /* settle points in a crevice between colliders */
+    const int passes = nhit > 1 ? CREVICE_PASSES : 1; /* settle points in a crevice between colliders */
+    for (int pass = 0; pass < passes; pass++)
         for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
 }
 

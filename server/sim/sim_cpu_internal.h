@@ -17,6 +17,8 @@ typedef struct sim_cpu_wcollider {
     core_vec3 radii;
     core_quat rot;       /* world orientation (ellipsoid) */
     float lo[3], hi[3];  /* world bounding box, for culling */
+    float to_unit[9];    /* ellipsoid: world offset -> unit-sphere coords (diag(1/r) R^T), row-major */
+    float from_unit[9];  /* ellipsoid: unit-sphere coords -> world offset (R diag(r)), row-major */
 } sim_cpu_wcollider;
 
 /* Scratch of the SPH stage (grid, sorted copies, neighbour lists); grown on demand. */
@@ -24,12 +26,12 @@ typedef struct sim_cpu_sph {
     size_t n;                /* particles the per-particle arrays hold */
     size_t cells_cap;        /* cells the per-cell arrays hold */
     int cap;                 /* neighbour slots per particle the arrays hold */
+    bool lists_valid;        /* order/nbr describe the current particles (may be reused) */
     uint32_t *cell;          /* hash bucket of each particle, original order */
     uint32_t *order;         /* sorted slot -> original particle index */
     uint32_t *strand;        /* sorted slot -> strand index */
-    float *sp, *sv;          /* sorted positions / velocities, 4 floats each (w unused) */
+    float *sp, *sv;          /* sorted (x, y, z, density) and (vx, vy, vz, pressure) */
     float *sx, *sy, *sz;     /* sorted positions again as SoA, for the vectorized scan */
-    float *rho, *press;      /* per sorted slot */
     uint32_t *nbr;           /* per sorted slot: neighbour_cap sorted slots */
     uint8_t *nnbr;           /* per sorted slot: neighbours kept */
     uint32_t *cell_start;    /* buckets + 1: first sorted slot of each bucket */
@@ -63,8 +65,9 @@ typedef struct sim_cpu {
 } sim_cpu;
 
 /* Computes SPH accelerations into c->a from c->x, c->v (positions `pos` may be c->rest for the
- * rest-density pass, with vel NULL and out_mean_rho set). Sim thread; uses the pool. */
-core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt,
+ * rest-density pass, with vel NULL and out_mean_rho set). Unless rebuild, the neighbour lists
+ * of the previous pass are reused (distances recomputed). Sim thread; uses the pool. */
+core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt, bool rebuild,
                              double *out_mean_rho, core_err *err);
 void sim_cpu_sph_free(sim_cpu_sph *s);
 

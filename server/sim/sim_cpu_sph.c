@@ -2,6 +2,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef __AVX2__
+#include <immintrin.h>
+#endif
 
 #include "sim_cpu_internal.h"
 
@@ -11,6 +14,10 @@
 #define SPH_MAX_CANDIDATES 1024
 /* Candidates whose distances are computed in one vector loop. */
 #define SPH_SCAN_BLOCK 64
+/* Elements of padding after the sorted SoA arrays (one AVX2 vector). */
+#define SPH_PAD 8
+
+#define MAX0(a) ((a) > 0.0f ? (a) : 0.0f)
 
 typedef struct sph_ctx {
     sim_cpu *c;
@@ -30,8 +37,6 @@ void sim_cpu_sph_free(sim_cpu_sph *s)
     free(s->sy);
     free(s->sz);
     free(s->sv);
-    free(s->rho);
-    free(s->press);
     free(s->nbr);
     free(s->nnbr);
     free(s->cell_start);
@@ -44,22 +49,21 @@ static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, 
     if (s->n < n || s->cap < cap) {
         free(s->cell), free(s->order), free(s->strand), free(s->sp), free(s->sv);
         free(s->sx), free(s->sy), free(s->sz);
-        free(s->rho), free(s->press), free(s->nbr), free(s->nnbr);
+        free(s->nbr), free(s->nnbr);
         s->cell = malloc(n * sizeof *s->cell);
         s->order = malloc(n * sizeof *s->order);
-        s->strand = malloc(n * sizeof *s->strand);
+        s->strand = calloc(n + SPH_PAD, sizeof *s->strand);
         s->sp = malloc(n * 4 * sizeof *s->sp);
-        s->sx = malloc(n * sizeof *s->sx);
-        s->sy = malloc(n * sizeof *s->sy);
-        s->sz = malloc(n * sizeof *s->sz);
+        /* padded by SPH_PAD so vector loads of a run's last block stay inside */
+        s->sx = calloc(n + SPH_PAD, sizeof *s->sx);
+        s->sy = calloc(n + SPH_PAD, sizeof *s->sy);
+        s->sz = calloc(n + SPH_PAD, sizeof *s->sz);
         s->sv = malloc(n * 4 * sizeof *s->sv);
-        s->rho = malloc(n * sizeof *s->rho);
-        s->press = malloc(n * sizeof *s->press);
         s->nbr = malloc(n * (size_t)cap * sizeof *s->nbr);
         s->nnbr = malloc(n * sizeof *s->nnbr);
         s->n = n;
         s->cap = cap;
-        if (!s->cell || !s->order || !s->strand || !s->sp || !s->sv || !s->sx || !s->sy || !s->sz || !s->rho || !s->press || !s->nbr || !s->nnbr) {
+        if (!s->cell || !s->order || !s->strand || !s->sp || !s->sv || !s->sx || !s->sy || !s->sz || !s->nbr || !s->nnbr) {
             sim_cpu_sph_free(s);
             return core_fail(err, CORE_ENOMEM, "out of memory for SPH buffers of %zu particles", n);
         }
@@ -87,8 +91,8 @@ static void bounds_job(void *vctx, int tid, int nt)
     for (int k = 0; k < 3; k++) {
         const float *p = ctx->pos[k];
         for (size_t i = b; i < e; i++) {
-            lo[k] = fminf(lo[k], p[i]);
-            hi[k] = fmaxf(hi[k], p[i]);
+            lo[k] = p[i] < lo[k] ? p[i] : lo[k]; /* not fminf/fmaxf: these vectorize */
+            hi[k] = p[i] > hi[k] ? p[i] : hi[k];
         }
         ctx->bmin[tid][k] = lo[k];
         ctx->bmax[tid][k] = hi[k];
@@ -183,14 +187,83 @@ static void scatter_job(void *vctx, int tid, int nt)
     }
 }
 
-/* Squared distances from (x,y,z) to the candidates [0, n): a plain loop the compiler vectorizes. */
-static void dist2_kernel(size_t n, float x, float y, float z, const float *restrict sx, const float *restrict sy,
-                         const float *restrict sz, float *restrict out)
+#ifdef __AVX2__
+/* For each 8-bit lane mask, the indices of its set lanes packed low to high, 4 bits each:
+ * the permutation that compacts the selected lanes of a vector to its front. */
+static const uint32_t compact_lut[256] = {
+    0x00000000, 0x00000000, 0x00000001, 0x00000010, 0x00000002, 0x00000020, 0x00000021, 0x00000210,
+    0x00000003, 0x00000030, 0x00000031, 0x00000310, 0x00000032, 0x00000320, 0x00000321, 0x00003210,
+    0x00000004, 0x00000040, 0x00000041, 0x00000410, 0x00000042, 0x00000420, 0x00000421, 0x00004210,
+    0x00000043, 0x00000430, 0x00000431, 0x00004310, 0x00000432, 0x00004320, 0x00004321, 0x00043210,
+    0x00000005, 0x00000050, 0x00000051, 0x00000510, 0x00000052, 0x00000520, 0x00000521, 0x00005210,
+    0x00000053, 0x00000530, 0x00000531, 0x00005310, 0x00000532, 0x00005320, 0x00005321, 0x00053210,
+    0x00000054, 0x00000540, 0x00000541, 0x00005410, 0x00000542, 0x00005420, 0x00005421, 0x00054210,
+    0x00000543, 0x00005430, 0x00005431, 0x00054310, 0x00005432, 0x00054320, 0x00054321, 0x00543210,
+    0x00000006, 0x00000060, 0x00000061, 0x00000610, 0x00000062, 0x00000620, 0x00000621, 0x00006210,
+    0x00000063, 0x00000630, 0x00000631, 0x00006310, 0x00000632, 0x00006320, 0x00006321, 0x00063210,
+    0x00000064, 0x00000640, 0x00000641, 0x00006410, 0x00000642, 0x00006420, 0x00006421, 0x00064210,
+    0x00000643, 0x00006430, 0x00006431, 0x00064310, 0x00006432, 0x00064320, 0x00064321, 0x00643210,
+    0x00000065, 0x00000650, 0x00000651, 0x00006510, 0x00000652, 0x00006520, 0x00006521, 0x00065210,
+    0x00000653, 0x00006530, 0x00006531, 0x00065310, 0x00006532, 0x00065320, 0x00065321, 0x00653210,
+    0x00000654, 0x00006540, 0x00006541, 0x00065410, 0x00006542, 0x00065420, 0x00065421, 0x00654210,
+    0x00006543, 0x00065430, 0x00065431, 0x00654310, 0x00065432, 0x00654320, 0x00654321, 0x06543210,
+    0x00000007, 0x00000070, 0x00000071, 0x00000710, 0x00000072, 0x00000720, 0x00000721, 0x00007210,
+    0x00000073, 0x00000730, 0x00000731, 0x00007310, 0x00000732, 0x00007320, 0x00007321, 0x00073210,
+    0x00000074, 0x00000740, 0x00000741, 0x00007410, 0x00000742, 0x00007420, 0x00007421, 0x00074210,
+    0x00000743, 0x00007430, 0x00007431, 0x00074310, 0x00007432, 0x00074320, 0x00074321, 0x00743210,
+    0x00000075, 0x00000750, 0x00000751, 0x00007510, 0x00000752, 0x00007520, 0x00007521, 0x00075210,
+    0x00000753, 0x00007530, 0x00007531, 0x00075310, 0x00007532, 0x00075320, 0x00075321, 0x00753210,
+    0x00000754, 0x00007540, 0x00007541, 0x00075410, 0x00007542, 0x00075420, 0x00075421, 0x00754210,
+    0x00007543, 0x00075430, 0x00075431, 0x00754310, 0x00075432, 0x00754320, 0x00754321, 0x07543210,
+    0x00000076, 0x00000760, 0x00000761, 0x00007610, 0x00000762, 0x00007620, 0x00007621, 0x00076210,
+    0x00000763, 0x00007630, 0x00007631, 0x00076310, 0x00007632, 0x00076320, 0x00076321, 0x00763210,
+    0x00000764, 0x00007640, 0x00007641, 0x00076410, 0x00007642, 0x00076420, 0x00076421, 0x00764210,
+    0x00007643, 0x00076430, 0x00076431, 0x00764310, 0x00076432, 0x00764320, 0x00764321, 0x07643210,
+    0x00000765, 0x00007650, 0x00007651, 0x00076510, 0x00007652, 0x00076520, 0x00076521, 0x00765210,
+    0x00007653, 0x00076530, 0x00076531, 0x00765310, 0x00076532, 0x00765320, 0x00765321, 0x07653210,
+    0x00007654, 0x00076540, 0x00076541, 0x00765410, 0x00076542, 0x00765420, 0x00765421, 0x07654210,
+    0x00076543, 0x00765430, 0x00765431, 0x07654310, 0x00765432, 0x07654320, 0x07654321, 0x76543210,
+};
+#endif
+
+/* Appends to r2s[]/idx[] the candidates j in [b, e) within h (r2 < h2) that belong to another
+ * strand than si, in slot order; returns the new count. The buffers need 8 spare entries.
+ * r2 = (dx*dx + dy*dy) + dz*dz in both paths, so AVX2 and scalar code give the same lists. */
+static size_t gather_candidates(const sim_cpu_sph *s, uint32_t b, uint32_t e, float x, float y, float z, float h2,
+                                uint32_t si, float *r2s, uint32_t *idx, size_t m)
 {
-    for (size_t j = 0; j < n; j++) {
-        float dx = sx[j] - x, dy = sy[j] - y, dz = sz[j] - z;
-        out[j] = dx * dx + dy * dy + dz * dz;
+    uint32_t j = b;
+#ifdef __AVX2__
+    const __m256 vx = _mm256_set1_ps(x), vy = _mm256_set1_ps(y), vz = _mm256_set1_ps(z), vh2 = _mm256_set1_ps(h2);
+    const __m256i vsi = _mm256_set1_epi32((int)si);
+    const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256i nibbles = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
+    for (; j < e; j += 8) { /* the arrays are padded by 8, so the last block may read past e */
+        __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(s->sx + j), vx);
+        __m256 dy = _mm256_sub_ps(_mm256_loadu_ps(s->sy + j), vy);
+        __m256 dz = _mm256_sub_ps(_mm256_loadu_ps(s->sz + j), vz);
+        __m256 r2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+        __m256i same = _mm256_cmpeq_epi32(_mm256_loadu_si256((const __m256i *)(s->strand + j)), vsi);
+        __m256i inside = _mm256_cmpgt_epi32(_mm256_set1_epi32((int)(e - j)), lanes);
+        __m256 ok = _mm256_andnot_ps(_mm256_castsi256_ps(same), _mm256_castsi256_ps(inside));
+        unsigned mask = (unsigned)_mm256_movemask_ps(_mm256_and_ps(ok, _mm256_cmp_ps(r2, vh2, _CMP_LT_OQ)));
+        /* branch-free: store the compacted lanes, advance by the number selected */
+        __m256i perm = _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)compact_lut[mask]), nibbles),
+                                        _mm256_set1_epi32(15));
+        _mm256_storeu_ps(r2s + m, _mm256_permutevar8x32_ps(r2, perm));
+        __m256i slots = _mm256_add_epi32(_mm256_set1_epi32((int)j), lanes);
+        _mm256_storeu_si256((__m256i *)(idx + m), _mm256_permutevar8x32_epi32(slots, perm));
+        m += (size_t)__builtin_popcount(mask);
     }
+#endif
+    for (; j < e; j++) {
+        float dx = s->sx[j] - x, dy = s->sy[j] - y, dz = s->sz[j] - z;
+        float r2 = (dx * dx + dy * dy) + dz * dz;
+        r2s[m] = r2;
+        idx[m] = j;
+        m += (r2 < h2) & (s->strand[j] != si);
+    }
+    return m;
 }
 
 static inline void swap_u64(uint64_t *a, uint64_t *b)
@@ -220,17 +293,26 @@ static void select_smallest(uint64_t *keys, size_t n, size_t k)
     }
 }
 
-/* The bucket ranges [lo, hi] covering the 27 cells around (cx,cy,cz): one run of three
+/* The lower corner, along one axis, of the 2 cells (of size 2h) that hold every point within h
+ * of p: the cell of p and the neighbour on the side of the half p lies in. */
+static inline uint32_t lower_cell(float p, float origin, float inv)
+{
+    float f = (p - origin) * inv;
+    uint32_t c = cell_coord(p, origin, inv);
+    return f - (float)c < 0.5f ? c - 1 : c;
+}
+
+/* The bucket ranges [lo, hi] covering the 2x2x2 cells from corner (x0,y0,z0): one run of two
  * buckets per row of x-neighbours (split where the fold wraps), sorted and merged so no
  * bucket is visited twice. Returns the number of ranges. */
-static int neighbour_ranges(const sim_cpu_sph *s, uint32_t cx, uint32_t cy, uint32_t cz, uint32_t lo[18],
-                            uint32_t hi[18])
+static int neighbour_ranges(const sim_cpu_sph *s, uint32_t x0, uint32_t y0, uint32_t z0, uint32_t lo[8],
+                            uint32_t hi[8])
 {
     const uint32_t mask = (uint32_t)s->ncells - 1;
     int n = 0;
-    for (uint32_t z = cz - 1; z != cz + 2; z++)
-        for (uint32_t y = cy - 1; y != cy + 2; y++) {
-            uint32_t a = cell_hash(s, cx - 1, y, z), b = (a + 2) & mask;
+    for (uint32_t z = z0; z != z0 + 2; z++)
+        for (uint32_t y = y0; y != y0 + 2; y++) {
+            uint32_t a = cell_hash(s, x0, y, z), b = (a + 1) & mask;
             uint32_t seg_lo[2] = { a, 0 }, seg_hi[2] = { b, b };
             int segs = 1;
             if (b < a) { /* wrapped: [a, mask] and [0, b] */
@@ -268,54 +350,55 @@ static void density_job(void *vctx, int tid, int nt)
     const int cap = c->params.neighbor_cap;
     size_t b, e;
     sim_pool_range(s->ncells, tid, nt, 1, &b, &e);
-    float d2[SPH_SCAN_BLOCK];
     uint64_t keys[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK];
-    uint32_t ccx = UINT32_MAX, ccy = 0, ccz = 0; /* cell whose neighbour ranges are in rlo/rhi */
-    uint32_t rlo[18], rhi[18];
+    float r2s[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK + SPH_PAD];
+    uint32_t idx[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK + SPH_PAD];
+    uint32_t ccx = UINT32_MAX, ccy = 0, ccz = 0; /* corner whose neighbour ranges are in rlo/rhi */
+    uint32_t rlo[8], rhi[8];
     int nr = 0;
     for (size_t bucket = b; bucket < e; bucket++) {
         uint32_t first = s->cell_start[bucket], last = s->cell_start[bucket + 1];
         for (uint32_t i = first; i < last; i++) {
             const float xi = s->sx[i], yi = s->sy[i], zi = s->sz[i];
             const uint32_t si = s->strand[i];
-            uint32_t cx = cell_coord(xi, s->origin[0], s->inv_cell), cy = cell_coord(yi, s->origin[1], s->inv_cell),
-                     cz = cell_coord(zi, s->origin[2], s->inv_cell);
+            uint32_t cx = lower_cell(xi, s->origin[0], s->inv_cell), cy = lower_cell(yi, s->origin[1], s->inv_cell),
+                     cz = lower_cell(zi, s->origin[2], s->inv_cell);
             if (cx != ccx || cy != ccy || cz != ccz) {
                 ccx = cx, ccy = cy, ccz = cz;
                 nr = neighbour_ranges(s, cx, cy, cz, rlo, rhi);
             }
-            /* candidates within h of another strand; key = (r2 bits, slot): ordered like
-             * (r2, slot) because r2 >= 0, so the cap keeps the nearest, ties by slot */
+            /* candidates within h of another strand, in slot order */
             size_t m = 0;
             for (int r = 0; r < nr; r++) {
                 const uint32_t rb = s->cell_start[rlo[r]], re = s->cell_start[rhi[r] + 1];
                 for (uint32_t j0 = rb; j0 < re && m < SPH_MAX_CANDIDATES; j0 += SPH_SCAN_BLOCK) {
-                    uint32_t cnt = re - j0 < SPH_SCAN_BLOCK ? re - j0 : SPH_SCAN_BLOCK;
-                    dist2_kernel(cnt, xi, yi, zi, s->sx + j0, s->sy + j0, s->sz + j0, d2);
-                    for (uint32_t q = 0; q < cnt; q++) {
-                        uint32_t bits;
-                        memcpy(&bits, &d2[q], sizeof bits);
-                        keys[m] = (uint64_t)bits << 32 | (j0 + q);
-                        m += (d2[q] < h2) & (s->strand[j0 + q] != si);
-                    }
+                    uint32_t j1 = re - j0 < SPH_SCAN_BLOCK ? re : j0 + SPH_SCAN_BLOCK;
+                    m = gather_candidates(s, j0, j1, xi, yi, zi, h2, si, r2s, idx, m);
                 }
             }
-            if (m > (size_t)cap) {
+            if (m > (size_t)cap) { /* keep the cap nearest: key (r2 bits, slot) orders like (r2, slot) */
+                for (size_t k = 0; k < m; k++) {
+                    uint32_t bits;
+                    memcpy(&bits, &r2s[k], sizeof bits);
+                    keys[k] = (uint64_t)bits << 32 | idx[k];
+                }
                 select_smallest(keys, m, (size_t)cap);
                 m = (size_t)cap;
+                for (size_t k = 0; k < m; k++) {
+                    uint32_t bits = (uint32_t)(keys[k] >> 32);
+                    memcpy(&r2s[k], &bits, sizeof bits);
+                    idx[k] = (uint32_t)keys[k];
+                }
             }
             float rho = 1.0f;
             uint32_t *out = s->nbr + (size_t)i * (size_t)cap;
             for (size_t k = 0; k < m; k++) {
-                float r2;
-                uint32_t bits = (uint32_t)(keys[k] >> 32);
-                memcpy(&r2, &bits, sizeof r2);
-                float q = 1.0f - r2 * inv_h2;
+                float q = 1.0f - r2s[k] * inv_h2;
                 rho += q * q * q;
-                out[k] = (uint32_t)keys[k];
+                out[k] = idx[k];
             }
             s->nnbr[i] = (uint8_t)m;
-            s->rho[i] = rho;
+            s->sp[4 * (size_t)i + 3] = rho;
         }
     }
 }
@@ -328,7 +411,7 @@ static void pressure_job(void *vctx, int tid, int nt)
     size_t b, e;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     const float inv_rho0 = 1.0f / (c->params.rest_density * c->rho_rest);
-    for (size_t i = b; i < e; i++) s->press[i] = fmaxf(s->rho[i] * inv_rho0 - 1.0f, 0.0f);
+    for (size_t i = b; i < e; i++) s->sv[4 * i + 3] = MAX0(s->sp[4 * i + 3] * inv_rho0 - 1.0f);
 }
 
 static void force_job(void *vctx, int tid, int nt)
@@ -344,7 +427,7 @@ static void force_job(void *vctx, int tid, int nt)
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     for (size_t i = b; i < e; i++) {
         const float *pi = s->sp + 4 * i, *vi = s->sv + 4 * i;
-        const float Pi = s->press[i];
+        const float Pi = vi[3], rhoi = pi[3];
         float apx = 0.0f, apy = 0.0f, apz = 0.0f, W = 0.0f, vbx = 0.0f, vby = 0.0f, vbz = 0.0f;
         const uint32_t *nb = s->nbr + i * (size_t)cap;
         for (int k = 0; k < s->nnbr[i]; k++) {
@@ -352,10 +435,10 @@ static void force_job(void *vctx, int tid, int nt)
             const float *pj = s->sp + 4 * (size_t)j, *vj = s->sv + 4 * (size_t)j;
             float dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
             float r = sqrtf(dx * dx + dy * dy + dz * dz);
-            float q = 1.0f - r * inv_h;
-            float inv_rhoj = 1.0f / s->rho[j];
+            float q = MAX0(1.0f - r * inv_h); /* a kept neighbour may have moved beyond h */
+            float inv_rhoj = 1.0f / pj[3];
             if (r > 1e-9f) {
-                float f = (Pi + s->press[j]) * 0.5f * inv_rhoj * q * q / r;
+                float f = (Pi + vj[3]) * 0.5f * inv_rhoj * q * q / r;
                 apx += f * dx, apy += f * dy, apz += f * dz;
             }
             float w = q * inv_rhoj;
@@ -364,7 +447,7 @@ static void force_job(void *vctx, int tid, int nt)
         }
         float ax = 0.0f, ay = 0.0f, az = 0.0f;
         if (W > 0.0f) {
-            float kr = kp / s->rho[i];
+            float kr = kp / rhoi;
             ax = apx * kr, ay = apy * kr, az = apz * kr;
             float blend = (1.0f - expf(-mu_dt * W / (1.0f + W))) * inv_dt;
             ax += blend * (vbx / W - vi[0]);
@@ -376,8 +459,49 @@ static void force_job(void *vctx, int tid, int nt)
     }
 }
 
-core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt, double *out_mean_rho,
-                             core_err *err)
+/* Reused lists: refresh the sorted copies from the current state (same slot order). */
+static void regather_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu *c = ctx->c;
+    sim_cpu_sph *s = &c->sph;
+    size_t b, e;
+    sim_pool_range(c->n, tid, nt, 64, &b, &e);
+    for (size_t slot = b; slot < e; slot++) {
+        const uint32_t i = s->order[slot];
+        for (int k = 0; k < 3; k++) {
+            s->sp[4 * slot + k] = ctx->pos[k][i];
+            s->sv[4 * slot + k] = ctx->vel[k][i];
+        }
+    }
+}
+
+/* Reused lists: density over the kept neighbours at their current distances. */
+static void density_reuse_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu *c = ctx->c;
+    sim_cpu_sph *s = &c->sph;
+    const float inv_h2 = 1.0f / (c->params.sph_radius * c->params.sph_radius);
+    const int cap = c->params.neighbor_cap;
+    size_t b, e;
+    sim_pool_range(c->n, tid, nt, 64, &b, &e);
+    for (size_t i = b; i < e; i++) {
+        const float *pi = s->sp + 4 * i;
+        const uint32_t *nb = s->nbr + i * (size_t)cap;
+        float rho = 1.0f;
+        for (int k = 0; k < s->nnbr[i]; k++) {
+            const float *pj = s->sp + 4 * (size_t)nb[k];
+            float dx = pj[0] - pi[0], dy = pj[1] - pi[1], dz = pj[2] - pi[2];
+            float q = MAX0(1.0f - ((dx * dx + dy * dy) + dz * dz) * inv_h2);
+            rho += q * q * q;
+        }
+        s->sp[4 * i + 3] = rho;
+    }
+}
+
+core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt, bool rebuild,
+                             double *out_mean_rho, core_err *err)
 {
     sph_ctx *ctx = calloc(1, sizeof *ctx);
     if (!ctx) return core_fail(err, CORE_ENOMEM, "out of memory");
@@ -386,6 +510,14 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
     ctx->vel = vel;
     ctx->dt = dt;
     sim_cpu_sph *s = &c->sph;
+    if (!rebuild && s->lists_valid && vel) {
+        sim_pool_run(&c->pool, regather_job, ctx);
+        sim_pool_run(&c->pool, density_reuse_job, ctx);
+        sim_pool_run(&c->pool, pressure_job, ctx);
+        sim_pool_run(&c->pool, force_job, ctx);
+        free(ctx);
+        return CORE_OK;
+    }
     int nt = c->pool.nthreads;
     sim_pool_run(&c->pool, bounds_job, ctx);
     float lo[3], hi[3];
@@ -394,9 +526,9 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
         for (int t = 1; t < nt; t++) lo[k] = fminf(lo[k], ctx->bmin[t][k]), hi[k] = fmaxf(hi[k], ctx->bmax[t][k]);
         if (!isfinite(lo[k]) || !isfinite(hi[k])) lo[k] = hi[k] = 0.0f; /* non-finite strands are reset after */
     }
-    /* cells of size h hashed into a power-of-two table of at least 2n buckets; a cell's
-     * neighbours within h lie in the 27 cells around it */
-    s->cell_size = c->params.sph_radius;
+    /* cells of size 2h hashed into a power-of-two table of at least 2n buckets; the points
+     * within h of a particle lie in the 2x2x2 cells on its side of its own cell */
+    s->cell_size = 2.0f * c->params.sph_radius;
     s->inv_cell = 1.0f / s->cell_size;
     s->ncells = 4096;
     while (s->ncells < 2 * c->n) s->ncells *= 2;
@@ -415,9 +547,10 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
     sim_pool_run(&c->pool, scan_fill_job, ctx);
     sim_pool_run(&c->pool, scatter_job, ctx);
     sim_pool_run(&c->pool, density_job, ctx);
+    s->lists_valid = out_mean_rho == NULL; /* lists of the rest pose are not reused */
     if (out_mean_rho) {
         double sum = 0.0; /* serial, in sorted order: the same bits for any thread count */
-        for (size_t i = 0; i < c->n; i++) sum += s->rho[i];
+        for (size_t i = 0; i < c->n; i++) sum += s->sp[4 * i + 3];
         *out_mean_rho = sum / (double)c->n;
     } else {
         sim_pool_run(&c->pool, pressure_job, ctx);

@@ -6,6 +6,7 @@
 
 /* Each takes argv with argv[0] = the benchmark name and returns the process exit code. */
 int bench_solver_main(int argc, char **argv);
+int bench_fanout_main(int argc, char **argv);
 int bench_codec_main(int argc, char **argv);
 
 /* Measures memory-copy bandwidth (bytes read + written per second) with a buffer of `bytes`,

@@ -1,4 +1,5 @@
 /* strandbench solver: steps/s, ns per particle-step and memory-bandwidth fraction per case. */
+#include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -8,6 +9,7 @@
 #include "bench.h"
 #include "groom/groom.h"
 #include "sim/sim.h"
+#include "sim/vk/sim_vk.h"
 
 #define MAX_CASES 64
 
@@ -25,12 +27,17 @@ static const char *feature_names[] = { "dftl", "dftl+shape", "dftl+shape+sph" };
 
 static void usage(void)
 {
-    puts("usage: strandbench [solver] [--backend cpu|vulkan] [--case SxV]... [--features dftl,dftl+shape,dftl+shape+sph]\n"
-         "                  [--groom FILE] [--steps N] [--threads N] [--json]\n"
+    puts("usage: strandbench [solver] [--backend cpu|vulkan|both] [--case SxV]... [--features dftl,dftl+shape,dftl+shape+sph]\n"
+         "                  [--groom FILE] [--steps N] [--threads N] [--device N] [--vk-chain level|group] [--json]\n"
          "Runs the solver on procedural grooms of each case (default: the paper's Table 2 sizes and\n"
          "Table 1 scenes) with each feature set, one step = one 1/60 s frame with one substep (the\n"
          "paper's Algorithm 1 per frame), and reports steps/s, ns per particle-step and the fraction\n"
-         "of the memory bandwidth (a memcpy measured in the same run) the step's traffic reaches.");
+         "of the memory bandwidth (a memcpy measured in the same run) the step's traffic reaches.\n"
+         "--backend both runs each case on the C and the Vulkan backend and prints them side by side\n"
+         "with the ratio; Vulkan rows carry the per-stage GPU time of the last step (timestamps).\n"
+         "--device N picks the Vulkan device (0 = automatic, N >= 1 = vulkaninfo's GPU<N-1>);\n"
+         "--vk-chain picks the Vulkan chain strategy (default: the faster one as measured).\n"
+         "The SPH smoothing length is 3 mm x sqrt(4096 / strands) (it follows the strand spacing).");
 }
 
 /* Bytes a step must move at least: per particle and substep the chain reads x, v, rest
@@ -43,22 +50,47 @@ static double step_bytes(size_t n, int feat, int substeps)
     return per * (double)n;
 }
 
-static int run_case(const core_groom *g, int feat, sim_backend_kind backend, int threads, int steps, bool json,
-                    double bandwidth)
+typedef struct bench_opts {
+    int threads, device;
+    sim_vk_chain chain;
+    bool json;
+    double bandwidth;
+} bench_opts;
+
+typedef struct bench_result {
+    double sps, ns_pp, bw;
+    const char *backend;
+    int substeps;
+    float sph_radius;
+    sim_stats stats; /* of the last step (per-stage GPU time for Vulkan) */
+} bench_result;
+
+static int measure(const core_groom *g, int feat, sim_backend_kind backend, const bench_opts *o, int steps,
+                   bench_result *r)
 {
     sim_params p;
     sim_params_default(&p);
     p.substeps = 1;
     p.shape = feat >= SIM_FEAT_SHAPE;
     p.sph = feat >= SIM_FEAT_SPH;
-    sim_desc d = { .backend = backend, .threads = threads };
+    /* the smoothing length follows the strand spacing: the default (3 mm) suits 4,096 strands on
+     * the head; denser grooms get a proportionally smaller h, as the paper tunes h per scene */
+    p.sph_radius = p.sph_radius * sqrtf(4096.0f / (float)g->nstrands);
+    if (p.sph_radius < 0.001f) p.sph_radius = 0.001f;
+    if (p.sph_radius > 0.02f) p.sph_radius = 0.02f;
+    r->substeps = p.substeps;
+    r->sph_radius = p.sph_radius;
+    sim_desc d = { .backend = backend, .threads = o->threads, .device = o->device };
+    sim_vk_options vo = { .chain = o->chain };
     sim s;
     core_err err;
-    if (sim_create(&s, &d, g, &p, &err) != CORE_OK) {
+    core_status st = backend == SIM_BACKEND_VULKAN ? sim_vk_create(&s, &d, &vo, g, &p, &err) : sim_create(&s, &d, g, &p, &err);
+    if (st != CORE_OK) {
         fprintf(stderr, "strandbench: %ux%u %s: %s\n", g->nstrands, g->nverts, feature_names[feat], err.msg);
         return 1;
     }
     for (int i = 0; i < 3; i++) sim_step(&s, &err); /* warm up (first SPH pass computes rest density) */
+    sim_get_stats(&s, &r->stats);                   /* waits for queued GPU work */
     unsigned long long t0 = core_now_ns();
     for (int i = 0; i < steps; i++) {
         core_xform h = core_xform_identity();
@@ -70,32 +102,73 @@ static int run_case(const core_groom *g, int feat, sim_backend_kind backend, int
             return 1;
         }
     }
+    sim_get_stats(&s, &r->stats); /* the GPU has finished every step when this returns */
     double sec = (double)(core_now_ns() - t0) * 1e-9;
     size_t n = (size_t)g->nstrands * g->nverts;
-    double sps = steps / sec, ns_pp = sec * 1e9 / ((double)steps * (double)n);
-    double bw = step_bytes(n, feat, p.substeps) * sps / bandwidth;
-    sim_stats st;
-    sim_get_stats(&s, &st);
-    if (json)
+    r->sps = steps / sec;
+    r->ns_pp = sec * 1e9 / ((double)steps * (double)n);
+    r->bw = step_bytes(n, feat, p.substeps) * r->sps / o->bandwidth;
+    r->backend = s.vt->name;
+    sim_destroy(&s);
+    return 0;
+}
+
+static void print_result(const core_groom *g, int feat, const bench_opts *o, const bench_result *r, double vs_cpu)
+{
+    if (o->json) {
         printf("{\"bench\":\"solver\",\"strands\":%u,\"verts\":%u,\"features\":\"%s\",\"backend\":\"%s\","
                "\"threads\":%d,\"steps_per_s\":%.2f,\"ns_per_particle_step\":%.3f,\"bw_fraction\":%.4f,"
-               "\"memcpy_bytes_per_s\":%.4g}\n",
-               g->nstrands, g->nverts, feature_names[feat], s.vt->name, threads, sps, ns_pp, bw, bandwidth);
-    else
-        printf("%6u x %-3u %-15s %-7s %3d thr %10.1f steps/s %8.2f ns/particle-step  %5.1f%% of memcpy bw\n",
-               g->nstrands, g->nverts, feature_names[feat], s.vt->name, threads, sps, ns_pp, 100.0 * bw);
+               "\"memcpy_bytes_per_s\":%.4g,\"substeps\":%d,\"sph_radius_m\":%.5f",
+               g->nstrands, g->nverts, feature_names[feat], r->backend, o->threads, r->sps, r->ns_pp, r->bw,
+               o->bandwidth, r->substeps, r->sph_radius);
+        if (vs_cpu > 0.0) printf(",\"vs_cpu\":%.3f", vs_cpu);
+        if (r->stats.nstages > 0) {
+            printf(",\"stage_ms\":{");
+            for (int k = 0; k < r->stats.nstages; k++)
+                printf("%s\"%s\":%.4f", k ? "," : "", r->stats.stage_names[k], r->stats.stage_ms[k]);
+            printf("}");
+        }
+        printf("}\n");
+    } else {
+        printf("%6u x %-3u %-15s %-7s %3d thr %10.1f steps/s %8.2f ns/particle-step  %5.1f%% of memcpy bw",
+               g->nstrands, g->nverts, feature_names[feat], r->backend, o->threads, r->sps, r->ns_pp, 100.0 * r->bw);
+        if (vs_cpu > 0.0) printf("  %.2fx cpu", vs_cpu);
+        printf("\n");
+        if (strcmp(r->backend, "vulkan") == 0 && r->stats.nstages > 0) {
+            printf("%31s", "gpu ms:");
+            for (int k = 0; k < r->stats.nstages; k++)
+                printf(" %s %.3f", r->stats.stage_names[k], r->stats.stage_ms[k]);
+            printf("  (step %.3f)\n", r->stats.last_step_ms);
+        }
+    }
     fflush(stdout);
-    sim_destroy(&s);
+}
+
+/* One case on one backend, or on both side by side (backend AUTO stands for both). */
+static int run_case(const core_groom *g, int feat, sim_backend_kind backend, const bench_opts *o, int steps)
+{
+    bench_result cpu, vk;
+    if (backend != SIM_BACKEND_AUTO) {
+        bench_result *r = backend == SIM_BACKEND_CPU ? &cpu : &vk;
+        if (measure(g, feat, backend, o, steps, r) != 0) return 1;
+        print_result(g, feat, o, r, 0.0);
+        return 0;
+    }
+    if (measure(g, feat, SIM_BACKEND_CPU, o, steps, &cpu) != 0) return 1;
+    print_result(g, feat, o, &cpu, 0.0);
+    if (measure(g, feat, SIM_BACKEND_VULKAN, o, steps, &vk) != 0) return 1;
+    print_result(g, feat, o, &vk, vk.sps / cpu.sps);
     return 0;
 }
 
 int bench_solver_main(int argc, char **argv)
 {
     bench_case cases[MAX_CASES];
-    int ncases = 0, steps = 0, threads = 0;
+    int ncases = 0, steps = 0, threads = 0, device = 0;
+    sim_vk_chain chain = SIM_VK_CHAIN_DEFAULT;
     bool json = false, feats[3] = { false, false, false }, any_feat = false;
     const char *groom_file = NULL;
-    sim_backend_kind backend = SIM_BACKEND_CPU;
+    sim_backend_kind backend = SIM_BACKEND_CPU; /* AUTO here means both, side by side */
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -128,10 +201,28 @@ int bench_solver_main(int argc, char **argv)
         } else if (v && strcmp(a, "--backend") == 0) {
             if (strcmp(v, "cpu") == 0) backend = SIM_BACKEND_CPU;
             else if (strcmp(v, "vulkan") == 0) backend = SIM_BACKEND_VULKAN;
+            else if (strcmp(v, "both") == 0) backend = SIM_BACKEND_AUTO;
             else {
-                fprintf(stderr, "strandbench: --backend wants cpu or vulkan, got '%s'\n", v);
+                fprintf(stderr, "strandbench: --backend wants cpu, vulkan or both, got '%s'\n", v);
                 return 2;
             }
+            i++;
+        } else if (v && strcmp(a, "--vk-chain") == 0) {
+            if (strcmp(v, "level") == 0) chain = SIM_VK_CHAIN_LEVEL;
+            else if (strcmp(v, "group") == 0) chain = SIM_VK_CHAIN_GROUP;
+            else {
+                fprintf(stderr, "strandbench: --vk-chain wants level or group, got '%s'\n", v);
+                return 2;
+            }
+            i++;
+        } else if (v && strcmp(a, "--device") == 0) {
+            char *end;
+            long x = strtol(v, &end, 10);
+            if (*end || x < 0 || x > 64) {
+                fprintf(stderr, "strandbench: --device wants 0..64, got '%s'\n", v);
+                return 2;
+            }
+            device = (int)x;
             i++;
         } else if (v && strcmp(a, "--groom") == 0) {
             groom_file = v;
@@ -162,6 +253,13 @@ int bench_solver_main(int argc, char **argv)
     }
     double bandwidth = bench_memcpy_bandwidth((size_t)256 << 20, threads);
     if (!json) printf("memcpy bandwidth: %.2f GB/s (read + write)\n", bandwidth * 1e-9);
+    if (backend != SIM_BACKEND_CPU && !json) {
+        sim_vk_probe_info info;
+        core_err verr;
+        if (sim_vk_probe(device, &info, &verr) == CORE_OK)
+            printf("vulkan device: %s (%s)\n", info.device_name, info.hardware ? "GPU" : "CPU device");
+    }
+    const bench_opts opts = { threads, device, chain, json, bandwidth };
     int rc = 0;
     int total = ncases + (groom_file ? 1 : 0);
     for (int c = 0; c < total; c++) {
@@ -181,7 +279,7 @@ int bench_solver_main(int argc, char **argv)
         size_t n = (size_t)g.nstrands * g.nverts;
         int nsteps = steps ? steps : (int)(2e7 / (double)n) + 10;
         for (int f = 0; f < 3; f++)
-            if (feats[f]) rc |= run_case(&g, f, backend, threads, nsteps, json, bandwidth);
+            if (feats[f]) rc |= run_case(&g, f, backend, &opts, nsteps);
         core_groom_free(&g);
     }
     return rc;

@@ -11,6 +11,7 @@ int main(int argc, char **argv)
         return 0;
     }
     if (argc > 1 && strcmp(argv[1], "codec") == 0) return bench_codec_main(argc - 1, argv + 1);
+    if (argc > 1 && strcmp(argv[1], "fanout") == 0) return bench_fanout_main(argc - 1, argv + 1);
     if (argc > 1 && strcmp(argv[1], "solver") == 0) return bench_solver_main(argc - 1, argv + 1);
     return bench_solver_main(argc, argv);
 }

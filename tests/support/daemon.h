@@ -15,7 +15,7 @@ typedef struct daemon_proc {
  * printed URL. Returns 0 on success. */
 int daemon_start(daemon_proc *d, const char *exe, char *const argv[], int timeout_ms);
 
-/* Sends sig and waits up to timeout_ms; returns the exit status, 128+signal when killed by a
+/* Sends sig (0: none, just wait) and waits up to timeout_ms; returns the exit status, 128+signal when killed by a
  * signal, or -1 on timeout (the child is then killed). */
 int daemon_stop(daemon_proc *d, int sig, int timeout_ms);
 

@@ -1,0 +1,344 @@
+/* strandbench fanout: N loopback WebSocket clients on the real strandcastd; sim rate, frames per
+ * client and server CPU. */
+#include <dirent.h>
+#include <errno.h>
+#include <limits.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "bench.h"
+#include "support/daemon.h"
+#include "support/wsc.h"
+
+#define MAX_CASES 16
+
+typedef struct fanout_opts {
+    int clients[MAX_CASES];
+    int ncases;
+    double seconds;
+    double max_rate;
+    double server_rate; /* the daemon's --rate; 0 = its default (60) */
+    int strands, verts;
+    const char *daemon;
+    const char *params; /* a set_params "values" object sent before measuring, or NULL */
+    bool json;
+} fanout_opts;
+
+typedef struct client_count {
+    uint64_t frames, bytes;
+} client_count;
+
+static void count_frame(wsc_conn *c, const uint8_t *data, size_t len, void *user)
+{
+    (void)c;
+    (void)data;
+    client_count *k = user;
+    k->frames++;
+    k->bytes += len;
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;
+}
+
+/* CPU seconds (user + system) of a process from /proc/PID/stat. */
+static double proc_cpu_s(pid_t pid)
+{
+    char path[64], buf[1024];
+    snprintf(path, sizeof path, "/proc/%d/stat", (int)pid);
+    FILE *f = fopen(path, "r");
+    if (!f) return -1;
+    size_t n = fread(buf, 1, sizeof buf - 1, f);
+    fclose(f);
+    buf[n] = '\0';
+    const char *p = strrchr(buf, ')');
+    if (!p) return -1;
+    unsigned long utime = 0, stime = 0;
+    /* fields after the command: state(3) ... utime(14) stime(15) */
+    if (sscanf(p + 2, "%*c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %lu %lu", &utime, &stime) != 2) return -1;
+    return (double)(utime + stime) / (double)sysconf(_SC_CLK_TCK);
+}
+
+/* CPU seconds of the process's threads named comm (e.g. "sc-net", set by strandcastd). */
+static double thread_cpu_s(pid_t pid, const char *comm)
+{
+    char dir[64];
+    snprintf(dir, sizeof dir, "/proc/%d/task", (int)pid);
+    DIR *d = opendir(dir);
+    if (!d) return -1;
+    double total = 0;
+    struct dirent *de;
+    while ((de = readdir(d))) {
+        if (de->d_name[0] == '.') continue;
+        char path[384], name[64] = "";
+        snprintf(path, sizeof path, "%s/%s/comm", dir, de->d_name);
+        FILE *f = fopen(path, "r");
+        if (!f) continue;
+        if (fgets(name, sizeof name, f)) name[strcspn(name, "\n")] = '\0';
+        fclose(f);
+        if (strcmp(name, comm) != 0) continue;
+        snprintf(path, sizeof path, "%s/%s/stat", dir, de->d_name);
+        f = fopen(path, "r");
+        if (!f) continue;
+        char buf[1024];
+        size_t n = fread(buf, 1, sizeof buf - 1, f);
+        fclose(f);
+        buf[n] = '\0';
+        const char *p = strrchr(buf, ')');
+        unsigned long ut = 0, st = 0;
+        if (p && sscanf(p + 2, "%*c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %lu %lu", &ut, &st) == 2)
+            total += (double)(ut + st) / (double)sysconf(_SC_CLK_TCK);
+    }
+    closedir(d);
+    return total;
+}
+
+static double self_cpu_s(void)
+{
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    return (double)ru.ru_utime.tv_sec + ru.ru_utime.tv_usec / 1e6 + (double)ru.ru_stime.tv_sec + ru.ru_stime.tv_usec / 1e6;
+}
+
+/* A counter from /metrics ("name value" line); -1 when unavailable. */
+static double metric(int port, const char *name)
+{
+    http_reply r;
+    if (http_get(port, "/metrics", &r) != 0) return -1;
+    char pat[128];
+    snprintf(pat, sizeof pat, "\n%s ", name);
+    const char *p = r.body ? strstr(r.body, pat) : NULL;
+    double v = p ? atof(p + strlen(pat)) : -1;
+    http_reply_free(&r);
+    return v;
+}
+
+static int parse_opts(int argc, char **argv, fanout_opts *o)
+{
+    o->ncases = 0;
+    o->seconds = 5;
+    o->max_rate = 30;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (strcmp(a, "--json") == 0) {
+            o->json = true;
+            continue;
+        }
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            puts("usage: strandbench fanout [--clients 1,10,100] [--seconds S] [--rate HZ] [--server-rate HZ]\n"
+                 "                          [--strands N] [--verts N] [--daemon PATH] [--json]\n"
+                 "Starts strandcastd (default scene unless --strands/--verts) on a free loopback port, connects N\n"
+                 "WebSocket clients from one thread (each subscribes with max_rate HZ, default 30; 0 = every frame),\n"
+                 "and measures over S seconds (default 5): sim steps/s, frames per client per second, server CPU\n"
+                 "(fraction of one core, /proc; the net thread's share and its CPU per frame delivered to one client\n"
+                 "are robust to other load). A 0-client run first gives the sim's baseline on this machine.\n"
+                 "--server-rate passes --rate to the daemon (frames it publishes per second; default 60).\n"
+                 "--params '{\"sph\":false}' sends set_params first (e.g. to separate solver cost from fan-out cost).");
+            return 1;
+        }
+        if (!v) {
+            fprintf(stderr, "fanout: %s needs a value\n", a);
+            return 2;
+        }
+        i++;
+        if (strcmp(a, "--clients") == 0) {
+            char *end;
+            const char *p = v;
+            while (*p && o->ncases < MAX_CASES) {
+                long n = strtol(p, &end, 10);
+                if (end == p || n < 1 || n > 1000) {
+                    fprintf(stderr, "fanout: --clients wants numbers in [1, 1000], got %s\n", v);
+                    return 2;
+                }
+                o->clients[o->ncases++] = (int)n;
+                p = *end == ',' ? end + 1 : end;
+                if (*end && *end != ',') {
+                    fprintf(stderr, "fanout: bad --clients list %s\n", v);
+                    return 2;
+                }
+            }
+        } else if (strcmp(a, "--seconds") == 0) {
+            o->seconds = atof(v);
+            if (!(o->seconds >= 1 && o->seconds <= 600)) return fprintf(stderr, "fanout: --seconds in [1, 600]\n"), 2;
+        } else if (strcmp(a, "--rate") == 0) {
+            o->max_rate = atof(v);
+            if (!(o->max_rate >= 0 && o->max_rate <= 240)) return fprintf(stderr, "fanout: --rate in [0, 240]\n"), 2;
+        } else if (strcmp(a, "--server-rate") == 0) {
+            o->server_rate = atof(v);
+            if (!(o->server_rate >= 1 && o->server_rate <= 1000)) return fprintf(stderr, "fanout: --server-rate in [1, 1000]\n"), 2;
+        } else if (strcmp(a, "--strands") == 0) {
+            o->strands = atoi(v);
+        } else if (strcmp(a, "--verts") == 0) {
+            o->verts = atoi(v);
+        } else if (strcmp(a, "--params") == 0) {
+            if (v[0] != '{' || strlen(v) > 1000) return fprintf(stderr, "fanout: --params wants a JSON object\n"), 2;
+            o->params = v;
+        } else if (strcmp(a, "--daemon") == 0) {
+            o->daemon = v;
+        } else {
+            fprintf(stderr, "fanout: unknown option %s\n", a);
+            return 2;
+        }
+    }
+    if (!o->ncases) {
+        o->clients[0] = 1, o->clients[1] = 10, o->clients[2] = 100;
+        o->ncases = 3;
+    }
+    return 0;
+}
+
+/* strandcastd next to the build's tests/ folder, unless --daemon says otherwise. */
+static const char *find_daemon(const fanout_opts *o, char *buf, size_t cap)
+{
+    if (o->daemon) return o->daemon;
+    ssize_t n = readlink("/proc/self/exe", buf, cap - 32);
+    if (n <= 0) return NULL;
+    buf[n] = '\0';
+    char *slash = strrchr(buf, '/');
+    if (!slash) return NULL;
+    *slash = '\0';
+    slash = strrchr(buf, '/');
+    if (!slash) return NULL;
+    strcpy(slash, "/strandcastd");
+    return access(buf, X_OK) == 0 ? buf : NULL;
+}
+
+typedef struct fanout_result {
+    int clients;
+    double steps_per_s, fpc, fpc_min, mbytes_per_s, server_cpu, bench_cpu, skipped_per_s;
+    double net_cpu;             /* the net thread's share, cores */
+    double net_us_per_frame;    /* net thread CPU per frame delivered to one client */
+} fanout_result;
+
+static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_result *res)
+{
+    char strands[16], verts[16];
+    snprintf(strands, sizeof strands, "%d", o->strands ? o->strands : 4096);
+    snprintf(verts, sizeof verts, "%d", o->verts ? o->verts : 32);
+    char rate[32];
+    snprintf(rate, sizeof rate, "%g", o->server_rate ? o->server_rate : 60.0);
+    char *argv[] = { (char *)exe, "--port", "0", "--strands", strands, "--verts", verts, "--rate", rate, NULL };
+    daemon_proc d;
+    if (daemon_start(&d, exe, argv, 30000) != 0) {
+        fprintf(stderr, "fanout: could not start %s\n", exe);
+        return 1;
+    }
+    wsc *w = wsc_new();
+    if (o->params) {
+        /* a control client changes the scene's parameters and stays connected */
+        wsc_conn *ctl = wsc_connect(w, d.port, "strandcast.v1", NULL, NULL);
+        char msg[1100];
+        snprintf(msg, sizeof msg, "{\"type\":\"set_params\",\"values\":%s}", o->params);
+        wsc_send_text(ctl, msg);
+        if (!wsc_wait_open(w, ctl, 10000) || !wsc_next_of_type(w, ctl, "ok", 10000)) {
+            fprintf(stderr, "fanout: the daemon refused --params %s\n", o->params);
+            wsc_free(w);
+            daemon_stop(&d, SIGTERM, 15000);
+            return 1;
+        }
+    }
+    client_count *counts = calloc((size_t)(nclients ? nclients : 1), sizeof *counts);
+    wsc_conn **conns = calloc((size_t)(nclients ? nclients : 1), sizeof *conns);
+    char sub[96];
+    snprintf(sub, sizeof sub, "{\"type\":\"subscribe\",\"max_rate\":%g}", o->max_rate);
+    for (int i = 0; i < nclients; i++) {
+        conns[i] = wsc_connect(w, d.port, "strandcast.v1", count_frame, &counts[i]);
+        wsc_send_text(conns[i], sub);
+    }
+    for (int i = 0; i < nclients; i++) wsc_wait_open(w, conns[i], 10000);
+    wsc_run(w, 2000); /* warm up: hellos, keyframes, the sim settling */
+    double steps0 = metric(d.port, "strandcast_steps_total");
+    double skip0 = metric(d.port, "strandcast_frames_skipped_total");
+    double cpu0 = proc_cpu_s(d.pid), net0 = thread_cpu_s(d.pid, "sc-net"), self0 = self_cpu_s(), t0 = now_s();
+    uint64_t *f0 = calloc((size_t)(nclients ? nclients : 1), sizeof *f0), b0 = 0;
+    for (int i = 0; i < nclients; i++) {
+        f0[i] = counts[i].frames;
+        b0 += counts[i].bytes;
+    }
+    wsc_run(w, (int)(o->seconds * 1000));
+    double t1 = now_s(), cpu1 = proc_cpu_s(d.pid), net1 = thread_cpu_s(d.pid, "sc-net"), self1 = self_cpu_s();
+    double steps1 = metric(d.port, "strandcast_steps_total");
+    double skip1 = metric(d.port, "strandcast_frames_skipped_total");
+    double wall = t1 - t0;
+    uint64_t total = 0, minf = UINT64_MAX, b1 = 0;
+    for (int i = 0; i < nclients; i++) {
+        uint64_t f = counts[i].frames - f0[i];
+        total += f;
+        if (f < minf) minf = f;
+        b1 += counts[i].bytes;
+    }
+    res->clients = nclients;
+    res->steps_per_s = (steps1 - steps0) / wall;
+    res->fpc = nclients ? (double)total / nclients / wall : 0;
+    res->fpc_min = nclients ? (double)minf / wall : 0;
+    res->mbytes_per_s = (double)(b1 - b0) / wall / 1e6;
+    res->server_cpu = (cpu1 - cpu0) / wall;
+    res->bench_cpu = (self1 - self0) / wall;
+    res->skipped_per_s = (skip1 - skip0) / wall;
+    res->net_cpu = (net1 - net0) / wall;
+    res->net_us_per_frame = total ? (net1 - net0) / (double)total * 1e6 : 0;
+    wsc_free(w);
+    free(counts);
+    free(conns);
+    free(f0);
+    int rc = daemon_stop(&d, SIGTERM, 15000);
+    if (rc != 0) fprintf(stderr, "fanout: strandcastd exited with %d\n", rc);
+    return 0;
+}
+
+int bench_fanout_main(int argc, char **argv)
+{
+    fanout_opts o = { 0 };
+    int rc = parse_opts(argc, argv, &o);
+    if (rc) return rc == 1 ? 0 : rc;
+    char buf[PATH_MAX];
+    const char *exe = find_daemon(&o, buf, sizeof buf);
+    if (!exe) {
+        fprintf(stderr, "fanout: strandcastd not found next to strandbench; pass --daemon PATH\n");
+        return 2;
+    }
+    signal(SIGPIPE, SIG_IGN);
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    fanout_result base;
+    if (run_case(&o, exe, 0, &base)) return 1;
+    if (!o.json) {
+        printf("fanout: %d strands x %d verts, server publishes %g frames/s, clients subscribe at max_rate %g, "
+               "%g s per case, %ld cores\n",
+               o.strands ? o.strands : 4096, o.verts ? o.verts : 32, o.server_rate ? o.server_rate : 60.0, o.max_rate,
+               o.seconds, cores);
+        if (o.params) printf("scene parameters changed with set_params %s\n", o.params);
+        printf("baseline (0 clients): %.1f sim steps/s, server CPU %.2f cores\n", base.steps_per_s, base.server_cpu);
+        printf("%8s %9s %8s %12s %12s %8s %11s %9s %12s %10s\n", "clients", "steps/s", "vs base", "frames/cl/s",
+               "min fr/cl/s", "MB/s", "server CPU", "net CPU", "net us/frame", "bench CPU");
+    }
+    for (int i = 0; i < o.ncases; i++) {
+        fanout_result r;
+        if (run_case(&o, exe, o.clients[i], &r)) return 1;
+        double ratio = base.steps_per_s > 0 ? r.steps_per_s / base.steps_per_s : 0;
+        if (o.json) {
+            printf("{\"bench\":\"fanout\",\"clients\":%d,\"strands\":%d,\"verts\":%d,\"max_rate\":%g,\"server_rate\":%g,\"seconds\":%g,"
+                   "\"sim_steps_per_s\":%.2f,\"baseline_steps_per_s\":%.2f,\"frames_per_client_per_s\":%.2f,"
+                   "\"min_frames_per_client_per_s\":%.2f,\"mbytes_per_s\":%.3f,\"frames_skipped_per_s\":%.1f,"
+                   "\"server_cpu\":%.3f,\"net_thread_cpu\":%.3f,\"net_us_per_client_frame\":%.1f,"
+                   "\"bench_cpu\":%.3f,\"cores\":%ld,\"params\":%s}\n",
+                   r.clients, o.strands ? o.strands : 4096, o.verts ? o.verts : 32, o.max_rate,
+                   o.server_rate ? o.server_rate : 60.0, o.seconds, r.steps_per_s,
+                   base.steps_per_s, r.fpc, r.fpc_min, r.mbytes_per_s, r.skipped_per_s, r.server_cpu, r.net_cpu,
+                   r.net_us_per_frame, r.bench_cpu, cores,
+                   o.params ? o.params : "null");
+        } else {
+            printf("%8d %9.1f %7.2fx %12.1f %12.1f %8.2f %11.2f %9.3f %12.1f %10.2f\n", r.clients, r.steps_per_s, ratio,
+                   r.fpc, r.fpc_min, r.mbytes_per_s, r.server_cpu, r.net_cpu, r.net_us_per_frame, r.bench_cpu);
+        }
+        fflush(stdout);
+    }
+    return 0;
+}

@@ -1,0 +1,172 @@
+// Protocol schema test: every JSON Schema in proto/schema compiles, accepts and refuses sample
+// client messages, and every text message the real strandcastd sends validates against the
+// schema of its type. usage: STRANDCASTD=path node --test tests/js/schema.test.mjs
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { spawn } from 'node:child_process';
+import { mkdtempSync, readdirSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { dirname, join } from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { createRequire } from 'node:module';
+
+const require = createRequire(import.meta.url);
+const Ajv2020 = require('ajv/dist/2020').default;
+const WebSocket = require('ws');
+
+const here = dirname(fileURLToPath(import.meta.url));
+const schemaDir = join(here, '..', '..', 'proto', 'schema');
+
+function loadSchemas() {
+  const ajv = new Ajv2020({ strict: true, strictRequired: false, allErrors: true });
+  const names = readdirSync(schemaDir).filter((f) => f.endsWith('.json')).sort();
+  for (const f of names) ajv.addSchema(JSON.parse(readFileSync(join(schemaDir, f), 'utf8')));
+  const get = (name) => {
+    const v = ajv.getSchema(`https://strandcast.invalid/schema/${name}.json`);
+    assert.ok(v, `no schema ${name}`);
+    return v;
+  };
+  return { names, get };
+}
+
+function check(validate, msg, want) {
+  const ok = validate(msg);
+  assert.equal(ok, want, `${JSON.stringify(msg)}: ${JSON.stringify(validate.errors)}`);
+}
+
+const CLIENT_OK = [
+  { type: 'get_params', id: 1 },
+  { type: 'set_params', id: 'a', values: { gravity: 0, sph: false, substeps: 2 } },
+  { type: 'motion', t: 12.5, position: [0, 0.05, 0], orientation: [0, 0.3826834, 0, 0.9238795] },
+  { type: 'animate', preset: 'nod', speed: 2 },
+  { type: 'reset' }, { type: 'pause' }, { type: 'resume' }, { type: 'step', count: 3 },
+  { type: 'set_groom', style: 'wavy', strands: 32, verts: 6 },
+  { type: 'set_groom', file: 'tiny.hair', verts: 5 },
+  { type: 'subscribe', stride: 2, max_error: 0.001, max_rate: 30 },
+  { type: 'keyframe', id: 9 },
+];
+const CLIENT_BAD = [
+  { type: 'set_params', values: {} },
+  { type: 'set_params', values: { gravity: 'x' } },
+  { type: 'motion', position: [0, 0], orientation: [0, 0, 0, 1] },
+  { type: 'motion', position: [0, 0, 9], orientation: [0, 0, 0, 1] },
+  { type: 'step', count: 0 },
+  { type: 'step', count: 1.5 },
+  { type: 'set_groom', style: 'wavy', file: 'a.tfx' },
+  { type: 'set_groom', file: '../etc/passwd' },
+  { type: 'set_groom', file: 'a//b.tfx' },
+  { type: 'set_groom', file: 'a.tfx', strands: 3 },
+  { type: 'subscribe', max_error: 0 },
+  { type: 'reset', extra: 1 },
+  { type: 'pause', id: { no: 1 } },
+];
+
+test('schemas compile and sort client messages', () => {
+  const { names, get } = loadSchemas();
+  assert.ok(names.length >= 20);
+  for (const m of CLIENT_OK) check(get(`client.${m.type}`), m, true);
+  for (const m of CLIENT_BAD) check(get(`client.${m.type}`), m, false);
+});
+
+/* A tiny Cem Yuksel .hair file: 16 strands of 8 points. */
+function tinyHair() {
+  const buf = Buffer.alloc(128 + 16 * 8 * 12);
+  buf.write('HAIR', 0, 'latin1');
+  buf.writeUInt32LE(16, 4);
+  buf.writeUInt32LE(128, 8);
+  buf.writeUInt32LE(2, 12);
+  buf.writeUInt32LE(7, 16);
+  for (let s = 0; s < 16; s++) {
+    for (let k = 0; k < 8; k++) {
+      const a = (2 * Math.PI * s) / 16, o = 128 + 12 * (s * 8 + k);
+      buf.writeFloatLE(0.07 * Math.cos(a), o);
+      buf.writeFloatLE(0.05 - 0.02 * k, o + 4);
+      buf.writeFloatLE(0.07 * Math.sin(a), o + 8);
+    }
+  }
+  return buf;
+}
+
+function startDaemon(assets) {
+  const exe = process.env.STRANDCASTD;
+  assert.ok(exe, 'set STRANDCASTD to the strandcastd binary');
+  const child = spawn(exe, ['--port', '0', '--strands', '64', '--verts', '8', '--threads', '1', '--assets', assets],
+                      { stdio: ['ignore', 'pipe', 'inherit'] });
+  return new Promise((resolve, reject) => {
+    let out = '';
+    const timer = setTimeout(() => reject(new Error('strandcastd printed no URL')), 20000);
+    child.stdout.on('data', (d) => {
+      out += d;
+      const m = /http:\/\/[^:]+:(\d+)\//.exec(out);
+      if (m) { clearTimeout(timer); resolve({ child, port: Number(m[1]) }); }
+    });
+    child.on('exit', (code) => reject(new Error(`strandcastd exited early (${code})`)));
+  });
+}
+
+function open(port) {
+  const ws = new WebSocket(`ws://127.0.0.1:${port}/`, 'strandcast.v1');
+  const texts = [];
+  let waiters = [];
+  ws.on('message', (data, isBinary) => {
+    if (isBinary) return;
+    texts.push(JSON.parse(data.toString('utf8')));
+    waiters = waiters.filter((w) => !w());
+  });
+  const until = (pred, what) => new Promise((resolve, reject) => {
+    const timer = setTimeout(() => reject(new Error(`timed out waiting for ${what}`)), 15000);
+    const w = () => { const m = texts.find(pred); if (m) { clearTimeout(timer); resolve(m); return true; } return false; };
+    if (!w()) waiters.push(w);
+  });
+  return new Promise((resolve, reject) => {
+    ws.on('open', () => resolve({ ws, texts, until }));
+    ws.on('error', reject);
+  });
+}
+
+test('every server message validates against its schema', async () => {
+  const { get } = loadSchemas();
+  const dir = mkdtempSync(join(tmpdir(), 'strandcast-schema-'));
+  writeFileSync(join(dir, 'tiny.hair'), tinyHair());
+  const { child, port } = await startDaemon(dir);
+  try {
+    const a = await open(port), b = await open(port);
+    await a.until((m) => m.type === 'hello', 'hello');
+    await b.until((m) => m.type === 'hello', 'hello');
+    const send = (c, m) => c.ws.send(JSON.stringify(m));
+    let id = 100;
+    for (const m of CLIENT_OK) {
+      const msg = { ...m, id: ++id };
+      if (msg.type === 'step') send(a, { type: 'pause', id: ++id });
+      send(a, msg);
+      const want = ++id - 1;
+      await a.until((r) => r.id === want, `reply to ${m.type}`);
+    }
+    const bad = [{ type: 'fly' }, { type: 'set_params', values: { nope: 1 } }, { type: 'step' },
+                 { type: 'set_groom', file: 'missing.tfx' }];
+    send(a, { type: 'resume', id: ++id });
+    for (const m of bad) send(a, { ...m, id: ++id });
+    a.ws.send('{"type":');
+    a.ws.send(`{"type":"set_params","id":${++id},"values":{"gravity":1e999}}`);
+    const last = id;
+    await a.until((r) => r.id === last, 'the last error');
+    await b.until((m) => m.type === 'stats', 'stats');
+    await b.until((m) => m.type === 'groom', 'groom');
+    const seen = new Set();
+    for (const m of [...a.texts, ...b.texts]) {
+      check(get(`server.${m.type}`), m, true);
+      seen.add(m.type);
+    }
+    for (const t of ['hello', 'params', 'ok', 'error', 'state', 'groom', 'subscribed', 'stats']) assert.ok(seen.has(t), `no ${t} seen`);
+    const codes = new Set(a.texts.filter((m) => m.type === 'error').map((m) => m.code));
+    for (const c of ['unknown_type', 'unknown_param', 'bad_state', 'not_found', 'not_finite', 'bad_json']) assert.ok(codes.has(c), `no ${c}`);
+    a.ws.close();
+    b.ws.close();
+  } finally {
+    const exited = new Promise((resolve) => child.on('exit', (code, sig) => resolve({ code, sig })));
+    child.kill('SIGTERM');
+    const { code } = await exited;
+    rmSync(dir, { recursive: true, force: true });
+    assert.equal(code, 0, 'strandcastd exits 0 on SIGTERM');
+  }
+});
