@@ -3,6 +3,7 @@
 // render loop.
 import { OrbitCamera } from './camera.js';
 import { buildLayout } from './interp.js';
+import { rendererName, softwareWebGL } from './gl_util.js';
 import { Input } from './input.js';
 import { dragRotate, dragTranslate, motionMessage } from './motion.js';
 import { defaultUrl } from './net.js';
@@ -14,18 +15,24 @@ import { StreamClient } from './stream_client.js';
 import { Ema, LatencyEstimator, RateMeter } from './stats.js';
 import { VIEW_SPECS, applySetting, defaultSettings } from './view_settings.js';
 
+// The protocol accepts head positions within +-5 m per axis (PROTOCOL.md, motion).
+const MAX_HEAD_POSITION = 5;
+
 function finiteArray(a, n) {
   return Array.isArray(a) && (n === undefined || a.length === n) && a.every(Number.isFinite);
 }
 
 export class App {
-  constructor({ canvas, panelEl, statsEl, bannerEl, url }) {
+  // antialias: multisampling on or off; undefined = on unless WebGL runs on a CPU rasterizer.
+  constructor({ canvas, panelEl, statsEl, bannerEl, url, antialias }) {
     this.canvas = canvas;
     this.statsEl = statsEl;
     this.banner = new Banner(bannerEl);
-    const gl = canvas.getContext('webgl2', { antialias: true, alpha: false, powerPreference: 'high-performance' });
+    this.antialias = antialias === undefined ? !softwareWebGL() : !!antialias;
+    const gl = canvas.getContext('webgl2', { antialias: this.antialias, alpha: false, powerPreference: 'high-performance' });
     if (!gl) throw new Error('This browser has no WebGL2: strandcast cannot draw the hair.');
     this.gl = gl;
+    this.rendererName = rendererName(gl);
     this.settings = defaultSettings();
     this.camera = new OrbitCamera({ yaw: 0.5, pitch: 0.2, distance: 0.8, target: [0, 0.05, 0] });
     this.renderer = new Renderer(canvas, gl);
@@ -269,8 +276,10 @@ export class App {
   _headDrag(dx, dy) {
     const d = this.drag;
     if (!d) return;
-    if (d.mode === 'move') dragTranslate(this.dragHead.position, d.pos, this.camera.right, this.camera.up, dx, dy, d.worldPerPx);
-    else dragRotate(this.dragHead.orientation, d.q, this.camera.right, this.camera.up, dx, dy, 0.01);
+    if (d.mode === 'move') {
+      const p = dragTranslate(this.dragHead.position, d.pos, this.camera.right, this.camera.up, dx, dy, d.worldPerPx);
+      for (let c = 0; c < 3; c++) p[c] = Math.max(-MAX_HEAD_POSITION, Math.min(MAX_HEAD_POSITION, p[c]));
+    } else dragRotate(this.dragHead.orientation, d.q, this.camera.right, this.camera.up, dx, dy, 0.01);
     this.motionDirty = true;
   }
 
@@ -370,6 +379,8 @@ export class App {
       framesRendered: this.framesRendered,
       framesUploaded: this.framesUploaded,
       paused: this.paused,
+      renderer: this.rendererName,
+      antialias: this.antialias,
     };
   }
 

@@ -35,3 +35,20 @@ export function createProgram(gl, vsSrc, fsSrc, label) {
   }
   return { program, u };
 }
+
+// The renderer's name (unmasked when the browser allows it).
+export function rendererName(gl) {
+  const ext = gl.getExtension('WEBGL_debug_renderer_info');
+  return String(gl.getParameter(ext ? ext.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
+}
+
+// Whether WebGL2 here runs on a CPU rasterizer (SwiftShader, llvmpipe), where multisampling
+// costs several times the frame time. Probes with a throwaway context.
+export function softwareWebGL() {
+  const gl = document.createElement('canvas').getContext('webgl2');
+  if (!gl) return false;
+  const name = rendererName(gl);
+  const lose = gl.getExtension('WEBGL_lose_context');
+  if (lose) lose.loseContext();
+  return /swiftshader|llvmpipe|softpipe|software/i.test(name);
+}

@@ -14,6 +14,7 @@ export function statsText(s) {
     `decode   ${fixed(s.decodeMs, 2)} ms + ${fixed(s.prepareMs, 2)} ms smooth   upload ${fixed(s.uploadMs, 2)} ms`,
     `server   ${fixed(s.serverStepsPerSec, 1)} steps/s   step ${fixed(s.serverStepMs, 2)} ms   clients ${s.clients ?? '—'}`,
     `hair     ${s.guides} guides × ${s.verts} → ${s.renderStrands} strands`,
+    `webgl    ${s.renderer.length > 44 ? `${s.renderer.slice(0, 43)}…` : s.renderer}${s.antialias ? '' : ' (no MSAA)'}`,
   ];
   if (s.paused) lines.push('paused');
   return lines.join('\n');

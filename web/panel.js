@@ -157,7 +157,9 @@ export class Panel {
   // Puts a rejected parameter back to the last value the server announced.
   revertParam(name) {
     const entry = this.params.get(name);
-    if (entry) entry.set(entry.value);
+    if (!entry) return;
+    entry.sent = undefined;
+    entry.set(entry.value);
   }
 
   // Preset buttons, speed slider, reset / pause / step.

@@ -64,21 +64,25 @@ async function cleanup() {
   }
 }
 
-// Starts the daemon on a free port; resolves with its URL once it prints it.
-function startDaemon() {
-  const log = fs.openSync(path.join(outDir, 'strandcastd.log'), 'w');
+// Starts the daemon on port (0: a free one), logging to logName in the output folder; resolves
+// with { url, stop } once it prints its URL. stop() ends it (SIGTERM) and waits for its exit.
+function startDaemon(port, logName) {
+  const log = fs.openSync(path.join(outDir, logName), 'w');
   // setpriv --pdeathsig: the daemon gets SIGTERM if this process dies (e.g. killed by ctest)
-  const args = ['--port', '0', '--web', webDir, ...daemonExtra];
+  const args = ['--port', String(port), '--web', webDir, ...daemonExtra];
   const child = fs.existsSync('/usr/bin/setpriv')
     ? spawn('/usr/bin/setpriv', ['--pdeathsig', 'TERM', '--', daemonPath, ...args], { stdio: ['ignore', 'pipe', 'pipe'] })
     : spawn(daemonPath, args, { stdio: ['ignore', 'pipe', 'pipe'] });
-  cleanups.push(async () => {
-    if (child.exitCode === null) {
+  const exited = new Promise((r) => child.once('exit', r));
+  const stop = async () => {
+    if (child.exitCode === null && child.signalCode === null) {
       child.kill('SIGTERM');
-      await new Promise((r) => { const t = setTimeout(() => { child.kill('SIGKILL'); r(); }, 5000); child.once('exit', () => { clearTimeout(t); r(); }); });
+      const t = setTimeout(() => child.kill('SIGKILL'), 5000);
+      await exited;
+      clearTimeout(t);
     }
-    fs.closeSync(log);
-  });
+  };
+  cleanups.push(async () => { await stop(); fs.closeSync(log); });
   return new Promise((resolve, reject) => {
     let text = '';
     const timer = setTimeout(() => reject(new Error(`strandcastd printed no URL in 60 s:\n${text}`)), 60000);
@@ -86,7 +90,7 @@ function startDaemon() {
       fs.writeSync(log, d);
       text += d.toString();
       const m = /(http:\/\/[0-9.:]+\/)/.exec(text);
-      if (m) { clearTimeout(timer); resolve(m[1]); }
+      if (m) { clearTimeout(timer); resolve({ url: m[1], stop }); }
     };
     child.stdout.on('data', onData);
     child.stderr.on('data', onData);
@@ -176,12 +180,14 @@ async function measure(page, perGuide, seconds) {
     kbit_per_s: round(b.s.kbitPerSec, 0),
     bytes_per_vertex: round(b.s.bytesPerVertex, 3),
     server_steps_per_s: round(b.s.serverStepsPerSec, 1),
+    antialias: b.s.antialias,
     seconds: round(dt, 1),
   };
 }
 
 async function main() {
-  const url = await startDaemon();
+  const daemon = await startDaemon(0, 'strandcastd.log');
+  const url = daemon.url;
   console.log(`e2e: strandcastd at ${url}`);
   const wsUrl = url.replace(/^http/, 'ws');
   const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'strandcast-e2e-'));
@@ -199,9 +205,11 @@ async function main() {
   const browserLog = fs.openSync(path.join(outDir, 'browser.log'), 'w');
   cleanups.push(async () => fs.closeSync(browserLog));
   page.on('pageerror', (e) => { errors.push(`page error: ${e.message}`); fs.writeSync(browserLog, `pageerror ${e.message}\n`); });
+  let serverDown = false; // while the test has stopped the server, failed connects are expected
   page.on('console', (m) => {
     fs.writeSync(browserLog, `${new Date().toISOString()} ${m.type()} ${m.text()}\n`);
-    if (m.type() === 'error') errors.push(`console error: ${m.text()}`);
+    const expected = serverDown && /WebSocket connection to .* failed|ERR_CONNECTION_REFUSED/.test(m.text());
+    if (m.type() === 'error' && !expected) errors.push(`console error: ${m.text()}`);
   });
   page.on('crash', () => errors.push('page crashed'));
 
@@ -315,8 +323,27 @@ async function main() {
     }
   }
   check(errors.length === 0, `no page errors ${errors.join('; ')}`);
+
+  // the server goes away: the page says so, and reconnects once a server is back on the port
+  await page.evaluate(() => window.strandcast.setView('perGuide', 1));
+  serverDown = true;
+  await daemon.stop();
+  await page.waitForFunction(() => {
+    const b = document.getElementById('banner');
+    return !b.classList.contains('hidden') && /lost/.test(b.textContent);
+  }, null, { timeout: 60000, polling: 100 });
+  const banner = await page.evaluate(() => document.getElementById('banner').textContent);
+  check(true, `with the server gone the page shows "${banner}"`);
+  const uploaded = await page.evaluate(() => window.strandcast.framesUploaded);
+  const again = await startDaemon(Number(new URL(url).port), 'strandcastd-restart.log');
+  await page.waitForFunction((n) => document.getElementById('banner').classList.contains('hidden') && window.strandcast.framesUploaded > n,
+    uploaded, { timeout: 180000, polling: 200 });
+  check(true, `the page reconnected to the restarted server (${again.url}) and draws its frames again`);
+  serverDown = false;
+
   const lost = await page.evaluate(() => window.strandcast.gl.isContextLost());
   check(!lost, 'WebGL2 context still alive at the end');
+  check(errors.length === 0, `no page errors after the reconnect ${errors.join('; ')}`);
 }
 
 for (const sig of ['SIGINT', 'SIGTERM']) {
