@@ -55,6 +55,12 @@ void sim_cpu_world_colliders(const sim_cpu *c, core_xform head, sim_cpu_wcollide
                 out[k].from_unit[3 * j + i] = col[j] * rad[i];                    /* column i = axis i * r_i */
             }
         }
+        const bool capsule = in->kind == CORE_COLLIDER_CAPSULE;
+        out[k].axis[0] = capsule ? out[k].b.x - out[k].a.x : 0.0f;
+        out[k].axis[1] = capsule ? out[k].b.y - out[k].a.y : 0.0f;
+        out[k].axis[2] = capsule ? out[k].b.z - out[k].a.z : 0.0f;
+        const float ee = out[k].axis[0] * out[k].axis[0] + out[k].axis[1] * out[k].axis[1] + out[k].axis[2] * out[k].axis[2];
+        out[k].inv_axis2 = ee > 0.0f ? 1.0f / ee : 0.0f;
         float r = in->radius;
         if (in->kind == CORE_COLLIDER_ELLIPSOID) r = MAXF(in->radii.x, MAXF(in->radii.y, in->radii.z));
         core_vec3 b = in->kind == CORE_COLLIDER_CAPSULE ? out[k].b : out[k].a;
@@ -71,12 +77,7 @@ static void collide(const sim_cpu_wcollider *w, float *restrict x, float *restri
     case CORE_COLLIDER_SPHERE:
     case CORE_COLLIDER_CAPSULE: {
         const float ax = w->a.x, ay = w->a.y, az = w->a.z, r = w->radius;
-        float ex = 0.0f, ey = 0.0f, ez = 0.0f, inv_ee = 0.0f;
-        if (w->kind == CORE_COLLIDER_CAPSULE) {
-            ex = w->b.x - ax, ey = w->b.y - ay, ez = w->b.z - az;
-            float ee = ex * ex + ey * ey + ez * ez;
-            inv_ee = ee > 0.0f ? 1.0f / ee : 0.0f;
-        }
+        const float ex = w->axis[0], ey = w->axis[1], ez = w->axis[2], inv_ee = w->inv_axis2;
         for (size_t s = 0; s < n; s++) {
             float t = ((x[s] - ax) * ex + (y[s] - ay) * ey + (z[s] - az) * ez) * inv_ee;
             t = MINF(MAXF(t, 0.0f), 1.0f);
@@ -293,12 +294,7 @@ static size_t count_inside(const sim_cpu_wcollider *w, const float *restrict x, 
         return inside;
     }
     const float ax = w->a.x, ay = w->a.y, az = w->a.z, r2 = w->radius * w->radius;
-    float ex = 0.0f, ey = 0.0f, ez = 0.0f, inv_ee = 0.0f;
-    if (w->kind == CORE_COLLIDER_CAPSULE) {
-        ex = w->b.x - ax, ey = w->b.y - ay, ez = w->b.z - az;
-        float ee = ex * ex + ey * ey + ez * ez;
-        inv_ee = ee > 0.0f ? 1.0f / ee : 0.0f;
-    }
+    const float ex = w->axis[0], ey = w->axis[1], ez = w->axis[2], inv_ee = w->inv_axis2;
     for (size_t s = 0; s < n; s++) {
         float t = ((x[s] - ax) * ex + (y[s] - ay) * ey + (z[s] - az) * ez) * inv_ee;
         t = MINF(MAXF(t, 0.0f), 1.0f);

@@ -17,6 +17,8 @@ typedef struct sim_cpu_wcollider {
     core_vec3 radii;
     core_quat rot;       /* world orientation (ellipsoid) */
     float lo[3], hi[3];  /* world bounding box, for culling */
+    float axis[3];       /* capsule: b - a (zero for a sphere, which is a capsule of length 0) */
+    float inv_axis2;     /* 1 / |axis|^2, 0 for a sphere */
     float to_unit[9];    /* ellipsoid: world offset -> unit-sphere coords (diag(1/r) R^T), row-major */
     float from_unit[9];  /* ellipsoid: unit-sphere coords -> world offset (R diag(r)), row-major */
 } sim_cpu_wcollider;
