@@ -67,7 +67,7 @@ async function cleanup() {
 // Starts the daemon on port (0: a free one), logging to logName in the output folder; resolves
 // with { url, stop } once it prints its URL. stop() ends it (SIGTERM) and waits for its exit.
 function startDaemon(port, logName) {
-  const log = fs.openSync(path.join(outDir, logName), 'w');
+  let log = fs.openSync(path.join(outDir, logName), 'w');
   // setpriv --pdeathsig: the daemon gets SIGTERM if this process dies (e.g. killed by ctest)
   const args = ['--port', String(port), '--web', webDir, ...daemonExtra];
   const child = fs.existsSync('/usr/bin/setpriv')
@@ -82,12 +82,12 @@ function startDaemon(port, logName) {
       clearTimeout(t);
     }
   };
-  cleanups.push(async () => { await stop(); fs.closeSync(log); });
+  cleanups.push(async () => { await stop(); fs.closeSync(log); log = null; });
   return new Promise((resolve, reject) => {
     let text = '';
     const timer = setTimeout(() => reject(new Error(`strandcastd printed no URL in 60 s:\n${text}`)), 60000);
     const onData = (d) => {
-      fs.writeSync(log, d);
+      if (log !== null) fs.writeSync(log, d);
       text += d.toString();
       const m = /(http:\/\/[0-9.:]+\/)/.exec(text);
       if (m) { clearTimeout(timer); resolve({ url: m[1], stop }); }
@@ -202,12 +202,13 @@ async function main() {
   cleanups.push(async () => context.close());
   const page = context.pages()[0] || (await context.newPage());
   const errors = [];
-  const browserLog = fs.openSync(path.join(outDir, 'browser.log'), 'w');
-  cleanups.push(async () => fs.closeSync(browserLog));
-  page.on('pageerror', (e) => { errors.push(`page error: ${e.message}`); fs.writeSync(browserLog, `pageerror ${e.message}\n`); });
+  let browserLog = fs.openSync(path.join(outDir, 'browser.log'), 'w');
+  const logLine = (line) => { if (browserLog !== null) fs.writeSync(browserLog, `${new Date().toISOString()} ${line}\n`); };
+  cleanups.push(async () => { fs.closeSync(browserLog); browserLog = null; });
+  page.on('pageerror', (e) => { errors.push(`page error: ${e.message}`); logLine(`pageerror ${e.message}`); });
   let serverDown = false; // while the test has stopped the server, failed connects are expected
   page.on('console', (m) => {
-    fs.writeSync(browserLog, `${new Date().toISOString()} ${m.type()} ${m.text()}\n`);
+    logLine(`${m.type()} ${m.text()}`);
     const expected = serverDown && /WebSocket connection to .* failed|ERR_CONNECTION_REFUSED/.test(m.text());
     if (m.type() === 'error' && !expected) errors.push(`console error: ${m.text()}`);
   });
