@@ -1,6 +1,9 @@
 /* sim: the CPU chain pass: predict, global/local shape, follow-the-leader, collisions, DFTL velocity. */
 #include <math.h>
 #include <string.h>
+#ifdef __AVX2__
+#include <immintrin.h>
+#endif
 
 #include "sim_cpu_internal.h"
 
@@ -265,16 +268,41 @@ static void level_advance(const chain_ctx *ctx, chunk_tmp *restrict t, size_t o,
     }
 }
 
+/* Min and max of v[0..n) (n >= 1); exact in any order, so the AVX2 path gives the same result. */
+static void min_max(const float *restrict v, size_t n, float *lo, float *hi)
+{
+    float l = v[0], h = v[0];
+    size_t s = 1;
+#ifdef __AVX2__
+    if (n >= 8) {
+        __m256 vl = _mm256_loadu_ps(v), vh = vl;
+        for (s = 8; s + 8 <= n; s += 8) {
+            __m256 x = _mm256_loadu_ps(v + s);
+            vl = _mm256_min_ps(vl, x), vh = _mm256_max_ps(vh, x);
+        }
+        float bl[8], bh[8];
+        _mm256_storeu_ps(bl, vl);
+        _mm256_storeu_ps(bh, vh);
+        for (int k = 0; k < 8; k++) l = bl[k] < l ? bl[k] : l, h = bh[k] > h ? bh[k] : h;
+    }
+#endif
+    for (; s < n; s++) {
+        l = v[s] < l ? v[s] : l;
+        h = v[s] > h ? v[s] : h;
+    }
+    *lo = l, *hi = h;
+}
+
 /* Bounding box of this level's positions and their parents in the chunk. */
 static void level_bounds(const chunk_tmp *t, size_t cnt, float lo[3], float hi[3])
 {
-    float l0 = t->cx[0], l1 = t->cy[0], l2 = t->cz[0], h0 = l0, h1 = l1, h2 = l2;
-    for (size_t s = 0; s < cnt; s++) {
-        l0 = MINF(l0, MINF(t->cx[s], t->px[s])), h0 = MAXF(h0, MAXF(t->cx[s], t->px[s]));
-        l1 = MINF(l1, MINF(t->cy[s], t->py[s])), h1 = MAXF(h1, MAXF(t->cy[s], t->py[s]));
-        l2 = MINF(l2, MINF(t->cz[s], t->pz[s])), h2 = MAXF(h2, MAXF(t->cz[s], t->pz[s]));
+    const float *cur[3] = { t->cx, t->cy, t->cz }, *par[3] = { t->px, t->py, t->pz };
+    for (int d = 0; d < 3; d++) {
+        float l1, h1, l2, h2;
+        min_max(cur[d], cnt, &l1, &h1);
+        min_max(par[d], cnt, &l2, &h2);
+        lo[d] = MINF(l1, l2), hi[d] = MAXF(h1, h2);
     }
-    lo[0] = l0, lo[1] = l1, lo[2] = l2, hi[0] = h0, hi[1] = h1, hi[2] = h2;
 }
 
 /* Number of the points (x,y,z)[0..n) strictly inside one collider (no change to them). */
