@@ -49,8 +49,8 @@ export class App {
     this.layoutPerGuide = 0;
     this.paused = false;
     // statistics
-    this.fps = new RateMeter(1000, 512);
-    this.frames = new RateMeter(1000, 512);
+    this.fps = new RateMeter(2000, 512);
+    this.frames = new RateMeter(2000, 512);
     this.latency = new LatencyEstimator(10000, 1024);
     this.decodeMs = new Ema(0.1);
     this.prepareMs = new Ema(0.1);
@@ -59,7 +59,7 @@ export class App {
     this.serverStats = null;
     this.framesRendered = 0;
     this.framesUploaded = 0;
-    this.totals = { frames: 0, decodeMs: 0, prepareMs: 0, uploads: 0, uploadMs: 0, draws: 0, drawMs: 0 }; // for benchmarks
+    this.totals = { frames: 0, bytes: 0, decodeMs: 0, prepareMs: 0, uploads: 0, uploadMs: 0, draws: 0, drawMs: 0 }; // for benchmarks
     // Benchmark mode: wait for the GPU before and after each upload and draw, so that their
     // times are their own and not the wait for earlier work (slower overall; tests only).
     this.benchmarkTiming = false;
@@ -245,6 +245,7 @@ export class App {
     this.decodeMs.add(m.decodeMs);
     this.prepareMs.add(m.prepareMs);
     this.totals.frames++;
+    this.totals.bytes += m.bytes;
     this.totals.decodeMs += m.decodeMs;
     this.totals.prepareMs += m.prepareMs;
     this.seq = m.seq;
