@@ -177,13 +177,6 @@ static void scatter_job(void *vctx, int tid, int nt)
         uint32_t slot = cursor[s->cell[i]]++;
         s->order[slot] = (uint32_t)i;
         s->strand[slot] = (uint32_t)(i % c->ns);
-        for (int k = 0; k < 3; k++) {
-            s->sp[4 * (size_t)slot + k] = ctx->pos[k][i];
-            s->sv[4 * (size_t)slot + k] = ctx->vel ? ctx->vel[k][i] : 0.0f;
-        }
-        s->sp[4 * (size_t)slot + 3] = 0.0f;
-        s->sx[slot] = ctx->pos[0][i], s->sy[slot] = ctx->pos[1][i], s->sz[slot] = ctx->pos[2][i];
-        s->sv[4 * (size_t)slot + 3] = 0.0f;
     }
 }
 
@@ -459,10 +452,10 @@ static void force_job(void *vctx, int tid, int nt)
     }
 }
 
-/* Reused lists: refresh the sorted copies from the current state (same slot order). */
-static void regather_job(void *vctx, int tid, int nt)
+/* Copies positions and velocities (zero without vel) into the sorted slots given by order;
+ * with soa, also the SoA positions the neighbour search scans (not needed when lists are reused). */
+static void gather_sorted(sph_ctx *ctx, int tid, int nt, bool soa)
 {
-    sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     sim_cpu_sph *s = &c->sph;
     size_t b, e;
@@ -471,10 +464,16 @@ static void regather_job(void *vctx, int tid, int nt)
         const uint32_t i = s->order[slot];
         for (int k = 0; k < 3; k++) {
             s->sp[4 * slot + k] = ctx->pos[k][i];
-            s->sv[4 * slot + k] = ctx->vel[k][i];
+            s->sv[4 * slot + k] = ctx->vel ? ctx->vel[k][i] : 0.0f;
         }
+        if (soa) s->sx[slot] = ctx->pos[0][i], s->sy[slot] = ctx->pos[1][i], s->sz[slot] = ctx->pos[2][i];
     }
 }
+
+static void gather_job(void *vctx, int tid, int nt) { gather_sorted(vctx, tid, nt, true); }
+
+/* Reused lists: refresh the sorted copies from the current state (same slot order). */
+static void regather_job(void *vctx, int tid, int nt) { gather_sorted(vctx, tid, nt, false); }
 
 /* Reused lists: density over the kept neighbours at their current distances. */
 static void density_reuse_job(void *vctx, int tid, int nt)
@@ -546,6 +545,7 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
     sim_pool_run(&c->pool, scan_sum_job, ctx);
     sim_pool_run(&c->pool, scan_fill_job, ctx);
     sim_pool_run(&c->pool, scatter_job, ctx);
+    sim_pool_run(&c->pool, gather_job, ctx);
     sim_pool_run(&c->pool, density_job, ctx);
     s->lists_valid = out_mean_rho == NULL; /* lists of the rest pose are not reused */
     if (out_mean_rho) {
