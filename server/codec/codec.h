@@ -53,19 +53,24 @@ typedef struct codec_frame_info {
 typedef struct codec_encoder {
     codec_desc desc;
     uint32_t nstrands_total, nstrands_sent, nverts;
+    uint32_t nvp;        /* lanes per row: nverts rounded up to a multiple of 8 */
     double step, inv_step;
     uint64_t key_seq;
     uint32_t since_key;  /* frames since the last keyframe; key_valid false until the first */
     bool key_valid;
-    int32_t *key_q;      /* keyframe lattice coordinates, sent strands, strand-major xyz */
-    int32_t *cur_q;      /* this frame's lattice coordinates */
-    int32_t *key_m;      /* the keyframe moved by this frame's rigid motion */
+    bool portable;       /* use the portable kernels even where SIMD ones were built: the same
+                            bytes (tests set it after init to compare the two) */
+    int32_t *key_q;      /* keyframe lattice coordinates: per sent strand, rows x, y, z of nvp */
+    int32_t *cur_q;      /* this frame's, when it is a keyframe */
+    int32_t *key_roots, *cur_roots; /* root xyz of every sent strand: keyframe, this frame */
     uint64_t last_seq;   /* sequence numbers must increase */
-    uint16_t *syms;      /* entropy-coder symbols of this frame, (table << 9) | symbol */
-    int32_t *res;        /* residuals of one strand under two prediction modes */
+    uint16_t *syms;      /* entropy-coder symbols of this frame, table * 343 + symbol */
+    uint32_t *counts;    /* their histogram (several copies, summed per frame) */
     struct codec_rans_sym *rsyms; /* per-frame encoding tables */
     uint8_t *bits;       /* raw bit stream of this frame */
     uint8_t *rans;       /* rANS output, written backwards from the end */
+    int32_t *work;       /* per-strand scratch rows */
+    uint64_t *pairs;     /* per-strand raw bits of vertex pairs and their lengths */
     size_t nsyms_max, bits_cap, rans_cap;
 } codec_encoder;
 

@@ -149,9 +149,9 @@ void codec_motion_identity(float m[12]);
 /* True when every rotation entry is within [-2, 2] and the translation within 2^28. */
 bool codec_motion_valid(const float m[12]);
 
-/* Least-squares rigid motion taking the keyframe's roots to this frame's (lattice units, roots
- * at key[j * per], cur[j * per]); identity when it cannot be estimated. */
-void codec_motion_estimate(const int32_t *key, const int32_t *cur, uint32_t nstrands, size_t per, float m[12]);
+/* Least-squares rigid motion taking the keyframe's roots to this frame's (lattice units, root j
+ * at key[3 j .. 3 j + 2], cur[3 j .. 3 j + 2]); identity when it cannot be estimated. */
+void codec_motion_estimate(const int32_t *key, const int32_t *cur, uint32_t nstrands, float m[12]);
 
 /* out = round(R k + t) per vertex (binary64, exactly as proto/CODEC.md; clamped to the lattice
  * range). m must be codec_motion_valid. */

@@ -140,3 +140,35 @@ core_status codec_rans_read_tables(const uint8_t *data, size_t len, size_t *pos,
     }
     return CORE_OK;
 }
+
+/* codec_rans_put without branches: at most two renormalisation bytes (x < 2^31 and
+ * x_max >= 2^19), both stored, the pointer moved by the count. */
+static inline uint32_t put_branchless(uint32_t x, uint8_t **pp, const codec_rans_sym *s)
+{
+    uint32_t k = (uint32_t)(x >= s->x_max) + (uint32_t)((x >> 8) >= s->x_max);
+    uint8_t *p = *pp;
+    p[-1] = (uint8_t)x;
+    p[-2] = (uint8_t)(x >> 8);
+    *pp = p - k;
+    x >>= 8u * k;
+    uint32_t q = (uint32_t)(((uint64_t)x * s->rcp_freq) >> 32) >> s->rcp_shift;
+    return x + s->bias + q * s->cmpl_freq;
+}
+
+uint8_t *codec_rans_encode(const uint16_t *syms, size_t n, const codec_rans_sym *rs, uint8_t *end, uint32_t x[2])
+{
+    uint8_t *p = end;
+    uint32_t x0 = CODEC_RANS_L, x1 = CODEC_RANS_L;
+    size_t i = n;
+    if (i & 1u) {
+        i--;
+        x0 = put_branchless(x0, &p, &rs[syms[i]]);
+    }
+    for (; i >= 2; i -= 2) {
+        x1 = put_branchless(x1, &p, &rs[syms[i - 1]]);
+        x0 = put_branchless(x0, &p, &rs[syms[i - 2]]);
+    }
+    x[0] = x0;
+    x[1] = x1;
+    return p;
+}

@@ -51,4 +51,9 @@ static inline void codec_rans_put(uint32_t *x, uint8_t **pp, const codec_rans_sy
     *x = v + s->bias + q * s->cmpl_freq;
 }
 
+/* Encodes syms[0..n) (indices table * CODEC_NSYM + symbol into rs) last first, symbol i with
+ * state x[i & 1] (both start at CODEC_RANS_L), writing bytes downwards ending at end; returns
+ * the first byte. The buffer needs 2 * n + 2 bytes below end. */
+uint8_t *codec_rans_encode(const uint16_t *syms, size_t n, const codec_rans_sym *rs, uint8_t *end, uint32_t x[2]);
+
 #endif

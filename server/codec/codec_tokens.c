@@ -1,0 +1,151 @@
+/* codec: a strand's residuals into vertex symbols (magnitude classes), escape symbols and raw
+ * bits, with the symbol histogram. */
+#ifdef __AVX2__
+#include <immintrin.h>
+#endif
+
+#include "codec_enc.h"
+
+static inline uint32_t mag(int32_t r)
+{
+    return r < 0 ? 0u - (uint32_t)r : (uint32_t)r;
+}
+
+/* One vertex (residuals r[0..3) coded in table t); returns the table of the next vertex. */
+static uint32_t emit_vertex(codec_emitter *e, uint32_t t, const int32_t r[3])
+{
+    uint32_t c[3], esc[3], nesc = 0;
+    for (uint32_t a = 0; a < 3; a++) {
+        uint32_t m = mag(r[a]), sign = (uint32_t)r[a] >> 31;
+        c[a] = codec_class(m);
+        if (c[a] == 0) continue;
+        if (c[a] < CODEC_ESCAPE) {
+            /* sign, then the bits below the leading one */
+            codec_emit_bits(e, ((m << 1) | sign) & ((1u << c[a]) - 1u), c[a]);
+        } else {
+            uint32_t ex = 31u - (uint32_t)__builtin_clz(m);
+            esc[nesc++] = ex - 5u;
+            codec_emit_bits(e, sign, 1);
+            codec_emit_bits(e, m - (1u << ex), ex);
+        }
+    }
+    codec_emit_symbol(e, t, c[0] + CODEC_NCLASS * c[1] + CODEC_NCLASS * CODEC_NCLASS * c[2]);
+    for (uint32_t k = 0; k < nesc; k++) codec_emit_symbol(e, CODEC_T_ESC, esc[k]);
+    return codec_body_table(c[0], c[1], c[2]);
+}
+
+static void emit_portable(codec_emitter *e, const int32_t *const R[3], uint32_t nv)
+{
+    uint32_t t = CODEC_T_ROOT;
+    for (uint32_t v = 0; v < nv; v++) {
+        const int32_t r[3] = { R[0][v], R[1][v], R[2][v] };
+        t = emit_vertex(e, t, r);
+        if (v == 0) t = CODEC_T_FIRST;
+    }
+}
+
+#ifdef __AVX2__
+static inline void put_le64(uint8_t *p, uint64_t v)
+{
+    for (int k = 0; k < 8; k++) p[k] = (uint8_t)(v >> (8 * k));
+}
+
+/* Classes (0..6) and raw fields (sign, then the bits below the leading one; meaningless for
+ * class 6) of 8 residuals. */
+static inline __m256i class8(__m256i r, __m256i *field)
+{
+    const __m256i one = _mm256_set1_epi32(1);
+    __m256i m = _mm256_abs_epi32(r);
+    __m256i t = _mm256_or_si256(_mm256_add_epi32(m, m), one);
+    __m256i c = _mm256_sub_epi32(_mm256_srli_epi32(_mm256_castps_si256(_mm256_cvtepi32_ps(t)), 23),
+                                 _mm256_set1_epi32(127));
+    c = _mm256_min_epi32(c, _mm256_set1_epi32((int32_t)CODEC_ESCAPE));
+    __m256i f = _mm256_or_si256(_mm256_add_epi32(m, m), _mm256_srli_epi32(r, 31));
+    *field = _mm256_and_si256(f, _mm256_sub_epi32(_mm256_sllv_epi32(one, c), one));
+    return c;
+}
+
+/* Symbols straight into e->syms (8 lanes at a time, lanes past nv overwritten later), raw bits
+ * of vertex pairs into s; false when a residual needs an escape (then nothing was committed). */
+static bool tokens_avx2(codec_emitter *e, const int32_t *const R[3], uint32_t nv, const codec_tok_scratch *s)
+{
+    const __m256i seven = _mm256_set1_epi32((int32_t)CODEC_NCLASS), five = _mm256_set1_epi32((int32_t)CODEC_NBODY - 1),
+                  nsym = _mm256_set1_epi32((int32_t)CODEC_NSYM), rot = _mm256_setr_epi32(7, 0, 1, 2, 3, 4, 5, 6),
+                  lo32 = _mm256_set1_epi64x(0xffffffffll);
+    const __m256i body0 = _mm256_set1_epi32((int32_t)(CODEC_T_BODY * CODEC_NSYM));
+    /* lane 0 of prev: the table base of the vertex before this block's first */
+    __m256i prev = _mm256_set1_epi32((int32_t)(CODEC_T_ROOT * CODEC_NSYM)), esc = _mm256_setzero_si256();
+    uint16_t *out = e->syms + e->nsyms;
+    for (uint32_t v0 = 0; v0 < nv; v0 += CODEC_LANES) {
+        __m256i fx, fy, fz;
+        __m256i cx = class8(_mm256_loadu_si256((const __m256i *)(const void *)(R[0] + v0)), &fx);
+        __m256i cy = class8(_mm256_loadu_si256((const __m256i *)(const void *)(R[1] + v0)), &fy);
+        __m256i cz = class8(_mm256_loadu_si256((const __m256i *)(const void *)(R[2] + v0)), &fz);
+        __m256i mx = _mm256_max_epi32(_mm256_max_epi32(cx, cy), cz);
+        esc = _mm256_or_si256(esc, _mm256_cmpeq_epi32(mx, _mm256_set1_epi32((int32_t)CODEC_ESCAPE)));
+        __m256i sym = _mm256_add_epi32(cx, _mm256_mullo_epi32(seven, _mm256_add_epi32(cy, _mm256_mullo_epi32(seven, cz))));
+        /* table base of the next vertex, shifted one lane up: this block's bases */
+        __m256i next = _mm256_add_epi32(body0, _mm256_mullo_epi32(nsym, _mm256_min_epi32(mx, five)));
+        __m256i nrot = _mm256_permutevar8x32_epi32(next, rot);
+        __m256i base = _mm256_blend_epi32(nrot, prev, 0x01);
+        if (v0 == 0) base = _mm256_blend_epi32(base, _mm256_set1_epi32((int32_t)(CODEC_T_FIRST * CODEC_NSYM)), 0x02);
+        prev = nrot;
+        __m256i idx = _mm256_add_epi32(base, sym);
+        _mm_storeu_si128((__m128i *)(void *)(out + v0),
+                         _mm_packus_epi32(_mm256_castsi256_si128(idx), _mm256_extracti128_si256(idx, 1)));
+        /* raw bits of each vertex: x field, then y, then z; then pairs of vertices in 64 bits */
+        __m256i nb = _mm256_add_epi32(_mm256_add_epi32(cx, cy), cz);
+        __m256i bits = _mm256_or_si256(_mm256_or_si256(fx, _mm256_sllv_epi32(fy, cx)),
+                                       _mm256_sllv_epi32(fz, _mm256_add_epi32(cx, cy)));
+        __m256i nlo = _mm256_and_si256(nb, lo32);
+        __m256i pb = _mm256_or_si256(_mm256_and_si256(bits, lo32), _mm256_sllv_epi64(_mm256_srli_epi64(bits, 32), nlo));
+        _mm256_storeu_si256((__m256i *)(void *)(s->pair_bits + v0 / 2u), pb);
+        _mm256_storeu_si256((__m256i *)(void *)(s->pair_nb + v0 / 2u), _mm256_add_epi64(nlo, _mm256_srli_epi64(nb, 32)));
+    }
+    if (!_mm256_testz_si256(esc, esc)) return false;
+
+    uint32_t *h0 = e->counts, *h1 = h0 + CODEC_HIST_SIZE, *h2 = h1 + CODEC_HIST_SIZE, *h3 = h2 + CODEC_HIST_SIZE;
+    uint8_t *p = e->bits;
+    uint64_t acc = e->acc;
+    uint32_t n = e->n, v = 0;
+    const uint32_t npairs = (nv + 1u) / 2u;
+    for (uint32_t k = 0; k < npairs; k++) {
+        acc |= s->pair_bits[k] << n;
+        n += (uint32_t)s->pair_nb[k];
+        put_le64(p, acc);
+        p += n >> 3;
+        acc >>= n & ~7u;
+        n &= 7u;
+    }
+    for (; v + 4u <= nv; v += 4u) {
+        h0[out[v]]++;
+        h1[out[v + 1u]]++;
+        h2[out[v + 2u]]++;
+        h3[out[v + 3u]]++;
+    }
+    for (; v < nv; v++) h0[out[v]]++;
+    e->bits = p;
+    e->acc = acc;
+    e->n = n;
+    e->nsyms += nv;
+    return true;
+}
+#endif
+
+void codec_emit_strand(codec_emitter *e, const int32_t *const R[3], uint32_t nv, const codec_tok_scratch *s,
+                       bool portable)
+{
+#ifdef __AVX2__
+    if (!portable && tokens_avx2(e, R, nv, s)) return;
+#else
+    (void)s;
+#endif
+    (void)portable;
+    emit_portable(e, R, nv);
+}
+
+uint8_t *codec_emit_finish(codec_emitter *e)
+{
+    if (e->n) codec_emit_bits(e, 0, 8u - e->n);
+    return e->bits;
+}
