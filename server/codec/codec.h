@@ -70,7 +70,7 @@ typedef struct codec_encoder {
     uint8_t *bits;       /* raw bit stream of this frame */
     uint8_t *rans;       /* rANS output, written backwards from the end */
     int32_t *work;       /* per-strand scratch rows */
-    uint64_t *pairs;     /* per-strand raw bits of vertex pairs and their lengths */
+    uint64_t *pairs;     /* per-strand tokens: raw bits of vertex pairs, symbols, escapes */
     size_t nsyms_max, bits_cap, rans_cap;
 } codec_encoder;
 

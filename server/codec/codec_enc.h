@@ -7,6 +7,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "codec_rans.h"
 
@@ -84,10 +85,11 @@ typedef struct codec_emitter {
 #define CODEC_HIST_COPIES 4u
 #define CODEC_HIST_SIZE (CODEC_NTABLES * CODEC_NSYM)
 
-/* Per-strand scratch of codec_emit_strand: rows of nvp + 8 lanes. */
+/* Per-strand scratch of codec_emit_strand, for nvp vertices. */
 typedef struct codec_tok_scratch {
-    uint32_t *sym, *base, *bits, *nb; /* base has one lane in front */
-    uint64_t *pair_bits, *pair_nb;
+    uint16_t *idx;                  /* nvp symbols */
+    uint8_t *esc;                   /* nvp / 8 masks of escaped vertices */
+    uint64_t *pair_bits, *pair_nb;  /* nvp / 2 each */
 } codec_tok_scratch;
 
 /* Emits a symbol of table t. */
@@ -98,15 +100,26 @@ static inline void codec_emit_symbol(codec_emitter *e, uint32_t t, uint32_t sym)
     e->counts[idx]++;
 }
 
+/* Stores v at p[0..8) little-endian. */
+static inline void codec_put_le64(uint8_t *p, uint64_t v)
+{
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+    memcpy(p, &v, 8);
+#else
+    for (int k = 0; k < 8; k++) p[k] = (uint8_t)(v >> (8 * k));
+#endif
+}
+
 /* Appends the nb (<= 32) low bits of v to the raw bit stream. */
 static inline void codec_emit_bits(codec_emitter *e, uint64_t v, uint32_t nb)
 {
-    e->acc |= v << e->n;
-    e->n += nb;
-    for (int k = 0; k < 8; k++) e->bits[k] = (uint8_t)(e->acc >> (8 * k));
-    e->bits += e->n >> 3;
-    e->acc >>= e->n & ~7u;
-    e->n &= 7u;
+    uint64_t acc = e->acc | v << e->n;
+    uint32_t n = e->n + nb;
+    uint8_t *p = e->bits;
+    codec_put_le64(p, acc);
+    e->bits = p + (n >> 3);
+    e->acc = acc >> (n & ~7u);
+    e->n = n & 7u;
 }
 
 /* Emits the vertex symbols and raw bits of one strand: R rows hold the residuals of vertices

@@ -73,7 +73,7 @@ core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint3
     enc->rans = malloc(enc->rans_cap);
     enc->rsyms = malloc((size_t)CODEC_HIST_SIZE * sizeof *enc->rsyms);
     enc->work = calloc((size_t)NROWS * (CODEC_ROW_PAD + enc->nvp), sizeof *enc->work);
-    enc->pairs = calloc(enc->nvp, sizeof *enc->pairs);
+    enc->pairs = calloc(2u * (size_t)enc->nvp, sizeof *enc->pairs);
     if (!enc->key_q || !enc->cur_q || !enc->key_roots || !enc->cur_roots || !enc->syms || !enc->counts ||
         !enc->bits || !enc->rans || !enc->rsyms || !enc->work || !enc->pairs) {
         codec_encoder_free(enc);
@@ -123,7 +123,9 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
     int32_t *const K[3] = { row(enc, ROW_K), row(enc, ROW_K + 1), row(enc, ROW_K + 2) };
     int32_t *const R[3] = { row(enc, ROW_R), row(enc, ROW_R + 1), row(enc, ROW_R + 2) };
     const int32_t *const Z[3] = { row(enc, ROW_ZERO), row(enc, ROW_ZERO + 1), row(enc, ROW_ZERO + 2) };
-    const codec_tok_scratch tok = { .pair_bits = enc->pairs, .pair_nb = enc->pairs + nvp / 2u };
+    const codec_tok_scratch tok = { .pair_bits = enc->pairs, .pair_nb = enc->pairs + nvp / 2u,
+                                    .idx = (uint16_t *)(void *)(enc->pairs + nvp),
+                                    .esc = (uint8_t *)(void *)(enc->pairs + nvp + nvp / 4u) };
     int32_t kn[3] = { 0, 0, 0 }; /* root of the previous strand in the moved keyframe */
     for (uint32_t j = 0; j < enc->nstrands_sent; j++) {
         int32_t *const *P = Pr[j & 1u];

@@ -37,21 +37,31 @@ static bool fast_portable(const codec_quant *qz, const float *src, uint32_t v0, 
 }
 
 #ifdef __AVX2__
-/* 8 coordinates: lattice values, and the lanes that failed (range or bound) or'ed into *bad. */
-static inline __m256i fast8(const codec_quant *qz, __m256 x, __m256 *bad)
+/* Constants of the vector path. */
+typedef struct quant8 {
+    __m256d inv, step, shift, two_max;
+    __m256 absmask, xlim, bound;
+} quant8;
+
+/* 4 coordinates: the lattice values of fast_one (floor of the shifted value, then the shift
+ * taken off exactly in binary64), and the lanes that failed (range or bound) or'ed into *bad. */
+static inline __m128i fast4(const quant8 *k, __m128 x, __m256d xd, __m128 *bad)
 {
-    const __m256 absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
-    const __m256d inv = _mm256_set1_pd(qz->inv), step = _mm256_set1_pd(qz->step), sh = _mm256_set1_pd(SHIFT + 0.5);
-    __m256 ax = _mm256_and_ps(x, absmask);
-    *bad = _mm256_or_ps(*bad, _mm256_cmp_ps(ax, _mm256_set1_ps(qz->xlim), _CMP_NLE_UQ));
-    __m256d lo = _mm256_add_pd(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(x)), inv), sh);
-    __m256d hi = _mm256_add_pd(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(x, 1)), inv), sh);
-    __m128i qlo = _mm_sub_epi32(_mm256_cvttpd_epi32(lo), _mm_set1_epi32(2 * CODEC_MAX_QUANT));
-    __m128i qhi = _mm_sub_epi32(_mm256_cvttpd_epi32(hi), _mm_set1_epi32(2 * CODEC_MAX_QUANT));
-    __m128 rlo = _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtepi32_pd(qlo), step));
-    __m128 rhi = _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtepi32_pd(qhi), step));
-    __m256 err = _mm256_and_ps(_mm256_sub_ps(_mm256_set_m128(rhi, rlo), x), absmask);
-    *bad = _mm256_or_ps(*bad, _mm256_cmp_ps(err, _mm256_set1_ps(qz->bound), _CMP_GT_OQ));
+    __m256d q = _mm256_sub_pd(_mm256_round_pd(_mm256_add_pd(_mm256_mul_pd(xd, k->inv), k->shift),
+                                              _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC),
+                              k->two_max);
+    __m128 err = _mm_and_ps(_mm_sub_ps(_mm256_cvtpd_ps(_mm256_mul_pd(q, k->step)), x), _mm256_castps256_ps128(k->absmask));
+    *bad = _mm_or_ps(*bad, _mm_cmp_ps(err, _mm256_castps256_ps128(k->bound), _CMP_GT_OQ));
+    return _mm256_cvttpd_epi32(q);
+}
+
+/* 8 coordinates: the range check, then two halves. */
+static inline __m256i fast8(const quant8 *k, __m256 x, __m256 *bad)
+{
+    *bad = _mm256_or_ps(*bad, _mm256_cmp_ps(_mm256_and_ps(x, k->absmask), k->xlim, _CMP_NLE_UQ));
+    __m128 lo = _mm256_castps256_ps128(x), hi = _mm256_extractf128_ps(x, 1), blo = _mm_setzero_ps(), bhi = blo;
+    __m128i qlo = fast4(k, lo, _mm256_cvtps_pd(lo), &blo), qhi = fast4(k, hi, _mm256_cvtps_pd(hi), &bhi);
+    *bad = _mm256_or_ps(*bad, _mm256_set_m128(bhi, blo));
     return _mm256_set_m128i(qhi, qlo);
 }
 
@@ -59,6 +69,12 @@ static inline __m256i fast8(const codec_quant *qz, __m256 x, __m256 *bad)
  * permutations. */
 static bool fast_avx2(const codec_quant *qz, const float *src, uint32_t nv, int32_t *const rows[3])
 {
+    const quant8 k = {
+        .inv = _mm256_set1_pd(qz->inv), .step = _mm256_set1_pd(qz->step), .shift = _mm256_set1_pd(SHIFT + 0.5),
+        .two_max = _mm256_set1_pd(SHIFT), .absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff)),
+        .xlim = _mm256_set1_ps(qz->xlim), .bound = _mm256_set1_ps(qz->bound),
+    };
+    int32_t *const rx = rows[0], *const ry = rows[1], *const rz = rows[2];
     __m256 bad = _mm256_setzero_ps();
     const __m256i px = _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5), py = _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6),
                   pz = _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7);
@@ -71,12 +87,9 @@ static bool fast_avx2(const codec_quant *qz, const float *src, uint32_t nv, int3
         __m256 x = _mm256_blend_ps(_mm256_blend_ps(a, b, 0x92), c, 0x24);
         __m256 y = _mm256_blend_ps(_mm256_blend_ps(a, b, 0x24), c, 0x49);
         __m256 z = _mm256_blend_ps(_mm256_blend_ps(a, b, 0x49), c, 0x92);
-        x = _mm256_permutevar8x32_ps(x, px);
-        y = _mm256_permutevar8x32_ps(y, py);
-        z = _mm256_permutevar8x32_ps(z, pz);
-        _mm256_storeu_si256((__m256i *)(void *)(rows[0] + v), fast8(qz, x, &bad));
-        _mm256_storeu_si256((__m256i *)(void *)(rows[1] + v), fast8(qz, y, &bad));
-        _mm256_storeu_si256((__m256i *)(void *)(rows[2] + v), fast8(qz, z, &bad));
+        _mm256_storeu_si256((__m256i *)(void *)(rx + v), fast8(&k, _mm256_permutevar8x32_ps(x, px), &bad));
+        _mm256_storeu_si256((__m256i *)(void *)(ry + v), fast8(&k, _mm256_permutevar8x32_ps(y, py), &bad));
+        _mm256_storeu_si256((__m256i *)(void *)(rz + v), fast8(&k, _mm256_permutevar8x32_ps(z, pz), &bad));
     }
     bool ok = _mm256_movemask_ps(bad) == 0;
     return fast_portable(qz, src, v, nv, rows) && ok;

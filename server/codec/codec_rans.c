@@ -48,13 +48,13 @@ void codec_rans_sym_init(codec_rans_sym *s, uint32_t start, uint32_t freq)
     if (freq < 2) {
         /* x / 1 == x: q = x - 1 via the all-ones reciprocal, the bias adds the rest back */
         s->rcp_freq = ~0u;
-        s->rcp_shift = 0;
+        s->rcp_shift = 32;
         s->bias = start + CODEC_SCALE - 1u;
     } else {
         uint32_t shift = 0;
         while (freq > (1u << shift)) shift++;
         s->rcp_freq = (uint32_t)(((1ull << (shift + 31u)) + freq - 1u) / freq);
-        s->rcp_shift = (uint16_t)(shift - 1u);
+        s->rcp_shift = (uint16_t)(shift + 31u);
         s->bias = start;
     }
 }
@@ -141,18 +141,25 @@ core_status codec_rans_read_tables(const uint8_t *data, size_t len, size_t *pos,
     return CORE_OK;
 }
 
-/* codec_rans_put without branches: at most two renormalisation bytes (x < 2^31 and
- * x_max >= 2^19), both stored, the pointer moved by the count. */
-static inline uint32_t put_branchless(uint32_t x, uint8_t **pp, const codec_rans_sym *s)
+/* One symbol into state x, without branches: at most two renormalisation bytes (x < 2^31 and
+ * x_max >= 2^19), both stored, the pointer moved by their count; the state's chain is two
+ * selects, two multiplications and an addition. */
+static inline uint32_t put(uint32_t x, uint8_t **pp, const codec_rans_sym *s)
 {
-    uint32_t k = (uint32_t)(x >= s->x_max) + (uint32_t)((x >> 8) >= s->x_max);
+    const uint32_t xm = s->x_max, x1 = x >> 8, x2 = x >> 16;
+    uint32_t v = x >= xm ? x1 : x;
+    v = x1 >= xm ? x2 : v;
     uint8_t *p = *pp;
-    p[-1] = (uint8_t)x;
-    p[-2] = (uint8_t)(x >> 8);
-    *pp = p - k;
-    x >>= 8u * k;
-    uint32_t q = (uint32_t)(((uint64_t)x * s->rcp_freq) >> 32) >> s->rcp_shift;
-    return x + s->bias + q * s->cmpl_freq;
+    const uint16_t w = (uint16_t)((x & 0xffu) << 8 | (x1 & 0xffu)); /* p[-2] = x1, p[-1] = x (low bytes) */
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+    memcpy(p - 2, &w, 2);
+#else
+    p[-2] = (uint8_t)w;
+    p[-1] = (uint8_t)(w >> 8);
+#endif
+    *pp = p - ((uint32_t)(x >= xm) + (uint32_t)(x1 >= xm));
+    uint32_t q = (uint32_t)(((uint64_t)v * s->rcp_freq) >> s->rcp_shift);
+    return v + s->bias + q * s->cmpl_freq;
 }
 
 uint8_t *codec_rans_encode(const uint16_t *syms, size_t n, const codec_rans_sym *rs, uint8_t *end, uint32_t x[2])
@@ -162,11 +169,11 @@ uint8_t *codec_rans_encode(const uint16_t *syms, size_t n, const codec_rans_sym 
     size_t i = n;
     if (i & 1u) {
         i--;
-        x0 = put_branchless(x0, &p, &rs[syms[i]]);
+        x0 = put(x0, &p, &rs[syms[i]]);
     }
     for (; i >= 2; i -= 2) {
-        x1 = put_branchless(x1, &p, &rs[syms[i - 1]]);
-        x0 = put_branchless(x0, &p, &rs[syms[i - 2]]);
+        x1 = put(x1, &p, &rs[syms[i - 1]]);
+        x0 = put(x0, &p, &rs[syms[i - 2]]);
     }
     x[0] = x0;
     x[1] = x1;

@@ -12,7 +12,7 @@ typedef struct codec_rans_sym {
     uint32_t rcp_freq;  /* fixed-point reciprocal of freq */
     uint32_t bias;
     uint16_t cmpl_freq; /* SCALE - freq */
-    uint16_t rcp_shift;
+    uint16_t rcp_shift; /* q = x * rcp_freq >> rcp_shift = floor(x / freq) */
 } codec_rans_sym;
 
 /* Decoder side of all tables of a frame. */
@@ -38,18 +38,6 @@ uint8_t *codec_rans_write_table(uint8_t *p, const uint16_t *freq, uint32_t nsym)
  * CODEC_SCALE entries; 0xffff marks an empty table). */
 core_status codec_rans_read_tables(const uint8_t *data, size_t len, size_t *pos, codec_rans_tables *tabs,
                                    uint16_t *slots, core_err *err);
-
-/* Encodes symbol s into state *x, writing renormalisation bytes backwards at *pp. */
-static inline void codec_rans_put(uint32_t *x, uint8_t **pp, const codec_rans_sym *s)
-{
-    uint32_t v = *x;
-    while (v >= s->x_max) {
-        *--(*pp) = (uint8_t)v;
-        v >>= 8;
-    }
-    uint32_t q = (uint32_t)(((uint64_t)v * s->rcp_freq) >> 32) >> s->rcp_shift;
-    *x = v + s->bias + q * s->cmpl_freq;
-}
 
 /* Encodes syms[0..n) (indices table * CODEC_NSYM + symbol into rs) last first, symbol i with
  * state x[i & 1] (both start at CODEC_RANS_L), writing bytes downwards ending at end; returns

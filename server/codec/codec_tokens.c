@@ -45,11 +45,6 @@ static void emit_portable(codec_emitter *e, const int32_t *const R[3], uint32_t 
 }
 
 #ifdef __AVX2__
-static inline void put_le64(uint8_t *p, uint64_t v)
-{
-    for (int k = 0; k < 8; k++) p[k] = (uint8_t)(v >> (8 * k));
-}
-
 /* Classes (0..6) and raw fields (sign, then the bits below the leading one; meaningless for
  * class 6) of 8 residuals. */
 static inline __m256i class8(__m256i r, __m256i *field)
@@ -65,24 +60,46 @@ static inline __m256i class8(__m256i r, __m256i *field)
     return c;
 }
 
-/* Symbols straight into e->syms (8 lanes at a time, lanes past nv overwritten later), raw bits
- * of vertex pairs into s; false when a residual needs an escape (then nothing was committed). */
-static bool tokens_avx2(codec_emitter *e, const int32_t *const R[3], uint32_t nv, const codec_tok_scratch *s)
+/* Vertex v of a pair with an escape, one at a time: raw bits per axis as emit_vertex, its
+ * symbol idx (the table already chosen), then any escape symbols. */
+static void emit_indexed(codec_emitter *e, const int32_t *const R[3], uint32_t v, uint32_t idx)
+{
+    uint32_t esc[3], nesc = 0;
+    for (uint32_t a = 0; a < 3; a++) {
+        uint32_t m = mag(R[a][v]), sign = (uint32_t)R[a][v] >> 31, c = codec_class(m);
+        if (c < CODEC_ESCAPE) {
+            codec_emit_bits(e, ((m << 1) | sign) & ((1u << c) - 1u), c);
+        } else {
+            uint32_t ex = 31u - (uint32_t)__builtin_clz(m);
+            esc[nesc++] = ex - 5u;
+            codec_emit_bits(e, sign | (uint64_t)(m - (1u << ex)) << 1, ex + 1u);
+        }
+    }
+    e->syms[e->nsyms++] = (uint16_t)idx;
+    e->counts[idx]++;
+    for (uint32_t k = 0; k < nesc; k++) codec_emit_symbol(e, CODEC_T_ESC, esc[k]);
+}
+
+/* Vector part: per vertex its symbol (table * CODEC_NSYM + classes) into s->idx, the raw bits
+ * of vertex pairs into s->pair_bits / pair_nb (valid where no axis escapes), and per block of
+ * 8 vertices a mask of the escaped ones into s->esc. Scalar part: the bit stream, the symbols
+ * and the histogram, pair by pair; escaped vertices one at a time. */
+static void tokens_avx2(codec_emitter *e, const int32_t *const R[3], uint32_t nv, const codec_tok_scratch *s)
 {
     const __m256i seven = _mm256_set1_epi32((int32_t)CODEC_NCLASS), five = _mm256_set1_epi32((int32_t)CODEC_NBODY - 1),
                   nsym = _mm256_set1_epi32((int32_t)CODEC_NSYM), rot = _mm256_setr_epi32(7, 0, 1, 2, 3, 4, 5, 6),
                   lo32 = _mm256_set1_epi64x(0xffffffffll);
     const __m256i body0 = _mm256_set1_epi32((int32_t)(CODEC_T_BODY * CODEC_NSYM));
     /* lane 0 of prev: the table base of the vertex before this block's first */
-    __m256i prev = _mm256_set1_epi32((int32_t)(CODEC_T_ROOT * CODEC_NSYM)), esc = _mm256_setzero_si256();
-    uint16_t *out = e->syms + e->nsyms;
+    __m256i prev = _mm256_set1_epi32((int32_t)(CODEC_T_ROOT * CODEC_NSYM));
     for (uint32_t v0 = 0; v0 < nv; v0 += CODEC_LANES) {
         __m256i fx, fy, fz;
         __m256i cx = class8(_mm256_loadu_si256((const __m256i *)(const void *)(R[0] + v0)), &fx);
         __m256i cy = class8(_mm256_loadu_si256((const __m256i *)(const void *)(R[1] + v0)), &fy);
         __m256i cz = class8(_mm256_loadu_si256((const __m256i *)(const void *)(R[2] + v0)), &fz);
         __m256i mx = _mm256_max_epi32(_mm256_max_epi32(cx, cy), cz);
-        esc = _mm256_or_si256(esc, _mm256_cmpeq_epi32(mx, _mm256_set1_epi32((int32_t)CODEC_ESCAPE)));
+        s->esc[v0 / CODEC_LANES] = (uint8_t)_mm256_movemask_ps(
+            _mm256_castsi256_ps(_mm256_cmpeq_epi32(mx, _mm256_set1_epi32((int32_t)CODEC_ESCAPE))));
         __m256i sym = _mm256_add_epi32(cx, _mm256_mullo_epi32(seven, _mm256_add_epi32(cy, _mm256_mullo_epi32(seven, cz))));
         /* table base of the next vertex, shifted one lane up: this block's bases */
         __m256i next = _mm256_add_epi32(body0, _mm256_mullo_epi32(nsym, _mm256_min_epi32(mx, five)));
@@ -91,7 +108,7 @@ static bool tokens_avx2(codec_emitter *e, const int32_t *const R[3], uint32_t nv
         if (v0 == 0) base = _mm256_blend_epi32(base, _mm256_set1_epi32((int32_t)(CODEC_T_FIRST * CODEC_NSYM)), 0x02);
         prev = nrot;
         __m256i idx = _mm256_add_epi32(base, sym);
-        _mm_storeu_si128((__m128i *)(void *)(out + v0),
+        _mm_storeu_si128((__m128i *)(void *)(s->idx + v0),
                          _mm_packus_epi32(_mm256_castsi256_si128(idx), _mm256_extracti128_si256(idx, 1)));
         /* raw bits of each vertex: x field, then y, then z; then pairs of vertices in 64 bits */
         __m256i nb = _mm256_add_epi32(_mm256_add_epi32(cx, cy), cz);
@@ -102,33 +119,69 @@ static bool tokens_avx2(codec_emitter *e, const int32_t *const R[3], uint32_t nv
         _mm256_storeu_si256((__m256i *)(void *)(s->pair_bits + v0 / 2u), pb);
         _mm256_storeu_si256((__m256i *)(void *)(s->pair_nb + v0 / 2u), _mm256_add_epi64(nlo, _mm256_srli_epi64(nb, 32)));
     }
-    if (!_mm256_testz_si256(esc, esc)) return false;
 
-    uint32_t *h0 = e->counts, *h1 = h0 + CODEC_HIST_SIZE, *h2 = h1 + CODEC_HIST_SIZE, *h3 = h2 + CODEC_HIST_SIZE;
+    uint32_t *const h0 = e->counts, *const h1 = h0 + CODEC_HIST_SIZE, *const h2 = h1 + CODEC_HIST_SIZE,
+                   *const h3 = h2 + CODEC_HIST_SIZE;
     uint8_t *p = e->bits;
     uint64_t acc = e->acc;
-    uint32_t n = e->n, v = 0;
-    const uint32_t npairs = (nv + 1u) / 2u;
-    for (uint32_t k = 0; k < npairs; k++) {
-        acc |= s->pair_bits[k] << n;
-        n += (uint32_t)s->pair_nb[k];
-        put_le64(p, acc);
-        p += n >> 3;
-        acc >>= n & ~7u;
-        n &= 7u;
+    uint32_t n = e->n;
+    uint16_t *out = e->syms;
+    size_t ns = e->nsyms;
+    const uint16_t *idx = s->idx;
+#define PAIR(k)                                \
+    do {                                       \
+        acc |= s->pair_bits[k] << n;           \
+        n += (uint32_t)s->pair_nb[k];          \
+        codec_put_le64(p, acc);                \
+        p += n >> 3;                           \
+        acc >>= n & ~7u;                       \
+        n &= 7u;                               \
+    } while (0)
+    for (uint32_t v0 = 0; v0 < nv; v0 += CODEC_LANES) {
+        const uint32_t esc = s->esc[v0 / CODEC_LANES], k0 = v0 / 2u;
+        const uint16_t *b = idx + v0;
+        if (__builtin_expect(esc == 0 && v0 + CODEC_LANES <= nv, 1)) {
+            PAIR(k0);
+            PAIR(k0 + 1u);
+            PAIR(k0 + 2u);
+            PAIR(k0 + 3u);
+            memcpy(out + ns, b, CODEC_LANES * sizeof *out);
+            ns += CODEC_LANES;
+            h0[b[0]]++;
+            h1[b[1]]++;
+            h2[b[2]]++;
+            h3[b[3]]++;
+            h0[b[4]]++;
+            h1[b[5]]++;
+            h2[b[6]]++;
+            h3[b[7]]++;
+            continue;
+        }
+        for (uint32_t v = v0; v < v0 + CODEC_LANES && v < nv; v += 2u) {
+            if (!(esc >> (v - v0) & 3u) && v + 1u < nv) {
+                PAIR(v / 2u);
+                out[ns++] = idx[v];
+                out[ns++] = idx[v + 1u];
+                h0[idx[v]]++;
+                h1[idx[v + 1u]]++;
+                continue;
+            }
+            e->bits = p;
+            e->acc = acc;
+            e->n = n;
+            e->nsyms = ns;
+            for (uint32_t w = v; w < v + 2u && w < nv; w++) emit_indexed(e, R, w, idx[w]);
+            p = e->bits;
+            acc = e->acc;
+            n = e->n;
+            ns = e->nsyms;
+        }
     }
-    for (; v + 4u <= nv; v += 4u) {
-        h0[out[v]]++;
-        h1[out[v + 1u]]++;
-        h2[out[v + 2u]]++;
-        h3[out[v + 3u]]++;
-    }
-    for (; v < nv; v++) h0[out[v]]++;
+#undef PAIR
     e->bits = p;
     e->acc = acc;
     e->n = n;
-    e->nsyms += nv;
-    return true;
+    e->nsyms = ns;
 }
 #endif
 
@@ -136,7 +189,10 @@ void codec_emit_strand(codec_emitter *e, const int32_t *const R[3], uint32_t nv,
                        bool portable)
 {
 #ifdef __AVX2__
-    if (!portable && tokens_avx2(e, R, nv, s)) return;
+    if (!portable) {
+        tokens_avx2(e, R, nv, s);
+        return;
+    }
 #else
     (void)s;
 #endif
