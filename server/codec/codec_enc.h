@@ -62,15 +62,26 @@ void codec_motion_apply_rows(const float m[12], const int32_t *const k[3], int32
  * Vertex 1 is dP - dX under every mode. */
 #define CODEC_KINDS 4u
 
+/* Residual of kind k at vertex v >= 2 of one row (p = P row, x = X row). */
+static inline int32_t codec_kind_one(uint32_t kind, const int32_t *p, const int32_t *x, uint32_t v)
+{
+    int32_t dp0 = p[v] - p[v - 1], dp1 = p[v - 1] - p[v - 2];
+    switch (kind) {
+    case 0:
+        return dp0 - (x[v] - x[v - 1]);
+    case 1:
+        return dp0 - (x[v] - x[v - 1]) - (dp1 - (x[v - 1] - x[v - 2]));
+    case 2:
+        return dp0 - dp1;
+    default:
+        return v == 2u ? dp0 - dp1 : dp0 - codec_half(dp1 + (p[v - 2] - p[v - 3]));
+    }
+}
+
 /* cost[k] = the sum over v >= 2 and the axes of floor(log2(2 |r| + 1)) (float32 exponent of
  * 2 |r| + 1) of kind k; kind 1 only when with_kind1. Rows need CODEC_ROW_PAD lanes in front. */
 void codec_kind_costs(const int32_t *const P[3], const int32_t *const X[3], uint32_t nv, bool with_kind1,
                       uint32_t cost[CODEC_KINDS], bool portable);
-
-/* R rows (lanes 1..nv-1) = the residuals of kind (vertex 1 as dP - dX); lanes nv.. of the last
- * vector are zeroed, lane 0 is left to the caller (the root). */
-void codec_kind_residuals(uint32_t kind, const int32_t *const P[3], const int32_t *const X[3], uint32_t nv,
-                          int32_t *const R[3], bool portable);
 
 /* Symbols, histogram and raw bits of one frame, in coding order. */
 typedef struct codec_emitter {
@@ -87,6 +98,7 @@ typedef struct codec_emitter {
 
 /* Per-strand scratch of codec_emit_strand, for nvp vertices. */
 typedef struct codec_tok_scratch {
+    int32_t *R[3];                  /* residual rows */
     uint16_t *idx;                  /* nvp symbols */
     uint8_t *esc;                   /* nvp / 8 masks of escaped vertices */
     uint64_t *pair_bits, *pair_nb;  /* nvp / 2 each */
@@ -122,11 +134,12 @@ static inline void codec_emit_bits(codec_emitter *e, uint64_t v, uint32_t nb)
     e->n = n & 7u;
 }
 
-/* Emits the vertex symbols and raw bits of one strand: R rows hold the residuals of vertices
- * 0..nv-1 (lanes nv..nvp-1 zero); vertex 0 codes in the root table, vertex 1 in the first
- * segment table, later ones in the body table chosen by the previous vertex. */
-void codec_emit_strand(codec_emitter *e, const int32_t *const R[3], uint32_t nv, const codec_tok_scratch *s,
-                       bool portable);
+/* Emits the vertex symbols and raw bits of one strand coded with residual kind `kind` of P
+ * against X (vertex 1 as dP - dX; the root's residuals given): vertex 0 in the root table,
+ * vertex 1 in the first segment table, later ones in the body table chosen by the previous
+ * vertex. */
+void codec_emit_strand(codec_emitter *e, uint32_t kind, const int32_t *const P[3], const int32_t *const X[3],
+                       const int32_t root[3], uint32_t nv, const codec_tok_scratch *s, bool portable);
 
 /* Pads the raw bit stream to a whole byte; returns its end. */
 uint8_t *codec_emit_finish(codec_emitter *e);

@@ -123,7 +123,7 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
     int32_t *const K[3] = { row(enc, ROW_K), row(enc, ROW_K + 1), row(enc, ROW_K + 2) };
     int32_t *const R[3] = { row(enc, ROW_R), row(enc, ROW_R + 1), row(enc, ROW_R + 2) };
     const int32_t *const Z[3] = { row(enc, ROW_ZERO), row(enc, ROW_ZERO + 1), row(enc, ROW_ZERO + 2) };
-    const codec_tok_scratch tok = { .pair_bits = enc->pairs, .pair_nb = enc->pairs + nvp / 2u,
+    const codec_tok_scratch tok = { .R = { R[0], R[1], R[2] }, .pair_bits = enc->pairs, .pair_nb = enc->pairs + nvp / 2u,
                                     .idx = (uint16_t *)(void *)(enc->pairs + nvp),
                                     .esc = (uint8_t *)(void *)(enc->pairs + nvp + nvp / 4u) };
     int32_t kn[3] = { 0, 0, 0 }; /* root of the previous strand in the moved keyframe */
@@ -161,14 +161,14 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
                 if (cost[m] < cost[mode]) mode = m;
             kind = mode;
         }
-        codec_kind_residuals(kind, (const int32_t *const *)P, X, nv, R, portable);
+        int32_t root[3];
         for (uint32_t a = 0; a < 3; a++) {
             int32_t pred = key ? (N ? N[a][0] : 0) : K[a][0] + (N ? N[a][0] - kn[a] : 0);
-            R[a][0] = P[a][0] - pred;
+            root[a] = P[a][0] - pred;
             if (!key) kn[a] = K[a][0];
         }
         codec_emit_symbol(e, CODEC_T_MODE, mode);
-        codec_emit_strand(e, (const int32_t *const *)R, nv, &tok, portable);
+        codec_emit_strand(e, kind, (const int32_t *const *)P, X, root, nv, &tok, portable);
     }
     return CORE_OK;
 }

@@ -1,10 +1,6 @@
 /* codec: a strand's residuals into vertex symbols (magnitude classes), escape symbols and raw
  * bits, with the symbol histogram. */
-#ifdef __AVX2__
-#include <immintrin.h>
-#endif
-
-#include "codec_enc.h"
+#include "codec_simd.h"
 
 static inline uint32_t mag(int32_t r)
 {
@@ -34,8 +30,14 @@ static uint32_t emit_vertex(codec_emitter *e, uint32_t t, const int32_t r[3])
     return codec_body_table(c[0], c[1], c[2]);
 }
 
-static void emit_portable(codec_emitter *e, const int32_t *const R[3], uint32_t nv)
+static void emit_portable(codec_emitter *e, uint32_t kind, const int32_t *const P[3], const int32_t *const X[3],
+                          const int32_t root[3], uint32_t nv, int32_t *const R[3])
 {
+    for (uint32_t a = 0; a < 3; a++) {
+        R[a][0] = root[a];
+        R[a][1] = (P[a][1] - P[a][0]) - (X[a][1] - X[a][0]);
+        for (uint32_t v = 2; v < nv; v++) R[a][v] = codec_kind_one(kind, P[a], X[a], v);
+    }
     uint32_t t = CODEC_T_ROOT;
     for (uint32_t v = 0; v < nv; v++) {
         const int32_t r[3] = { R[0][v], R[1][v], R[2][v] };
@@ -84,8 +86,10 @@ static void emit_indexed(codec_emitter *e, const int32_t *const R[3], uint32_t v
  * of vertex pairs into s->pair_bits / pair_nb (valid where no axis escapes), and per block of
  * 8 vertices a mask of the escaped ones into s->esc. Scalar part: the bit stream, the symbols
  * and the histogram, pair by pair; escaped vertices one at a time. */
-static void tokens_avx2(codec_emitter *e, const int32_t *const R[3], uint32_t nv, const codec_tok_scratch *s)
+static void tokens_avx2(codec_emitter *e, uint32_t kind, const int32_t *const P[3], const int32_t *const X[3],
+                        const int32_t root[3], uint32_t nv, const codec_tok_scratch *s)
 {
+    const int32_t *const *R = (const int32_t *const *)s->R;
     const __m256i seven = _mm256_set1_epi32((int32_t)CODEC_NCLASS), five = _mm256_set1_epi32((int32_t)CODEC_NBODY - 1),
                   nsym = _mm256_set1_epi32((int32_t)CODEC_NSYM), rot = _mm256_setr_epi32(7, 0, 1, 2, 3, 4, 5, 6),
                   lo32 = _mm256_set1_epi64x(0xffffffffll);
@@ -93,10 +97,18 @@ static void tokens_avx2(codec_emitter *e, const int32_t *const R[3], uint32_t nv
     /* lane 0 of prev: the table base of the vertex before this block's first */
     __m256i prev = _mm256_set1_epi32((int32_t)(CODEC_T_ROOT * CODEC_NSYM));
     for (uint32_t v0 = 0; v0 < nv; v0 += CODEC_LANES) {
+        __m256i r[3];
+        for (uint32_t a = 0; a < 3; a++) {
+            codec_seg8 sg = codec_segments8(P[a], X[a], v0);
+            r[a] = codec_kind8(kind, &sg, v0);
+            if (v0 == 0) /* the root, then vertex 1: dP - dX */
+                r[a] = _mm256_blend_epi32(_mm256_blend_epi32(r[a], codec_kind0_8(&sg), 0x02),
+                                          _mm256_set1_epi32(root[a]), 0x01);
+            if (v0 + CODEC_LANES > nv) r[a] = _mm256_and_si256(r[a], codec_lanes8(v0, 0, nv));
+            codec_st8(s->R[a] + v0, r[a]);
+        }
         __m256i fx, fy, fz;
-        __m256i cx = class8(_mm256_loadu_si256((const __m256i *)(const void *)(R[0] + v0)), &fx);
-        __m256i cy = class8(_mm256_loadu_si256((const __m256i *)(const void *)(R[1] + v0)), &fy);
-        __m256i cz = class8(_mm256_loadu_si256((const __m256i *)(const void *)(R[2] + v0)), &fz);
+        __m256i cx = class8(r[0], &fx), cy = class8(r[1], &fy), cz = class8(r[2], &fz);
         __m256i mx = _mm256_max_epi32(_mm256_max_epi32(cx, cy), cz);
         s->esc[v0 / CODEC_LANES] = (uint8_t)_mm256_movemask_ps(
             _mm256_castsi256_ps(_mm256_cmpeq_epi32(mx, _mm256_set1_epi32((int32_t)CODEC_ESCAPE))));
@@ -185,19 +197,17 @@ static void tokens_avx2(codec_emitter *e, const int32_t *const R[3], uint32_t nv
 }
 #endif
 
-void codec_emit_strand(codec_emitter *e, const int32_t *const R[3], uint32_t nv, const codec_tok_scratch *s,
-                       bool portable)
+void codec_emit_strand(codec_emitter *e, uint32_t kind, const int32_t *const P[3], const int32_t *const X[3],
+                       const int32_t root[3], uint32_t nv, const codec_tok_scratch *s, bool portable)
 {
 #ifdef __AVX2__
     if (!portable) {
-        tokens_avx2(e, R, nv, s);
+        tokens_avx2(e, kind, P, X, root, nv, s);
         return;
     }
-#else
-    (void)s;
 #endif
     (void)portable;
-    emit_portable(e, R, nv);
+    emit_portable(e, kind, P, X, root, nv, s->R);
 }
 
 uint8_t *codec_emit_finish(codec_emitter *e)
