@@ -53,14 +53,14 @@ typedef struct codec_frame_info {
 typedef struct codec_encoder {
     codec_desc desc;
     uint32_t nstrands_total, nstrands_sent, nverts;
-    uint32_t nvp;        /* lanes per row: nverts rounded up to a multiple of 8 */
+    uint32_t ngroups;    /* groups of 8 sent strands (the last one may be partial) */
     double step, inv_step;
     uint64_t key_seq;
     uint32_t since_key;  /* frames since the last keyframe; key_valid false until the first */
     bool key_valid;
     bool portable;       /* use the portable kernels even where SIMD ones were built: the same
                             bytes (tests set it after init to compare the two) */
-    int32_t *key_q;      /* keyframe lattice coordinates: per sent strand, rows x, y, z of nvp */
+    int32_t *key_q;      /* keyframe lattice coordinates: per group of 8 strands [vertex][axis][strand] */
     int32_t *cur_q;      /* this frame's, when it is a keyframe */
     int32_t *key_roots, *cur_roots; /* root xyz of every sent strand: keyframe, this frame */
     uint64_t last_seq;   /* sequence numbers must increase */
@@ -69,8 +69,7 @@ typedef struct codec_encoder {
     struct codec_rans_sym *rsyms; /* per-frame encoding tables */
     uint8_t *bits;       /* raw bit stream of this frame */
     uint8_t *rans;       /* rANS output, written backwards from the end */
-    int32_t *work;       /* per-strand scratch rows */
-    uint64_t *pairs;     /* per-strand tokens: raw bits of vertex pairs, symbols, escapes */
+    int32_t *work;       /* per-group scratch */
     size_t nsyms_max, bits_cap, rans_cap;
 } codec_encoder;
 

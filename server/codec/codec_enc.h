@@ -1,6 +1,7 @@
-/* codec: the encoder's per-strand kernels (quantise, motion-compensate, choose the prediction,
- * tokenise) on strands laid out as three rows x, y, z; each kernel has a portable path and,
- * when built with __AVX2__, a vector path that gives exactly the same results. */
+/* codec: the encoder's kernels on groups of 8 strands held side by side (one strand per vector
+ * lane): quantise, motion-compensate, estimate the mode costs, tokenise; each kernel has a
+ * portable path and, when built with __AVX2__, a vector path that gives exactly the same
+ * results. */
 #ifndef CODEC_CODEC_ENC_H
 #define CODEC_CODEC_ENC_H
 
@@ -11,16 +12,12 @@
 
 #include "codec_rans.h"
 
-/* A strand in the encoder is three rows (x, y, z) of nvp int32 lanes, nvp = nverts rounded up
- * to CODEC_LANES; per-strand scratch rows also have CODEC_ROW_PAD lanes in front (kernels read
- * vertices v - 1 .. v - 3). Lanes past nverts hold zeros or values of earlier strands. */
-#define CODEC_LANES 8u
-#define CODEC_ROW_PAD 8u
-
-static inline uint32_t codec_lanes_round(uint32_t nverts)
-{
-    return (nverts + CODEC_LANES - 1u) / CODEC_LANES * CODEC_LANES;
-}
+/* A group holds CODEC_GROUP strands; its lattice coordinates are laid out [vertex][axis][lane]
+ * (CODEC_GSTRIDE int32 per vertex), so one vector load gives one axis of one vertex of all
+ * strands. The last group of a frame repeats its last strand in the unused lanes. */
+#define CODEC_GROUP 8u
+#define CODEC_GSTRIDE (3u * CODEC_GROUP)
+#define CODEC_GAT(v, a, l) ((size_t)(v) * CODEC_GSTRIDE + (size_t)(a) * CODEC_GROUP + (size_t)(l))
 
 /* Quantisation constants of a stream (codec_quant_setup). */
 typedef struct codec_quant {
@@ -31,30 +28,29 @@ typedef struct codec_quant {
 
 void codec_quant_setup(codec_quant *qz, float bound);
 
-/* The fast path for one strand: src holds nv vertices (xyz), rows[a][v] gets the lattice
- * coordinate of vertex v, axis a, rounded half up. Returns false when a coordinate is out of
- * the fast range or its float32 reconstruction misses the bound; the caller then quantises the
- * strand with codec_quant_careful instead (the rows hold garbage). */
-bool codec_quant_fast(const codec_quant *qz, const float *src, uint32_t nv, int32_t *const rows[3], bool portable);
+/* The fast path for a group: src[l] holds the nv vertices (xyz) of lane l's strand, P gets the
+ * lattice coordinates rounded half up. Returns the mask of lanes where a coordinate is out of
+ * the fast range or its float32 reconstruction misses the bound (those lanes hold garbage; the
+ * caller quantises them with codec_quant_careful). */
+uint32_t codec_quant_group(const codec_quant *qz, const float *const src[CODEC_GROUP], uint32_t nv, int32_t *P,
+                           bool portable);
 
-/* The careful path for one strand: per coordinate the nearest lattice point (half to even)
- * whose float32 reconstruction is within the bound, or its neighbour. Fails with CORE_EINVAL
- * on the first coordinate that is not finite, out of range or unreachable (strand names the
- * strand in the message). */
-core_status codec_quant_careful(const codec_quant *qz, const float *src, uint32_t nv, int32_t *const rows[3],
+/* The careful path for lane l: per coordinate the nearest lattice point (half to even) whose
+ * float32 reconstruction is within the bound, or its neighbour. Fails with CORE_EINVAL on the
+ * first coordinate that is not finite, out of range or unreachable (strand names the strand in
+ * the message). */
+core_status codec_quant_careful(const codec_quant *qz, const float *src, uint32_t nv, int32_t *P, uint32_t l,
                                 uint32_t strand, core_err *err);
 
 /* The root q[0..3) of a strand as either path gives it; false when the two may differ or the
  * root fails (then quantise the whole strand to learn it). */
 bool codec_quant_root(const codec_quant *qz, const float *src, int32_t q[3]);
 
-/* out rows = the rigid motion m applied to the rows k, lanes 0..n-1 (as codec_motion_apply). */
-void codec_motion_apply_rows(const float m[12], const int32_t *const k[3], int32_t *const out[3], uint32_t n,
-                             bool portable);
+/* out = the rigid motion m applied to the group k (as codec_motion_apply), nv vertices. */
+void codec_motion_apply_group(const float m[12], const int32_t *k, int32_t *out, uint32_t nv, bool portable);
 
-/* Candidate residuals of vertices v >= 2, from this strand's rows P and a reference X (the
- * moved keyframe strand in deltas, the previous strand or zeros in keyframes); dP, dX are
- * segments (P[v] - P[v-1]):
+/* Candidate residuals of vertex v >= 2 of a strand P against a reference X (the moved keyframe
+ * in deltas, the previous strand or zeros in keyframes); dP, dX are segments (P[v] - P[v-1]):
  *   kind 0: dP - dX                          (delta mode 0, keyframe mode 1)
  *   kind 1: (dP - dX)[v] - (dP - dX)[v-1]    (delta mode 1)
  *   kind 2: dP[v] - dP[v-1]                  (delta mode 2, keyframe mode 0)
@@ -62,32 +58,49 @@ void codec_motion_apply_rows(const float m[12], const int32_t *const k[3], int32
  * Vertex 1 is dP - dX under every mode. */
 #define CODEC_KINDS 4u
 
-/* Residual of kind k at vertex v >= 2 of one row (p = P row, x = X row). */
-static inline int32_t codec_kind_one(uint32_t kind, const int32_t *p, const int32_t *x, uint32_t v)
+/* Residual of kind k at vertex v >= 2; p and x address vertex 0 of one axis of one strand,
+ * consecutive vertices `stride` int32 apart. */
+static inline int32_t codec_kind_at(uint32_t kind, const int32_t *p, const int32_t *x, size_t stride, uint32_t v)
 {
-    int32_t dp0 = p[v] - p[v - 1], dp1 = p[v - 1] - p[v - 2];
+#define AT(a, i) (a)[(size_t)(i) * stride]
+    int32_t dp0 = AT(p, v) - AT(p, v - 1), dp1 = AT(p, v - 1) - AT(p, v - 2);
     switch (kind) {
     case 0:
-        return dp0 - (x[v] - x[v - 1]);
+        return dp0 - (AT(x, v) - AT(x, v - 1));
     case 1:
-        return dp0 - (x[v] - x[v - 1]) - (dp1 - (x[v - 1] - x[v - 2]));
+        return dp0 - (AT(x, v) - AT(x, v - 1)) - (dp1 - (AT(x, v - 1) - AT(x, v - 2)));
     case 2:
         return dp0 - dp1;
     default:
-        return v == 2u ? dp0 - dp1 : dp0 - codec_half(dp1 + (p[v - 2] - p[v - 3]));
+        return v == 2u ? dp0 - dp1 : dp0 - codec_half(dp1 + (AT(p, v - 2) - AT(p, v - 3)));
     }
+#undef AT
 }
 
-/* cost[k] = the sum over v >= 2 and the axes of floor(log2(2 |r| + 1)) (float32 exponent of
- * 2 |r| + 1) of kind k; kind 1 only when with_kind1. Rows need CODEC_ROW_PAD lanes in front. */
-void codec_kind_costs(const int32_t *const P[3], const int32_t *const X[3], uint32_t nv, bool with_kind1,
-                      uint32_t cost[CODEC_KINDS], bool portable);
+/* cost[k * CODEC_GROUP + l] = the sum over v >= 2 and the axes of floor(log2(2 |r| + 1)) (the
+ * float32 exponent of 2 |r| + 1) of kind k of lane l. */
+void codec_costs_group(const int32_t *P, const int32_t *X, uint32_t nv, uint32_t cost[CODEC_KINDS * CODEC_GROUP],
+                       bool portable);
+
+/* Per-group token scratch (codec_tokens_group fills it, codec_emit_lane reads it). */
+typedef struct codec_tokens {
+    int32_t *R;      /* residuals of the chosen kinds, group layout */
+    uint32_t *idx;   /* [v][lane]: symbol of vertex v, table * CODEC_NSYM + classes */
+    uint32_t *pbits; /* [k][lane]: raw bits of vertices 2k, 2k+1 (valid where neither escapes) */
+    uint32_t *pnb;   /* [k][lane]: their length */
+    uint32_t *esc;   /* [c][lane]: bit v - 32c set when vertex v escapes */
+} codec_tokens;
+
+/* Tokens of every lane of a group: kind[l] is lane l's residual kind, root[a * CODEC_GROUP + l]
+ * its root residuals. */
+void codec_tokens_group(const uint32_t kind[CODEC_GROUP], const int32_t *P, const int32_t *X,
+                        const int32_t root[3 * CODEC_GROUP], uint32_t nv, const codec_tokens *t, bool portable);
 
 /* Symbols, histogram and raw bits of one frame, in coding order. */
 typedef struct codec_emitter {
     uint16_t *syms;    /* table * CODEC_NSYM + symbol */
     size_t nsyms;
-    uint32_t *counts;  /* CODEC_HIST_COPIES histograms of CODEC_NTABLES * CODEC_NSYM, summed later */
+    uint32_t *counts;  /* CODEC_HIST_COPIES histograms of CODEC_HIST_SIZE, summed later */
     uint8_t *bits;     /* raw bit stream: written 8 bytes at a time, needs 8 bytes of slack */
     uint64_t acc;      /* bits not yet whole bytes, n of them */
     uint32_t n;
@@ -95,22 +108,6 @@ typedef struct codec_emitter {
 
 #define CODEC_HIST_COPIES 4u
 #define CODEC_HIST_SIZE (CODEC_NTABLES * CODEC_NSYM)
-
-/* Per-strand scratch of codec_emit_strand, for nvp vertices. */
-typedef struct codec_tok_scratch {
-    int32_t *R[3];                  /* residual rows */
-    uint16_t *idx;                  /* nvp symbols */
-    uint8_t *esc;                   /* nvp / 8 masks of escaped vertices */
-    uint64_t *pair_bits, *pair_nb;  /* nvp / 2 each */
-} codec_tok_scratch;
-
-/* Emits a symbol of table t. */
-static inline void codec_emit_symbol(codec_emitter *e, uint32_t t, uint32_t sym)
-{
-    uint32_t idx = t * CODEC_NSYM + sym;
-    e->syms[e->nsyms++] = (uint16_t)idx;
-    e->counts[idx]++;
-}
 
 /* Stores v at p[0..8) little-endian. */
 static inline void codec_put_le64(uint8_t *p, uint64_t v)
@@ -134,12 +131,16 @@ static inline void codec_emit_bits(codec_emitter *e, uint64_t v, uint32_t nb)
     e->n = n & 7u;
 }
 
-/* Emits the vertex symbols and raw bits of one strand coded with residual kind `kind` of P
- * against X (vertex 1 as dP - dX; the root's residuals given): vertex 0 in the root table,
- * vertex 1 in the first segment table, later ones in the body table chosen by the previous
- * vertex. */
-void codec_emit_strand(codec_emitter *e, uint32_t kind, const int32_t *const P[3], const int32_t *const X[3],
-                       const int32_t root[3], uint32_t nv, const codec_tok_scratch *s, bool portable);
+/* Emits a symbol of table t. */
+static inline void codec_emit_symbol(codec_emitter *e, uint32_t t, uint32_t sym)
+{
+    uint32_t idx = t * CODEC_NSYM + sym;
+    e->syms[e->nsyms++] = (uint16_t)idx;
+    e->counts[idx]++;
+}
+
+/* Emits the vertex symbols (with their escapes) and raw bits of lane l of a tokenised group. */
+void codec_emit_lane(codec_emitter *e, const codec_tokens *t, uint32_t l, uint32_t nv);
 
 /* Pads the raw bit stream to a whole byte; returns its end. */
 uint8_t *codec_emit_finish(codec_emitter *e);

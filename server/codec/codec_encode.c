@@ -7,12 +7,16 @@
 
 _Static_assert(CODEC_NTABLES * CODEC_NSYM <= 65536, "symbols are packed as table * 343 + symbol in 16 bits");
 
-/* Scratch rows of one strand: row k starts at work + k * (CODEC_ROW_PAD + nvp) + CODEC_ROW_PAD. */
-enum { ROW_P0 = 0, ROW_P1 = 3, ROW_K = 6, ROW_ZERO = 9, ROW_R = 12, NROWS = 15 };
-
-static int32_t *row(const codec_encoder *enc, uint32_t k)
+/* Per-group scratch, in int32 units: P of this and the previous group, the reference X (moved
+ * keyframe or previous strands), the chosen residuals, then the tokens. */
+static size_t group_size(uint32_t nverts)
 {
-    return enc->work + (size_t)k * (CODEC_ROW_PAD + enc->nvp) + CODEC_ROW_PAD;
+    return (size_t)nverts * CODEC_GSTRIDE;
+}
+
+static size_t work_size(uint32_t nverts)
+{
+    return 4u * group_size(nverts) + (size_t)CODEC_GROUP * (nverts + 2u * ((nverts + 1u) / 2u) + (nverts + 31u) / 32u);
 }
 
 void codec_encoder_free(codec_encoder *enc)
@@ -28,7 +32,6 @@ void codec_encoder_free(codec_encoder *enc)
     free(enc->rans);
     free(enc->rsyms);
     free(enc->work);
-    free(enc->pairs);
     memset(enc, 0, sizeof *enc);
 }
 
@@ -56,11 +59,11 @@ core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint3
     enc->nstrands_total = nstrands;
     enc->nstrands_sent = sent;
     enc->nverts = nverts;
-    enc->nvp = codec_lanes_round(nverts);
+    enc->ngroups = (sent + CODEC_GROUP - 1u) / CODEC_GROUP;
     enc->step = codec_step_for_bound(d.max_error_m);
     enc->inv_step = 1.0 / enc->step;
-    size_t nq = (size_t)sent * enc->nvp * 3u;
-    enc->nsyms_max = (size_t)sent * (1u + 4u * (size_t)nverts) + CODEC_LANES;
+    size_t nq = (size_t)enc->ngroups * group_size(nverts);
+    enc->nsyms_max = (size_t)sent * (1u + 4u * (size_t)nverts);
     enc->bits_cap = (size_t)sent * nverts * 12u + 16u;
     enc->rans_cap = enc->nsyms_max * 2u + 16u;
     enc->key_q = calloc(nq, sizeof *enc->key_q);
@@ -72,39 +75,40 @@ core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint3
     enc->bits = malloc(enc->bits_cap);
     enc->rans = malloc(enc->rans_cap);
     enc->rsyms = malloc((size_t)CODEC_HIST_SIZE * sizeof *enc->rsyms);
-    enc->work = calloc((size_t)NROWS * (CODEC_ROW_PAD + enc->nvp), sizeof *enc->work);
-    enc->pairs = calloc(2u * (size_t)enc->nvp, sizeof *enc->pairs);
+    enc->work = calloc(work_size(nverts), sizeof *enc->work);
     if (!enc->key_q || !enc->cur_q || !enc->key_roots || !enc->cur_roots || !enc->syms || !enc->counts ||
-        !enc->bits || !enc->rans || !enc->rsyms || !enc->work || !enc->pairs) {
+        !enc->bits || !enc->rans || !enc->rsyms || !enc->work) {
         codec_encoder_free(enc);
         return core_fail(err, CORE_ENOMEM, "codec: out of memory for %u x %u vertices", sent, nverts);
     }
     return CORE_OK;
 }
 
-/* Quantises sent strand j into rows (the fast path, else the careful one). */
+/* Quantises sent strand j alone into lane 0 of the group P (the fast path, else the careful
+ * one). */
 static core_status quantize_strand(const codec_encoder *enc, const codec_quant *qz, const float *xyz, uint32_t j,
-                                   int32_t *const rows[3], core_err *err)
+                                   int32_t *P, core_err *err)
 {
     const float *src = xyz + (size_t)j * enc->desc.stride * enc->nverts * 3u;
-    if (codec_quant_fast(qz, src, enc->nverts, rows, enc->portable)) return CORE_OK;
-    return codec_quant_careful(qz, src, enc->nverts, rows, j * enc->desc.stride, err);
+    const float *const srcs[CODEC_GROUP] = { src, src, src, src, src, src, src, src };
+    if (!(codec_quant_group(qz, srcs, enc->nverts, P, enc->portable) & 1u)) return CORE_OK;
+    return codec_quant_careful(qz, src, enc->nverts, P, 0, j * enc->desc.stride, err);
 }
 
-/* The roots of this frame into enc->cur_roots (for the motion estimate), as the strand pass
+/* The roots of this frame into enc->cur_roots (for the motion estimate), as the group pass
  * will quantise them; on a bad coordinate, the first one in strand order fails. */
 static core_status quantize_roots(codec_encoder *enc, const codec_quant *qz, const float *xyz, core_err *err)
 {
-    int32_t *const rows[3] = { row(enc, ROW_R), row(enc, ROW_R + 1), row(enc, ROW_R + 2) };
+    int32_t *P = enc->work;
     const size_t per = (size_t)enc->desc.stride * enc->nverts * 3u;
     for (uint32_t j = 0; j < enc->nstrands_sent; j++) {
         int32_t *q = enc->cur_roots + 3u * j;
         if (codec_quant_root(qz, xyz + j * per, q)) continue;
-        if (quantize_strand(enc, qz, xyz, j, rows, err)) {
+        if (quantize_strand(enc, qz, xyz, j, P, err)) {
             for (uint32_t i = 0; i <= j; i++)
-                if (quantize_strand(enc, qz, xyz, i, rows, err)) return CORE_EINVAL;
+                if (quantize_strand(enc, qz, xyz, i, P, err)) return CORE_EINVAL;
         }
-        for (uint32_t a = 0; a < 3; a++) q[a] = rows[a][0];
+        for (uint32_t a = 0; a < 3; a++) q[a] = P[CODEC_GAT(0, a, 0)];
     }
     return CORE_OK;
 }
@@ -112,63 +116,97 @@ static core_status quantize_roots(codec_encoder *enc, const codec_quant *qz, con
 /* Keyframe mode m predicts as kind KEY_KIND[m]; delta mode m as kind m. */
 static const uint32_t KEY_KIND[CODEC_KEY_MODES] = { 2, 0, 3 };
 
-/* Pass 1: per strand quantise, choose the cheapest mode, emit its symbols and raw bits. */
+/* Quantises group g (lanes past the last strand repeat it) into P; the careful path for the
+ * lanes the fast one refuses. */
+static core_status quantize_group(const codec_encoder *enc, const codec_quant *qz, const float *xyz, uint32_t g,
+                                  uint32_t nreal, int32_t *P, core_err *err)
+{
+    const uint32_t nv = enc->nverts;
+    const size_t per = (size_t)enc->desc.stride * nv * 3u;
+    const float *src[CODEC_GROUP];
+    for (uint32_t l = 0; l < CODEC_GROUP; l++) src[l] = xyz + ((size_t)g * CODEC_GROUP + (l < nreal ? l : nreal - 1u)) * per;
+    uint32_t bad = codec_quant_group(qz, src, nv, P, enc->portable);
+    for (uint32_t l = 0; l < nreal; l++) {
+        if (!(bad >> l & 1u)) continue;
+        core_status st = codec_quant_careful(qz, src[l], nv, P, l, (g * CODEC_GROUP + l) * enc->desc.stride, err);
+        if (st) return st;
+    }
+    for (uint32_t l = nreal; l < CODEC_GROUP; l++)
+        for (uint32_t v = 0; v < nv; v++)
+            for (uint32_t a = 0; a < 3; a++) P[CODEC_GAT(v, a, l)] = P[CODEC_GAT(v, a, nreal - 1u)];
+    return CORE_OK;
+}
+
+/* Pass 1, group by group: quantise, build the reference, choose each strand's cheapest mode,
+ * tokenise, emit the strands' symbols and raw bits in order. */
 static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const float *xyz, bool key,
                             const float motion[12], codec_emitter *e, core_err *err)
 {
-    const uint32_t nv = enc->nverts, nvp = enc->nvp;
+    const uint32_t nv = enc->nverts;
     const bool portable = enc->portable;
-    int32_t *const Pr[2][3] = { { row(enc, ROW_P0), row(enc, ROW_P0 + 1), row(enc, ROW_P0 + 2) },
-                                { row(enc, ROW_P1), row(enc, ROW_P1 + 1), row(enc, ROW_P1 + 2) } };
-    int32_t *const K[3] = { row(enc, ROW_K), row(enc, ROW_K + 1), row(enc, ROW_K + 2) };
-    int32_t *const R[3] = { row(enc, ROW_R), row(enc, ROW_R + 1), row(enc, ROW_R + 2) };
-    const int32_t *const Z[3] = { row(enc, ROW_ZERO), row(enc, ROW_ZERO + 1), row(enc, ROW_ZERO + 2) };
-    const codec_tok_scratch tok = { .R = { R[0], R[1], R[2] }, .pair_bits = enc->pairs, .pair_nb = enc->pairs + nvp / 2u,
-                                    .idx = (uint16_t *)(void *)(enc->pairs + nvp),
-                                    .esc = (uint8_t *)(void *)(enc->pairs + nvp + nvp / 4u) };
-    int32_t kn[3] = { 0, 0, 0 }; /* root of the previous strand in the moved keyframe */
-    for (uint32_t j = 0; j < enc->nstrands_sent; j++) {
-        int32_t *const *P = Pr[j & 1u];
-        const int32_t *const *N = j ? (const int32_t *const *)Pr[(j - 1u) & 1u] : NULL;
-        core_status st = quantize_strand(enc, qz, xyz, j, P, err);
+    const size_t gs = group_size(nv);
+    int32_t *const Pg[2] = { enc->work, enc->work + gs }, *const X = enc->work + 2u * gs;
+    uint32_t *const tw = (uint32_t *)(void *)(enc->work + 4u * gs);
+    const codec_tokens tok = { .R = enc->work + 3u * gs, .idx = tw, .pbits = tw + (size_t)nv * CODEC_GROUP,
+                               .pnb = tw + (size_t)(nv + (nv + 1u) / 2u) * CODEC_GROUP,
+                               .esc = tw + (size_t)(nv + 2u * ((nv + 1u) / 2u)) * CODEC_GROUP };
+    int32_t kprev[3] = { 0, 0, 0 }; /* root of the previous strand in the moved keyframe */
+    for (uint32_t g = 0; g < enc->ngroups; g++) {
+        const uint32_t j0 = g * CODEC_GROUP, nreal = enc->nstrands_sent - j0 < CODEC_GROUP ? enc->nstrands_sent - j0 : CODEC_GROUP;
+        int32_t *const P = Pg[g & 1u];
+        const int32_t *const Pprev = Pg[(g + 1u) & 1u];
+        core_status st = quantize_group(enc, qz, xyz, g, nreal, P, err);
         if (st) return st;
-        const int32_t *const *X;
-        uint32_t cost[CODEC_KINDS], mode = 0, kind;
         if (key) {
-            int32_t *q = enc->cur_q + (size_t)j * nvp * 3u;
-            for (uint32_t a = 0; a < 3; a++) {
-                memcpy(q + (size_t)a * nvp, P[a], nvp * sizeof *q);
-                enc->cur_roots[3u * j + a] = P[a][0];
-            }
-            X = N ? N : Z;
-            codec_kind_costs((const int32_t *const *)P, X, nv, false, cost, portable);
-            uint32_t best = cost[KEY_KIND[0]];
-            for (uint32_t m = 1; m < CODEC_KEY_MODES; m++) {
-                if (m == 1u && !N) continue; /* the same as mode 0 */
-                if (cost[KEY_KIND[m]] < best) {
-                    best = cost[KEY_KIND[m]];
-                    mode = m;
+            memcpy(enc->cur_q + (size_t)g * gs, P, gs * sizeof *P);
+            for (uint32_t l = 0; l < nreal; l++)
+                for (uint32_t a = 0; a < 3; a++) enc->cur_roots[3u * (j0 + l) + a] = P[CODEC_GAT(0, a, l)];
+            for (uint32_t v = 0; v < nv; v++) /* X = the previous strand, zeros before the first */
+                for (uint32_t a = 0; a < 3; a++) {
+                    X[CODEC_GAT(v, a, 0)] = g ? Pprev[CODEC_GAT(v, a, CODEC_GROUP - 1u)] : 0;
+                    memcpy(X + CODEC_GAT(v, a, 1), P + CODEC_GAT(v, a, 0), (CODEC_GROUP - 1u) * sizeof *X);
                 }
-            }
-            kind = KEY_KIND[mode];
         } else {
-            const int32_t *kq = enc->key_q + (size_t)j * nvp * 3u;
-            const int32_t *const krows[3] = { kq, kq + nvp, kq + 2u * nvp };
-            codec_motion_apply_rows(motion, krows, K, nv, portable);
-            X = (const int32_t *const *)K;
-            codec_kind_costs((const int32_t *const *)P, X, nv, true, cost, portable);
-            for (uint32_t m = 1; m < CODEC_DELTA_MODES; m++)
-                if (cost[m] < cost[mode]) mode = m;
-            kind = mode;
+            codec_motion_apply_group(motion, enc->key_q + (size_t)g * gs, X, nv, portable);
         }
-        int32_t root[3];
-        for (uint32_t a = 0; a < 3; a++) {
-            int32_t pred = key ? (N ? N[a][0] : 0) : K[a][0] + (N ? N[a][0] - kn[a] : 0);
-            root[a] = P[a][0] - pred;
-            if (!key) kn[a] = K[a][0];
+        uint32_t cost[CODEC_KINDS * CODEC_GROUP], mode[CODEC_GROUP], kind[CODEC_GROUP];
+        int32_t root[3 * CODEC_GROUP];
+        codec_costs_group(P, X, nv, cost, portable);
+        for (uint32_t l = 0; l < CODEC_GROUP; l++) {
+            const uint32_t j = j0 + l;
+            uint32_t m = 0;
+            if (key) {
+                uint32_t best = cost[KEY_KIND[0] * CODEC_GROUP + l];
+                for (uint32_t k = 1; k < CODEC_KEY_MODES; k++) {
+                    if (k == 1u && j == 0) continue; /* no neighbour: the same as mode 0 */
+                    if (cost[KEY_KIND[k] * CODEC_GROUP + l] < best) {
+                        best = cost[KEY_KIND[k] * CODEC_GROUP + l];
+                        m = k;
+                    }
+                }
+                kind[l] = KEY_KIND[m];
+            } else {
+                for (uint32_t k = 1; k < CODEC_DELTA_MODES; k++)
+                    if (cost[k * CODEC_GROUP + l] < cost[m * CODEC_GROUP + l]) m = k;
+                kind[l] = m;
+            }
+            mode[l] = m;
+            for (uint32_t a = 0; a < 3; a++) {
+                int32_t p0 = P[CODEC_GAT(0, a, l)], x0 = X[CODEC_GAT(0, a, l)], pred = x0;
+                if (!key && j > 0) {
+                    int32_t n0 = l ? P[CODEC_GAT(0, a, l - 1u)] : Pprev[CODEC_GAT(0, a, CODEC_GROUP - 1u)];
+                    int32_t kn0 = l ? X[CODEC_GAT(0, a, l - 1u)] : kprev[a];
+                    pred = x0 + (n0 - kn0);
+                }
+                root[a * CODEC_GROUP + l] = p0 - pred;
+            }
         }
-        codec_emit_symbol(e, CODEC_T_MODE, mode);
-        codec_emit_strand(e, kind, (const int32_t *const *)P, X, root, nv, &tok, portable);
+        for (uint32_t a = 0; a < 3; a++) kprev[a] = X[CODEC_GAT(0, a, CODEC_GROUP - 1u)];
+        codec_tokens_group(kind, P, X, root, nv, &tok, portable);
+        for (uint32_t l = 0; l < nreal; l++) {
+            codec_emit_symbol(e, CODEC_T_MODE, mode[l]);
+            codec_emit_lane(e, &tok, l, nv);
+        }
     }
     return CORE_OK;
 }

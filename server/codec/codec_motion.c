@@ -107,55 +107,55 @@ void codec_motion_apply(const float m[12], const int32_t *restrict k, int32_t *r
     }
 }
 
-static void apply_rows_portable(const float m[12], const int32_t *const k[3], int32_t *const out[3], uint32_t v0,
-                                uint32_t n)
+static void apply_group_portable(const float m[12], const int32_t *k, int32_t *out, uint32_t nv)
 {
     const int32_t lim = CODEC_MAX_QUANT - 1, off = 1 << 30;
     const double c[3] = { (double)m[9] + 1073741824.5, (double)m[10] + 1073741824.5, (double)m[11] + 1073741824.5 };
-    for (uint32_t v = v0; v < n; v++) {
-        double x = k[0][v], y = k[1][v], z = k[2][v];
-        for (int a = 0; a < 3; a++) {
-            int32_t w = (int32_t)((double)m[3 * a] * x + (double)m[3 * a + 1] * y + (double)m[3 * a + 2] * z + c[a]) - off;
-            out[a][v] = w < -lim ? -lim : w > lim ? lim : w;
+    for (uint32_t v = 0; v < nv; v++)
+        for (uint32_t l = 0; l < CODEC_GROUP; l++) {
+            double x = k[CODEC_GAT(v, 0, l)], y = k[CODEC_GAT(v, 1, l)], z = k[CODEC_GAT(v, 2, l)];
+            for (uint32_t a = 0; a < 3; a++) {
+                int32_t w = (int32_t)((double)m[3 * a] * x + (double)m[3 * a + 1] * y + (double)m[3 * a + 2] * z + c[a]) - off;
+                out[CODEC_GAT(v, a, l)] = w < -lim ? -lim : w > lim ? lim : w;
+            }
         }
-    }
 }
 
 #ifdef __AVX2__
-/* 4 vertices per step in binary64, the same operations in the same order. */
-static void apply_rows_avx2(const float m[12], const int32_t *const k[3], int32_t *const out[3], uint32_t n)
+/* Per vertex two halves of 4 strands in binary64, the same operations in the same order. */
+static void apply_group_avx2(const float m[12], const int32_t *k, int32_t *out, uint32_t nv)
 {
     const __m128i lim = _mm_set1_epi32(CODEC_MAX_QUANT - 1), nlim = _mm_set1_epi32(-(CODEC_MAX_QUANT - 1)),
                   off = _mm_set1_epi32(1 << 30);
     __m256d r[9], c[3];
     for (int i = 0; i < 9; i++) r[i] = _mm256_set1_pd((double)m[i]);
     for (int a = 0; a < 3; a++) c[a] = _mm256_set1_pd((double)m[9 + a] + 1073741824.5);
-    uint32_t v = 0;
-    for (; v + 4u <= n; v += 4u) {
-        __m256d x = _mm256_cvtepi32_pd(_mm_loadu_si128((const __m128i *)(const void *)(k[0] + v)));
-        __m256d y = _mm256_cvtepi32_pd(_mm_loadu_si128((const __m128i *)(const void *)(k[1] + v)));
-        __m256d z = _mm256_cvtepi32_pd(_mm_loadu_si128((const __m128i *)(const void *)(k[2] + v)));
+    for (size_t i = 0; i < (size_t)nv * 2u; i++) {
+        /* vertex i / 2, strands 4 (i & 1) .. 4 (i & 1) + 3 */
+        const int32_t *kv = k + (i >> 1) * CODEC_GSTRIDE + (i & 1u) * 4u;
+        int32_t *ov = out + (i >> 1) * CODEC_GSTRIDE + (i & 1u) * 4u;
+        __m256d x = _mm256_cvtepi32_pd(_mm_loadu_si128((const __m128i *)(const void *)kv));
+        __m256d y = _mm256_cvtepi32_pd(_mm_loadu_si128((const __m128i *)(const void *)(kv + CODEC_GROUP)));
+        __m256d z = _mm256_cvtepi32_pd(_mm_loadu_si128((const __m128i *)(const void *)(kv + 2u * CODEC_GROUP)));
         for (int a = 0; a < 3; a++) {
             __m256d s = _mm256_add_pd(_mm256_mul_pd(r[3 * a], x), _mm256_mul_pd(r[3 * a + 1], y));
             s = _mm256_add_pd(_mm256_add_pd(s, _mm256_mul_pd(r[3 * a + 2], z)), c[a]);
             __m128i w = _mm_sub_epi32(_mm256_cvttpd_epi32(s), off);
             w = _mm_max_epi32(_mm_min_epi32(w, lim), nlim);
-            _mm_storeu_si128((__m128i *)(void *)(out[a] + v), w);
+            _mm_storeu_si128((__m128i *)(void *)(ov + (size_t)a * CODEC_GROUP), w);
         }
     }
-    apply_rows_portable(m, k, out, v, n);
 }
 #endif
 
-void codec_motion_apply_rows(const float m[12], const int32_t *const k[3], int32_t *const out[3], uint32_t n,
-                             bool portable)
+void codec_motion_apply_group(const float m[12], const int32_t *k, int32_t *out, uint32_t nv, bool portable)
 {
 #ifdef __AVX2__
     if (!portable) {
-        apply_rows_avx2(m, k, out, n);
+        apply_group_avx2(m, k, out, nv);
         return;
     }
 #endif
     (void)portable;
-    apply_rows_portable(m, k, out, 0, n);
+    apply_group_portable(m, k, out, nv);
 }

@@ -28,12 +28,16 @@ static inline bool fast_one(const codec_quant *qz, float x, int32_t *q)
     return !(fabsf((float)((double)v * qz->step) - x) > qz->bound);
 }
 
-static bool fast_portable(const codec_quant *qz, const float *src, uint32_t v0, uint32_t nv, int32_t *const rows[3])
+static uint32_t group_portable(const codec_quant *qz, const float *const src[CODEC_GROUP], uint32_t nv, int32_t *P)
 {
-    bool ok = true;
-    for (uint32_t v = v0; v < nv; v++)
-        for (uint32_t a = 0; a < 3; a++) ok &= fast_one(qz, src[3u * v + a], &rows[a][v]);
-    return ok;
+    uint32_t bad = 0;
+    for (uint32_t l = 0; l < CODEC_GROUP; l++) {
+        bool ok = true;
+        for (uint32_t v = 0; v < nv; v++)
+            for (uint32_t a = 0; a < 3; a++) ok &= fast_one(qz, src[l][3u * v + a], &P[CODEC_GAT(v, a, l)]);
+        bad |= (uint32_t)!ok << l;
+    }
+    return bad;
 }
 
 #ifdef __AVX2__
@@ -44,65 +48,78 @@ typedef struct quant8 {
 } quant8;
 
 /* 4 coordinates: the lattice values of fast_one (floor of the shifted value, then the shift
- * taken off exactly in binary64), and the lanes that failed (range or bound) or'ed into *bad. */
-static inline __m128i fast4(const quant8 *k, __m128 x, __m256d xd, __m128 *bad)
+ * taken off exactly in binary64); lanes whose float32 reconstruction misses the bound are set
+ * in the returned mask. */
+static inline __m128i fast4(const quant8 *k, __m128 x, __m128 *bad)
 {
-    __m256d q = _mm256_sub_pd(_mm256_round_pd(_mm256_add_pd(_mm256_mul_pd(xd, k->inv), k->shift),
+    __m256d q = _mm256_sub_pd(_mm256_round_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_cvtps_pd(x), k->inv), k->shift),
                                               _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC),
                               k->two_max);
     __m128 err = _mm_and_ps(_mm_sub_ps(_mm256_cvtpd_ps(_mm256_mul_pd(q, k->step)), x), _mm256_castps256_ps128(k->absmask));
-    *bad = _mm_or_ps(*bad, _mm_cmp_ps(err, _mm256_castps256_ps128(k->bound), _CMP_GT_OQ));
+    *bad = _mm_cmp_ps(err, _mm256_castps256_ps128(k->bound), _CMP_GT_OQ);
     return _mm256_cvttpd_epi32(q);
 }
 
-/* 8 coordinates: the range check, then two halves. */
+/* 8 coordinates (one axis of the group's 8 strands): the range check, then two halves. */
 static inline __m256i fast8(const quant8 *k, __m256 x, __m256 *bad)
 {
-    *bad = _mm256_or_ps(*bad, _mm256_cmp_ps(_mm256_and_ps(x, k->absmask), k->xlim, _CMP_NLE_UQ));
-    __m128 lo = _mm256_castps256_ps128(x), hi = _mm256_extractf128_ps(x, 1), blo = _mm_setzero_ps(), bhi = blo;
-    __m128i qlo = fast4(k, lo, _mm256_cvtps_pd(lo), &blo), qhi = fast4(k, hi, _mm256_cvtps_pd(hi), &bhi);
-    *bad = _mm256_or_ps(*bad, _mm256_set_m128(bhi, blo));
+    __m128 blo, bhi;
+    __m128i qlo = fast4(k, _mm256_castps256_ps128(x), &blo), qhi = fast4(k, _mm256_extractf128_ps(x, 1), &bhi);
+    *bad = _mm256_or_ps(*bad, _mm256_or_ps(_mm256_cmp_ps(_mm256_and_ps(x, k->absmask), k->xlim, _CMP_NLE_UQ),
+                                           _mm256_set_m128(bhi, blo)));
     return _mm256_set_m128i(qhi, qlo);
 }
 
-/* 8 vertices at a time: three loads of xyz, de-interleaved into x, y and z by blends and lane
- * permutations. */
-static bool fast_avx2(const codec_quant *qz, const float *src, uint32_t nv, int32_t *const rows[3])
+/* Four floats at p of strands l (low half) and l + 4 (high half). */
+static inline __m256 load2(const float *lo, const float *hi)
+{
+    return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(lo)), _mm_loadu_ps(hi), 1);
+}
+
+/* Per vertex one 4-float load per strand (x y z of the vertex and the next x; the last vertex
+ * loads from one float earlier) and a 4 x 4 transposition in each half. */
+static uint32_t group_avx2(const codec_quant *qz, const float *const src[CODEC_GROUP], uint32_t nv, int32_t *P)
 {
     const quant8 k = {
         .inv = _mm256_set1_pd(qz->inv), .step = _mm256_set1_pd(qz->step), .shift = _mm256_set1_pd(SHIFT + 0.5),
         .two_max = _mm256_set1_pd(SHIFT), .absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff)),
         .xlim = _mm256_set1_ps(qz->xlim), .bound = _mm256_set1_ps(qz->bound),
     };
-    int32_t *const rx = rows[0], *const ry = rows[1], *const rz = rows[2];
+    const float *s0 = src[0], *s1 = src[1], *s2 = src[2], *s3 = src[3], *s4 = src[4], *s5 = src[5], *s6 = src[6],
+                *s7 = src[7];
     __m256 bad = _mm256_setzero_ps();
-    const __m256i px = _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5), py = _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6),
-                  pz = _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7);
-    uint32_t v = 0;
-    for (; v + 8u <= nv; v += 8u) {
-        const float *s = src + 3u * v;
-        __m256 a = _mm256_loadu_ps(s), b = _mm256_loadu_ps(s + 8), c = _mm256_loadu_ps(s + 16);
-        /* x: a lanes 0 3 6, b lanes 1 4 7, c lanes 2 5; y: a 1 4 7, b 2 5, c 0 3 6; z: a 2 5,
-         * b 0 3 6, c 1 4 7 */
-        __m256 x = _mm256_blend_ps(_mm256_blend_ps(a, b, 0x92), c, 0x24);
-        __m256 y = _mm256_blend_ps(_mm256_blend_ps(a, b, 0x24), c, 0x49);
-        __m256 z = _mm256_blend_ps(_mm256_blend_ps(a, b, 0x49), c, 0x92);
-        _mm256_storeu_si256((__m256i *)(void *)(rx + v), fast8(&k, _mm256_permutevar8x32_ps(x, px), &bad));
-        _mm256_storeu_si256((__m256i *)(void *)(ry + v), fast8(&k, _mm256_permutevar8x32_ps(y, py), &bad));
-        _mm256_storeu_si256((__m256i *)(void *)(rz + v), fast8(&k, _mm256_permutevar8x32_ps(z, pz), &bad));
+    for (uint32_t v = 0; v < nv; v++) {
+        /* the last vertex: read x y z ending at its z (element 1..3) */
+        const size_t o = 3u * (size_t)v - (v + 1u == nv);
+        __m256 r0 = load2(s0 + o, s4 + o), r1 = load2(s1 + o, s5 + o), r2 = load2(s2 + o, s6 + o),
+               r3 = load2(s3 + o, s7 + o);
+        __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpackhi_ps(r0, r1), t2 = _mm256_unpacklo_ps(r2, r3),
+               t3 = _mm256_unpackhi_ps(r2, r3);
+        __m256 e0 = _mm256_shuffle_ps(t0, t2, 0x44), e1 = _mm256_shuffle_ps(t0, t2, 0xee),
+               e2 = _mm256_shuffle_ps(t1, t3, 0x44), e3 = _mm256_shuffle_ps(t1, t3, 0xee);
+        __m256 x = e0, y = e1, z = e2;
+        if (v + 1u == nv) {
+            x = e1;
+            y = e2;
+            z = e3;
+        }
+        int32_t *q = P + (size_t)v * CODEC_GSTRIDE;
+        _mm256_storeu_si256((__m256i *)(void *)q, fast8(&k, x, &bad));
+        _mm256_storeu_si256((__m256i *)(void *)(q + CODEC_GROUP), fast8(&k, y, &bad));
+        _mm256_storeu_si256((__m256i *)(void *)(q + 2u * CODEC_GROUP), fast8(&k, z, &bad));
     }
-    bool ok = _mm256_movemask_ps(bad) == 0;
-    return fast_portable(qz, src, v, nv, rows) && ok;
+    return (uint32_t)_mm256_movemask_ps(bad);
 }
 #endif
 
-bool codec_quant_fast(const codec_quant *qz, const float *src, uint32_t nv, int32_t *const rows[3], bool portable)
+uint32_t codec_quant_group(const codec_quant *qz, const float *const src[CODEC_GROUP], uint32_t nv, int32_t *P,
+                           bool portable)
 {
 #ifdef __AVX2__
-    if (!portable) return fast_avx2(qz, src, nv, rows);
+    if (!portable) return group_avx2(qz, src, nv, P);
 #endif
     (void)portable;
-    return fast_portable(qz, src, 0, nv, rows);
+    return group_portable(qz, src, nv, P);
 }
 
 /* The nearest lattice point whose float32 reconstruction is within the bound (the nearest one
@@ -126,12 +143,12 @@ static core_status careful_one(const codec_quant *qz, float x, uint32_t strand, 
     return CORE_OK;
 }
 
-core_status codec_quant_careful(const codec_quant *qz, const float *src, uint32_t nv, int32_t *const rows[3],
+core_status codec_quant_careful(const codec_quant *qz, const float *src, uint32_t nv, int32_t *P, uint32_t l,
                                 uint32_t strand, core_err *err)
 {
     for (uint32_t v = 0; v < nv; v++)
         for (uint32_t a = 0; a < 3; a++) {
-            core_status st = careful_one(qz, src[3u * v + a], strand, v, &rows[a][v], err);
+            core_status st = careful_one(qz, src[3u * v + a], strand, v, &P[CODEC_GAT(v, a, l)], err);
             if (st) return st;
         }
     return CORE_OK;
