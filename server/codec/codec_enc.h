@@ -77,10 +77,16 @@ static inline int32_t codec_kind_at(uint32_t kind, const int32_t *p, const int32
 #undef AT
 }
 
-/* cost[k * CODEC_GROUP + l] = the sum over v >= 2 and the axes of floor(log2(2 |r| + 1)) (the
- * float32 exponent of 2 |r| + 1) of kind k of lane l. */
+/* Candidate residuals of a group, [vertex][axis][kind][lane] (CODEC_CSTRIDE int32 per vertex);
+ * vertex 1 holds dP - dX under every kind, vertex 0 is unused. */
+#define CODEC_CSTRIDE (3u * CODEC_KINDS * CODEC_GROUP)
+#define CODEC_CAT(v, a, k, l) \
+    ((size_t)(v) * CODEC_CSTRIDE + ((size_t)(a) * CODEC_KINDS + (size_t)(k)) * CODEC_GROUP + (size_t)(l))
+
+/* Fills cand (nv vertices) and cost[k * CODEC_GROUP + l] = the sum over v >= 2 and the axes of
+ * floor(log2(2 |r| + 1)) (the float32 exponent of 2 |r| + 1) of kind k of lane l. */
 void codec_costs_group(const int32_t *P, const int32_t *X, uint32_t nv, uint32_t cost[CODEC_KINDS * CODEC_GROUP],
-                       bool portable);
+                       int32_t *cand, bool portable);
 
 /* Per-group token scratch (codec_tokens_group fills it, codec_emit_lane reads it). */
 typedef struct codec_tokens {
@@ -91,10 +97,10 @@ typedef struct codec_tokens {
     uint32_t *esc;   /* [c][lane]: bit v - 32c set when vertex v escapes */
 } codec_tokens;
 
-/* Tokens of every lane of a group: kind[l] is lane l's residual kind, root[a * CODEC_GROUP + l]
- * its root residuals. */
-void codec_tokens_group(const uint32_t kind[CODEC_GROUP], const int32_t *P, const int32_t *X,
-                        const int32_t root[3 * CODEC_GROUP], uint32_t nv, const codec_tokens *t, bool portable);
+/* Tokens of every lane of a group from its candidates: kind[l] is lane l's residual kind,
+ * root[a * CODEC_GROUP + l] its root residuals. */
+void codec_tokens_group(const uint32_t kind[CODEC_GROUP], const int32_t *cand, const int32_t root[3 * CODEC_GROUP],
+                        uint32_t nv, const codec_tokens *t, bool portable);
 
 /* Symbols, histogram and raw bits of one frame, in coding order. */
 typedef struct codec_emitter {

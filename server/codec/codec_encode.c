@@ -8,7 +8,7 @@
 _Static_assert(CODEC_NTABLES * CODEC_NSYM <= 65536, "symbols are packed as table * 343 + symbol in 16 bits");
 
 /* Per-group scratch, in int32 units: P of this and the previous group, the reference X (moved
- * keyframe or previous strands), the chosen residuals, then the tokens. */
+ * keyframe or previous strands), the chosen residuals, the candidates, then the tokens. */
 static size_t group_size(uint32_t nverts)
 {
     return (size_t)nverts * CODEC_GSTRIDE;
@@ -16,7 +16,8 @@ static size_t group_size(uint32_t nverts)
 
 static size_t work_size(uint32_t nverts)
 {
-    return 4u * group_size(nverts) + (size_t)CODEC_GROUP * (nverts + 2u * ((nverts + 1u) / 2u) + (nverts + 31u) / 32u);
+    return 4u * group_size(nverts) + (size_t)nverts * CODEC_CSTRIDE +
+           (size_t)CODEC_GROUP * (nverts + 2u * ((nverts + 1u) / 2u) + (nverts + 31u) / 32u);
 }
 
 void codec_encoder_free(codec_encoder *enc)
@@ -146,7 +147,8 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
     const bool portable = enc->portable;
     const size_t gs = group_size(nv);
     int32_t *const Pg[2] = { enc->work, enc->work + gs }, *const X = enc->work + 2u * gs;
-    uint32_t *const tw = (uint32_t *)(void *)(enc->work + 4u * gs);
+    int32_t *const cand = enc->work + 4u * gs;
+    uint32_t *const tw = (uint32_t *)(void *)(cand + (size_t)nv * CODEC_CSTRIDE);
     const codec_tokens tok = { .R = enc->work + 3u * gs, .idx = tw, .pbits = tw + (size_t)nv * CODEC_GROUP,
                                .pnb = tw + (size_t)(nv + (nv + 1u) / 2u) * CODEC_GROUP,
                                .esc = tw + (size_t)(nv + 2u * ((nv + 1u) / 2u)) * CODEC_GROUP };
@@ -171,7 +173,7 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
         }
         uint32_t cost[CODEC_KINDS * CODEC_GROUP], mode[CODEC_GROUP], kind[CODEC_GROUP];
         int32_t root[3 * CODEC_GROUP];
-        codec_costs_group(P, X, nv, cost, portable);
+        codec_costs_group(P, X, nv, cost, cand, portable);
         for (uint32_t l = 0; l < CODEC_GROUP; l++) {
             const uint32_t j = j0 + l;
             uint32_t m = 0;
@@ -202,7 +204,7 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
             }
         }
         for (uint32_t a = 0; a < 3; a++) kprev[a] = X[CODEC_GAT(0, a, CODEC_GROUP - 1u)];
-        codec_tokens_group(kind, P, X, root, nv, &tok, portable);
+        codec_tokens_group(kind, cand, root, nv, &tok, portable);
         for (uint32_t l = 0; l < nreal; l++) {
             codec_emit_symbol(e, CODEC_T_MODE, mode[l]);
             codec_emit_lane(e, &tok, l, nv);

@@ -10,44 +10,61 @@ static inline uint32_t cost_one(int32_t r)
     return (v.u >> 23) - 127u;
 }
 
-static void costs_portable(const int32_t *P, const int32_t *X, uint32_t nv, uint32_t cost[CODEC_KINDS * CODEC_GROUP])
+static void costs_portable(const int32_t *P, const int32_t *X, uint32_t nv, uint32_t cost[CODEC_KINDS * CODEC_GROUP],
+                           int32_t *cand)
 {
     for (uint32_t k = 0; k < CODEC_KINDS; k++)
         for (uint32_t l = 0; l < CODEC_GROUP; l++) {
             uint32_t c = 0;
-            for (uint32_t a = 0; a < 3; a++)
-                for (uint32_t v = 2; v < nv; v++)
-                    c += cost_one(codec_kind_at(k, P + CODEC_GAT(0, a, l), X + CODEC_GAT(0, a, l), CODEC_GSTRIDE, v));
+            for (uint32_t a = 0; a < 3; a++) {
+                const int32_t *p = P + CODEC_GAT(0, a, l), *x = X + CODEC_GAT(0, a, l);
+                cand[CODEC_CAT(1, a, k, l)] = (p[CODEC_GSTRIDE] - p[0]) - (x[CODEC_GSTRIDE] - x[0]);
+                for (uint32_t v = 2; v < nv; v++) {
+                    int32_t r = codec_kind_at(k, p, x, CODEC_GSTRIDE, v);
+                    cand[CODEC_CAT(v, a, k, l)] = r;
+                    c += cost_one(r);
+                }
+            }
             cost[k * CODEC_GROUP + l] = c;
         }
 }
 
 #ifdef __AVX2__
-/* Per axis, vertex by vertex, the segments carried in registers; per lane the exponent fields
- * of every kind are summed and the bias taken off at the end. */
-static void costs_avx2(const int32_t *P, const int32_t *X, uint32_t nv, uint32_t cost[CODEC_KINDS * CODEC_GROUP])
+/* Per axis, vertex by vertex, the segments carried in registers; the candidates stored, per lane
+ * the exponent fields of every kind summed and the bias taken off at the end. */
+static inline void st_cand(int32_t *cand, uint32_t v, uint32_t a, uint32_t k, __m256i r)
+{
+    _mm256_storeu_si256((__m256i *)(void *)(cand + CODEC_CAT(v, a, k, 0)), r);
+}
+
+static void costs_avx2(const int32_t *P, const int32_t *X, uint32_t nv, uint32_t cost[CODEC_KINDS * CODEC_GROUP],
+                       int32_t *cand)
 {
     __m256i c0 = _mm256_setzero_si256(), c1 = c0, c2 = c0, c3 = c0;
-    if (nv > 2) {
-        for (uint32_t a = 0; a < 3; a++) {
-            __m256i p1 = codec_ldg(P, 1, a), x1 = codec_ldg(X, 1, a);
-            __m256i dp1 = _mm256_sub_epi32(p1, codec_ldg(P, 0, a)), dx1 = _mm256_sub_epi32(x1, codec_ldg(X, 0, a));
-            __m256i r0p = _mm256_sub_epi32(dp1, dx1), dp2 = dp1;
-            for (uint32_t v = 2; v < nv; v++) {
-                __m256i p0 = codec_ldg(P, v, a), x0 = codec_ldg(X, v, a);
-                __m256i dp0 = _mm256_sub_epi32(p0, p1), dx0 = _mm256_sub_epi32(x0, x1);
-                __m256i r0 = _mm256_sub_epi32(dp0, dx0), r2 = _mm256_sub_epi32(dp0, dp1);
-                __m256i r3 = v == 2u ? r2 : _mm256_sub_epi32(dp0, codec_half8(_mm256_add_epi32(dp1, dp2)));
-                c0 = _mm256_add_epi32(c0, codec_log8(r0));
-                c1 = _mm256_add_epi32(c1, codec_log8(_mm256_sub_epi32(r0, r0p)));
-                c2 = _mm256_add_epi32(c2, codec_log8(r2));
-                c3 = _mm256_add_epi32(c3, codec_log8(r3));
-                dp2 = dp1;
-                dp1 = dp0;
-                r0p = r0;
-                p1 = p0;
-                x1 = x0;
-            }
+    for (uint32_t a = 0; a < 3; a++) {
+        __m256i p1 = codec_ldg(P, 1, a), x1 = codec_ldg(X, 1, a);
+        __m256i dp1 = _mm256_sub_epi32(p1, codec_ldg(P, 0, a)), dx1 = _mm256_sub_epi32(x1, codec_ldg(X, 0, a));
+        __m256i r0p = _mm256_sub_epi32(dp1, dx1), dp2 = dp1;
+        for (uint32_t k = 0; k < CODEC_KINDS; k++) st_cand(cand, 1, a, k, r0p);
+        for (uint32_t v = 2; v < nv; v++) {
+            __m256i p0 = codec_ldg(P, v, a), x0 = codec_ldg(X, v, a);
+            __m256i dp0 = _mm256_sub_epi32(p0, p1), dx0 = _mm256_sub_epi32(x0, x1);
+            __m256i r0 = _mm256_sub_epi32(dp0, dx0), r2 = _mm256_sub_epi32(dp0, dp1);
+            __m256i r3 = v == 2u ? r2 : _mm256_sub_epi32(dp0, codec_half8(_mm256_add_epi32(dp1, dp2)));
+            __m256i r1 = _mm256_sub_epi32(r0, r0p);
+            st_cand(cand, v, a, 0, r0);
+            st_cand(cand, v, a, 1, r1);
+            st_cand(cand, v, a, 2, r2);
+            st_cand(cand, v, a, 3, r3);
+            c0 = _mm256_add_epi32(c0, codec_log8(r0));
+            c1 = _mm256_add_epi32(c1, codec_log8(r1));
+            c2 = _mm256_add_epi32(c2, codec_log8(r2));
+            c3 = _mm256_add_epi32(c3, codec_log8(r3));
+            dp2 = dp1;
+            dp1 = dp0;
+            r0p = r0;
+            p1 = p0;
+            x1 = x0;
         }
     }
     const __m256i bias = _mm256_set1_epi32((int32_t)(127u * 3u * (nv > 2 ? nv - 2u : 0u)));
@@ -59,14 +76,14 @@ static void costs_avx2(const int32_t *P, const int32_t *X, uint32_t nv, uint32_t
 #endif
 
 void codec_costs_group(const int32_t *P, const int32_t *X, uint32_t nv, uint32_t cost[CODEC_KINDS * CODEC_GROUP],
-                       bool portable)
+                       int32_t *cand, bool portable)
 {
 #ifdef __AVX2__
     if (!portable) {
-        costs_avx2(P, X, nv, cost);
+        costs_avx2(P, X, nv, cost, cand);
         return;
     }
 #endif
     (void)portable;
-    costs_portable(P, X, nv, cost);
+    costs_portable(P, X, nv, cost, cand);
 }

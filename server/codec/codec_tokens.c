@@ -13,25 +13,15 @@ static inline uint32_t field(int32_t r, uint32_t c)
     return ((mag(r) << 1) | ((uint32_t)r >> 31)) & ((1u << c) - 1u);
 }
 
-/* Residual of lane l at vertex v under kind k (vertex 0: the root, 1: dP - dX). */
-static inline int32_t residual_at(uint32_t k, const int32_t *P, const int32_t *X, const int32_t *root, uint32_t v,
-                                  uint32_t a, uint32_t l)
-{
-    if (v == 0) return root[a * CODEC_GROUP + l];
-    const int32_t *p = P + CODEC_GAT(0, a, l), *x = X + CODEC_GAT(0, a, l);
-    if (v == 1) return (p[CODEC_GSTRIDE] - p[0]) - (x[CODEC_GSTRIDE] - x[0]);
-    return codec_kind_at(k, p, x, CODEC_GSTRIDE, v);
-}
-
-static void tokens_portable(const uint32_t kind[CODEC_GROUP], const int32_t *P, const int32_t *X,
-                            const int32_t root[3 * CODEC_GROUP], uint32_t nv, const codec_tokens *t)
+static void tokens_portable(const uint32_t kind[CODEC_GROUP], const int32_t *cand, const int32_t root[3 * CODEC_GROUP],
+                            uint32_t nv, const codec_tokens *t)
 {
     for (uint32_t l = 0; l < CODEC_GROUP; l++) {
         uint32_t base = CODEC_T_ROOT * CODEC_NSYM, pb = 0, pn = 0;
         for (uint32_t v = 0; v < nv; v++) {
             uint32_t c[3], f[3], mx = 0;
             for (uint32_t a = 0; a < 3; a++) {
-                int32_t r = residual_at(kind[l], P, X, root, v, a, l);
+                int32_t r = v ? cand[CODEC_CAT(v, a, kind[l], l)] : root[a * CODEC_GROUP + l];
                 t->R[CODEC_GAT(v, a, l)] = r;
                 c[a] = codec_class(mag(r));
                 f[a] = c[a] < CODEC_ESCAPE ? field(r, c[a]) : 0;
@@ -77,19 +67,17 @@ typedef struct kindsel {
     __m256i is1, is3, hi;
 } kindsel;
 
-/* Residuals of axis a, vertex v (phase: 0, 1, 2, or 3 for v >= 3) of every lane. */
-static inline __attribute__((always_inline)) __m256i resid8(const kindsel *ks, const int32_t *P, const int32_t *X,
-                                                            const int32_t *root, uint32_t v, uint32_t a, int phase)
+/* Residuals of axis a, vertex v (phase: 0 the root, 1 vertex 1, 2 later ones) of every lane. */
+static inline __attribute__((always_inline)) __m256i resid8(const kindsel *ks, const int32_t *cand, const int32_t *root,
+                                                            uint32_t v, uint32_t a, int phase)
 {
     if (phase == 0) return _mm256_loadu_si256((const __m256i *)(const void *)(root + a * CODEC_GROUP));
-    __m256i p1 = codec_ldg(P, v - 1u, a), x1 = codec_ldg(X, v - 1u, a);
-    __m256i dp0 = _mm256_sub_epi32(codec_ldg(P, v, a), p1), r0 = _mm256_sub_epi32(dp0, _mm256_sub_epi32(codec_ldg(X, v, a), x1));
-    if (phase == 1) return r0;
-    __m256i p2 = codec_ldg(P, v - 2u, a);
-    __m256i dp1 = _mm256_sub_epi32(p1, p2);
-    __m256i r1 = _mm256_sub_epi32(r0, _mm256_sub_epi32(dp1, _mm256_sub_epi32(x1, codec_ldg(X, v - 2u, a))));
-    __m256i r2 = _mm256_sub_epi32(dp0, dp1);
-    __m256i r3 = phase == 2 ? r2 : _mm256_sub_epi32(dp0, codec_half8(_mm256_add_epi32(dp1, _mm256_sub_epi32(p2, codec_ldg(P, v - 3u, a)))));
+    const int32_t *c = cand + CODEC_CAT(v, a, 0, 0);
+    if (phase == 1) return _mm256_loadu_si256((const __m256i *)(const void *)c);
+    __m256i r0 = _mm256_loadu_si256((const __m256i *)(const void *)c),
+            r1 = _mm256_loadu_si256((const __m256i *)(const void *)(c + CODEC_GROUP)),
+            r2 = _mm256_loadu_si256((const __m256i *)(const void *)(c + 2u * CODEC_GROUP)),
+            r3 = _mm256_loadu_si256((const __m256i *)(const void *)(c + 3u * CODEC_GROUP));
     return _mm256_blendv_epi8(_mm256_blendv_epi8(r0, r1, ks->is1), _mm256_blendv_epi8(r2, r3, ks->is3), ks->hi);
 }
 
@@ -100,13 +88,13 @@ typedef struct tokstate {
     __m256i esc;        /* escape bits of the current 32 vertices */
 } tokstate;
 
-static inline __attribute__((always_inline)) void tok_vertex(tokstate *st, const kindsel *ks, const int32_t *P,
-                                                             const int32_t *X, const int32_t *root, uint32_t v,
-                                                             int phase, const codec_tokens *t)
+static inline __attribute__((always_inline)) void tok_vertex(tokstate *st, const kindsel *ks, const int32_t *cand,
+                                                             const int32_t *root, uint32_t v, int phase,
+                                                             const codec_tokens *t)
 {
     __m256i r[3], c[3], f[3];
     for (uint32_t a = 0; a < 3; a++) {
-        r[a] = resid8(ks, P, X, root, v, a, phase);
+        r[a] = resid8(ks, cand, root, v, a, phase);
         codec_stg(t->R, v, a, r[a]);
         c[a] = class8(r[a], &f[a]);
     }
@@ -137,20 +125,18 @@ static inline __attribute__((always_inline)) void tok_vertex(tokstate *st, const
     }
 }
 
-/* Vertex by vertex, all lanes at once; vertices 0, 1 and 2 peeled (root, first segment, kind 3
- * linear at vertex 2). */
-static void tokens_avx2(const uint32_t kind[CODEC_GROUP], const int32_t *P, const int32_t *X,
-                        const int32_t root[3 * CODEC_GROUP], uint32_t nv, const codec_tokens *t)
+/* Vertex by vertex, all lanes at once; vertices 0 and 1 peeled (root, first segment). */
+static void tokens_avx2(const uint32_t kind[CODEC_GROUP], const int32_t *cand, const int32_t root[3 * CODEC_GROUP],
+                        uint32_t nv, const codec_tokens *t)
 {
     const __m256i k = _mm256_loadu_si256((const __m256i *)(const void *)kind);
     const kindsel ks = { .is1 = _mm256_cmpeq_epi32(k, _mm256_set1_epi32(1)), .is3 = _mm256_cmpeq_epi32(k, _mm256_set1_epi32(3)),
                          .hi = _mm256_cmpgt_epi32(k, _mm256_set1_epi32(1)) };
     tokstate st = { .base = _mm256_set1_epi32((int32_t)(CODEC_T_ROOT * CODEC_NSYM)), .pbits = _mm256_setzero_si256(),
                     .pnb = _mm256_setzero_si256(), .esc = _mm256_setzero_si256() };
-    tok_vertex(&st, &ks, P, X, root, 0, 0, t);
-    tok_vertex(&st, &ks, P, X, root, 1, 1, t);
-    if (nv > 2) tok_vertex(&st, &ks, P, X, root, 2, 2, t);
-    for (uint32_t v = 3; v < nv; v++) tok_vertex(&st, &ks, P, X, root, v, 3, t);
+    tok_vertex(&st, &ks, cand, root, 0, 0, t);
+    tok_vertex(&st, &ks, cand, root, 1, 1, t);
+    for (uint32_t v = 2; v < nv; v++) tok_vertex(&st, &ks, cand, root, v, 2, t);
     if (nv % 2u) { /* the last vertex pairs with nothing */
         _mm256_storeu_si256((__m256i *)(void *)(t->pbits + (nv / 2u) * CODEC_GROUP), st.pbits);
         _mm256_storeu_si256((__m256i *)(void *)(t->pnb + (nv / 2u) * CODEC_GROUP), st.pnb);
@@ -159,17 +145,17 @@ static void tokens_avx2(const uint32_t kind[CODEC_GROUP], const int32_t *P, cons
 }
 #endif
 
-void codec_tokens_group(const uint32_t kind[CODEC_GROUP], const int32_t *P, const int32_t *X,
-                        const int32_t root[3 * CODEC_GROUP], uint32_t nv, const codec_tokens *t, bool portable)
+void codec_tokens_group(const uint32_t kind[CODEC_GROUP], const int32_t *cand, const int32_t root[3 * CODEC_GROUP],
+                        uint32_t nv, const codec_tokens *t, bool portable)
 {
 #ifdef __AVX2__
     if (!portable) {
-        tokens_avx2(kind, P, X, root, nv, t);
+        tokens_avx2(kind, cand, root, nv, t);
         return;
     }
 #endif
     (void)portable;
-    tokens_portable(kind, P, X, root, nv, t);
+    tokens_portable(kind, cand, root, nv, t);
 }
 
 /* Vertex v of lane l one axis at a time: raw bits per axis, its symbol (table already chosen),
