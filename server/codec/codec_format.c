@@ -2,7 +2,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <zlib.h>
 
 #include "codec_internal.h"
 
@@ -53,16 +52,7 @@ void codec_header_write(uint8_t *p, const codec_frame_info *info)
 
 uint32_t codec_frame_crc(const uint8_t *frame, size_t payload_len)
 {
-    uLong c = crc32(0L, Z_NULL, 0);
-    c = crc32(c, frame, CODEC_OFF_CRC);
-    const uint8_t *pl = frame + CODEC_HEADER_SIZE;
-    while (payload_len > 0) { /* zlib takes uInt lengths */
-        uInt n = payload_len > (1u << 30) ? (1u << 30) : (uInt)payload_len;
-        c = crc32(c, pl, n);
-        pl += n;
-        payload_len -= n;
-    }
-    return (uint32_t)c;
+    return codec_crc32(codec_crc32(0, frame, CODEC_OFF_CRC), frame + CODEC_HEADER_SIZE, payload_len);
 }
 
 core_status codec_peek_header(const uint8_t *data, size_t len, codec_frame_info *info, core_err *err)

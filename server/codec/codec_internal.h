@@ -166,6 +166,9 @@ void codec_header_write(uint8_t *p, const codec_frame_info *info);
 /* Grows buf to hold at least cap bytes. */
 core_status codec_buf_reserve(codec_buf *buf, size_t cap, core_err *err);
 
+/* zlib's crc32(crc, p, n) (CRC-32, reflected polynomial 0xEDB88320; crc 0 to start). */
+uint32_t codec_crc32(uint32_t crc, const uint8_t *p, size_t n);
+
 /* CRC-32 (zlib) of a frame: header bytes 0..63, then the payload. */
 uint32_t codec_frame_crc(const uint8_t *frame, size_t payload_len);
 
