@@ -70,6 +70,7 @@ typedef struct codec_encoder {
     uint8_t *bits;       /* raw bit stream of this frame */
     uint8_t *rans;       /* rANS output, written backwards from the end */
     int32_t *work;       /* per-group scratch */
+    uint32_t careful;    /* sent strands the last frame quantised one coordinate at a time */
     size_t nsyms_max, bits_cap, rans_cap;
 } codec_encoder;
 

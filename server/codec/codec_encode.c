@@ -119,7 +119,7 @@ static const uint32_t KEY_KIND[CODEC_KEY_MODES] = { 2, 0, 3 };
 
 /* Quantises group g (lanes past the last strand repeat it) into P; the careful path for the
  * lanes the fast one refuses. */
-static core_status quantize_group(const codec_encoder *enc, const codec_quant *qz, const float *xyz, uint32_t g,
+static core_status quantize_group(codec_encoder *enc, const codec_quant *qz, const float *xyz, uint32_t g,
                                   uint32_t nreal, int32_t *P, core_err *err)
 {
     const uint32_t nv = enc->nverts;
@@ -129,6 +129,7 @@ static core_status quantize_group(const codec_encoder *enc, const codec_quant *q
     uint32_t bad = codec_quant_group(qz, src, nv, P, enc->portable);
     for (uint32_t l = 0; l < nreal; l++) {
         if (!(bad >> l & 1u)) continue;
+        enc->careful++;
         core_status st = codec_quant_careful(qz, src[l], nv, P, l, (g * CODEC_GROUP + l) * enc->desc.stride, err);
         if (st) return st;
     }
@@ -225,6 +226,7 @@ core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, dou
     bool key = force_key || !enc->key_valid || enc->since_key + 1u >= enc->desc.key_interval;
     codec_quant qz;
     codec_quant_setup(&qz, enc->desc.max_error_m);
+    enc->careful = 0;
 
     float motion[12];
     codec_motion_identity(motion);
