@@ -91,7 +91,8 @@ void codec_costs_group(const int32_t *P, const int32_t *X, uint32_t nv, uint32_t
 /* Per-group token scratch (codec_tokens_group fills it, codec_emit_lane reads it). */
 typedef struct codec_tokens {
     int32_t *R;      /* residuals of the chosen kinds, group layout */
-    uint32_t *idx;   /* [v][lane]: symbol of vertex v, table * CODEC_NSYM + classes */
+    uint32_t *pidx;  /* [k][lane]: symbols (table * CODEC_NSYM + classes) of vertices 2k (low 16 bits)
+                        and 2k + 1 (high 16 bits) */
     uint32_t *pbits; /* [k][lane]: raw bits of vertices 2k, 2k+1 (valid where neither escapes) */
     uint32_t *pnb;   /* [k][lane]: their length */
     uint32_t *esc;   /* [c][lane]: bit v - 32c set when vertex v escapes */

@@ -150,7 +150,7 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
     int32_t *const Pg[2] = { enc->work, enc->work + gs }, *const X = enc->work + 2u * gs;
     int32_t *const cand = enc->work + 4u * gs;
     uint32_t *const tw = (uint32_t *)(void *)(cand + (size_t)nv * CODEC_CSTRIDE);
-    const codec_tokens tok = { .R = enc->work + 3u * gs, .idx = tw, .pbits = tw + (size_t)nv * CODEC_GROUP,
+    const codec_tokens tok = { .R = enc->work + 3u * gs, .pidx = tw, .pbits = tw + (size_t)nv * CODEC_GROUP,
                                .pnb = tw + (size_t)(nv + (nv + 1u) / 2u) * CODEC_GROUP,
                                .esc = tw + (size_t)(nv + 2u * ((nv + 1u) / 2u)) * CODEC_GROUP };
     int32_t kprev[3] = { 0, 0, 0 }; /* root of the previous strand in the moved keyframe */

@@ -17,7 +17,7 @@ static void tokens_portable(const uint32_t kind[CODEC_GROUP], const int32_t *can
                             uint32_t nv, const codec_tokens *t)
 {
     for (uint32_t l = 0; l < CODEC_GROUP; l++) {
-        uint32_t base = CODEC_T_ROOT * CODEC_NSYM, pb = 0, pn = 0;
+        uint32_t base = CODEC_T_ROOT * CODEC_NSYM, pb = 0, pn = 0, pi = 0;
         for (uint32_t v = 0; v < nv; v++) {
             uint32_t c[3], f[3], mx = 0;
             for (uint32_t a = 0; a < 3; a++) {
@@ -30,20 +30,23 @@ static void tokens_portable(const uint32_t kind[CODEC_GROUP], const int32_t *can
             uint32_t *esc = &t->esc[(v / 32u) * CODEC_GROUP + l];
             if (v % 32u == 0) *esc = 0;
             if (mx == CODEC_ESCAPE) *esc |= 1u << (v % 32u);
-            t->idx[v * CODEC_GROUP + l] = base + c[0] + CODEC_NCLASS * c[1] + CODEC_NCLASS * CODEC_NCLASS * c[2];
+            uint32_t idx = base + c[0] + CODEC_NCLASS * c[1] + CODEC_NCLASS * CODEC_NCLASS * c[2];
             base = v == 0 ? CODEC_T_FIRST * CODEC_NSYM : codec_body_table(c[0], c[1], c[2]) * CODEC_NSYM;
             uint32_t nb = mx == CODEC_ESCAPE ? 0 : c[0] + c[1] + c[2];
             uint32_t bits = mx == CODEC_ESCAPE ? 0 : f[0] | f[1] << c[0] | f[2] << (c[0] + c[1]);
             if (v % 2u == 0) {
                 pb = bits;
                 pn = nb;
+                pi = idx;
             } else {
                 pb |= bits << pn;
                 pn += nb;
+                pi |= idx << 16;
             }
             if (v % 2u == 1u || v + 1u == nv) {
                 t->pbits[(v / 2u) * CODEC_GROUP + l] = pb;
                 t->pnb[(v / 2u) * CODEC_GROUP + l] = pn;
+                t->pidx[(v / 2u) * CODEC_GROUP + l] = pi;
             }
         }
     }
@@ -84,7 +87,7 @@ static inline __attribute__((always_inline)) __m256i resid8(const kindsel *ks, c
 /* State carried from vertex to vertex. */
 typedef struct tokstate {
     __m256i base;       /* table base (table * CODEC_NSYM) of this vertex */
-    __m256i pbits, pnb; /* the even vertex of the current pair */
+    __m256i pbits, pnb, pidx; /* the even vertex of the current pair */
     __m256i esc;        /* escape bits of the current 32 vertices */
 } tokstate;
 
@@ -107,7 +110,7 @@ static inline __attribute__((always_inline)) void tok_vertex(tokstate *st, const
         st->esc = _mm256_setzero_si256();
     }
     __m256i sym = _mm256_add_epi32(c[0], _mm256_mullo_epi32(seven, _mm256_add_epi32(c[1], _mm256_mullo_epi32(seven, c[2]))));
-    _mm256_storeu_si256((__m256i *)(void *)(t->idx + v * CODEC_GROUP), _mm256_add_epi32(st->base, sym));
+    const __m256i idx = _mm256_add_epi32(st->base, sym);
     st->base = phase == 0 ? _mm256_set1_epi32((int32_t)(CODEC_T_FIRST * CODEC_NSYM))
                           : _mm256_add_epi32(_mm256_set1_epi32((int32_t)(CODEC_T_BODY * CODEC_NSYM)),
                                              _mm256_mullo_epi32(_mm256_set1_epi32((int32_t)CODEC_NSYM),
@@ -118,7 +121,10 @@ static inline __attribute__((always_inline)) void tok_vertex(tokstate *st, const
     if (v % 2u == 0) {
         st->pbits = bits;
         st->pnb = nb;
+        st->pidx = idx;
     } else {
+        _mm256_storeu_si256((__m256i *)(void *)(t->pidx + (v / 2u) * CODEC_GROUP),
+                            _mm256_or_si256(st->pidx, _mm256_slli_epi32(idx, 16)));
         _mm256_storeu_si256((__m256i *)(void *)(t->pbits + (v / 2u) * CODEC_GROUP),
                             _mm256_or_si256(st->pbits, _mm256_sllv_epi32(bits, st->pnb)));
         _mm256_storeu_si256((__m256i *)(void *)(t->pnb + (v / 2u) * CODEC_GROUP), _mm256_add_epi32(st->pnb, nb));
@@ -133,13 +139,14 @@ static void tokens_avx2(const uint32_t kind[CODEC_GROUP], const int32_t *cand, c
     const kindsel ks = { .is1 = _mm256_cmpeq_epi32(k, _mm256_set1_epi32(1)), .is3 = _mm256_cmpeq_epi32(k, _mm256_set1_epi32(3)),
                          .hi = _mm256_cmpgt_epi32(k, _mm256_set1_epi32(1)) };
     tokstate st = { .base = _mm256_set1_epi32((int32_t)(CODEC_T_ROOT * CODEC_NSYM)), .pbits = _mm256_setzero_si256(),
-                    .pnb = _mm256_setzero_si256(), .esc = _mm256_setzero_si256() };
+                    .pnb = _mm256_setzero_si256(), .pidx = _mm256_setzero_si256(), .esc = _mm256_setzero_si256() };
     tok_vertex(&st, &ks, cand, root, 0, 0, t);
     tok_vertex(&st, &ks, cand, root, 1, 1, t);
     for (uint32_t v = 2; v < nv; v++) tok_vertex(&st, &ks, cand, root, v, 2, t);
     if (nv % 2u) { /* the last vertex pairs with nothing */
         _mm256_storeu_si256((__m256i *)(void *)(t->pbits + (nv / 2u) * CODEC_GROUP), st.pbits);
         _mm256_storeu_si256((__m256i *)(void *)(t->pnb + (nv / 2u) * CODEC_GROUP), st.pnb);
+        _mm256_storeu_si256((__m256i *)(void *)(t->pidx + (nv / 2u) * CODEC_GROUP), st.pidx);
     }
     if (nv % 32u) _mm256_storeu_si256((__m256i *)(void *)(t->esc + (nv / 32u) * CODEC_GROUP), st.esc);
 }
@@ -174,7 +181,7 @@ static void emit_vertex(codec_emitter *e, const codec_tokens *t, uint32_t v, uin
             codec_emit_bits(e, ((uint32_t)r >> 31) | (uint64_t)(m - (1u << ex)) << 1, ex + 1u);
         }
     }
-    uint32_t idx = t->idx[v * CODEC_GROUP + l];
+    uint32_t idx = t->pidx[(v / 2u) * CODEC_GROUP + l] >> (16u * (v & 1u)) & 0xffffu;
     e->syms[e->nsyms++] = (uint16_t)idx;
     e->counts[idx]++;
     for (uint32_t k = 0; k < nesc; k++) codec_emit_symbol(e, CODEC_T_ESC, esc[k]);
@@ -186,45 +193,45 @@ static void emit_lane_fast(codec_emitter *e, const codec_tokens *t, uint32_t l, 
 {
     uint32_t *const h0 = e->counts, *const h1 = h0 + CODEC_HIST_SIZE, *const h2 = h1 + CODEC_HIST_SIZE,
                    *const h3 = h2 + CODEC_HIST_SIZE;
-    const uint32_t *idx = t->idx + l, *pbits = t->pbits + l, *pnb = t->pnb + l;
+    const uint32_t *pidx = t->pidx + l, *pbits = t->pbits + l, *pnb = t->pnb + l;
     uint8_t *p = e->bits;
     uint64_t acc = e->acc;
     uint32_t n = e->n;
     uint16_t *out = e->syms + e->nsyms;
     const uint32_t npairs = nv / 2u;
     uint32_t k = 0;
-#define PAIR(H0, H1)                                       \
-    do {                                                   \
-        acc |= (uint64_t)pbits[k * CODEC_GROUP] << n;      \
-        n += pnb[k * CODEC_GROUP];                         \
-        codec_put_le64(p, acc);                            \
-        p += n >> 3;                                       \
-        acc >>= n & ~7u;                                   \
-        n &= 7u;                                           \
-        uint32_t i0 = idx[2u * k * CODEC_GROUP], i1 = idx[(2u * k + 1u) * CODEC_GROUP]; \
-        out[2u * k] = (uint16_t)i0;                        \
-        out[2u * k + 1u] = (uint16_t)i1;                   \
-        H0[i0]++;                                          \
-        H1[i1]++;                                          \
-        k++;                                               \
+#define BITS()                                        \
+    do {                                              \
+        acc |= (uint64_t)pbits[k * CODEC_GROUP] << n; \
+        n += pnb[k * CODEC_GROUP];                    \
+        codec_put_le64(p, acc);                       \
+        p += n >> 3;                                  \
+        acc >>= n & ~7u;                              \
+        n &= 7u;                                      \
+    } while (0)
+#define PAIR(H0, H1)                                  \
+    do {                                              \
+        BITS();                                       \
+        uint32_t w = pidx[k * CODEC_GROUP];           \
+        out[2u * k] = (uint16_t)w;                    \
+        out[2u * k + 1u] = (uint16_t)(w >> 16);       \
+        H0[w & 0xffffu]++;                            \
+        H1[w >> 16]++;                                \
+        k++;                                          \
     } while (0)
     for (; k + 2u <= npairs;) {
         PAIR(h0, h1);
         PAIR(h2, h3);
     }
     if (k < npairs) PAIR(h0, h1);
-#undef PAIR
     if (nv % 2u) { /* the last vertex alone */
-        acc |= (uint64_t)pbits[k * CODEC_GROUP] << n;
-        n += pnb[k * CODEC_GROUP];
-        codec_put_le64(p, acc);
-        p += n >> 3;
-        acc >>= n & ~7u;
-        n &= 7u;
-        uint32_t i0 = idx[(nv - 1u) * CODEC_GROUP];
+        BITS();
+        uint32_t i0 = pidx[k * CODEC_GROUP];
         out[nv - 1u] = (uint16_t)i0;
         h2[i0]++;
     }
+#undef PAIR
+#undef BITS
     e->bits = p;
     e->acc = acc;
     e->n = n;
@@ -247,10 +254,9 @@ void codec_emit_lane(codec_emitter *e, const codec_tokens *t, uint32_t l, uint32
             continue;
         }
         codec_emit_bits(e, t->pbits[k * CODEC_GROUP + l], t->pnb[k * CODEC_GROUP + l]);
-        for (uint32_t w = v; w < v + 2u; w++) {
-            uint32_t i = t->idx[w * CODEC_GROUP + l];
-            e->syms[e->nsyms++] = (uint16_t)i;
-            e->counts[i]++;
+        for (uint32_t w = t->pidx[k * CODEC_GROUP + l], h = 0; h < 2; h++, w >>= 16) {
+            e->syms[e->nsyms++] = (uint16_t)w;
+            e->counts[w & 0xffffu]++;
         }
     }
 }
