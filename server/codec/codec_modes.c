@@ -10,23 +10,42 @@ static inline uint32_t cost_one(int32_t r)
     return (v.u >> 23) - 127u;
 }
 
+/* The vector path's loop with the 8 lanes as an inner loop (which compilers vectorise). */
 static void costs_portable(const int32_t *P, const int32_t *X, uint32_t nv, uint32_t cost[CODEC_KINDS * CODEC_GROUP],
                            int32_t *cand)
 {
-    for (uint32_t k = 0; k < CODEC_KINDS; k++)
+    uint32_t c[CODEC_KINDS][CODEC_GROUP] = { { 0 } };
+    for (uint32_t a = 0; a < 3; a++) {
+        int32_t p1[CODEC_GROUP], x1[CODEC_GROUP], dp1[CODEC_GROUP], dp2[CODEC_GROUP], r0p[CODEC_GROUP];
         for (uint32_t l = 0; l < CODEC_GROUP; l++) {
-            uint32_t c = 0;
-            for (uint32_t a = 0; a < 3; a++) {
-                const int32_t *p = P + CODEC_GAT(0, a, l), *x = X + CODEC_GAT(0, a, l);
-                cand[CODEC_CAT(1, a, k, l)] = (p[CODEC_GSTRIDE] - p[0]) - (x[CODEC_GSTRIDE] - x[0]);
-                for (uint32_t v = 2; v < nv; v++) {
-                    int32_t r = codec_kind_at(k, p, x, CODEC_GSTRIDE, v);
-                    cand[CODEC_CAT(v, a, k, l)] = r;
-                    c += cost_one(r);
-                }
-            }
-            cost[k * CODEC_GROUP + l] = c;
+            p1[l] = P[CODEC_GAT(1, a, l)];
+            x1[l] = X[CODEC_GAT(1, a, l)];
+            dp1[l] = dp2[l] = p1[l] - P[CODEC_GAT(0, a, l)];
+            r0p[l] = dp1[l] - (x1[l] - X[CODEC_GAT(0, a, l)]);
+            for (uint32_t k = 0; k < CODEC_KINDS; k++) cand[CODEC_CAT(1, a, k, l)] = r0p[l];
         }
+        for (uint32_t v = 2; v < nv; v++)
+            for (uint32_t l = 0; l < CODEC_GROUP; l++) {
+                int32_t p0 = P[CODEC_GAT(v, a, l)], x0 = X[CODEC_GAT(v, a, l)];
+                int32_t dp0 = p0 - p1[l], r0 = dp0 - (x0 - x1[l]), r1 = r0 - r0p[l], r2 = dp0 - dp1[l];
+                int32_t r3 = v == 2u ? r2 : dp0 - codec_half(dp1[l] + dp2[l]);
+                cand[CODEC_CAT(v, a, 0, l)] = r0;
+                cand[CODEC_CAT(v, a, 1, l)] = r1;
+                cand[CODEC_CAT(v, a, 2, l)] = r2;
+                cand[CODEC_CAT(v, a, 3, l)] = r3;
+                c[0][l] += cost_one(r0);
+                c[1][l] += cost_one(r1);
+                c[2][l] += cost_one(r2);
+                c[3][l] += cost_one(r3);
+                dp2[l] = dp1[l];
+                dp1[l] = dp0;
+                r0p[l] = r0;
+                p1[l] = p0;
+                x1[l] = x0;
+            }
+    }
+    for (uint32_t k = 0; k < CODEC_KINDS; k++)
+        for (uint32_t l = 0; l < CODEC_GROUP; l++) cost[k * CODEC_GROUP + l] = c[k][l];
 }
 
 #ifdef __AVX2__

@@ -13,42 +13,54 @@ static inline uint32_t field(int32_t r, uint32_t c)
     return ((mag(r) << 1) | ((uint32_t)r >> 31)) & ((1u << c) - 1u);
 }
 
+/* Class of magnitude m as the vector path computes it: floor(log2(2 m + 1)) capped at 6. */
+static inline uint32_t class_of(uint32_t m)
+{
+    union { float f; uint32_t u; } v = { .f = (float)(int32_t)(2u * (m < 64u ? m : 64u) + 1u) };
+    uint32_t c = (v.u >> 23) - 127u;
+    return c < CODEC_ESCAPE ? c : CODEC_ESCAPE;
+}
+
+/* The vector path's loop with the 8 lanes as an inner loop. */
 static void tokens_portable(const uint32_t kind[CODEC_GROUP], const int32_t *cand, const int32_t root[3 * CODEC_GROUP],
                             uint32_t nv, const codec_tokens *t)
 {
-    for (uint32_t l = 0; l < CODEC_GROUP; l++) {
-        uint32_t base = CODEC_T_ROOT * CODEC_NSYM, pb = 0, pn = 0, pi = 0;
-        for (uint32_t v = 0; v < nv; v++) {
+    uint32_t base[CODEC_GROUP], pb[CODEC_GROUP], pn[CODEC_GROUP], pi[CODEC_GROUP], esc[CODEC_GROUP];
+    for (uint32_t l = 0; l < CODEC_GROUP; l++) base[l] = CODEC_T_ROOT * CODEC_NSYM;
+    for (uint32_t v = 0; v < nv; v++) {
+        if (v % 32u == 0)
+            for (uint32_t l = 0; l < CODEC_GROUP; l++) esc[l] = 0;
+        for (uint32_t l = 0; l < CODEC_GROUP; l++) {
             uint32_t c[3], f[3], mx = 0;
             for (uint32_t a = 0; a < 3; a++) {
                 int32_t r = v ? cand[CODEC_CAT(v, a, kind[l], l)] : root[a * CODEC_GROUP + l];
                 t->R[CODEC_GAT(v, a, l)] = r;
-                c[a] = codec_class(mag(r));
-                f[a] = c[a] < CODEC_ESCAPE ? field(r, c[a]) : 0;
+                c[a] = class_of(mag(r));
+                f[a] = field(r, c[a] < CODEC_ESCAPE ? c[a] : 0);
                 mx = c[a] > mx ? c[a] : mx;
             }
-            uint32_t *esc = &t->esc[(v / 32u) * CODEC_GROUP + l];
-            if (v % 32u == 0) *esc = 0;
-            if (mx == CODEC_ESCAPE) *esc |= 1u << (v % 32u);
-            uint32_t idx = base + c[0] + CODEC_NCLASS * c[1] + CODEC_NCLASS * CODEC_NCLASS * c[2];
-            base = v == 0 ? CODEC_T_FIRST * CODEC_NSYM : codec_body_table(c[0], c[1], c[2]) * CODEC_NSYM;
-            uint32_t nb = mx == CODEC_ESCAPE ? 0 : c[0] + c[1] + c[2];
-            uint32_t bits = mx == CODEC_ESCAPE ? 0 : f[0] | f[1] << c[0] | f[2] << (c[0] + c[1]);
+            esc[l] |= (uint32_t)(mx == CODEC_ESCAPE) << (v % 32u);
+            uint32_t idx = base[l] + c[0] + CODEC_NCLASS * c[1] + CODEC_NCLASS * CODEC_NCLASS * c[2];
+            base[l] = v == 0 ? CODEC_T_FIRST * CODEC_NSYM : codec_body_table(c[0], c[1], c[2]) * CODEC_NSYM;
+            uint32_t nb = c[0] + c[1] + c[2], bits = f[0] | f[1] << c[0] | f[2] << (c[0] + c[1]);
             if (v % 2u == 0) {
-                pb = bits;
-                pn = nb;
-                pi = idx;
+                pb[l] = bits;
+                pn[l] = nb;
+                pi[l] = idx;
             } else {
-                pb |= bits << pn;
-                pn += nb;
-                pi |= idx << 16;
-            }
-            if (v % 2u == 1u || v + 1u == nv) {
-                t->pbits[(v / 2u) * CODEC_GROUP + l] = pb;
-                t->pnb[(v / 2u) * CODEC_GROUP + l] = pn;
-                t->pidx[(v / 2u) * CODEC_GROUP + l] = pi;
+                pb[l] |= bits << pn[l];
+                pn[l] += nb;
+                pi[l] |= idx << 16;
             }
         }
+        if (v % 2u == 1u || v + 1u == nv)
+            for (uint32_t l = 0; l < CODEC_GROUP; l++) {
+                t->pbits[(v / 2u) * CODEC_GROUP + l] = pb[l];
+                t->pnb[(v / 2u) * CODEC_GROUP + l] = pn[l];
+                t->pidx[(v / 2u) * CODEC_GROUP + l] = pi[l];
+            }
+        if (v % 32u == 31u || v + 1u == nv)
+            for (uint32_t l = 0; l < CODEC_GROUP; l++) t->esc[(v / 32u) * CODEC_GROUP + l] = esc[l];
     }
 }
 
