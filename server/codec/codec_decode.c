@@ -6,6 +6,20 @@
 
 #define BAD UINT32_MAX
 
+/* Per vertex symbol (c0 + 7 c1 + 49 c2): the classes in bits 0-3, 4-7, 8-11, their sum (the raw
+ * bits when no axis escapes) in 12-15 (0 when one does), the next vertex's body table in 16-19,
+ * bit 20 when an axis escapes. */
+#define SYM_E(s)                                                                                         \
+    ((uint32_t)(s) % 7u | (uint32_t)(s) / 7u % 7u << 4 | (uint32_t)(s) / 49u << 8 |                      \
+     (SYM_MAX3(s) < 6u ? (uint32_t)(s) % 7u + (uint32_t)(s) / 7u % 7u + (uint32_t)(s) / 49u : 0u) << 12 |    \
+     (CODEC_T_BODY + (SYM_MAX3(s) < 5u ? SYM_MAX3(s) : 5u)) << 16 | (uint32_t)(SYM_MAX3(s) == 6u) << 20)
+#define SYM_MAX2(a, b) ((a) > (b) ? (a) : (b))
+#define SYM_MAX3(s) SYM_MAX2(SYM_MAX2((uint32_t)(s) % 7u, (uint32_t)(s) / 7u % 7u), (uint32_t)(s) / 49u)
+#define SYM_R7(b) SYM_E(b), SYM_E(b + 1), SYM_E(b + 2), SYM_E(b + 3), SYM_E(b + 4), SYM_E(b + 5), SYM_E(b + 6)
+#define SYM_R49(b) SYM_R7(b), SYM_R7(b + 7), SYM_R7(b + 14), SYM_R7(b + 21), SYM_R7(b + 28), SYM_R7(b + 35), SYM_R7(b + 42)
+static const uint32_t SYMTAB[CODEC_NSYM] = { SYM_R49(0), SYM_R49(49), SYM_R49(98), SYM_R49(147),
+                                             SYM_R49(196), SYM_R49(245), SYM_R49(294) };
+
 /* Entropy decoding state of one frame. */
 typedef struct reader {
     const codec_rans_tables *tabs;
@@ -21,7 +35,7 @@ typedef struct reader {
 } reader;
 
 /* Next symbol of table t, or BAD (empty table, stream overrun). */
-static inline uint32_t get_sym(reader *r, uint32_t t)
+static inline __attribute__((always_inline)) uint32_t get_sym(reader *r, uint32_t t)
 {
     uint32_t x = r->x[r->which];
     uint32_t slot = x & (CODEC_SCALE - 1u);
@@ -37,7 +51,7 @@ static inline uint32_t get_sym(reader *r, uint32_t t)
     return s;
 }
 
-static inline void refill(reader *r)
+static inline __attribute__((always_inline)) void refill(reader *r)
 {
     if (r->nacc > 32) return;
     if (r->bpos <= r->bend && r->bend - r->bpos >= 4) {
@@ -55,7 +69,7 @@ static inline void refill(reader *r)
 }
 
 /* Next nb (<= 32) raw bits, least significant first. */
-static inline uint32_t get_bits(reader *r, uint32_t nb)
+static inline __attribute__((always_inline)) uint32_t get_bits(reader *r, uint32_t nb)
 {
     refill(r);
     uint32_t v = (uint32_t)(r->acc & ((1ull << nb) - 1u));
@@ -73,7 +87,7 @@ static inline int32_t field_residual(uint32_t c, uint32_t f)
 
 /* One escaped axis: e = 5 + a symbol of the escape table, then the sign and e bits below the
  * leading one (raw). */
-static inline bool escape_residual(reader *r, int32_t *res)
+static inline __attribute__((always_inline)) bool escape_residual(reader *r, int32_t *res)
 {
     uint32_t k = get_sym(r, CODEC_T_ESC);
     if (k >= CODEC_NESC) return false; /* also BAD */
@@ -85,13 +99,13 @@ static inline bool escape_residual(reader *r, int32_t *res)
 
 /* Decodes one vertex's residuals coded with table t into res; returns the next vertex's
  * table, or BAD. */
-static inline uint32_t get_vertex(reader *r, uint32_t t, int32_t *res)
+static inline __attribute__((always_inline)) uint32_t get_vertex(reader *r, uint32_t t, int32_t *res)
 {
     uint32_t s = get_sym(r, t);
     if (s == BAD) return BAD;
-    uint32_t c0 = s % CODEC_NCLASS, c1 = (s / CODEC_NCLASS) % CODEC_NCLASS, c2 = s / (CODEC_NCLASS * CODEC_NCLASS);
-    if (c0 < CODEC_ESCAPE && c1 < CODEC_ESCAPE && c2 < CODEC_ESCAPE) {
-        uint32_t b = get_bits(r, c0 + c1 + c2);
+    const uint32_t e = SYMTAB[s], c0 = e & 15u, c1 = e >> 4 & 15u, c2 = e >> 8 & 15u;
+    if (!(e >> 20)) {
+        uint32_t b = get_bits(r, e >> 12 & 15u);
         res[0] = field_residual(c0, b & ((1u << c0) - 1u));
         b >>= c0;
         res[1] = field_residual(c1, b & ((1u << c1) - 1u));
@@ -103,7 +117,7 @@ static inline uint32_t get_vertex(reader *r, uint32_t t, int32_t *res)
             else if (!escape_residual(r, &res[a])) return BAD;
         }
     }
-    return codec_body_table(c0, c1, c2);
+    return e >> 16 & 15u;
 }
 
 static inline bool in_range(int32_t q)
@@ -204,9 +218,11 @@ static core_status reserve(codec_decoder *dec, size_t nq, uint32_t nverts, core_
 }
 
 /* Decodes every strand of the frame into dec->cur_q: first the strand's symbols and raw bits
- * into residuals, then the predictions. */
-static core_status decode_strands(codec_decoder *dec, const codec_frame_info *h, reader *r, core_err *err)
+ * into residuals, then the predictions. The reader works on a local copy (kept in registers),
+ * written back at the end. */
+static core_status decode_strands(codec_decoder *dec, const codec_frame_info *h, reader *rd, core_err *err)
 {
+    reader rl = *rd, *r = &rl;
     const bool key = h->keyframe;
     const uint32_t nv = h->nverts, nmodes = key ? CODEC_KEY_MODES : CODEC_DELTA_MODES;
     const size_t per = (size_t)nv * 3u;
@@ -229,6 +245,7 @@ static core_status decode_strands(codec_decoder *dec, const codec_frame_info *h,
         }
         if (!reconstruct(key, mode, P, K, N, nv, R)) goto bad_value;
     }
+    *rd = rl;
     return CORE_OK;
 bad_stream:
     return core_fail(err, CORE_EFORMAT, "codec: corrupt entropy-coded data (invalid symbol or stream overrun)");
