@@ -29,7 +29,7 @@ typedef struct codec_quant {
 void codec_quant_setup(codec_quant *qz, float bound);
 
 /* The fast path for a group: src[l] holds the nv vertices (xyz) of lane l's strand, P gets the
- * lattice coordinates rounded half up. Returns the mask of lanes where a coordinate is out of
+ * lattice coordinates rounded half up (truncation of x / step + 2^27 + 1/2 in binary64). Returns the mask of lanes where a coordinate is out of
  * the fast range or its float32 reconstruction misses the bound (those lanes hold garbage; the
  * caller quantises them with codec_quant_careful). */
 uint32_t codec_quant_group(const codec_quant *qz, const float *const src[CODEC_GROUP], uint32_t nv, int32_t *P,
@@ -57,25 +57,6 @@ void codec_motion_apply_group(const float m[12], const int32_t *k, int32_t *out,
  *   kind 3: dP[v] - half(dP[v-1] + dP[v-2]), at v = 2 as kind 2 (delta mode 3, keyframe mode 2)
  * Vertex 1 is dP - dX under every mode. */
 #define CODEC_KINDS 4u
-
-/* Residual of kind k at vertex v >= 2; p and x address vertex 0 of one axis of one strand,
- * consecutive vertices `stride` int32 apart. */
-static inline int32_t codec_kind_at(uint32_t kind, const int32_t *p, const int32_t *x, size_t stride, uint32_t v)
-{
-#define AT(a, i) (a)[(size_t)(i) * stride]
-    int32_t dp0 = AT(p, v) - AT(p, v - 1), dp1 = AT(p, v - 1) - AT(p, v - 2);
-    switch (kind) {
-    case 0:
-        return dp0 - (AT(x, v) - AT(x, v - 1));
-    case 1:
-        return dp0 - (AT(x, v) - AT(x, v - 1)) - (dp1 - (AT(x, v - 1) - AT(x, v - 2)));
-    case 2:
-        return dp0 - dp1;
-    default:
-        return v == 2u ? dp0 - dp1 : dp0 - codec_half(dp1 + (AT(p, v - 2) - AT(p, v - 3)));
-    }
-#undef AT
-}
 
 /* Candidate residuals of a group, [vertex][axis][kind][lane] (CODEC_CSTRIDE int32 per vertex);
  * vertex 1 holds dP - dX under every kind, vertex 0 is unused. */

@@ -17,7 +17,7 @@ static size_t group_size(uint32_t nverts)
 static size_t work_size(uint32_t nverts)
 {
     return 4u * group_size(nverts) + (size_t)nverts * CODEC_CSTRIDE +
-           (size_t)CODEC_GROUP * (nverts + 2u * ((nverts + 1u) / 2u) + (nverts + 31u) / 32u);
+           (size_t)CODEC_GROUP * (3u * ((nverts + 1u) / 2u) + (nverts + 31u) / 32u);
 }
 
 void codec_encoder_free(codec_encoder *enc)
@@ -150,9 +150,9 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
     int32_t *const Pg[2] = { enc->work, enc->work + gs }, *const X = enc->work + 2u * gs;
     int32_t *const cand = enc->work + 4u * gs;
     uint32_t *const tw = (uint32_t *)(void *)(cand + (size_t)nv * CODEC_CSTRIDE);
-    const codec_tokens tok = { .R = enc->work + 3u * gs, .pidx = tw, .pbits = tw + (size_t)nv * CODEC_GROUP,
-                               .pnb = tw + (size_t)(nv + (nv + 1u) / 2u) * CODEC_GROUP,
-                               .esc = tw + (size_t)(nv + 2u * ((nv + 1u) / 2u)) * CODEC_GROUP };
+    const size_t pairs = (size_t)(nv + 1u) / 2u * CODEC_GROUP;
+    const codec_tokens tok = { .R = enc->work + 3u * gs, .pidx = tw, .pbits = tw + pairs, .pnb = tw + 2u * pairs,
+                               .esc = tw + 3u * pairs };
     int32_t kprev[3] = { 0, 0, 0 }; /* root of the previous strand in the moved keyframe */
     for (uint32_t g = 0; g < enc->ngroups; g++) {
         const uint32_t j0 = g * CODEC_GROUP, nreal = enc->nstrands_sent - j0 < CODEC_GROUP ? enc->nstrands_sent - j0 : CODEC_GROUP;
