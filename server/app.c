@@ -45,7 +45,7 @@ static core_status setup(app *a, core_err *err)
     if (st != CORE_OK) return st;
     app_list_assets(a);
     if ((st = load_initial_groom(a, err)) != CORE_OK) return st;
-    sim_desc sd = { a->d.backend, a->d.threads, a->d.device };
+    sim_desc sd = { .backend = a->d.backend, .threads = a->d.threads, .device = a->d.device };
     if ((st = sim_create(&a->sim, &sd, &a->groom.g, &a->params, err)) != CORE_OK) return st;
     size_t n = (size_t)a->groom.g.nstrands * a->groom.g.nverts * 3;
     a->xyz = malloc(n * sizeof *a->xyz);

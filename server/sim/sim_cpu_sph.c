@@ -16,6 +16,8 @@
 #define SPH_SCAN_BLOCK 64
 /* Elements of padding after the sorted SoA arrays (one AVX2 vector). */
 #define SPH_PAD 8
+/* The largest neighbour_cap (sim_params.c). */
+#define SPH_MAX_NEIGHBOURS 64
 
 #define MAX0(a) ((a) > 0.0f ? (a) : 0.0f)
 
@@ -41,7 +43,9 @@ void sim_cpu_sph_free(sim_cpu_sph *s)
     free(s->nnbr);
     free(s->cell_start);
     free(s->hist);
+    const bool scalar = s->scalar;
     memset(s, 0, sizeof *s);
+    s->scalar = scalar;
 }
 
 static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, int nthreads, core_err *err)
@@ -59,7 +63,7 @@ static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, 
         s->sy = calloc(n + SPH_PAD, sizeof *s->sy);
         s->sz = calloc(n + SPH_PAD, sizeof *s->sz);
         s->sv = malloc(n * 4 * sizeof *s->sv);
-        s->nbr = malloc(n * (size_t)cap * sizeof *s->nbr);
+        s->nbr = calloc(n * (size_t)cap + SPH_PAD, sizeof *s->nbr); /* padded for 8-wide row loads */
         s->nnbr = malloc(n * sizeof *s->nnbr);
         s->n = n;
         s->cap = cap;
@@ -231,7 +235,7 @@ static size_t gather_candidates(const sim_cpu_sph *s, uint32_t b, uint32_t e, fl
     const __m256i vsi = _mm256_set1_epi32((int)si);
     const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     const __m256i nibbles = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
-    for (; j < e; j += 8) { /* the arrays are padded by 8, so the last block may read past e */
+    for (; !s->scalar && j < e; j += 8) { /* the arrays are padded by 8: the last block may read past e */
         __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(s->sx + j), vx);
         __m256 dy = _mm256_sub_ps(_mm256_loadu_ps(s->sy + j), vy);
         __m256 dz = _mm256_sub_ps(_mm256_loadu_ps(s->sz + j), vz);
@@ -333,6 +337,51 @@ static int neighbour_ranges(const sim_cpu_sph *s, uint32_t x0, uint32_t y0, uint
     return m;
 }
 
+/* The density kernel of a neighbour at squared distance r2: q^3 with q = max(1 - r2 / h^2, 0). */
+static inline float density_term(float r2, float inv_h2)
+{
+    const float q = MAX0(1.0f - r2 * inv_h2);
+    return q * q * q;
+}
+
+#ifdef __AVX2__
+static inline __m256 density_term8(__m256 r2, __m256 inv_h2)
+{
+    const __m256 q = _mm256_max_ps(_mm256_sub_ps(_mm256_set1_ps(1.0f), _mm256_mul_ps(r2, inv_h2)), _mm256_setzero_ps());
+    return _mm256_mul_ps(_mm256_mul_ps(q, q), q);
+}
+
+/* ((t0+t1)+(t2+t3))+((t4+t5)+(t6+t7)) of the lanes of t. */
+static inline float tree_sum8(__m256 t)
+{
+    const __m256 h = _mm256_hadd_ps(_mm256_hadd_ps(t, t), t); /* lane 0: (t0+t1)+(t2+t3); lane 4: (t4+t5)+(t6+t7) */
+    return _mm_cvtss_f32(_mm_add_ss(_mm256_castps256_ps128(h), _mm256_extractf128_ps(h, 1)));
+}
+#endif
+
+/* 1 + the kernel sum over r2[0, m): blocks of 8 (missing terms +0) summed as the tree
+ * ((t0+t1)+(t2+t3))+((t4+t5)+(t6+t7)), blocks added in order -- the order of every density
+ * path. r2 has 8 readable entries past m. */
+static float density_sum(const sim_cpu_sph *s, const float *r2, size_t m, float inv_h2)
+{
+    float rho = 1.0f;
+    size_t k0 = 0;
+#ifdef __AVX2__
+    const __m256 vinv = _mm256_set1_ps(inv_h2);
+    const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    for (; !s->scalar && k0 < m; k0 += 8) {
+        const __m256 live = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32((int)(m - k0)), lanes));
+        rho += tree_sum8(_mm256_and_ps(density_term8(_mm256_loadu_ps(r2 + k0), vinv), live));
+    }
+#endif
+    for (; k0 < m; k0 += 8) {
+        float t[8];
+        for (size_t l = 0; l < 8; l++) t[l] = k0 + l < m ? density_term(r2[k0 + l], inv_h2) : 0.0f;
+        rho += ((t[0] + t[1]) + (t[2] + t[3])) + ((t[4] + t[5]) + (t[6] + t[7]));
+    }
+    return rho;
+}
+
 /* Neighbour search and density for every particle of the cells in this worker's range. */
 static void density_job(void *vctx, int tid, int nt)
 {
@@ -383,15 +432,9 @@ static void density_job(void *vctx, int tid, int nt)
                     idx[k] = (uint32_t)keys[k];
                 }
             }
-            float rho = 1.0f;
-            uint32_t *out = s->nbr + (size_t)i * (size_t)cap;
-            for (size_t k = 0; k < m; k++) {
-                float q = 1.0f - r2s[k] * inv_h2;
-                rho += q * q * q;
-                out[k] = idx[k];
-            }
+            memcpy(s->nbr + (size_t)i * (size_t)cap, idx, m * sizeof *idx);
             s->nnbr[i] = (uint8_t)m;
-            s->sp[4 * (size_t)i + 3] = rho;
+            s->sp[4 * (size_t)i + 3] = density_sum(s, r2s, m, inv_h2);
         }
     }
 }
@@ -407,49 +450,157 @@ static void pressure_job(void *vctx, int tid, int nt)
     for (size_t i = b; i < e; i++) s->sv[4 * i + 3] = MAX0(s->sp[4 * i + 3] * inv_rho0 - 1.0f);
 }
 
+/* The per-particle constants of the force pass. */
+typedef struct force_consts {
+    float inv_h, kp, mu_dt, inv_dt;
+    int cap;
+} force_consts;
+
+/* The sums over a particle's neighbours: pressure acceleration (3), viscosity weight W, and
+ * W-weighted neighbour velocity (3). Neighbours are taken in blocks of 8 (missing ones add
+ * +0); a block's terms are summed as the tree ((t0+t1)+(t2+t3))+((t4+t5)+(t6+t7)) and the
+ * blocks are added in order. The scalar and AVX2 paths follow this order exactly. */
+enum { FORCE_TERMS = 7 };
+
+/* Turns the sums over particle i's neighbours into its acceleration, stored at its unsorted index. */
+static void force_finish(sim_cpu *c, const force_consts *fc, size_t i, const float sum[FORCE_TERMS])
+{
+    const sim_cpu_sph *s = &c->sph;
+    const float *vi = s->sv + 4 * i;
+    const float W = sum[3];
+    float ax = 0.0f, ay = 0.0f, az = 0.0f;
+    if (W > 0.0f) {
+        float kr = fc->kp / s->sp[4 * i + 3];
+        ax = sum[0] * kr, ay = sum[1] * kr, az = sum[2] * kr;
+        float blend = (1.0f - expf(-fc->mu_dt * W / (1.0f + W))) * fc->inv_dt;
+        ax += blend * (sum[4] / W - vi[0]);
+        ay += blend * (sum[5] / W - vi[1]);
+        az += blend * (sum[6] / W - vi[2]);
+    }
+    const uint32_t o = s->order[i];
+    c->a[0][o] = ax, c->a[1][o] = ay, c->a[2][o] = az;
+}
+
+/* Pressure and viscosity of particle i from its neighbour list (scalar path). */
+static void force_one(sim_cpu *c, const force_consts *fc, size_t i)
+{
+    const sim_cpu_sph *s = &c->sph;
+    const float *pi = s->sp + 4 * i;
+    const float Pi = s->sv[4 * i + 3];
+    const uint32_t *nb = s->nbr + i * (size_t)fc->cap;
+    const int n = s->nnbr[i];
+    float sum[FORCE_TERMS] = { 0.0f };
+    for (int k0 = 0; k0 < n; k0 += 8) {
+        float t[FORCE_TERMS][8];
+        for (int l = 0; l < 8; l++) {
+            const bool live = k0 + l < n;
+            const float *pj = s->sp + 4 * (size_t)(live ? nb[k0 + l] : 0);
+            const float *vj = s->sv + 4 * (size_t)(live ? nb[k0 + l] : 0);
+            float dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
+            float r = sqrtf((dx * dx + dy * dy) + dz * dz);
+            float q = MAX0(1.0f - r * fc->inv_h); /* a kept neighbour may have moved beyond h */
+            float inv_rhoj = 1.0f / pj[3];
+            float f = (Pi + vj[3]) * 0.5f * inv_rhoj * q * q / r;
+            const bool pair = live && r > 1e-9f;
+            float w = q * inv_rhoj;
+            t[0][l] = pair ? f * dx : 0.0f;
+            t[1][l] = pair ? f * dy : 0.0f;
+            t[2][l] = pair ? f * dz : 0.0f;
+            t[3][l] = live ? w : 0.0f;
+            t[4][l] = live ? w * vj[0] : 0.0f;
+            t[5][l] = live ? w * vj[1] : 0.0f;
+            t[6][l] = live ? w * vj[2] : 0.0f;
+        }
+        for (int m = 0; m < FORCE_TERMS; m++)
+            sum[m] += ((t[m][0] + t[m][1]) + (t[m][2] + t[m][3])) + ((t[m][4] + t[m][5]) + (t[m][6] + t[m][7]));
+    }
+    force_finish(c, fc, i, sum);
+}
+
+#ifdef __AVX2__
+/* The float4 records a[4 j[0..7]] as four vectors of x, y, z and w (lane l = record j[l]). */
+static inline void transpose8(const float *a, const uint32_t j[8], __m256 *x, __m256 *y, __m256 *z, __m256 *w)
+{
+    const __m256 r0 = _mm256_set_m128(_mm_loadu_ps(a + 4 * (size_t)j[4]), _mm_loadu_ps(a + 4 * (size_t)j[0]));
+    const __m256 r1 = _mm256_set_m128(_mm_loadu_ps(a + 4 * (size_t)j[5]), _mm_loadu_ps(a + 4 * (size_t)j[1]));
+    const __m256 r2 = _mm256_set_m128(_mm_loadu_ps(a + 4 * (size_t)j[6]), _mm_loadu_ps(a + 4 * (size_t)j[2]));
+    const __m256 r3 = _mm256_set_m128(_mm_loadu_ps(a + 4 * (size_t)j[7]), _mm_loadu_ps(a + 4 * (size_t)j[3]));
+    const __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpackhi_ps(r0, r1);
+    const __m256 t2 = _mm256_unpacklo_ps(r2, r3), t3 = _mm256_unpackhi_ps(r2, r3);
+    *x = _mm256_shuffle_ps(t0, t2, 0x44);
+    *y = _mm256_shuffle_ps(t0, t2, 0xee);
+    *z = _mm256_shuffle_ps(t1, t3, 0x44);
+    *w = _mm256_shuffle_ps(t1, t3, 0xee);
+}
+
+/* Lane m of the result is ((a0+a1)+(a2+a3))+((a4+a5)+(a6+a7)) of the m-th input vector. */
+static inline __m256 tree_sums8(__m256 a, __m256 b, __m256 c, __m256 d, __m256 e, __m256 f, __m256 g, __m256 h)
+{
+    const __m256 abcd = _mm256_hadd_ps(_mm256_hadd_ps(a, b), _mm256_hadd_ps(c, d));
+    const __m256 efgh = _mm256_hadd_ps(_mm256_hadd_ps(e, f), _mm256_hadd_ps(g, h));
+    return _mm256_add_ps(_mm256_permute2f128_ps(abcd, efgh, 0x20), _mm256_permute2f128_ps(abcd, efgh, 0x31));
+}
+
+/* force_one with the 8 neighbours of a block in the lanes of AVX2 vectors. */
+static void force_vec(sim_cpu *c, const force_consts *fc, size_t i)
+{
+    const sim_cpu_sph *s = &c->sph;
+    const float *pi = s->sp + 4 * i;
+    const __m256 pix = _mm256_set1_ps(pi[0]), piy = _mm256_set1_ps(pi[1]), piz = _mm256_set1_ps(pi[2]);
+    const __m256 Pi = _mm256_set1_ps(s->sv[4 * i + 3]);
+    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), half = _mm256_set1_ps(0.5f);
+    const __m256 inv_h = _mm256_set1_ps(fc->inv_h), tiny = _mm256_set1_ps(1e-9f);
+    const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const uint32_t *nb = s->nbr + i * (size_t)fc->cap;
+    const int n = s->nnbr[i];
+    __m256 sum = zero;
+    for (int k0 = 0; k0 < n; k0 += 8) {
+        const __m256i livei = _mm256_cmpgt_epi32(_mm256_set1_epi32(n - k0), lanes);
+        const __m256 live = _mm256_castsi256_ps(livei);
+        /* the list rows are padded: lanes past the count read slot 0 and are masked out */
+        uint32_t j[8];
+        _mm256_storeu_si256((__m256i *)j, _mm256_and_si256(_mm256_loadu_si256((const __m256i *)(nb + k0)), livei));
+        __m256 pjx, pjy, pjz, rhoj, vjx, vjy, vjz, Pj;
+        transpose8(s->sp, j, &pjx, &pjy, &pjz, &rhoj);
+        transpose8(s->sv, j, &vjx, &vjy, &vjz, &Pj);
+        const __m256 dx = _mm256_sub_ps(pix, pjx), dy = _mm256_sub_ps(piy, pjy), dz = _mm256_sub_ps(piz, pjz);
+        const __m256 r = _mm256_sqrt_ps(
+            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
+        /* max(x, 0) returns 0 for NaN and for -0, like MAX0 */
+        const __m256 q = _mm256_max_ps(_mm256_sub_ps(one, _mm256_mul_ps(r, inv_h)), zero);
+        const __m256 inv_rhoj = _mm256_div_ps(one, rhoj);
+        __m256 f = _mm256_mul_ps(_mm256_mul_ps(_mm256_add_ps(Pi, Pj), half), inv_rhoj);
+        f = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(f, q), q), r);
+        const __m256 pair = _mm256_and_ps(live, _mm256_cmp_ps(r, tiny, _CMP_GT_OQ));
+        const __m256 w = _mm256_mul_ps(q, inv_rhoj);
+        sum = _mm256_add_ps(sum, tree_sums8(_mm256_and_ps(_mm256_mul_ps(f, dx), pair),
+                                            _mm256_and_ps(_mm256_mul_ps(f, dy), pair),
+                                            _mm256_and_ps(_mm256_mul_ps(f, dz), pair), _mm256_and_ps(w, live),
+                                            _mm256_and_ps(_mm256_mul_ps(w, vjx), live),
+                                            _mm256_and_ps(_mm256_mul_ps(w, vjy), live),
+                                            _mm256_and_ps(_mm256_mul_ps(w, vjz), live), zero));
+    }
+    float out[8];
+    _mm256_storeu_ps(out, sum);
+    force_finish(c, fc, i, out);
+}
+#endif
+
 static void force_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
-    sim_cpu_sph *s = &c->sph;
-    const float h = c->params.sph_radius, inv_h = 1.0f / h;
-    const float kp = c->params.repulsion * h * SPH_ACCEL_SCALE;
-    const float mu_dt = c->params.viscosity * ctx->dt, inv_dt = 1.0f / ctx->dt;
-    const int cap = c->params.neighbor_cap;
-    size_t b, e;
+    const float h = c->params.sph_radius;
+    const force_consts fc = { 1.0f / h, c->params.repulsion * h * SPH_ACCEL_SCALE, c->params.viscosity * ctx->dt,
+                              1.0f / ctx->dt, c->params.neighbor_cap };
+    size_t b, e, i;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
-    for (size_t i = b; i < e; i++) {
-        const float *pi = s->sp + 4 * i, *vi = s->sv + 4 * i;
-        const float Pi = vi[3], rhoi = pi[3];
-        float apx = 0.0f, apy = 0.0f, apz = 0.0f, W = 0.0f, vbx = 0.0f, vby = 0.0f, vbz = 0.0f;
-        const uint32_t *nb = s->nbr + i * (size_t)cap;
-        for (int k = 0; k < s->nnbr[i]; k++) {
-            const uint32_t j = nb[k];
-            const float *pj = s->sp + 4 * (size_t)j, *vj = s->sv + 4 * (size_t)j;
-            float dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
-            float r = sqrtf(dx * dx + dy * dy + dz * dz);
-            float q = MAX0(1.0f - r * inv_h); /* a kept neighbour may have moved beyond h */
-            float inv_rhoj = 1.0f / pj[3];
-            if (r > 1e-9f) {
-                float f = (Pi + vj[3]) * 0.5f * inv_rhoj * q * q / r;
-                apx += f * dx, apy += f * dy, apz += f * dz;
-            }
-            float w = q * inv_rhoj;
-            W += w;
-            vbx += w * vj[0], vby += w * vj[1], vbz += w * vj[2];
-        }
-        float ax = 0.0f, ay = 0.0f, az = 0.0f;
-        if (W > 0.0f) {
-            float kr = kp / rhoi;
-            ax = apx * kr, ay = apy * kr, az = apz * kr;
-            float blend = (1.0f - expf(-mu_dt * W / (1.0f + W))) * inv_dt;
-            ax += blend * (vbx / W - vi[0]);
-            ay += blend * (vby / W - vi[1]);
-            az += blend * (vbz / W - vi[2]);
-        }
-        const uint32_t o = s->order[i];
-        c->a[0][o] = ax, c->a[1][o] = ay, c->a[2][o] = az;
-    }
+    i = b;
+#ifdef __AVX2__
+    if (!c->sph.scalar)
+        for (; i < e; i++) force_vec(c, &fc, i);
+#endif
+    for (; i < e; i++) force_one(c, &fc, i);
 }
 
 /* Copies positions and velocities (zero without vel) into the sorted slots given by order;
@@ -488,14 +639,29 @@ static void density_reuse_job(void *vctx, int tid, int nt)
     for (size_t i = b; i < e; i++) {
         const float *pi = s->sp + 4 * i;
         const uint32_t *nb = s->nbr + i * (size_t)cap;
-        float rho = 1.0f;
-        for (int k = 0; k < s->nnbr[i]; k++) {
+        const int n = s->nnbr[i];
+        float r2[SPH_MAX_NEIGHBOURS + SPH_PAD];
+        int k = 0;
+#ifdef __AVX2__
+        const __m256 pix = _mm256_set1_ps(pi[0]), piy = _mm256_set1_ps(pi[1]), piz = _mm256_set1_ps(pi[2]);
+        const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        for (; !s->scalar && k < n; k += 8) { /* rows are padded; lanes past n read slot 0 */
+            const __m256i live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n - k), lanes);
+            uint32_t j[8];
+            _mm256_storeu_si256((__m256i *)j, _mm256_and_si256(_mm256_loadu_si256((const __m256i *)(nb + k)), live));
+            __m256 pjx, pjy, pjz, pjw;
+            transpose8(s->sp, j, &pjx, &pjy, &pjz, &pjw);
+            const __m256 dx = _mm256_sub_ps(pjx, pix), dy = _mm256_sub_ps(pjy, piy), dz = _mm256_sub_ps(pjz, piz);
+            _mm256_storeu_ps(r2 + k, _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
+                                                   _mm256_mul_ps(dz, dz)));
+        }
+#endif
+        for (; k < n; k++) {
             const float *pj = s->sp + 4 * (size_t)nb[k];
             float dx = pj[0] - pi[0], dy = pj[1] - pi[1], dz = pj[2] - pi[2];
-            float q = MAX0(1.0f - ((dx * dx + dy * dy) + dz * dz) * inv_h2);
-            rho += q * q * q;
+            r2[k] = (dx * dx + dy * dy) + dz * dz;
         }
-        s->sp[4 * i + 3] = rho;
+        s->sp[4 * i + 3] = density_sum(s, r2, (size_t)n, inv_h2);
     }
 }
 
