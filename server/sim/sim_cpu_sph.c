@@ -16,6 +16,8 @@
 #define SPH_SCAN_BLOCK 64
 /* Elements of padding after the sorted SoA arrays (one AVX2 vector). */
 #define SPH_PAD 8
+/* Shares of the per-particle and per-cell passes, taken by whichever worker is free. */
+#define SPH_PARTS 64
 /* The largest neighbour_cap (sim_params.c). */
 #define SPH_MAX_NEIGHBOURS 64
 
@@ -562,13 +564,13 @@ static void force_vec(sim_cpu *c, const force_consts *fc, size_t i)
         _mm256_storeu_si256((__m256i *)j, _mm256_and_si256(_mm256_loadu_si256((const __m256i *)(nb + k0)), livei));
         __m256 pjx, pjy, pjz, rhoj, vjx, vjy, vjz, Pj;
         transpose8(s->sp, j, &pjx, &pjy, &pjz, &rhoj);
+        const __m256 inv_rhoj = _mm256_div_ps(one, rhoj);
         transpose8(s->sv, j, &vjx, &vjy, &vjz, &Pj);
         const __m256 dx = _mm256_sub_ps(pix, pjx), dy = _mm256_sub_ps(piy, pjy), dz = _mm256_sub_ps(piz, pjz);
         const __m256 r = _mm256_sqrt_ps(
             _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
         /* max(x, 0) returns 0 for NaN and for -0, like MAX0 */
         const __m256 q = _mm256_max_ps(_mm256_sub_ps(one, _mm256_mul_ps(r, inv_h)), zero);
-        const __m256 inv_rhoj = _mm256_div_ps(one, rhoj);
         __m256 f = _mm256_mul_ps(_mm256_mul_ps(_mm256_add_ps(Pi, Pj), half), inv_rhoj);
         f = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(f, q), q), r);
         const __m256 pair = _mm256_and_ps(live, _mm256_cmp_ps(r, tiny, _CMP_GT_OQ));
@@ -676,10 +678,10 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
     ctx->dt = dt;
     sim_cpu_sph *s = &c->sph;
     if (!rebuild && s->lists_valid && vel) {
-        sim_pool_run(&c->pool, regather_job, ctx);
-        sim_pool_run(&c->pool, density_reuse_job, ctx);
-        sim_pool_run(&c->pool, pressure_job, ctx);
-        sim_pool_run(&c->pool, force_job, ctx);
+        sim_pool_run_parts(&c->pool, regather_job, ctx, SPH_PARTS);
+        sim_pool_run_parts(&c->pool, density_reuse_job, ctx, SPH_PARTS);
+        sim_pool_run_parts(&c->pool, pressure_job, ctx, SPH_PARTS);
+        sim_pool_run_parts(&c->pool, force_job, ctx, SPH_PARTS);
         free(ctx);
         return CORE_OK;
     }
@@ -711,16 +713,16 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
     sim_pool_run(&c->pool, scan_sum_job, ctx);
     sim_pool_run(&c->pool, scan_fill_job, ctx);
     sim_pool_run(&c->pool, scatter_job, ctx);
-    sim_pool_run(&c->pool, gather_job, ctx);
-    sim_pool_run(&c->pool, density_job, ctx);
+    sim_pool_run_parts(&c->pool, gather_job, ctx, SPH_PARTS);
+    sim_pool_run_parts(&c->pool, density_job, ctx, SPH_PARTS);
     s->lists_valid = out_mean_rho == NULL; /* lists of the rest pose are not reused */
     if (out_mean_rho) {
         double sum = 0.0; /* serial, in sorted order: the same bits for any thread count */
         for (size_t i = 0; i < c->n; i++) sum += s->sp[4 * i + 3];
         *out_mean_rho = sum / (double)c->n;
     } else {
-        sim_pool_run(&c->pool, pressure_job, ctx);
-        sim_pool_run(&c->pool, force_job, ctx);
+        sim_pool_run_parts(&c->pool, pressure_job, ctx, SPH_PARTS);
+        sim_pool_run_parts(&c->pool, force_job, ctx, SPH_PARTS);
     }
     free(ctx);
     return CORE_OK;
