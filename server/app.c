@@ -58,6 +58,7 @@ static core_status setup(app *a, core_err *err)
     net_desc nd = {
         .listen = a->d.listen, .port = a->d.port, .web_dir = a->d.web_dir, .subprotocol = PROTO_SUBPROTOCOL,
         .max_message = PROTO_MAX_MESSAGE, .sndbuf = a->d.client_buffer,
+        .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout,
         .cb = { a, app_on_open, app_on_text, app_on_close, app_metrics },
     };
     return net_create(&a->net, &nd, err);
