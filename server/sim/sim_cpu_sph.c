@@ -12,10 +12,8 @@
 #define SPH_ACCEL_SCALE 3600.0f
 /* Candidates within h kept per particle before the nearest neighbour_cap are selected. */
 #define SPH_MAX_CANDIDATES 1024
-/* Candidates whose distances are computed in one vector loop. */
-#define SPH_SCAN_BLOCK 64
-/* Elements of padding after the sorted SoA arrays (one AVX2 vector). */
-#define SPH_PAD 8
+/* Elements of padding after the sorted SoA arrays and scan buffers (two AVX2 vectors). */
+#define SPH_PAD 16
 /* Shares of the per-particle and per-cell passes, taken by whichever worker is free. */
 #define SPH_PARTS 64
 /* The largest neighbour_cap (sim_params.c). */
@@ -225,43 +223,51 @@ static const uint32_t compact_lut[256] = {
 };
 #endif
 
-/* Appends to r2s[]/idx[] the candidates j in [b, e) within h (r2 < h2) that belong to another
- * strand than si, in slot order; returns the new count. The buffers need 8 spare entries.
- * r2 = (dx*dx + dy*dy) + dz*dz in both paths, so AVX2 and scalar code give the same lists. */
-static size_t gather_candidates(const sim_cpu_sph *s, uint32_t b, uint32_t e, float x, float y, float z, float h2,
-                                uint32_t si, float *r2s, uint32_t *idx, size_t m)
+/* The candidate scan of one run [rb, re) of sorted slots: appends to r2s[]/idx[] the slots j
+ * within h (r2 < h2) of another strand than si, in slot order, taking blocks of 8 slots from rb
+ * while fewer than SPH_MAX_CANDIDATES are held; returns the new count. The buffers need 16
+ * spare entries. r2 = (dx*dx + dy*dy) + dz*dz in both paths, so AVX2 and scalar code give the
+ * same lists. */
+static size_t scan_run(const sim_cpu_sph *s, uint32_t rb, uint32_t re, float x, float y, float z, float h2,
+                       uint32_t si, float *r2s, uint32_t *idx, size_t m)
 {
-    uint32_t j = b;
 #ifdef __AVX2__
-    const __m256 vx = _mm256_set1_ps(x), vy = _mm256_set1_ps(y), vz = _mm256_set1_ps(z), vh2 = _mm256_set1_ps(h2);
-    const __m256i vsi = _mm256_set1_epi32((int)si);
-    const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-    const __m256i nibbles = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
-    for (; !s->scalar && j < e; j += 8) { /* the arrays are padded by 8: the last block may read past e */
-        __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(s->sx + j), vx);
-        __m256 dy = _mm256_sub_ps(_mm256_loadu_ps(s->sy + j), vy);
-        __m256 dz = _mm256_sub_ps(_mm256_loadu_ps(s->sz + j), vz);
-        __m256 r2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
-        __m256i same = _mm256_cmpeq_epi32(_mm256_loadu_si256((const __m256i *)(s->strand + j)), vsi);
-        __m256i inside = _mm256_cmpgt_epi32(_mm256_set1_epi32((int)(e - j)), lanes);
-        __m256 ok = _mm256_andnot_ps(_mm256_castsi256_ps(same), _mm256_castsi256_ps(inside));
-        unsigned mask = (unsigned)_mm256_movemask_ps(_mm256_and_ps(ok, _mm256_cmp_ps(r2, vh2, _CMP_LT_OQ)));
-        /* branch-free: store the compacted lanes, advance by the number selected */
-        __m256i perm = _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)compact_lut[mask]), nibbles),
-                                        _mm256_set1_epi32(15));
-        _mm256_storeu_ps(r2s + m, _mm256_permutevar8x32_ps(r2, perm));
-        __m256i slots = _mm256_add_epi32(_mm256_set1_epi32((int)j), lanes);
-        _mm256_storeu_si256((__m256i *)(idx + m), _mm256_permutevar8x32_epi32(slots, perm));
-        m += (size_t)__builtin_popcount(mask);
+    if (!s->scalar) {
+        const __m256 vx = _mm256_set1_ps(x), vy = _mm256_set1_ps(y), vz = _mm256_set1_ps(z), vh2 = _mm256_set1_ps(h2);
+        const __m256i vsi = _mm256_set1_epi32((int)si);
+        const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        const __m256i nibbles = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
+        /* The first two blocks come without a loop (most runs hold at most 16 slots; a loop
+         * whose trip count changes from run to run costs a branch miss per run). A block may
+         * start past re (its lanes are all masked); the arrays are padded by SPH_PAD. */
+        for (uint32_t j = rb; (j < rb + 16 || j < re) && m < SPH_MAX_CANDIDATES; j += 8) {
+            __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(s->sx + j), vx);
+            __m256 dy = _mm256_sub_ps(_mm256_loadu_ps(s->sy + j), vy);
+            __m256 dz = _mm256_sub_ps(_mm256_loadu_ps(s->sz + j), vz);
+            __m256 r2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+            __m256i same = _mm256_cmpeq_epi32(_mm256_loadu_si256((const __m256i *)(s->strand + j)), vsi);
+            __m256i inside = _mm256_cmpgt_epi32(_mm256_set1_epi32((int)re - (int)j), lanes);
+            __m256 ok = _mm256_andnot_ps(_mm256_castsi256_ps(same), _mm256_castsi256_ps(inside));
+            unsigned mask = (unsigned)_mm256_movemask_ps(_mm256_and_ps(ok, _mm256_cmp_ps(r2, vh2, _CMP_LT_OQ)));
+            /* branch-free: store the compacted lanes, advance by the number selected */
+            __m256i perm = _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)compact_lut[mask]), nibbles),
+                                            _mm256_set1_epi32(15));
+            _mm256_storeu_ps(r2s + m, _mm256_permutevar8x32_ps(r2, perm));
+            __m256i slots = _mm256_add_epi32(_mm256_set1_epi32((int)j), lanes);
+            _mm256_storeu_si256((__m256i *)(idx + m), _mm256_permutevar8x32_epi32(slots, perm));
+            m += (size_t)__builtin_popcount(mask);
+        }
+        return m;
     }
 #endif
-    for (; j < e; j++) {
-        float dx = s->sx[j] - x, dy = s->sy[j] - y, dz = s->sz[j] - z;
-        float r2 = (dx * dx + dy * dy) + dz * dz;
-        r2s[m] = r2;
-        idx[m] = j;
-        m += (r2 < h2) & (s->strand[j] != si);
-    }
+    for (uint32_t j0 = rb; j0 < re && m < SPH_MAX_CANDIDATES; j0 += 8)
+        for (uint32_t j = j0; j < j0 + 8 && j < re; j++) {
+            float dx = s->sx[j] - x, dy = s->sy[j] - y, dz = s->sz[j] - z;
+            float r2 = (dx * dx + dy * dy) + dz * dz;
+            r2s[m] = r2;
+            idx[m] = j;
+            m += (r2 < h2) & (s->strand[j] != si);
+        }
     return m;
 }
 
@@ -394,9 +400,9 @@ static void density_job(void *vctx, int tid, int nt)
     const int cap = c->params.neighbor_cap;
     size_t b, e;
     sim_pool_range(s->ncells, tid, nt, 1, &b, &e);
-    uint64_t keys[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK];
-    float r2s[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK + SPH_PAD];
-    uint32_t idx[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK + SPH_PAD];
+    uint64_t keys[SPH_MAX_CANDIDATES + SPH_PAD];
+    float r2s[SPH_MAX_CANDIDATES + SPH_PAD];
+    uint32_t idx[SPH_MAX_CANDIDATES + SPH_PAD];
     uint32_t ccx = UINT32_MAX, ccy = 0, ccz = 0; /* corner whose neighbour ranges are in rlo/rhi */
     uint32_t rlo[8], rhi[8];
     int nr = 0;
@@ -415,10 +421,7 @@ static void density_job(void *vctx, int tid, int nt)
             size_t m = 0;
             for (int r = 0; r < nr; r++) {
                 const uint32_t rb = s->cell_start[rlo[r]], re = s->cell_start[rhi[r] + 1];
-                for (uint32_t j0 = rb; j0 < re && m < SPH_MAX_CANDIDATES; j0 += SPH_SCAN_BLOCK) {
-                    uint32_t j1 = re - j0 < SPH_SCAN_BLOCK ? re : j0 + SPH_SCAN_BLOCK;
-                    m = gather_candidates(s, j0, j1, xi, yi, zi, h2, si, r2s, idx, m);
-                }
+                m = scan_run(s, rb, re, xi, yi, zi, h2, si, r2s, idx, m);
             }
             if (m > (size_t)cap) { /* keep the cap nearest: key (r2 bits, slot) orders like (r2, slot) */
                 for (size_t k = 0; k < m; k++) {
