@@ -370,7 +370,7 @@ static inline float tree_sum8(__m256 t)
 /* 1 + the kernel sum over r2[0, m): blocks of 8 (missing terms +0) summed as the tree
  * ((t0+t1)+(t2+t3))+((t4+t5)+(t6+t7)), blocks added in order -- the order of every density
  * path. r2 has 8 readable entries past m. */
-static float density_sum(const sim_cpu_sph *s, const float *r2, size_t m, float inv_h2)
+static inline float density_sum(const sim_cpu_sph *s, const float *r2, size_t m, float inv_h2)
 {
     float rho = 1.0f;
     size_t k0 = 0;
@@ -467,6 +467,29 @@ typedef struct force_consts {
  * blocks are added in order. The scalar and AVX2 paths follow this order exactly. */
 enum { FORCE_TERMS = 7 };
 
+/* e^x for the viscosity blend, written out so that the scalar and AVX2 paths give the same
+ * bits: Cody-Waite reduction by ln 2, a degree-6 Taylor polynomial on |r| <= ln(2)/2 (relative
+ * error below 3e-7), the power of two put into the exponent. x is clamped to [-87, 88]; NaN
+ * gives e^-87. */
+#define SPH_EXP_LO (-87.0f)
+#define SPH_EXP_HI 88.0f
+#define SPH_LOG2E 1.44269504f
+#define SPH_LN2_HI 0.693359375f
+#define SPH_LN2_LO (-2.12194440e-4f)
+static inline float sph_exp(float x)
+{
+    x = x > SPH_EXP_LO ? x : SPH_EXP_LO;
+    x = x < SPH_EXP_HI ? x : SPH_EXP_HI;
+    const float n = floorf(x * SPH_LOG2E + 0.5f);
+    const float r = (x - n * SPH_LN2_HI) - n * SPH_LN2_LO;
+    const float p =
+        1.0f + r * (1.0f + r * (0.5f + r * (1.0f / 6.0f + r * (1.0f / 24.0f + r * (1.0f / 120.0f + r * (1.0f / 720.0f))))));
+    const uint32_t bits = (uint32_t)((int32_t)n + 127) << 23;
+    float scale;
+    memcpy(&scale, &bits, sizeof scale);
+    return p * scale;
+}
+
 /* Turns the sums over particle i's neighbours into its acceleration, stored at its unsorted index. */
 static void force_finish(sim_cpu *c, const force_consts *fc, size_t i, const float sum[FORCE_TERMS])
 {
@@ -477,7 +500,7 @@ static void force_finish(sim_cpu *c, const force_consts *fc, size_t i, const flo
     if (W > 0.0f) {
         float kr = fc->kp / s->sp[4 * i + 3];
         ax = sum[0] * kr, ay = sum[1] * kr, az = sum[2] * kr;
-        float blend = (1.0f - expf(-fc->mu_dt * W / (1.0f + W))) * fc->inv_dt;
+        float blend = (1.0f - sph_exp(-fc->mu_dt * W / (1.0f + W))) * fc->inv_dt;
         ax += blend * (sum[4] / W - vi[0]);
         ay += blend * (sum[5] / W - vi[1]);
         az += blend * (sum[6] / W - vi[2]);
@@ -546,8 +569,9 @@ static inline __m256 tree_sums8(__m256 a, __m256 b, __m256 c, __m256 d, __m256 e
     return _mm256_add_ps(_mm256_permute2f128_ps(abcd, efgh, 0x20), _mm256_permute2f128_ps(abcd, efgh, 0x31));
 }
 
-/* force_one with the 8 neighbours of a block in the lanes of AVX2 vectors. */
-static void force_vec(sim_cpu *c, const force_consts *fc, size_t i)
+/* The sums of force_one with the 8 neighbours of a block in the lanes of AVX2 vectors; lane m
+ * of the result is sum[m] (lane 7 is 0). */
+static __m256 force_sums_vec(const sim_cpu *c, const force_consts *fc, size_t i)
 {
     const sim_cpu_sph *s = &c->sph;
     const float *pi = s->sp + 4 * i;
@@ -585,9 +609,66 @@ static void force_vec(sim_cpu *c, const force_consts *fc, size_t i)
                                             _mm256_and_ps(_mm256_mul_ps(w, vjy), live),
                                             _mm256_and_ps(_mm256_mul_ps(w, vjz), live), zero));
     }
-    float out[8];
-    _mm256_storeu_ps(out, sum);
-    force_finish(c, fc, i, out);
+    return sum;
+}
+
+static inline __m256 sph_exp8(__m256 x)
+{
+    x = _mm256_max_ps(x, _mm256_set1_ps(SPH_EXP_LO)); /* NaN -> the second operand, like sph_exp */
+    x = _mm256_min_ps(x, _mm256_set1_ps(SPH_EXP_HI));
+    const __m256 n = _mm256_floor_ps(_mm256_add_ps(_mm256_mul_ps(x, _mm256_set1_ps(SPH_LOG2E)), _mm256_set1_ps(0.5f)));
+    const __m256 r = _mm256_sub_ps(_mm256_sub_ps(x, _mm256_mul_ps(n, _mm256_set1_ps(SPH_LN2_HI))),
+                                   _mm256_mul_ps(n, _mm256_set1_ps(SPH_LN2_LO)));
+    __m256 p = _mm256_add_ps(_mm256_set1_ps(1.0f / 120.0f), _mm256_mul_ps(r, _mm256_set1_ps(1.0f / 720.0f)));
+    p = _mm256_add_ps(_mm256_set1_ps(1.0f / 24.0f), _mm256_mul_ps(r, p));
+    p = _mm256_add_ps(_mm256_set1_ps(1.0f / 6.0f), _mm256_mul_ps(r, p));
+    p = _mm256_add_ps(_mm256_set1_ps(0.5f), _mm256_mul_ps(r, p));
+    p = _mm256_add_ps(_mm256_set1_ps(1.0f), _mm256_mul_ps(r, p));
+    p = _mm256_add_ps(_mm256_set1_ps(1.0f), _mm256_mul_ps(r, p));
+    const __m256i bits = _mm256_slli_epi32(_mm256_add_epi32(_mm256_cvttps_epi32(n), _mm256_set1_epi32(127)), 23);
+    return _mm256_mul_ps(p, _mm256_castsi256_ps(bits));
+}
+
+/* force_finish for particles i0..i0+7, one per lane; rows[l] = the sums of particle i0 + l. */
+static void force_finish8(sim_cpu *c, const force_consts *fc, size_t i0, const __m256 rows[8])
+{
+    const sim_cpu_sph *s = &c->sph;
+    /* 8x8 transpose: col[m] lane l = rows[l] lane m */
+    __m256 t[8], u[8], col[8];
+    for (int k = 0; k < 8; k += 2) {
+        t[k] = _mm256_unpacklo_ps(rows[k], rows[k + 1]);
+        t[k + 1] = _mm256_unpackhi_ps(rows[k], rows[k + 1]);
+    }
+    for (int k = 0; k < 8; k += 4) {
+        u[k] = _mm256_shuffle_ps(t[k], t[k + 2], 0x44);
+        u[k + 1] = _mm256_shuffle_ps(t[k], t[k + 2], 0xee);
+        u[k + 2] = _mm256_shuffle_ps(t[k + 1], t[k + 3], 0x44);
+        u[k + 3] = _mm256_shuffle_ps(t[k + 1], t[k + 3], 0xee);
+    }
+    for (int k = 0; k < 4; k++) {
+        col[k] = _mm256_permute2f128_ps(u[k], u[k + 4], 0x20);
+        col[k + 4] = _mm256_permute2f128_ps(u[k], u[k + 4], 0x31);
+    }
+    const __m256i row4 = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
+    const __m256 rho = _mm256_i32gather_ps(s->sp + 4 * i0 + 3, row4, 4);
+    const __m256 vx = _mm256_i32gather_ps(s->sv + 4 * i0, row4, 4), vy = _mm256_i32gather_ps(s->sv + 4 * i0 + 1, row4, 4),
+                 vz = _mm256_i32gather_ps(s->sv + 4 * i0 + 2, row4, 4);
+    const __m256 W = col[3], one = _mm256_set1_ps(1.0f);
+    const __m256 kr = _mm256_div_ps(_mm256_set1_ps(fc->kp), rho);
+    const __m256 arg = _mm256_div_ps(_mm256_mul_ps(_mm256_set1_ps(-fc->mu_dt), W), _mm256_add_ps(one, W));
+    const __m256 blend = _mm256_mul_ps(_mm256_sub_ps(one, sph_exp8(arg)), _mm256_set1_ps(fc->inv_dt));
+    const __m256 ax = _mm256_add_ps(_mm256_mul_ps(col[0], kr), _mm256_mul_ps(blend, _mm256_sub_ps(_mm256_div_ps(col[4], W), vx)));
+    const __m256 ay = _mm256_add_ps(_mm256_mul_ps(col[1], kr), _mm256_mul_ps(blend, _mm256_sub_ps(_mm256_div_ps(col[5], W), vy)));
+    const __m256 az = _mm256_add_ps(_mm256_mul_ps(col[2], kr), _mm256_mul_ps(blend, _mm256_sub_ps(_mm256_div_ps(col[6], W), vz)));
+    const __m256 has = _mm256_cmp_ps(W, _mm256_setzero_ps(), _CMP_GT_OQ); /* no neighbour weight: no acceleration */
+    float out[3][8];
+    _mm256_storeu_ps(out[0], _mm256_and_ps(ax, has));
+    _mm256_storeu_ps(out[1], _mm256_and_ps(ay, has));
+    _mm256_storeu_ps(out[2], _mm256_and_ps(az, has));
+    for (int l = 0; l < 8; l++) {
+        const uint32_t o = s->order[i0 + (size_t)l];
+        c->a[0][o] = out[0][l], c->a[1][o] = out[1][l], c->a[2][o] = out[2][l];
+    }
 }
 #endif
 
@@ -603,7 +684,11 @@ static void force_job(void *vctx, int tid, int nt)
     i = b;
 #ifdef __AVX2__
     if (!c->sph.scalar)
-        for (; i < e; i++) force_vec(c, &fc, i);
+        for (; i + 8 <= e; i += 8) {
+            __m256 rows[8];
+            for (int l = 0; l < 8; l++) rows[l] = force_sums_vec(c, &fc, i + (size_t)l);
+            force_finish8(c, &fc, i, rows);
+        }
 #endif
     for (; i < e; i++) force_one(c, &fc, i);
 }
