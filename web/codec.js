@@ -1,7 +1,7 @@
 // Strand frame decoder (proto/CODEC.md), bit-exact with server/codec; browser, Worker or Node.
 
 import {
-  CodecKernel, kernelLayout, K_STEPS, K_INFO, K_RES, K_MOTION, K_STATE, K_BAD_STREAM, K_BAD_VALUE, INFO_SLOW,
+  CodecKernel, kernelLayout, K_FREQ, K_INFO, K_RES, K_MOTION, K_STATE, K_BAD_STREAM, K_BAD_VALUE, INFO_SLOW,
   INFO_UNUSED,
 } from './codec_kernel.js';
 
@@ -168,7 +168,7 @@ export class StrandDecoder {
     this._i32 = null;
     this._f64 = null;
     this._info16 = null;  // K_INFO
-    this._steps32 = null; // K_STEPS
+    this._freq32 = null;  // K_FREQ
     this._out = new Float32Array(0); // view of the output region, nq floats
   }
 
@@ -214,7 +214,7 @@ export class StrandDecoder {
     this._i32 = i32;
     this._f64 = new Float64Array(heap);
     this._info16 = new Uint16Array(heap, K_INFO, NTABLES * SCALE);
-    this._steps32 = new Int32Array(heap, K_STEPS, NTABLES * SCALE);
+    this._freq32 = new Int32Array(heap, K_FREQ, NTABLES * 512);
     this._out = new Float32Array(heap, lay.out, nq);
   }
 
@@ -245,7 +245,7 @@ export class StrandDecoder {
       }
       pos += MOTION_BYTES;
     }
-    pos = readTables(bytes, pos, end, this._info16, this._steps32);
+    pos = readTables(bytes, pos, end, this._info16, this._freq32);
     if (end - pos < 4) fail('truncated payload (no stream length)');
     const ransLen = u32(bytes, pos);
     pos += 4;
@@ -291,10 +291,11 @@ function varint(bytes, pos, end) {
   return (((b0 & 0x7f) | (b1 << 7)) << 16) | 2;
 }
 
-// Reads the ten probability tables at bytes[pos, end) into the kernel's slot lookups (info:
-// INFO entries, codec_kernel.js; steps: freq << 12 | (slot - start)). Returns the position
-// after them.
-function readTables(bytes, pos, end, info, steps) {
+// Reads the ten probability tables at bytes[pos, end) into the kernel's lookups
+// (codec_kernel.js): info, per table and slot, the INFO entry of the symbol whose
+// [start, start + freq) holds the slot; freq, per table and symbol key, freq << 12 | start.
+// Returns the position after them.
+function readTables(bytes, pos, end, info, freq) {
   for (let t = 0; t < NTABLES; t++) {
     let vb = varint(bytes, pos, end);
     pos += vb & 3;
@@ -319,7 +320,7 @@ function readTables(bytes, pos, end, info, steps) {
       const from = lut + st, to = from + f;
       const v = t === T_MODE || t === T_ESC ? s : t === T_ROOT ? (SYM_INFO[s] & ~(15 << 9)) | (T_FIRST << 9) : SYM_INFO[s];
       info.fill(v, from, to);
-      for (let i = from, e = f << SCALE_BITS; i < to; i++, e++) steps[i] = e;
+      freq[(t << 9) | (v & 511)] = (f << SCALE_BITS) | st;
       st += f;
       next = s + 1;
     }

@@ -4,19 +4,20 @@
 
 // Heap layout (byte offsets). The tables and scratch below K_KEY are fixed; the lattice and
 // output regions follow (kernelLayout).
-export const K_STEPS = 0;        // Int32 [10 * 4096]: per table and slot, freq << 12 | (slot - start)
-export const K_INFO = 163840;    // Uint16 [10 * 4096]: per table and slot, the symbol's decoding info
-export const K_RES = 245760;     // Int32 [192]: residual of class c from raw bits b at c << 5 | (b & 31)
-export const K_MOTION = 246528;  // Float64 [12]: r0..r8, then t + 2^30 + 1/2 per axis (deltas)
-export const K_STATE = 246624;   // Int32 [4]: x0, x1, rpos, bit position after the frame
-export const K_RESID = 262144;   // Int32 [3 * 4096]: one strand's residuals
-export const K_MOVED = 311296;   // Int32 [3 * 4096]: one strand of the moved keyframe (deltas)
-export const K_ZERO = 360448;    // Int32 [3 * 4096]: zeros (the first strand's missing neighbour)
-export const K_KEY = 409600;     // start of the lattice regions (kernelLayout)
+export const K_FREQ = 0;         // Int32 [10 * 512]: per table and symbol key (below), freq << 12 | start
+export const K_INFO = 20480;     // Uint16 [10 * 4096]: per table and slot, the symbol's INFO entry
+export const K_RES = 102400;     // Int32 [192]: residual of class c from raw bits b at c << 5 | (b & 31)
+export const K_MOTION = 103168;  // Float64 [12]: r0..r8, then t + 2^30 + 1/2 per axis (deltas)
+export const K_STATE = 103264;   // Int32 [4]: x0, x1, rpos, bit position after the frame
+export const K_RESID = 131072;   // Int32 [3 * 4096]: one strand's residuals
+export const K_MOVED = 180224;   // Int32 [6]: the first two vertices of a strand of the moved keyframe
+export const K_ZERO = 180288;    // Int32 [6]: zeros (the first keyframe strand's missing neighbour)
+export const K_KEY = 196608;     // start of the lattice regions (kernelLayout)
 
-// INFO entries: vertex tables (1..8): c0 | c1 << 3 | c2 << 6 (the residual classes), the next
-// vertex's table << 9, INFO_SLOW (an escaped axis); the mode and escape tables: the symbol;
-// every slot of an unused table: INFO_UNUSED.
+// INFO entries: vertex tables (1..8): c0 | c1 << 3 | c2 << 6 (the residual classes, which name
+// the symbol), the next vertex's table << 9, INFO_SLOW (an escaped axis); the mode and escape
+// tables: the symbol; every slot of an unused table: INFO_UNUSED. A symbol's key in K_FREQ is
+// its INFO entry & 511.
 export const INFO_SLOW = 1 << 13;
 export const INFO_UNUSED = 0xffff;
 
@@ -44,7 +45,7 @@ export function kernelLayout(nq, frameCap) {
  * frame(key, ns, per, x0, x1, rpos, rend, bstart, bend, keyOff, curOff, outOff, step) decodes
  * the ns strands (per = 3 * nverts coordinates each) of a frame whose bytes lie in the heap:
  * the rANS stream from rpos (after the initial states x0, x1) to rend, the raw bits from bstart
- * to bend (byte offsets). The tables (K_STEPS, K_INFO, K_RES) and for a delta the motion
+ * to bend (byte offsets). The tables (K_FREQ, K_INFO, K_RES) and for a delta the motion
  * (K_MOTION) must be filled in. It writes the lattice coordinates to curOff (Int32; a keyframe
  * reads the previous strand there, a delta reads the held keyframe at keyOff) and
  * float32(q * step) to outOff, leaves the reader state in K_STATE and returns K_OK, or a
@@ -98,10 +99,10 @@ export function CodecKernel(stdlib, foreign, heap) {
     rsafe = (rend - 2) | 0;
     bsafe = (bend - 3) | 0;
     li = x0 & 4095;
-    mode = U16[(163840 + (li << 1)) >> 1] | 0;
+    mode = U16[(20480 + (li << 1)) >> 1] | 0;
     if ((mode | 0) >= (nmodes | 0)) return -1; // also an unused table
-    e = I32[(li << 2) >> 2] | 0;
-    x = ((imul(e >> 12, x0 >> 12) | 0) + (e & 4095)) | 0;
+    e = I32[(mode << 2) >> 2] | 0;
+    x = ((imul(e >> 12, x0 >> 12) | 0) + (x0 & 4095) - (e & 4095)) | 0;
     while ((x | 0) < 8388608) {
       if ((rpos | 0) >= (rend | 0)) return -1;
       x = (x << 8) | (U8[rpos] | 0);
@@ -109,12 +110,12 @@ export function CodecKernel(stdlib, foreign, heap) {
     }
     x0 = x1;
     x1 = x;
-    pend = (262144 + (per << 2)) | 0;
-    for (pr = 262144; (pr | 0) < (pend | 0); pr = (pr + 12) | 0) {
+    pend = (131072 + (per << 2)) | 0;
+    for (pr = 131072; (pr | 0) < (pend | 0); pr = (pr + 12) | 0) {
       li = (table << 12) | (x0 & 4095);
-      f = U16[(163840 + (li << 1)) >> 1] | 0;
-      e = I32[(li << 2) >> 2] | 0;
-      x = ((imul(e >> 12, x0 >> 12) | 0) + (e & 4095)) | 0;
+      f = U16[(20480 + (li << 1)) >> 1] | 0;
+      e = I32[(((table << 9) | (f & 511)) << 2) >> 2] | 0;
+      x = ((imul(e >> 12, x0 >> 12) | 0) + (x0 & 4095) - (e & 4095)) | 0;
       table = (f >> 9) & 15;
       p = (bstart + (bp >> 3)) | 0;
       if ((((f & 8192) == 0) & ((rpos | 0) <= (rsafe | 0)) & ((p | 0) <= (bsafe | 0))) != 0) {
@@ -127,10 +128,10 @@ export function CodecKernel(stdlib, foreign, heap) {
         c0 = f & 7;
         c1 = (f >> 3) & 7;
         c2 = (f >> 6) & 7;
-        I32[pr >> 2] = I32[(245760 + (((c0 << 5) | (w & 31)) << 2)) >> 2];
+        I32[pr >> 2] = I32[(102400 + (((c0 << 5) | (w & 31)) << 2)) >> 2];
         w = w >> c0;
-        I32[(pr + 4) >> 2] = I32[(245760 + (((c1 << 5) | (w & 31)) << 2)) >> 2];
-        I32[(pr + 8) >> 2] = I32[(245760 + (((c2 << 5) | ((w >> c1) & 31)) << 2)) >> 2];
+        I32[(pr + 4) >> 2] = I32[(102400 + (((c1 << 5) | (w & 31)) << 2)) >> 2];
+        I32[(pr + 8) >> 2] = I32[(102400 + (((c2 << 5) | ((w >> c1) & 31)) << 2)) >> 2];
         bp = (bp + c0 + c1 + c2) | 0;
         continue;
       }
@@ -146,15 +147,15 @@ export function CodecKernel(stdlib, foreign, heap) {
       for (ax = 0; (ax | 0) < 3; ax = (ax + 1) | 0) {
         c = (f >> ((ax * 3) | 0)) & 7;
         if ((c | 0) < 6) {
-          r = I32[(245760 + (((c << 5) | ((bitsAt(bstart, bp, bend) | 0) & 31)) << 2)) >> 2] | 0;
+          r = I32[(102400 + (((c << 5) | ((bitsAt(bstart, bp, bend) | 0) & 31)) << 2)) >> 2] | 0;
           bp = (bp + c) | 0;
         } else {
           // escape: e - 5 from the escape table, then the sign and e bits below the leading one
           li = 36864 | (x0 & 4095);
-          ex = U16[(163840 + (li << 1)) >> 1] | 0;
+          ex = U16[(20480 + (li << 1)) >> 1] | 0;
           if ((ex | 0) >= 25) return -1; // also an unused table
-          e = I32[(li << 2) >> 2] | 0;
-          x = ((imul(e >> 12, x0 >> 12) | 0) + (e & 4095)) | 0;
+          e = I32[((4608 | ex) << 2) >> 2] | 0;
+          x = ((imul(e >> 12, x0 >> 12) | 0) + (x0 & 4095) - (e & 4095)) | 0;
           while ((x | 0) < 8388608) {
             if ((rpos | 0) >= (rend | 0)) return -1;
             x = (x << 8) | (U8[rpos] | 0);
@@ -190,10 +191,10 @@ export function CodecKernel(stdlib, foreign, heap) {
     var m0 = 0.0, m1 = 0.0, m2 = 0.0, m3 = 0.0, m4 = 0.0, m5 = 0.0, m6 = 0.0, m7 = 0.0, m8 = 0.0;
     var t0 = 0.0, t1 = 0.0, t2 = 0.0, kx = 0.0, ky = 0.0, kz = 0.0;
     var pw = 0, w0 = 0, w1 = 0, w2 = 0;
-    m0 = +F64[30816]; m1 = +F64[30817]; m2 = +F64[30818]; m3 = +F64[30819]; m4 = +F64[30820];
-    m5 = +F64[30821]; m6 = +F64[30822]; m7 = +F64[30823]; m8 = +F64[30824];
-    t0 = +F64[30825]; t1 = +F64[30826]; t2 = +F64[30827];
-    for (pw = 311296; (pw | 0) < 311320; pw = (pw + 12) | 0, pk = (pk + 12) | 0) {
+    m0 = +F64[12896]; m1 = +F64[12897]; m2 = +F64[12898]; m3 = +F64[12899]; m4 = +F64[12900];
+    m5 = +F64[12901]; m6 = +F64[12902]; m7 = +F64[12903]; m8 = +F64[12904];
+    t0 = +F64[12905]; t1 = +F64[12906]; t2 = +F64[12907];
+    for (pw = 180224; (pw | 0) < 180248; pw = (pw + 12) | 0, pk = (pk + 12) | 0) {
       kx = +(I32[pk >> 2] | 0);
       ky = +(I32[(pk + 4) >> 2] | 0);
       kz = +(I32[(pk + 8) >> 2] | 0);
@@ -298,10 +299,10 @@ export function CodecKernel(stdlib, foreign, heap) {
     po = po | 0;
     per = per | 0;
     step = +step;
-    var pn = 0, pr = 262144, pend = 0, bad = 0, a0 = 0, a1 = 0, a2 = 0, b0 = 0, b1 = 0, b2 = 0;
+    var pn = 0, pr = 131072, pend = 0, bad = 0, a0 = 0, a1 = 0, a2 = 0, b0 = 0, b1 = 0, b2 = 0;
     var n0 = 0, n1 = 0, n2 = 0, k0 = 0, k1 = 0, k2 = 0;
     pend = (pc + (per << 2)) | 0;
-    pn = ((j | 0) > 0) ? ((pc - (per << 2)) | 0) : 360448;
+    pn = ((j | 0) > 0) ? ((pc - (per << 2)) | 0) : 180288;
     k0 = I32[pn >> 2] | 0;
     k1 = I32[(pn + 4) >> 2] | 0;
     k2 = I32[(pn + 8) >> 2] | 0;
@@ -377,16 +378,16 @@ export function CodecKernel(stdlib, foreign, heap) {
     step = +step;
     var m0 = 0.0, m1 = 0.0, m2 = 0.0, m3 = 0.0, m4 = 0.0, m5 = 0.0, m6 = 0.0, m7 = 0.0, m8 = 0.0;
     var t0 = 0.0, t1 = 0.0, t2 = 0.0, kx = 0.0, ky = 0.0, kz = 0.0;
-    var pr = 262144, pend = 0, bad = 0, a0 = 0, a1 = 0, a2 = 0, b0 = 0, b1 = 0, b2 = 0, q0 = 0, q1 = 0, q2 = 0;
+    var pr = 131072, pend = 0, bad = 0, a0 = 0, a1 = 0, a2 = 0, b0 = 0, b1 = 0, b2 = 0, q0 = 0, q1 = 0, q2 = 0;
     var w0 = 0, w1 = 0, w2 = 0, k0 = 0, k1 = 0, k2 = 0, l0 = 0, l1 = 0, l2 = 0;
     pend = (pc + (per << 2)) | 0;
     moveTwo(pk);
-    l0 = I32[77824] | 0;
-    l1 = I32[77825] | 0;
-    l2 = I32[77826] | 0;
-    k0 = I32[77827] | 0;
-    k1 = I32[77828] | 0;
-    k2 = I32[77829] | 0;
+    l0 = I32[45056] | 0;
+    l1 = I32[45057] | 0;
+    l2 = I32[45058] | 0;
+    k0 = I32[45059] | 0;
+    k1 = I32[45060] | 0;
+    k2 = I32[45061] | 0;
     b0 = (l0 + (I32[pr >> 2] | 0)) | 0;
     b1 = (l1 + (I32[(pr + 4) >> 2] | 0)) | 0;
     b2 = (l2 + (I32[(pr + 8) >> 2] | 0)) | 0;
@@ -416,9 +417,9 @@ export function CodecKernel(stdlib, foreign, heap) {
     if ((mode | 0) >= 2) {
       return linear(((mode | 0) == 3) ? 4 : 3, pc, po, pr, pend, a0, a1, a2, b0, b1, b2, step, bad) | 0;
     }
-    m0 = +F64[30816]; m1 = +F64[30817]; m2 = +F64[30818]; m3 = +F64[30819]; m4 = +F64[30820];
-    m5 = +F64[30821]; m6 = +F64[30822]; m7 = +F64[30823]; m8 = +F64[30824];
-    t0 = +F64[30825]; t1 = +F64[30826]; t2 = +F64[30827];
+    m0 = +F64[12896]; m1 = +F64[12897]; m2 = +F64[12898]; m3 = +F64[12899]; m4 = +F64[12900];
+    m5 = +F64[12901]; m6 = +F64[12902]; m7 = +F64[12903]; m8 = +F64[12904];
+    t0 = +F64[12905]; t1 = +F64[12906]; t2 = +F64[12907];
     if ((mode | 0) == 0) {
       pend = (po + pend - pc) | 0; // this loop keeps no lattice coordinates
       for (; (po | 0) < (pend | 0); po = (po + 12) | 0, pr = (pr + 12) | 0, pk = (pk + 12) | 0) {
@@ -503,10 +504,10 @@ export function CodecKernel(stdlib, foreign, heap) {
       else bad = rebuildDelta(mode, j, (curOff + off) | 0, (outOff + off) | 0, (keyOff + off) | 0, per, step) | 0;
       if ((bad | 0) < 0) return -2;
     }
-    I32[61656] = gx0;
-    I32[61657] = gx1;
-    I32[61658] = grpos;
-    I32[61659] = gbp;
+    I32[25816] = gx0;
+    I32[25817] = gx1;
+    I32[25818] = grpos;
+    I32[25819] = gbp;
     return 0;
   }
 
