@@ -46,13 +46,18 @@ export function kernelLayout(nq, frameCap) {
  * the ns strands (per = 3 * nverts coordinates each) of a frame whose bytes lie in the heap:
  * the rANS stream from rpos (after the initial states x0, x1) to rend, the raw bits from bstart
  * to bend (byte offsets). The tables (K_FREQ, K_INFO, K_RES) and for a delta the motion
- * (K_MOTION) must be filled in. It writes the lattice coordinates to curOff (Int32; a keyframe
- * reads the previous strand there, a delta reads the held keyframe at keyOff) and
- * float32(q * step) to outOff, leaves the reader state in K_STATE and returns K_OK, or a
- * negative K_BAD_* code at the first error. Runs on the caller's thread; owns nothing.
+ * (K_MOTION) must be filled in. It writes float32(q * step) to outOff; a keyframe writes its
+ * lattice coordinates to curOff (Int32, where each strand reads the previous one), a delta
+ * reads the held keyframe's at keyOff and uses curOff as scratch. It leaves the reader state in
+ * K_STATE and returns K_OK, or a negative K_BAD_* code at the first error. Runs on the
+ * caller's thread; owns nothing.
  */
 export function CodecKernel(stdlib, foreign, heap) {
   'use asm';
+  // asm.js takes literals only: the fixed regions appear below as byte offsets (K_FREQ 0,
+  // K_INFO 20480, K_RES 102400, K_RESID 131072, K_MOVED 180224, K_ZERO 180288) and as element
+  // indices (K_MOTION: F64[12896..12907], K_STATE: I32[25816..25819], K_MOVED: I32[45056..]);
+  // 4608 is table 9 (escapes) << 9 in K_FREQ.
   var U8 = new stdlib.Uint8Array(heap);
   var U16 = new stdlib.Uint16Array(heap);
   var I32 = new stdlib.Int32Array(heap);
