@@ -45,7 +45,7 @@ static core_status setup(app *a, core_err *err)
     if (st != CORE_OK) return st;
     app_list_assets(a);
     if ((st = load_initial_groom(a, err)) != CORE_OK) return st;
-    sim_desc sd = { a->d.backend, a->d.threads, a->d.device };
+    sim_desc sd = { .backend = a->d.backend, .threads = a->d.threads, .device = a->d.device };
     if ((st = sim_create(&a->sim, &sd, &a->groom.g, &a->params, err)) != CORE_OK) return st;
     size_t n = (size_t)a->groom.g.nstrands * a->groom.g.nverts * 3;
     a->xyz = malloc(n * sizeof *a->xyz);
@@ -58,6 +58,7 @@ static core_status setup(app *a, core_err *err)
     net_desc nd = {
         .listen = a->d.listen, .port = a->d.port, .web_dir = a->d.web_dir, .subprotocol = PROTO_SUBPROTOCOL,
         .max_message = PROTO_MAX_MESSAGE, .sndbuf = a->d.client_buffer,
+        .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout,
         .cb = { a, app_on_open, app_on_text, app_on_close, app_metrics },
     };
     return net_create(&a->net, &nd, err);

@@ -32,6 +32,9 @@ typedef struct app_desc {
     double max_error;          /* default stream max position error, m; 0 = 1e-4 */
     int keyframe_interval;     /* frames between keyframes; 0 = 30 */
     int client_buffer;         /* kernel send buffer per client, bytes; 0 = 256 KiB */
+    int ping_interval;         /* seconds without a pong before a client is pinged; 0 = 20 */
+    int ping_timeout;          /* seconds without a pong before a client is dropped (> ping_interval);
+                                * 0 = ping_interval + 10 */
     bool no_net;               /* simulate and log only */
     uint64_t steps;            /* stop after this many steps; 0 = run until SIGINT/SIGTERM */
 } app_desc;

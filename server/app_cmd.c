@@ -126,7 +126,7 @@ static bool swap_groom(app *a, app_groom *g, uint32_t client, const proto_msg *m
 {
     core_err err;
     sim fresh;
-    sim_desc sd = { a->d.backend, a->d.threads, a->d.device };
+    sim_desc sd = { .backend = a->d.backend, .threads = a->d.threads, .device = a->d.device };
     if (sim_create(&fresh, &sd, &g->g, &a->params, &err) != CORE_OK) {
         reply_fail(a, client, &m->id, PROTO_ERR_FAILED, "", err.msg);
         return false;

@@ -177,6 +177,9 @@ void app_tier_release(app *a, int tier);
 /* Re-initialises every tier's encoder for the current groom (after a groom change). */
 void app_tiers_reset(app *a);
 void app_tiers_free(app *a);
+/* True when some stream has subscribers. Sim thread. */
+bool app_streaming(const app *a);
+
 /* Encodes a->xyz once per tier with subscribers and publishes the frames (one seq per call). */
 void app_publish(app *a);
 /* Strands per frame at a stride: ceil(nstrands / stride). */

@@ -20,7 +20,6 @@ static core_status step_once(app *a)
     sim_set_motion(&a->sim, app_anim_head(a->preset, a->anim_time, a->base_head));
     unsigned long long t0 = core_now_ns();
     core_status st = sim_step(&a->sim, &a->fatal_err);
-    if (st == CORE_OK) st = sim_read_positions(&a->sim, a->xyz, &a->fatal_err);
     double ms = (double)(core_now_ns() - t0) / 1e6;
     a->step_ms_acc += ms;
     a->log_step_ms_acc += ms;
@@ -29,7 +28,8 @@ static core_status step_once(app *a)
     return st;
 }
 
-/* Publishes when the stream rate says so (every step at the default 60 Hz). */
+/* Publishes when the stream rate says so (every step at the default 60 Hz), reading the
+ * positions from the backend only then and only when some stream has subscribers. */
 static void maybe_publish(app *a, bool stepped)
 {
     bool due = a->dirty;
@@ -43,9 +43,14 @@ static void maybe_publish(app *a, bool stepped)
         }
     }
     if (!due) return;
-    if (!stepped && a->dirty) {
-        core_err err;
-        if (sim_read_positions(&a->sim, a->xyz, &err) != CORE_OK) return;
+    if (!app_streaming(a)) { /* nobody to send to: the positions are not even read */
+        a->dirty = false;
+        return;
+    }
+    core_err err;
+    if (sim_read_positions(&a->sim, a->xyz, &err) != CORE_OK) {
+        core_log(CORE_LOG_WARN, "sim", "positions not read for streaming: %s", err.msg);
+        return;
     }
     a->dirty = false;
     app_publish(a);

@@ -69,6 +69,13 @@ void app_tiers_free(app *a)
     codec_buf_free(&a->enc_buf);
 }
 
+bool app_streaming(const app *a)
+{
+    for (int i = 0; i < NET_MAX_STREAMS; i++)
+        if (a->tiers[i].used && a->tiers[i].subscribers > 0) return true;
+    return false;
+}
+
 void app_publish(app *a)
 {
     if (!a->net) return;

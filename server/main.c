@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 
 #include "app.h"
+#include "net/net.h"
 #include "proto/proto.h"
 
 #define EXIT_USAGE 2
@@ -36,6 +37,10 @@ static void usage(FILE *f)
             "  --keyframe-interval N  frames between keyframes, 1..10000 (default %d)\n"
             "  --client-buffer BYTES  kernel send buffer per client, 4096..67108864 (default 262144); a client\n"
             "                         that reads slower than the stream skips frames once it is full\n"
+            "  --ping-interval S      seconds without a pong from a client before the server pings it,\n"
+            "                         1..%d (default %d)\n"
+            "  --ping-timeout S       seconds without a pong after which a client is dropped, more than the\n"
+            "                         interval, 2..%d (default %d: the interval + %d, at most %d)\n"
             "  --no-net               simulate and log only (no sockets)\n"
             "Run\n"
             "  --steps N              exit after N simulation steps (default 0 = until SIGINT/SIGTERM)\n"
@@ -45,7 +50,9 @@ static void usage(FILE *f)
             "Exit status: 0 after SIGINT/SIGTERM or --steps, 1 on a run-time error, 2 on bad flags.\n",
             PROTO_MAX_STRANDS, APP_DEFAULT_STRANDS, PROTO_MAX_VERTS, APP_DEFAULT_VERTS, STRANDCAST_SOURCE_DIR,
             STRANDCAST_SOURCE_DIR, APP_DEFAULT_RATE, PROTO_MIN_ERROR, PROTO_MAX_ERROR, APP_DEFAULT_MAX_ERROR,
-            APP_DEFAULT_KEY_INTERVAL, APP_LOG_INTERVAL_S, PROTO_SUBPROTOCOL);
+            APP_DEFAULT_KEY_INTERVAL, NET_MAX_HANGUP_S - 1, NET_DEFAULT_PING_S, NET_MAX_HANGUP_S,
+            NET_DEFAULT_PING_S + NET_DEFAULT_HANGUP_EXTRA_S, NET_DEFAULT_HANGUP_EXTRA_S, NET_MAX_HANGUP_S,
+            APP_LOG_INTERVAL_S, PROTO_SUBPROTOCOL);
 }
 
 static int bad(const char *flag, const char *value, const char *why)
@@ -115,7 +122,8 @@ static int parse_args(int argc, char **argv, app_desc *d, bool *verts_given)
         }
         static const char *const with_value[] = { "--groom", "--strands", "--verts", "--seed", "--backend", "--device",
                                                   "--threads", "--listen", "--port", "--web", "--assets", "--rate",
-                                                  "--max-error", "--keyframe-interval", "--client-buffer", "--steps" };
+                                                  "--max-error", "--keyframe-interval", "--client-buffer", "--ping-interval",
+                                                  "--ping-timeout", "--steps" };
         bool known = false;
         for (size_t k = 0; k < sizeof with_value / sizeof with_value[0]; k++) known = known || strcmp(flag, with_value[k]) == 0;
         if (!known) return bad(arg, NULL, "unknown option");
@@ -164,6 +172,10 @@ static int parse_args(int argc, char **argv, app_desc *d, bool *verts_given)
             if (!(rc = parse_u64(flag, value, 1, 10000, &u))) d->keyframe_interval = (int)u;
         } else if (strcmp(flag, "--client-buffer") == 0) {
             if (!(rc = parse_u64(flag, value, 4096, 64u << 20, &u))) d->client_buffer = (int)u;
+        } else if (strcmp(flag, "--ping-interval") == 0) {
+            if (!(rc = parse_u64(flag, value, 1, NET_MAX_HANGUP_S - 1, &u))) d->ping_interval = (int)u;
+        } else if (strcmp(flag, "--ping-timeout") == 0) {
+            if (!(rc = parse_u64(flag, value, 2, NET_MAX_HANGUP_S, &u))) d->ping_timeout = (int)u;
         } else if (strcmp(flag, "--steps") == 0) {
             if (!(rc = parse_u64(flag, value, 0, (unsigned long long)LLONG_MAX, &u))) d->steps = u;
         }
@@ -178,6 +190,14 @@ int main(int argc, char **argv)
     bool verts_given = false;
     int rc = parse_args(argc, argv, &d, &verts_given);
     if (rc) return rc < 0 ? 0 : rc;
+    int interval = d.ping_interval ? d.ping_interval : NET_DEFAULT_PING_S;
+    if (d.ping_timeout && d.ping_timeout <= interval) {
+        char why[96];
+        snprintf(why, sizeof why, "must be more than the ping interval (%d s)", interval);
+        char value[24];
+        snprintf(value, sizeof value, "%d", d.ping_timeout);
+        return bad("--ping-timeout", value, why);
+    }
     bool procedural = !d.groom || strcmp(d.groom, "straight") == 0 || strcmp(d.groom, "wavy") == 0 ||
                       strcmp(d.groom, "curly") == 0;
     if (!procedural && d.strands) return bad("--strands", NULL, "a groom file sets its own strand count");

@@ -8,13 +8,16 @@
 
 #include <cjson/cJSON.h>
 #include <math.h>
+#include <pthread.h>
 #include <signal.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "codec/codec.h"
@@ -109,7 +112,8 @@ static void write_hair(const char *path)
     write_file(path, buf, sizeof buf);
 }
 
-static int setup(void **state)
+/* Starts the daemon with the common flags plus extra (NULL-terminated, may be NULL). */
+static int setup_with(void **state, const char *const *extra)
 {
     fixture *fx = calloc(1, sizeof *fx);
     fx->cfg = *state;
@@ -137,13 +141,31 @@ static int setup(void **state)
     snprintf(verts, sizeof verts, "%d", NVERTS);
     /* --backend cpu: the auto probe would load lavapipe, whose Mesa/LLVM allocations LeakSanitizer
      * reports from an unloaded module in the sanitizer tree (the Vulkan tests cover auto) */
-    char *argv[] = { (char *)fx->cfg->exe, "--port", "0", "--backend", "cpu", "--strands", strands, "--verts", verts,
-                     "--threads", "1", "--web", fx->web, "--assets", fx->assets, "--client-buffer", "8192", NULL };
+    char *argv[32] = { (char *)fx->cfg->exe, "--port", "0", "--backend", "cpu", "--strands", strands, "--verts", verts,
+                       "--threads", "1", "--web", fx->web, "--assets", fx->assets, "--client-buffer", "8192", NULL };
+    int argc = 0;
+    while (argv[argc]) argc++;
+    for (; extra && *extra && argc < 31; extra++) argv[argc++] = (char *)*extra;
+    argv[argc] = NULL;
     assert_int_equal(daemon_start(&fx->d, fx->cfg->exe, argv, 20000), 0);
     fx->w = wsc_new();
     assert_non_null(fx->w);
     *state = fx;
     return 0;
+}
+
+static int setup(void **state)
+{
+    return setup_with(state, NULL);
+}
+
+#define PING_INTERVAL_S 1
+#define PING_TIMEOUT_S 3
+
+static int setup_ping(void **state)
+{
+    static const char *const extra[] = { "--ping-interval", "1", "--ping-timeout", "3", NULL };
+    return setup_with(state, extra);
 }
 
 static int teardown(void **state)
@@ -765,6 +787,106 @@ static void test_reader_that_never_reads_is_closed(void **state)
     assert_int_equal(watch->bad, 0);
 }
 
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static double clients_now(fixture *fx)
+{
+    http_reply r;
+    assert_int_equal(http_get(fx->d.port, "/metrics", &r), 0);
+    double n = metric(r.body, "strandcast_clients");
+    http_reply_free(&r);
+    return n;
+}
+
+/* A raw WebSocket client on its own thread that reads every frame and sends a request every
+ * 0.5 s but never answers a ping: when the server pinged it first, and when and how the
+ * connection ended. */
+typedef struct no_pong_client {
+    int fd;
+    double t_open, t_first_ping, t_end;
+    int pings, end; /* end: 0 EOF or reset, 8 close frame, -1 still open at the deadline */
+    atomic_bool done;
+} no_pong_client;
+
+static void *no_pong_run(void *arg)
+{
+    no_pong_client *r = arg;
+    static const char req[] = "{\"type\":\"get_params\"}";
+    double next_req = 0;
+    int code = 0, k;
+    do {
+        double t = now_s() - r->t_open;
+        if (t >= next_req) {
+            rawws_send(r->fd, 1, req, sizeof req - 1, true); /* fails once the server hung up: then read says so */
+            next_req += 0.5;
+        }
+        k = rawws_next_control(r->fd, 100, &code);
+        if (k == 9 && !r->pings++) r->t_first_ping = now_s() - r->t_open;
+    } while (k == 9 || k == 10 || (k == -1 && now_s() - r->t_open < PING_TIMEOUT_S + 10));
+    r->end = k;
+    r->t_end = now_s() - r->t_open;
+    atomic_store(&r->done, true);
+    return NULL;
+}
+
+/* Runs the client loop (the well-behaved client answers pings inside it) until time t. */
+static void run_until(fixture *fx, double t)
+{
+    while (now_s() < t) wsc_run(fx->w, 50);
+}
+
+/* The daemon runs with --ping-interval 1 --ping-timeout 3. */
+static void test_ping_drops_silent_client(void **state)
+{
+    fixture *fx = *state;
+    view *v;
+    wsc_conn *good = connect_view(fx, &v);
+    wait_frames(fx, v, 2);
+    /* two clients never answer pings: one reads and sends requests, the other neither reads nor writes */
+    int mute = rawws_open(fx->d.port, SUBPROTOCOL);
+    no_pong_client r = { .fd = rawws_open(fx->d.port, SUBPROTOCOL), .t_first_ping = -1 };
+    r.t_open = now_s();
+    assert_true(mute >= 0 && r.fd >= 0);
+    pthread_t th;
+    assert_int_equal(pthread_create(&th, NULL, no_pong_run, &r), 0);
+    run_until(fx, r.t_open + PING_TIMEOUT_S - 1);
+    double clients_before = clients_now(fx);
+    while (!atomic_load(&r.done)) wsc_run(fx->w, 50);
+    pthread_join(th, NULL);
+    /* nobody dropped a second before the timeout */
+    if (clients_before != 3) fail_msg("%g clients 1 s before the ping timeout (want 3)", clients_before);
+    /* pinged after the interval without a pong; hung up after the timeout without one, not before
+     * (its requests do not count) */
+    if (r.pings < 1 || r.t_first_ping < PING_INTERVAL_S - 0.3 || r.t_first_ping > PING_TIMEOUT_S - 0.5)
+        fail_msg("client that never pongs: %d pings, the first at %.2f s (want one after ~%d s)", r.pings, r.t_first_ping,
+                 PING_INTERVAL_S);
+    if (r.end != 0 || r.t_end < PING_TIMEOUT_S - 0.3 || r.t_end > PING_TIMEOUT_S + 2.5)
+        fail_msg("client that never pongs: %s after %.2f s (want the connection closed after ~%d s)",
+                 r.end == -1 ? "still open" : r.end == 8 ? "close frame" : "closed", r.t_end, PING_TIMEOUT_S);
+    /* the well-behaved client (lws answers pings) still streams at twice the timeout */
+    run_until(fx, r.t_open + 2 * PING_TIMEOUT_S - 1);
+    uint64_t n0 = v->ok;
+    run_until(fx, r.t_open + 2 * PING_TIMEOUT_S);
+    assert_true(wsc_is_open(good));
+    if (v->ok - n0 < 10)
+        fail_msg("the well-behaved client got %llu frames in its last second", (unsigned long long)(v->ok - n0));
+    assert_int_equal(v->bad, 0);
+    /* the mute one was dropped too: only the well-behaved client is left */
+    double clients_after = clients_now(fx);
+    if (clients_after != 1) fail_msg("%g clients at twice the ping timeout (want 1)", clients_after);
+    int code, k;
+    do k = rawws_next_control(mute, WAIT_MS, &code);
+    while (k == 9);
+    assert_int_equal(k, 0);
+    rawws_free(mute);
+    rawws_free(r.fd);
+}
+
 /* Runs exe with args to completion; returns its exit status and what it printed (both streams). */
 static int run_capture(const char *exe, const char *const *args, char *out, size_t cap)
 {
@@ -802,13 +924,16 @@ static void test_flags(void **state)
     assert_int_equal(run_capture(cfg->exe, help, out, sizeof out), 0);
     static const char *const flags[] = { "--groom", "--strands", "--verts", "--seed", "--backend", "--device", "--threads",
                                          "--listen", "--port", "--web", "--assets", "--rate", "--max-error",
-                                         "--keyframe-interval", "--client-buffer", "--no-net", "--steps", "default" };
+                                         "--keyframe-interval", "--client-buffer", "--ping-interval", "--ping-timeout",
+                                         "--no-net", "--steps", "default" };
     for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++)
         if (!strstr(out, flags[i])) fail_msg("--help does not mention %s", flags[i]);
-    static const char *const bad[][3] = {
+    static const char *const bad[][4] = {
         { "--strands", "0", NULL }, { "--strands", "12x", NULL }, { "--bogus", NULL, NULL }, { "--port", "70000", NULL },
         { "--port", NULL, NULL },   { "--backend", "gpu", NULL }, { "--max-error", "1", NULL }, { "--rate", "nan", NULL },
         { "--web", "/nonexistent-dir", NULL }, { "--no-net=1", NULL, NULL }, { "--steps", "-1", NULL },
+        { "--ping-interval", "0", NULL }, { "--ping-interval", "65535", NULL }, { "--ping-timeout", "65536", NULL },
+        { "--ping-timeout", "20", NULL }, { "--ping-timeout=5", "--ping-interval", "5" }, { "--ping-timeout", "x", NULL },
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         int rc = run_capture(cfg->exe, bad[i], out, sizeof out);
@@ -847,6 +972,7 @@ int main(int argc, char **argv)
         cmocka_unit_test_prestate_setup_teardown(test_sigterm_closes_clients, setup, teardown, &cfg),
         cmocka_unit_test_prestate(test_flags, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_reader_that_never_reads_is_closed, setup, teardown, &cfg),
+        cmocka_unit_test_prestate_setup_teardown(test_ping_drops_silent_client, setup_ping, teardown, &cfg),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

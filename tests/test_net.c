@@ -123,6 +123,34 @@ static void test_create_errors(void **state)
     net_destroy(n);
 }
 
+/* The ping interval and hangup time go to lws' idle policy; zero means 20 s and interval + 10 s. */
+static void test_ping_policy(void **state)
+{
+    (void)state;
+    net *n = NULL;
+    core_err err;
+    static const struct { int ping, hangup, want_ping, want_hangup; } ok[] = {
+        { 0, 0, 20, 30 },         { 1, 3, 1, 3 },           { 40, 0, 40, 50 },
+        { 0, 21, 20, 21 },        { 65530, 0, 65530, 65535 }, { 65534, 65535, 65534, 65535 },
+    };
+    for (size_t i = 0; i < sizeof ok / sizeof ok[0]; i++) {
+        net_desc d = { .subprotocol = "strandcast.v1", .port = NET_PORT_ANY, .ping_s = ok[i].ping,
+                       .hangup_s = ok[i].hangup };
+        assert_int_equal(net_create(&n, &d, &err), CORE_OK);
+        assert_int_equal(n->retry.secs_since_valid_ping, ok[i].want_ping);
+        assert_int_equal(n->retry.secs_since_valid_hangup, ok[i].want_hangup);
+        net_destroy(n);
+    }
+    static const int bad[][2] = { { -1, 0 }, { 65535, 0 }, { 0, 20 }, { 0, 5 }, { 5, 5 }, { 0, -1 }, { 1, 65536 } };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        net_desc d = { .subprotocol = "strandcast.v1", .port = NET_PORT_ANY, .ping_s = bad[i][0], .hangup_s = bad[i][1] };
+        assert_int_equal(net_create(&n, &d, &err), CORE_EINVAL);
+        assert_null(n);
+        if (!strstr(err.msg, bad[i][0] < 0 || bad[i][0] > 65534 ? "ping interval" : "hangup"))
+            fail_msg("ping %d, hangup %d: %s", bad[i][0], bad[i][1], err.msg);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -130,6 +158,7 @@ int main(void)
         cmocka_unit_test(test_token_list),
         cmocka_unit_test(test_buffers),
         cmocka_unit_test(test_create_errors),
+        cmocka_unit_test(test_ping_policy),
         cmocka_unit_test(test_binds_only_the_address),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -11,8 +11,7 @@
 
 #include "groom/groom.h"
 #include "sim/sim.h"
-
-#define PI 3.14159265358979323846
+#include "support/sim_check.h"
 
 typedef struct fixture {
     core_groom groom;
@@ -20,18 +19,23 @@ typedef struct fixture {
     float *x;
 } fixture;
 
-static void make_style(fixture *f, groom_style style, uint32_t ns, uint32_t nv, const sim_params *p, int threads,
-                       bool colliders)
+static void make_desc(fixture *f, groom_style style, uint32_t ns, uint32_t nv, const sim_params *p, const sim_desc *d,
+                      bool colliders)
 {
     core_err err;
-    groom_desc gd = { .style = style, .nstrands = ns, .nverts = nv, .seed = 7 };
-    assert_int_equal(groom_procedural(&gd, &f->groom, &err), CORE_OK);
+    simcheck_groom(&f->groom, style, ns, nv, 7);
     if (!colliders) f->groom.ncolliders = 0;
-    sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = threads };
-    core_status st = sim_create(&f->s, &d, &f->groom, p, &err);
+    core_status st = sim_create(&f->s, d, &f->groom, p, &err);
     if (st != CORE_OK) fail_msg("sim_create: %s", err.msg);
     f->x = malloc(sizeof(float) * 3 * ns * nv);
     assert_non_null(f->x);
+}
+
+static void make_style(fixture *f, groom_style style, uint32_t ns, uint32_t nv, const sim_params *p, int threads,
+                       bool colliders)
+{
+    sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = threads };
+    make_desc(f, style, ns, nv, p, &d, colliders);
 }
 
 static void make(fixture *f, uint32_t ns, uint32_t nv, const sim_params *p, int threads, bool colliders)
@@ -53,56 +57,17 @@ static void step(fixture *f)
     assert_int_equal(sim_read_positions(&f->s, f->x, &err), CORE_OK);
 }
 
-/* Violent scripted head motion at time t (s): swings, nods and shakes of the given speed factor. */
-static core_xform head_motion(double t, double speed)
+/* Mean distance of every vertex to its rest position under head transform h. */
+static double mean_rest_distance(const fixture *f, core_xform h)
 {
-    double w = t * speed;
-    core_xform h = core_xform_identity();
-    h.pos = core_v3((float)(0.15 * sin(2.0 * PI * 1.3 * w)), (float)(0.08 * sin(2.0 * PI * 2.1 * w)),
-                    (float)(0.10 * sin(2.0 * PI * 0.7 * w)));
-    core_quat yaw = core_q_axis_angle(core_v3(0, 1, 0), (float)(1.2 * sin(2.0 * PI * 1.1 * w)));
-    core_quat pitch = core_q_axis_angle(core_v3(1, 0, 0), (float)(0.6 * sin(2.0 * PI * 1.7 * w)));
-    h.rot = core_q_norm(core_q_mul(yaw, pitch));
-    return h;
-}
-
-static float dist3(const float *a, const float *b)
-{
-    float dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
-    return sqrtf(dx * dx + dy * dy + dz * dz);
-}
-
-static double max_segment_error(const fixture *f)
-{
-    double worst = 0.0;
-    uint32_t nv = f->groom.nverts;
-    for (uint32_t s = 0; s < f->groom.nstrands; s++)
-        for (uint32_t l = 1; l < nv; l++) {
-            size_t i = 3 * ((size_t)s * nv + l);
-            double rest = dist3(f->groom.pos + i, f->groom.pos + i - 3);
-            double now = dist3(f->x + i, f->x + i - 3);
-            double e = fabs(now / rest - 1.0);
-            if (!(e <= worst)) worst = e; /* NaN makes it fail */
-        }
-    return worst;
-}
-
-/* Mean distance of every vertex to its rest position under head transform h, and the mean
- * strand length (for normalising). */
-static double mean_rest_distance(const fixture *f, core_xform h, double *strand_len)
-{
-    uint32_t ns = f->groom.nstrands, nv = f->groom.nverts;
-    double sum = 0.0, len = 0.0;
-    for (uint32_t s = 0; s < ns; s++)
-        for (uint32_t l = 0; l < nv; l++) {
-            size_t i = 3 * ((size_t)s * nv + l);
-            core_vec3 r = core_xform_point(h, core_v3(f->groom.pos[i], f->groom.pos[i + 1], f->groom.pos[i + 2]));
-            float rp[3] = { r.x, r.y, r.z };
-            sum += dist3(f->x + i, rp);
-            if (l > 0) len += dist3(f->groom.pos + i, f->groom.pos + i - 3);
-        }
-    *strand_len = len / ns;
-    return sum / ((double)ns * nv);
+    size_t n = (size_t)f->groom.nstrands * f->groom.nverts;
+    double sum = 0.0;
+    for (size_t i = 0; i < 3 * n; i += 3) {
+        core_vec3 r = core_xform_point(h, core_v3(f->groom.pos[i], f->groom.pos[i + 1], f->groom.pos[i + 2]));
+        float rp[3] = { r.x, r.y, r.z };
+        sum += simcheck_dist3(f->x + i, rp);
+    }
+    return sum / (double)n;
 }
 
 static void assert_all_finite(const fixture *f)
@@ -110,29 +75,6 @@ static void assert_all_finite(const fixture *f)
     size_t n = 3 * (size_t)f->groom.nstrands * f->groom.nverts;
     for (size_t i = 0; i < n; i++)
         if (!isfinite(f->x[i])) fail_msg("position %zu is not finite", i / 3);
-}
-
-/* Penetration depth of p into collider c (world space under h) relative to its radius. */
-static double relative_depth(const core_collider *c, core_xform h, const float *p)
-{
-    core_vec3 x = core_v3(p[0], p[1], p[2]);
-    core_vec3 a = core_xform_point(h, c->a);
-    switch (c->kind) {
-    case CORE_COLLIDER_SPHERE:
-        return (c->radius - core_v3_len(core_v3_sub(x, a))) / c->radius;
-    case CORE_COLLIDER_CAPSULE: {
-        core_vec3 b = core_xform_point(h, c->b), ab = core_v3_sub(b, a);
-        float t = core_v3_dot(core_v3_sub(x, a), ab) / core_v3_dot(ab, ab);
-        t = t < 0 ? 0 : t > 1 ? 1 : t;
-        return (c->radius - core_v3_len(core_v3_sub(x, core_v3_add(a, core_v3_scale(ab, t))))) / c->radius;
-    }
-    case CORE_COLLIDER_ELLIPSOID: {
-        core_vec3 u = core_q_rotate(core_q_conj(core_q_mul(h.rot, c->rot)), core_v3_sub(x, a));
-        core_vec3 s = core_v3(u.x / c->radii.x, u.y / c->radii.y, u.z / c->radii.z);
-        return 1.0 - core_v3_len(s); /* fraction of the radius along that direction */
-    }
-    }
-    return 0.0;
 }
 
 /* (1) Inextensibility: no colliders, 600 steps of violent head motion. */
@@ -145,10 +87,9 @@ static void test_inextensibility(void **state)
     make(&f, 256, 24, &p, 2, false);
     double worst = 0.0;
     for (int i = 0; i < 600; i++) {
-        sim_set_motion(&f.s, head_motion(i * p.dt, 1.0));
+        sim_set_motion(&f.s, simcheck_head_motion(i * p.dt, 1.0));
         step(&f);
-        double e = max_segment_error(&f);
-        if (!(e <= worst)) worst = e;
+        worst = simcheck_worse(worst, simcheck_max_segment_error(&f.groom, f.x));
     }
     printf("max relative segment-length error over 600 steps: %.3g\n", worst);
     assert_true(worst <= 1e-4);
@@ -166,28 +107,14 @@ static void test_collisions(void **state)
     assert_true(f.groom.ncolliders >= 2);
     double worst = -1.0;
     for (int i = 0; i < 400; i++) {
-        core_xform h = head_motion(i * p.dt, 1.5);
+        core_xform h = simcheck_head_motion(i * p.dt, 1.5);
         sim_set_motion(&f.s, h);
         step(&f);
-        for (size_t v = 0; v < (size_t)f.groom.nstrands * f.groom.nverts; v++) {
-            if (v % f.groom.nverts == 0) continue; /* roots are kinematic, placed by the groom */
-            for (uint32_t k = 0; k < f.groom.ncolliders; k++) {
-                double d = relative_depth(&f.groom.colliders[k], h, f.x + 3 * v);
-                if (d > worst) { worst = d; if (getenv("DBG")) printf("step %d vertex %zu level %zu collider %u kind %d depth %g\n", i, v, v % f.groom.nverts, k, f.groom.colliders[k].kind, d); }
-            }
-        }
+        worst = simcheck_worse(worst, simcheck_deepest_penetration(&f.groom, h, f.x));
     }
     printf("deepest penetration: %.3g of the collider radius\n", worst);
     assert_true(worst <= 0.01);
     drop(&f);
-}
-
-/* Mean distance between two position sets. */
-static double mean_distance(const float *a, const float *b, size_t nverts)
-{
-    double sum = 0.0;
-    for (size_t i = 0; i < nverts; i++) sum += dist3(a + 3 * i, b + 3 * i);
-    return sum / (double)nverts;
 }
 
 /* (3) Robustness (the hair-mesh paper's test): the hair settles under gravity, then 5 s of
@@ -205,19 +132,18 @@ static void test_robustness(void **state)
     for (int i = 0; i < settle; i++) step(&f);
     float *rest = malloc(sizeof(float) * 3 * nverts);
     memcpy(rest, f.x, sizeof(float) * 3 * nverts);
-    double len, shaken = 0.0;
-    mean_rest_distance(&f, core_xform_identity(), &len);
+    double len = simcheck_mean_strand_length(&f.groom), shaken = 0.0;
     for (int i = 0; i < shake; i++) {
-        sim_set_motion(&f.s, head_motion(i * p.dt, 10.0));
+        sim_set_motion(&f.s, simcheck_head_motion(i * p.dt, 10.0));
         step(&f);
         assert_all_finite(&f);
-        double d = mean_distance(f.x, rest, nverts);
+        double d = simcheck_mean_distance(f.x, rest, nverts);
         if (d > shaken) shaken = d;
     }
     sim_set_motion(&f.s, core_xform_identity());
     for (int i = 0; i < settle; i++) step(&f);
     assert_all_finite(&f);
-    double d = mean_distance(f.x, rest, nverts);
+    double d = simcheck_mean_distance(f.x, rest, nverts);
     printf("10x shaking moved the hair up to %.4f m (mean); after 3 s rest: %.4f m = %.2f%% of strand length\n",
            shaken, d, 100.0 * d / len);
     assert_true(shaken > 0.1 * len); /* the motion really was violent */
@@ -226,7 +152,7 @@ static void test_robustness(void **state)
     drop(&f);
 }
 
-static double settle_distance(bool shape, double *len)
+static double settle_distance(bool shape)
 {
     sim_params p;
     sim_params_default(&p);
@@ -235,7 +161,7 @@ static double settle_distance(bool shape, double *len)
     fixture f;
     make_style(&f, GROOM_CURLY, 256, 24, &p, 2, true);
     for (int i = 0; i < 180; i++) step(&f);
-    double d = mean_rest_distance(&f, core_xform_identity(), len);
+    double d = mean_rest_distance(&f, core_xform_identity());
     drop(&f);
     return d;
 }
@@ -245,7 +171,7 @@ static double settle_distance(bool shape, double *len)
 static void test_shape_preservation(void **state)
 {
     (void)state;
-    double len, on = settle_distance(true, &len), off = settle_distance(false, &len);
+    double on = settle_distance(true), off = settle_distance(false);
     printf("settled mean distance to the curly rest shape: shape on %.4f m, off %.4f m\n", on, off);
     assert_true(on < 0.8 * off);
 }
@@ -259,11 +185,11 @@ static double mean_nearest_other_strand(const fixture *f)
     for (uint32_t s = 0; s < ns; s++)
         for (uint32_t l = nv / 2; l < nv; l++) {
             const float *a = f->x + 3 * ((size_t)s * nv + l);
-            float best = INFINITY;
+            double best = INFINITY;
             for (uint32_t t = 0; t < ns; t++) {
                 if (t == s) continue;
                 for (uint32_t m = 0; m < nv; m++) {
-                    float d = dist3(a, f->x + 3 * ((size_t)t * nv + m));
+                    double d = simcheck_dist3(a, f->x + 3 * ((size_t)t * nv + m));
                     if (d < best) best = d;
                 }
             }
@@ -298,6 +224,24 @@ static void test_sph_volume(void **state)
     assert_true(on > 1.05 * off);
 }
 
+/* Steps f n times under head motion at 3x speed. The first run (*ref NULL) keeps its final
+ * positions in *ref (malloc'd, the caller frees it); every later one must match them bit for bit. */
+static void shake_and_match(fixture *f, const sim_params *p, int n, float **ref)
+{
+    for (int i = 0; i < n; i++) {
+        sim_set_motion(&f->s, simcheck_head_motion(i * p->dt, 3.0));
+        step(f);
+    }
+    size_t bytes = sizeof(float) * 3 * (size_t)f->groom.nstrands * f->groom.nverts;
+    if (!*ref) {
+        *ref = malloc(bytes);
+        assert_non_null(*ref);
+        memcpy(*ref, f->x, bytes);
+    } else {
+        assert_memory_equal(*ref, f->x, bytes);
+    }
+}
+
 /* (6) The same inputs give bitwise the same positions for any thread count. */
 static void test_determinism(void **state)
 {
@@ -310,20 +254,34 @@ static void test_determinism(void **state)
     for (size_t k = 0; k < sizeof threads / sizeof threads[0]; k++) {
         fixture f;
         make(&f, 300, 12, &p, threads[k], true);
-        for (int i = 0; i < 40; i++) {
-            sim_set_motion(&f.s, head_motion(i * p.dt, 3.0));
-            step(&f);
-        }
-        size_t bytes = sizeof(float) * 3 * 300 * 12;
-        if (!ref) {
-            ref = malloc(bytes);
-            memcpy(ref, f.x, bytes);
-        } else {
-            assert_memory_equal(ref, f.x, bytes);
-        }
+        shake_and_match(&f, &p, 40, &ref);
         drop(&f);
     }
     free(ref);
+}
+
+/* The AVX2 kernels (SPH search, density, forces) give the same bits as the portable scalar
+ * ones, with lists of more than one block of 8 neighbours and with a cap that is not a
+ * multiple of 8. (Without AVX2 both runs take the scalar path.) */
+static void test_scalar_kernels_match(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    p.sph_radius = 0.008f; /* dense: many particles hold more than 8 neighbours */
+    const int caps[] = { 24, 13 };
+    for (size_t c = 0; c < 2; c++) {
+        p.neighbor_cap = caps[c];
+        float *ref = NULL;
+        for (int scalar = 1; scalar >= 0; scalar--) { /* the scalar run first: it gives ref */
+            fixture f;
+            sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = 2, .scalar_only = scalar };
+            make_desc(&f, GROOM_CURLY, 1024, 16, &p, &d, true);
+            shake_and_match(&f, &p, 30, &ref);
+            drop(&f);
+        }
+        free(ref);
+    }
 }
 
 /* Parameters are validated: type ranges and finiteness, with the field named. */
@@ -365,11 +323,11 @@ static void test_param_changes(void **state)
     p.gravity = 0.0f;
     assert_int_equal(sim_set_params(&f.s, &p, &err), CORE_OK);
     for (int i = 0; i < 30; i++) step(&f);
-    double len, still = mean_rest_distance(&f, core_xform_identity(), &len);
+    double still = mean_rest_distance(&f, core_xform_identity());
     p.gravity = 9.81f;
     assert_int_equal(sim_set_params(&f.s, &p, &err), CORE_OK);
     for (int i = 0; i < 30; i++) step(&f);
-    double fell = mean_rest_distance(&f, core_xform_identity(), &len);
+    double fell = mean_rest_distance(&f, core_xform_identity());
     printf("gravity off: %.5f m from rest; on: %.5f m\n", still, fell);
     assert_true(still < 1e-4);
     assert_true(fell > 0.01);
@@ -413,7 +371,7 @@ static void test_roots_follow_head(void **state)
     p.substeps = 3;
     fixture f;
     make(&f, 40, 8, &p, 2, true);
-    core_xform h = head_motion(0.37, 1.0);
+    core_xform h = simcheck_head_motion(0.37, 1.0);
     sim_set_motion(&f.s, h);
     step(&f);
     for (uint32_t s = 0; s < 40; s++) {
@@ -435,6 +393,7 @@ int main(void)
         cmocka_unit_test(test_sph_volume),        cmocka_unit_test(test_determinism),
         cmocka_unit_test(test_param_validation),  cmocka_unit_test(test_param_changes),
         cmocka_unit_test(test_nan_guard),         cmocka_unit_test(test_roots_follow_head),
+        cmocka_unit_test(test_scalar_kernels_match),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

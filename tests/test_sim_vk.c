@@ -4,7 +4,6 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
-#include <dlfcn.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,8 +12,8 @@
 #include "groom/groom.h"
 #include "sim/sim.h"
 #include "sim/vk/sim_vk.h"
-
-#define PI 3.14159265358979323846
+#include "support/sim_check.h"
+#include "support/vkpin.h"
 
 /* A groom and the same scene on both backends. */
 typedef struct pair {
@@ -24,25 +23,6 @@ typedef struct pair {
     float *xc, *xv;  /* positions read back from each */
     double strand_len;
 } pair;
-
-static double mean_strand_length(const core_groom *g)
-{
-    double len = 0.0;
-    for (uint32_t s = 0; s < g->nstrands; s++)
-        for (uint32_t l = 1; l < g->nverts; l++) {
-            const float *a = g->pos + 3 * ((size_t)s * g->nverts + l), *b = a - 3;
-            len += sqrt((double)(a[0] - b[0]) * (a[0] - b[0]) + (double)(a[1] - b[1]) * (a[1] - b[1]) +
-                        (double)(a[2] - b[2]) * (a[2] - b[2]));
-        }
-    return len / g->nstrands;
-}
-
-static void make_groom(core_groom *g, groom_style style, uint32_t ns, uint32_t nv)
-{
-    core_err err;
-    groom_desc gd = { .style = style, .nstrands = ns, .nverts = nv, .seed = 11 };
-    if (groom_procedural(&gd, g, &err) != CORE_OK) fail_msg("groom: %s", err.msg);
-}
 
 static void make_vk(sim *s, const core_groom *g, const sim_params *p, sim_vk_chain chain)
 {
@@ -56,7 +36,7 @@ static void make_pair(pair *t, groom_style style, uint32_t ns, uint32_t nv, cons
 {
     core_err err;
     memset(t, 0, sizeof *t);
-    make_groom(&t->groom, style, ns, nv);
+    simcheck_groom(&t->groom, style, ns, nv, 11);
     sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = 2 };
     if (sim_create(&t->cpu, &d, &t->groom, p, &err) != CORE_OK) fail_msg("cpu sim: %s", err.msg);
     make_vk(&t->vk, &t->groom, p, SIM_VK_CHAIN_DEFAULT);
@@ -65,7 +45,7 @@ static void make_pair(pair *t, groom_style style, uint32_t ns, uint32_t nv, cons
     t->xv = malloc(3 * t->n * sizeof(float));
     assert_non_null(t->xc);
     assert_non_null(t->xv);
-    t->strand_len = mean_strand_length(&t->groom);
+    t->strand_len = simcheck_mean_strand_length(&t->groom);
 }
 
 static void assert_no_validation_errors(const sim *s)
@@ -98,84 +78,11 @@ static void step_both(pair *t, core_xform h)
     if (sim_read_positions(&t->vk, t->xv, &err) != CORE_OK) fail_msg("vulkan read: %s", err.msg);
 }
 
-static core_xform head_motion(double t, double speed)
-{
-    double w = t * speed;
-    core_xform h = core_xform_identity();
-    h.pos = core_v3((float)(0.15 * sin(2.0 * PI * 1.3 * w)), (float)(0.08 * sin(2.0 * PI * 2.1 * w)),
-                    (float)(0.10 * sin(2.0 * PI * 0.7 * w)));
-    core_quat yaw = core_q_axis_angle(core_v3(0, 1, 0), (float)(1.2 * sin(2.0 * PI * 1.1 * w)));
-    core_quat pitch = core_q_axis_angle(core_v3(1, 0, 0), (float)(0.6 * sin(2.0 * PI * 1.7 * w)));
-    h.rot = core_q_norm(core_q_mul(yaw, pitch));
-    return h;
-}
-
-static double dist3(const float *a, const float *b)
-{
-    double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
-    return sqrt(dx * dx + dy * dy + dz * dz);
-}
-
 static double max_distance(const float *a, const float *b, size_t n)
 {
     double worst = 0.0;
     for (size_t i = 0; i < n; i++) {
-        double d = dist3(a + 3 * i, b + 3 * i);
-        if (!(d <= worst)) worst = d; /* NaN makes it fail */
-    }
-    return worst;
-}
-
-static double mean_distance(const float *a, const float *b, size_t n)
-{
-    double sum = 0.0;
-    for (size_t i = 0; i < n; i++) sum += dist3(a + 3 * i, b + 3 * i);
-    return sum / (double)n;
-}
-
-static double max_segment_error(const core_groom *g, const float *x)
-{
-    double worst = 0.0;
-    for (uint32_t s = 0; s < g->nstrands; s++)
-        for (uint32_t l = 1; l < g->nverts; l++) {
-            size_t i = 3 * ((size_t)s * g->nverts + l);
-            double e = fabs(dist3(x + i, x + i - 3) / dist3(g->pos + i, g->pos + i - 3) - 1.0);
-            if (!(e <= worst)) worst = e;
-        }
-    return worst;
-}
-
-/* Penetration depth of p into collider c (world space under h) relative to its radius. */
-static double relative_depth(const core_collider *c, core_xform h, const float *p)
-{
-    core_vec3 x = core_v3(p[0], p[1], p[2]);
-    core_vec3 a = core_xform_point(h, c->a);
-    switch (c->kind) {
-    case CORE_COLLIDER_SPHERE: return (c->radius - core_v3_len(core_v3_sub(x, a))) / c->radius;
-    case CORE_COLLIDER_CAPSULE: {
-        core_vec3 b = core_xform_point(h, c->b), ab = core_v3_sub(b, a);
-        float t = core_v3_dot(core_v3_sub(x, a), ab) / core_v3_dot(ab, ab);
-        t = t < 0 ? 0 : t > 1 ? 1 : t;
-        return (c->radius - core_v3_len(core_v3_sub(x, core_v3_add(a, core_v3_scale(ab, t))))) / c->radius;
-    }
-    case CORE_COLLIDER_ELLIPSOID: {
-        core_vec3 u = core_q_rotate(core_q_conj(core_q_mul(h.rot, c->rot)), core_v3_sub(x, a));
-        core_vec3 s = core_v3(u.x / c->radii.x, u.y / c->radii.y, u.z / c->radii.z);
-        return 1.0 - core_v3_len(s);
-    }
-    }
-    return 0.0;
-}
-
-static double deepest_penetration(const core_groom *g, core_xform h, const float *x)
-{
-    double worst = -1.0;
-    for (size_t v = 0; v < (size_t)g->nstrands * g->nverts; v++) {
-        if (v % g->nverts == 0) continue; /* roots are kinematic, placed by the groom */
-        for (uint32_t k = 0; k < g->ncolliders; k++) {
-            double d = relative_depth(&g->colliders[k], h, x + 3 * v);
-            if (d > worst) worst = d;
-        }
+        worst = simcheck_worse(worst, simcheck_dist3(a + 3 * i, b + 3 * i));
     }
     return worst;
 }
@@ -192,13 +99,13 @@ static void test_one_step_matches_cpu(void **state)
     make_pair(&t, GROOM_WAVY, 384, 16, &p);
     core_err err;
     for (int i = 0; i < 20; i++) {
-        sim_set_motion(&t.cpu, head_motion(i * p.dt, 1.0));
+        sim_set_motion(&t.cpu, simcheck_head_motion(i * p.dt, 1.0));
         assert_int_equal(sim_step(&t.cpu, &err), CORE_OK);
     }
     float *vel = malloc(3 * t.n * sizeof(float));
     assert_non_null(vel);
     assert_int_equal(sim_read_state(&t.cpu, t.xc, vel, &err), CORE_OK);
-    core_xform h0 = head_motion(20 * p.dt, 1.0), h1 = head_motion(21 * p.dt, 1.0);
+    core_xform h0 = simcheck_head_motion(20 * p.dt, 1.0), h1 = simcheck_head_motion(21 * p.dt, 1.0);
     sim *both[2] = { &t.cpu, &t.vk };
     for (int b = 0; b < 2; b++) { /* same head, previous head and state in both */
         sim_set_motion(both[b], h0);
@@ -212,7 +119,7 @@ static void test_one_step_matches_cpu(void **state)
     assert_memory_equal(back, t.xc, 3 * t.n * sizeof(float));
     assert_memory_equal(vback, vel, 3 * t.n * sizeof(float));
     step_both(&t, h1);
-    double moved = mean_distance(t.xc, back, t.n);
+    double moved = simcheck_mean_distance(t.xc, back, t.n);
     double worst = max_distance(t.xc, t.xv, t.n);
     printf("one step (%zu particles, SPH + shape + collisions): vertices moved %.3g m on average; "
            "max |vulkan - cpu| = %.3g m = %.3g of the strand length\n",
@@ -246,17 +153,14 @@ static void test_300_steps_track_cpu(void **state)
             assert_int_equal(sim_set_params(&t.cpu, &p, &err), CORE_OK);
             assert_int_equal(sim_set_params(&t.vk, &p, &err), CORE_OK);
         }
-        core_xform h = head_motion(i * p.dt, 1.0);
+        core_xform h = simcheck_head_motion(i * p.dt, 1.0);
         step_both(&t, h);
-        double mean = mean_distance(t.xc, t.xv, t.n);
-        if (!(mean <= worst_mean)) worst_mean = mean;
-        if (i < 150) {
-            double seg = max_segment_error(&t.groom, t.xv);
-            if (!(seg <= worst_seg)) worst_seg = seg;
-        } else {
-            double pen = deepest_penetration(&t.groom, h, t.xv);
-            if (!(pen <= worst_pen)) worst_pen = pen;
-        }
+        double mean = simcheck_mean_distance(t.xc, t.xv, t.n);
+        worst_mean = simcheck_worse(worst_mean, mean);
+        if (i < 150)
+            worst_seg = simcheck_worse(worst_seg, simcheck_max_segment_error(&t.groom, t.xv));
+        else
+            worst_pen = simcheck_worse(worst_pen, simcheck_deepest_penetration(&t.groom, h, t.xv));
     }
     sim_stats st;
     sim_get_stats(&t.vk, &st);
@@ -281,7 +185,7 @@ static void test_params_take_effect(void **state)
     p.shape = false;
     p.gravity = 0.0f;
     core_groom g;
-    make_groom(&g, GROOM_STRAIGHT, 64, 12);
+    simcheck_groom(&g, GROOM_STRAIGHT, 64, 12, 11);
     g.ncolliders = 0;
     sim s;
     make_vk(&s, &g, &p, SIM_VK_CHAIN_DEFAULT);
@@ -291,12 +195,12 @@ static void test_params_take_effect(void **state)
     core_err err;
     for (int i = 0; i < 30; i++) assert_int_equal(sim_step(&s, &err), CORE_OK);
     assert_int_equal(sim_read_positions(&s, x, &err), CORE_OK);
-    double still = mean_distance(x, g.pos, n);
+    double still = simcheck_mean_distance(x, g.pos, n);
     p.gravity = 9.81f;
     assert_int_equal(sim_set_params(&s, &p, &err), CORE_OK);
     for (int i = 0; i < 30; i++) assert_int_equal(sim_step(&s, &err), CORE_OK);
     assert_int_equal(sim_read_positions(&s, x, &err), CORE_OK);
-    double fell = mean_distance(x, g.pos, n);
+    double fell = simcheck_mean_distance(x, g.pos, n);
     p.gravity = 0.0f;
     p.sph = false;
     p.collisions = false;
@@ -322,7 +226,7 @@ static void test_chain_strategies_agree(void **state)
     sim_params p;
     sim_params_default(&p);
     core_groom g;
-    make_groom(&g, GROOM_CURLY, 100, 10);
+    simcheck_groom(&g, GROOM_CURLY, 100, 10, 11);
     sim a, b;
     make_vk(&a, &g, &p, SIM_VK_CHAIN_LEVEL);
     make_vk(&b, &g, &p, SIM_VK_CHAIN_GROUP);
@@ -334,8 +238,8 @@ static void test_chain_strategies_agree(void **state)
     assert_non_null(xb);
     core_err err;
     for (int i = 0; i < 10; i++) {
-        sim_set_motion(&a, head_motion(i * p.dt, 2.0));
-        sim_set_motion(&b, head_motion(i * p.dt, 2.0));
+        sim_set_motion(&a, simcheck_head_motion(i * p.dt, 2.0));
+        sim_set_motion(&b, simcheck_head_motion(i * p.dt, 2.0));
         assert_int_equal(sim_step(&a, &err), CORE_OK);
         assert_int_equal(sim_step(&b, &err), CORE_OK);
     }
@@ -357,7 +261,7 @@ static void test_nan_guard(void **state)
     sim_params_default(&p);
     p.substeps = 1; /* the restore ends the step */
     core_groom g;
-    make_groom(&g, GROOM_STRAIGHT, 32, 8);
+    simcheck_groom(&g, GROOM_STRAIGHT, 32, 8, 11);
     sim s;
     make_vk(&s, &g, &p, SIM_VK_CHAIN_DEFAULT);
     size_t n = 32 * 8;
@@ -374,7 +278,7 @@ static void test_nan_guard(void **state)
     assert_int_equal(sim_step(&s, &err), CORE_OK);
     assert_int_equal(sim_read_positions(&s, x, &err), CORE_OK);
     for (size_t i = 0; i < 3 * n; i++) assert_true(isfinite(x[i]));
-    assert_true(dist3(x + 3 * (5 * 8 + 7), g.pos + 3 * (5 * 8 + 7)) < 1e-6); /* back at rest */
+    assert_true(simcheck_dist3(x + 3 * (5 * 8 + 7), g.pos + 3 * (5 * 8 + 7)) < 1e-6); /* back at rest */
     sim_stats st;
     sim_get_stats(&s, &st);
     assert_int_equal(st.nan_resets, 1);
@@ -397,7 +301,7 @@ static void test_stage_timestamps(void **state)
     sim_params p;
     sim_params_default(&p);
     core_groom g;
-    make_groom(&g, GROOM_STRAIGHT, 256, 16);
+    simcheck_groom(&g, GROOM_STRAIGHT, 256, 16, 11);
     sim s;
     make_vk(&s, &g, &p, SIM_VK_CHAIN_DEFAULT);
     core_err err;
@@ -428,7 +332,7 @@ static void test_backend_choice(void **state)
     sim_params p;
     sim_params_default(&p);
     core_groom g;
-    make_groom(&g, GROOM_STRAIGHT, 64, 8);
+    simcheck_groom(&g, GROOM_STRAIGHT, 64, 8, 11);
     sim s;
     core_err err;
     sim_desc d = { .backend = SIM_BACKEND_VULKAN, .device = 99 };
@@ -462,7 +366,7 @@ static void test_bad_input(void **state)
     sim_params p;
     sim_params_default(&p);
     core_groom g;
-    make_groom(&g, GROOM_STRAIGHT, 8, 4);
+    simcheck_groom(&g, GROOM_STRAIGHT, 8, 4, 11);
     sim s;
     core_err err;
     sim_desc d = { .backend = SIM_BACKEND_VULKAN };
@@ -477,18 +381,9 @@ static void test_bad_input(void **state)
     core_groom_free(&g);
 }
 
-/* The Vulkan loader unloads the driver (and layers) with the last instance; Mesa's and LLVM's
- * static caches then look like leaks to LeakSanitizer. Keeping them mapped leaves them
- * reachable. A machine without lavapipe or the layer simply skips the pin. */
-static void pin_vulkan_libraries(void)
-{
-    (void)dlopen("libvulkan_lvp.so", RTLD_NOW | RTLD_NODELETE);
-    (void)dlopen("libVkLayer_khronos_validation.so", RTLD_NOW | RTLD_NODELETE);
-}
-
 int main(void)
 {
-    pin_vulkan_libraries();
+    vkpin_driver_libraries();
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_one_step_matches_cpu), cmocka_unit_test(test_300_steps_track_cpu),
         cmocka_unit_test(test_params_take_effect),   cmocka_unit_test(test_chain_strategies_agree),

@@ -4,14 +4,14 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
-#include <dlfcn.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 
 #include "groom/groom.h"
 #include "sim/sim.h"
-#include "sim/vk/sim_vk.h"
+#include "support/sim_check.h"
+#include "support/vkpin.h"
 
 /* The cases of tests/bench/bench_solver.c: the paper's Table 2 sizes and Table 1 scenes. */
 static const uint32_t cases[][2] = {
@@ -28,8 +28,7 @@ static void test_benchmark_sizes(void **state)
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         core_err err;
         core_groom g;
-        groom_desc gd = { .nstrands = cases[c][0], .nverts = cases[c][1] };
-        if (groom_procedural(&gd, &g, &err) != CORE_OK) fail_msg("groom: %s", err.msg);
+        simcheck_groom(&g, GROOM_STRAIGHT, cases[c][0], cases[c][1], 0);
         sim s;
         sim_desc d = { .backend = SIM_BACKEND_VULKAN };
         if (sim_create(&s, &d, &g, &p, &err) != CORE_OK) fail_msg("%ux%u: %s", g.nstrands, g.nverts, err.msg);
@@ -56,18 +55,9 @@ static void test_benchmark_sizes(void **state)
     }
 }
 
-/* The Vulkan loader unloads the driver (and layers) with the last instance; Mesa's and LLVM's
- * static caches then look like leaks to LeakSanitizer. Keeping them mapped leaves them
- * reachable. A machine without lavapipe or the layer simply skips the pin. */
-static void pin_vulkan_libraries(void)
-{
-    (void)dlopen("libvulkan_lvp.so", RTLD_NOW | RTLD_NODELETE);
-    (void)dlopen("libVkLayer_khronos_validation.so", RTLD_NOW | RTLD_NODELETE);
-}
-
 int main(void)
 {
-    pin_vulkan_libraries();
+    vkpin_driver_libraries();
     const struct CMUnitTest tests[] = { cmocka_unit_test(test_benchmark_sizes) };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,5 +1,10 @@
 // Strand frame decoder (proto/CODEC.md), bit-exact with server/codec; browser, Worker or Node.
 
+import {
+  CodecKernel, kernelLayout, K_FREQ, K_INFO, K_RES, K_MOTION, K_STATE, K_BAD_STREAM, K_BAD_VALUE, INFO_SLOW,
+  INFO_UNUSED,
+} from './codec_kernel.js';
+
 export const HEADER_SIZE = 68;
 export const FORMAT_VERSION = 1;
 export const CODEC_ID_STRAND = 1;
@@ -12,60 +17,69 @@ const RANS_L = 1 << 23;
 const NCLASS = 7;
 const ESCAPE = 6;
 const NSYM = NCLASS * NCLASS * NCLASS;
-const KEY_MODES = 3;
-const DELTA_MODES = 4;
 const NBODY = 6;
 const T_MODE = 0;
 const T_ROOT = 1;
 const T_FIRST = 2;
 const T_BODY = 3;
 const T_ESC = T_BODY + NBODY;
-const NESC = 25;
 const NTABLES = T_ESC + 1;
 const MAX_VERTICES = 1 << 24;
 const MAX_NVERTS = 4096;
 const MAX_QUANT = 1 << 26;
 const MOTION_BYTES = 48;
+const BAD_STREAM = 'corrupt entropy-coded data (invalid symbol or stream overrun)';
+const BAD_VALUE = 'corrupt frame (decoded coordinate out of range)';
 
-// Per symbol: the three classes, the table of the next vertex, the raw bit count (-1: escape).
-const SYM_C0 = new Uint8Array(NSYM);
-const SYM_C1 = new Uint8Array(NSYM);
-const SYM_C2 = new Uint8Array(NSYM);
-const SYM_NEXT = new Uint8Array(NSYM);
-const SYM_BITS = new Int8Array(NSYM);
+// Per vertex symbol: its kernel INFO entry (codec_kernel.js) in a vertex table (1..8): the
+// classes c0 | c1 << 3 | c2 << 6, the next vertex's body table << 9, INFO_SLOW when an axis
+// is escaped. In the root table the next table is T_FIRST instead.
+const SYM_INFO = new Uint16Array(NSYM);
 for (let s = 0; s < NSYM; s++) {
   const c0 = s % NCLASS, c1 = Math.floor(s / NCLASS) % NCLASS, c2 = Math.floor(s / (NCLASS * NCLASS));
-  SYM_C0[s] = c0;
-  SYM_C1[s] = c1;
-  SYM_C2[s] = c2;
-  SYM_NEXT[s] = T_BODY + Math.min(Math.max(c0, c1, c2), NBODY - 1);
-  SYM_BITS[s] = c0 === ESCAPE || c1 === ESCAPE || c2 === ESCAPE ? -1 : c0 + c1 + c2;
+  const esc = c0 === ESCAPE || c1 === ESCAPE || c2 === ESCAPE;
+  SYM_INFO[s] = c0 | (c1 << 3) | (c2 << 6) | ((T_BODY + Math.min(Math.max(c0, c1, c2), NBODY - 1)) << 9) |
+    (esc ? INFO_SLOW : 0);
 }
 
-const CRC_TABLE = new Int32Array(256 * 4);
+// CRC-32 (zlib polynomial), slicing by 8: CRC_TABLE[t * 256 + n] is the CRC of byte n followed
+// by t zero bytes.
+const CRC_TABLE = new Int32Array(256 * 8);
 for (let n = 0; n < 256; n++) {
   let c = n;
   for (let k = 0; k < 8; k++) c = c & 1 ? 0xedb88320 ^ (c >>> 1) : c >>> 1;
   CRC_TABLE[n] = c;
 }
 for (let n = 0; n < 256; n++) {
-  for (let t = 1; t < 4; t++) {
+  for (let t = 1; t < 8; t++) {
     const p = CRC_TABLE[(t - 1) * 256 + n];
     CRC_TABLE[t * 256 + n] = CRC_TABLE[p & 0xff] ^ (p >>> 8);
   }
 }
 
-// zlib CRC-32 of bytes[from, to), continuing from crc (0 to start).
-function crc32(bytes, from, to, crc) {
-  let c = ~crc;
-  let i = from;
-  for (; i + 4 <= to; i += 4) {
+/** zlib CRC-32 of bytes[from, to) (a Uint8Array), continuing from crc (0 to start). */
+export function crc32(bytes, from, to, crc) {
+  const mid = from + ((to - from) & ~7);
+  return ~crcTail(bytes, mid, to, crcBlocks(bytes, from, mid, ~crc)) >>> 0;
+}
+
+// The CRC state c (inverted) after bytes[from, to), to - from a multiple of 8. A function of
+// its own, apart from crcTail, so that nothing the compiler has not seen run follows its loop.
+function crcBlocks(bytes, from, to, c) {
+  const T = CRC_TABLE;
+  for (let i = from; i < to; i += 8) {
     c ^= bytes[i] | (bytes[i + 1] << 8) | (bytes[i + 2] << 16) | (bytes[i + 3] << 24);
-    c = CRC_TABLE[768 + (c & 0xff)] ^ CRC_TABLE[512 + ((c >>> 8) & 0xff)] ^
-        CRC_TABLE[256 + ((c >>> 16) & 0xff)] ^ CRC_TABLE[c >>> 24];
+    const d = bytes[i + 4] | (bytes[i + 5] << 8) | (bytes[i + 6] << 16) | (bytes[i + 7] << 24);
+    c = T[1792 + (c & 0xff)] ^ T[1536 + ((c >>> 8) & 0xff)] ^ T[1280 + ((c >>> 16) & 0xff)] ^ T[1024 + (c >>> 24)] ^
+        T[768 + (d & 0xff)] ^ T[512 + ((d >>> 8) & 0xff)] ^ T[256 + ((d >>> 16) & 0xff)] ^ T[d >>> 24];
   }
-  for (; i < to; i++) c = CRC_TABLE[(c ^ bytes[i]) & 0xff] ^ (c >>> 8);
-  return ~c >>> 0;
+  return c;
+}
+
+// The CRC state c (inverted) after bytes[from, to), one byte at a time.
+function crcTail(bytes, from, to, c) {
+  for (let i = from; i < to; i++) c = CRC_TABLE[(c ^ bytes[i]) & 0xff] ^ (c >>> 8);
+  return c;
 }
 
 function u16(b, o) { return b[o] | (b[o + 1] << 8); }
@@ -131,8 +145,8 @@ export function peekHeader(bytes, info = newFrameInfo()) {
  * Decodes a stream of strand frames. decode() returns a record (reused between calls) holding the
  * header fields and `positions`, a Float32Array (3 * nstrandsSent * nverts, strand-major xyz)
  * owned by the decoder and overwritten by the next successful decode. Bad frames throw an Error;
- * the decoder's state (the held keyframe) is then unchanged. Nothing is allocated per frame once
- * the first frame of a given size has been decoded.
+ * the decoder's state (the held keyframe) and `positions` are then unchanged. Nothing is
+ * allocated per frame once a frame of the same size (or larger) has been decoded.
  */
 export class StrandDecoder {
   constructor() {
@@ -141,14 +155,21 @@ export class StrandDecoder {
     this._hdr = newFrameInfo();
     this._key = newFrameInfo();
     this._keyValid = false;
-    this._keyQ = new Int32Array(0);
-    this._curQ = new Int32Array(0);
-    this._keyM = new Int32Array(0); // the keyframe moved by a delta's rigid motion
-    this._motion = new Float64Array(12);
-    this._slots = new Uint16Array(NTABLES * SCALE);  // slot -> symbol (0xffff: unused table)
-    this._steps = new Uint32Array(NTABLES * SCALE);  // slot -> freq << 12 | (slot - start)
-    this._res = new Int32Array(0); // residuals of one strand
-    this._pos = 0; // table parser position
+    // the kernel's heap (codec_kernel.js), grown to the largest frame seen
+    this._heap = null;
+    this._kernel = null;
+    this._nqCap = 0;      // lattice coordinates its regions hold
+    this._bytesCap = 0;   // frame bytes it holds
+    this._keyOff = 0;     // the held keyframe's lattice (Int32)
+    this._curOff = 0;     // the lattice being decoded (Int32)
+    this._outOff = 0;     // positions being decoded (Float32)
+    this._bytesOff = 0;   // the frame being decoded
+    this._u8 = null;
+    this._i32 = null;
+    this._f64 = null;
+    this._info16 = null;  // K_INFO
+    this._freq32 = null;  // K_FREQ
+    this._out = new Float32Array(0); // view of the output region, nq floats
   }
 
   /** True when a keyframe is held (deltas against it can be decoded). */
@@ -159,6 +180,43 @@ export class StrandDecoder {
 
   /** Forgets the held keyframe (e.g. after a reconnect). */
   reset() { this._keyValid = false; }
+
+  // Makes the heap hold nq coordinates and a frame of frameLen bytes, keeping the held keyframe.
+  _reserve(nq, frameLen) {
+    if (this._heap && nq <= this._nqCap && frameLen <= this._bytesCap) {
+      if (this._out.length !== nq) this._out = new Float32Array(this._heap, this._outOff, nq);
+      return;
+    }
+    const nqCap = Math.max(nq, this._nqCap);
+    const bytesCap = Math.max(frameLen + (frameLen >> 2), this._bytesCap, 1 << 16);
+    const lay = kernelLayout(nqCap, bytesCap);
+    const heap = new ArrayBuffer(lay.size);
+    const i32 = new Int32Array(heap);
+    if (this._keyValid) {
+      const kq = this._key.nstrandsSent * this._key.nverts * 3;
+      i32.set(this._i32.subarray(this._keyOff >> 2, (this._keyOff >> 2) + kq), lay.key >> 2);
+    }
+    for (let c = 1; c < 6; c++) {
+      for (let b = 0; b < 32; b++) {
+        const f = b & ((1 << c) - 1), m = (1 << (c - 1)) | (f >> 1);
+        i32[(K_RES >> 2) + ((c << 5) | b)] = f & 1 ? -m : m;
+      }
+    }
+    this._heap = heap;
+    this._kernel = CodecKernel(globalThis, null, heap);
+    this._nqCap = nqCap;
+    this._bytesCap = lay.size - lay.bytes;
+    this._keyOff = lay.key;
+    this._curOff = lay.cur;
+    this._outOff = lay.out;
+    this._bytesOff = lay.bytes;
+    this._u8 = new Uint8Array(heap);
+    this._i32 = i32;
+    this._f64 = new Float64Array(heap);
+    this._info16 = new Uint16Array(heap, K_INFO, NTABLES * SCALE);
+    this._freq32 = new Int32Array(heap, K_FREQ, NTABLES * 512);
+    this._out = new Float32Array(heap, lay.out, nq);
+  }
 
   /** Decodes one frame (a Uint8Array holding exactly the frame). */
   decode(bytes) {
@@ -174,305 +232,99 @@ export class StrandDecoder {
         fail(`frame ${h.seq} does not match its keyframe's layout or step`);
       }
     }
-    const nq = h.nstrandsSent * h.nverts * 3;
-    if (this._curQ.length < nq) {
-      const k = new Int32Array(nq);
-      k.set(this._keyQ);
-      this._keyQ = k;
-      this._curQ = new Int32Array(nq);
-      this._keyM = new Int32Array(nq);
-    }
-    const end = bytes.length;
-    let pl = HEADER_SIZE;
+    const nq = h.nstrandsSent * h.nverts * 3, end = bytes.length;
+    this._reserve(nq, end);
+    let pos = HEADER_SIZE;
     if (!h.keyframe) {
-      if (end - pl < MOTION_BYTES) fail('truncated payload (no motion)');
-      const m = this._motion;
-      for (let k = 0; k < 12; k++) m[k] = f32(bytes, pl + 4 * k);
+      if (end - pos < MOTION_BYTES) fail('truncated payload (no motion)');
+      const m = this._f64, mo = K_MOTION >> 3;
       for (let k = 0; k < 12; k++) {
-        if (!(Math.abs(m[k]) <= (k < 9 ? 2 : 4 * MAX_QUANT))) fail('invalid rigid motion');
+        const v = f32(bytes, pos + 4 * k);
+        if (!(Math.abs(v) <= (k < 9 ? 2 : 4 * MAX_QUANT))) fail('invalid rigid motion');
+        m[mo + k] = k < 9 ? v : v + 1073741824.5;
       }
-      applyMotion(m, this._keyQ, this._keyM, nq / 3);
-      pl += MOTION_BYTES;
+      pos += MOTION_BYTES;
     }
-    this._pos = pl;
-    this._readTables(bytes, end);
-    let pos = this._pos;
+    pos = readTables(bytes, pos, end, this._info16, this._freq32);
     if (end - pos < 4) fail('truncated payload (no stream length)');
     const ransLen = u32(bytes, pos);
     pos += 4;
     if (ransLen < 8 || ransLen > end - pos) fail(`entropy stream length ${ransLen} invalid for ${end - pos} payload bytes left`);
-    this._decodeStrands(bytes, h, pos, pos + ransLen, end);
+    const x0 = u32(bytes, pos), x1 = u32(bytes, pos + 4);
+    if (x0 < RANS_L || x0 >= RANS_L * 256 || x1 < RANS_L || x1 >= RANS_L * 256) fail('invalid entropy coder state');
+    const rend = pos + ransLen, b0 = this._bytesOff;
+    this._u8.set(bytes, b0);
+    const rc = this._kernel.frame(h.keyframe ? 1 : 0, h.nstrandsSent, 3 * h.nverts, x0, x1, b0 + pos + 8, b0 + rend,
+      b0 + rend, b0 + end, this._keyOff, this._curOff, this._outOff, h.step);
+    if (rc === K_BAD_STREAM) fail(BAD_STREAM);
+    if (rc === K_BAD_VALUE) fail(BAD_VALUE);
+    const st = this._i32, so = K_STATE >> 2;
+    if (st[so] !== RANS_L || st[so + 1] !== RANS_L || st[so + 2] !== b0 + rend) fail('entropy stream does not end where the frame says');
+    const avail = (end - rend) * 8, used = st[so + 3];
+    if (used > avail || avail - used >= 8) fail(`raw bit stream is ${avail} bits, frame used ${used}`);
 
-    const out = this.info;
-    if (out.positions.length !== nq) out.positions = new Float32Array(nq);
-    dequantize(this._curQ, out.positions, nq, h.step);
+    const info = this.info;
+    if (info.positions.length !== nq) info.positions = new Float32Array(nq);
+    info.positions.set(this._out);
     if (h.keyframe) {
-      const t = this._keyQ;
-      this._keyQ = this._curQ;
-      this._curQ = t;
+      const t = this._keyOff;
+      this._keyOff = this._curOff;
+      this._curOff = t;
       Object.assign(this._key, h);
       this._keyValid = true;
     }
-    out.seq = h.seq; out.refSeq = h.refSeq; out.simTime = h.simTime; out.step = h.step; out.maxError = h.maxError;
-    out.keyframe = h.keyframe; out.nstrandsTotal = h.nstrandsTotal; out.nstrandsSent = h.nstrandsSent;
-    out.nverts = h.nverts; out.stride = h.stride; out.payloadLen = h.payloadLen; out.frameLen = h.frameLen;
-    return out;
-  }
-
-  _varint(bytes, end) {
-    let v = 0;
-    for (let k = 0; k < 2; k++) {
-      if (this._pos >= end) fail('truncated probability tables');
-      const b = bytes[this._pos++];
-      v |= (b & 0x7f) << (7 * k);
-      if (!(b & 0x80)) return v;
-    }
-    return fail('oversized value in probability tables');
-  }
-
-  _readTables(bytes, end) {
-    const slots = this._slots, steps = this._steps;
-    for (let t = 0; t < NTABLES; t++) {
-      const used = this._varint(bytes, end);
-      if (used > NSYM) fail(`table ${t} lists ${used} symbols (max ${NSYM})`);
-      const lut = t * SCALE;
-      if (used === 0) {
-        slots.fill(0xffff, lut, lut + SCALE);
-        continue;
-      }
-      let st = 0, next = 0;
-      for (let k = 0; k < used; k++) {
-        const gap = this._varint(bytes, end);
-        const f = this._varint(bytes, end);
-        if (gap >= NSYM - next) fail(`table ${t} names a symbol beyond ${NSYM - 1}`);
-        const s = next + gap;
-        if (f === 0 || f > SCALE - st) fail(`table ${t} frequency ${f} invalid (sum must be ${SCALE})`);
-        slots.fill(s, lut + st, lut + st + f);
-        for (let k = 0; k < f; k++) steps[lut + st + k] = (f << SCALE_BITS) | k;
-        st += f;
-        next = s + 1;
-      }
-      if (st !== SCALE) fail(`table ${t} frequencies sum to ${st}, not ${SCALE}`);
-    }
-  }
-
-  // Decodes all strands into this._curQ: rANS bytes [rpos, rend), raw bits [bstart, bend).
-  // Per strand: the mode and vertex symbols with their raw bits into residuals R, then the
-  // predictions (one flat loop per mode).
-  _decodeStrands(bytes, h, rpos, rend, bend) {
-    const slots = this._slots, steps = this._steps;
-    const key = h.keyframe, nv = h.nverts, per = nv * 3, nmodes = key ? KEY_MODES : DELTA_MODES;
-    const P = this._curQ, K = this._keyM;
-    if (this._res.length < per) this._res = new Int32Array(per);
-    const R = this._res;
-    const bstart = rend;
-    let x0 = u32(bytes, rpos), x1 = u32(bytes, rpos + 4);
-    rpos += 8;
-    if (x0 < RANS_L || x0 >= RANS_L * 256 || x1 < RANS_L || x1 >= RANS_L * 256) fail('invalid entropy coder state');
-    let bpos = bstart, acc = 0, nacc = 0;
-    const badStream = 'corrupt entropy-coded data (invalid symbol or stream overrun)';
-
-    for (let j = 0; j < h.nstrandsSent; j++) {
-      const base = j * per;
-      let mode = 0, table = T_MODE;
-      for (let v = -1; v < nv; v++) {
-        // rANS symbol of `table`; x0 is always the state of this symbol, x1 the next one's
-        const li = (table << SCALE_BITS) + (x0 & (SCALE - 1));
-        const s = slots[li], e = steps[li];
-        if (s === 0xffff) fail(badStream);
-        let x = (e >>> SCALE_BITS) * (x0 >>> SCALE_BITS) + (e & (SCALE - 1));
-        while (x < RANS_L) {
-          if (rpos >= rend) fail(badStream);
-          x = (x << 8) | bytes[rpos++];
-        }
-        x0 = x1;
-        x1 = x;
-        if (v < 0) {
-          if (s >= nmodes) fail(badStream);
-          mode = s;
-          table = T_ROOT;
-          continue;
-        }
-        table = v === 0 ? T_FIRST : SYM_NEXT[s];
-        const i = 3 * v;
-        const nbits = SYM_BITS[s];
-        if (nbits >= 0) {
-          // fast path: the three fields, c0 + c1 + c2 <= 15 bits
-          if (nacc < nbits) {
-            if (bpos + 2 <= bend) acc |= (bytes[bpos] | (bytes[bpos + 1] << 8)) << nacc;
-            else if (bpos < bend) acc |= bytes[bpos] << nacc;
-            bpos += 2;
-            nacc += 16;
-          }
-          let b = acc;
-          acc >>>= nbits;
-          nacc -= nbits;
-          const c0 = SYM_C0[s], c1 = SYM_C1[s], c2 = SYM_C2[s];
-          let f = b & ((1 << c0) - 1), m = ((1 << c0) >> 1) | (f >> 1), sg = f & 1;
-          R[i] = (m ^ -sg) + sg;
-          b >>>= c0;
-          f = b & ((1 << c1) - 1); m = ((1 << c1) >> 1) | (f >> 1); sg = f & 1;
-          R[i + 1] = (m ^ -sg) + sg;
-          b >>>= c1;
-          f = b & ((1 << c2) - 1); m = ((1 << c2) >> 1) | (f >> 1); sg = f & 1;
-          R[i + 2] = (m ^ -sg) + sg;
-          continue;
-        }
-        for (let a = 0; a < 3; a++) {
-          const c = a === 0 ? SYM_C0[s] : a === 1 ? SYM_C1[s] : SYM_C2[s];
-          if (c < ESCAPE) {
-            while (nacc < c) { acc |= (bpos < bend ? bytes[bpos] : 0) << nacc; bpos++; nacc += 8; }
-            const f = acc & ((1 << c) - 1);
-            acc >>>= c;
-            nacc -= c;
-            const m = ((1 << c) >> 1) | (f >> 1);
-            R[i + a] = f & 1 ? -m : m;
-            continue;
-          }
-          // escape: e - 5 from the escape table (rANS), then sign and e mantissa bits (raw)
-          const li = (T_ESC << SCALE_BITS) + (x0 & (SCALE - 1));
-          const k = slots[li], ee = steps[li];
-          if (k >= NESC) fail(badStream); // also an unused table (0xffff)
-          let xe = (ee >>> SCALE_BITS) * (x0 >>> SCALE_BITS) + (ee & (SCALE - 1));
-          while (xe < RANS_L) {
-            if (rpos >= rend) fail(badStream);
-            xe = (xe << 8) | bytes[rpos++];
-          }
-          x0 = x1;
-          x1 = xe;
-          const ex = k + 5;
-          while (nacc < 1) { acc |= (bpos < bend ? bytes[bpos] : 0) << nacc; bpos++; nacc += 8; }
-          const sign = acc & 1;
-          acc >>>= 1;
-          nacc -= 1;
-          let mant = 0, got = 0; // up to 29 bits, read in parts of at most 16
-          while (got < ex) {
-            const n2 = ex - got > 16 ? 16 : ex - got;
-            while (nacc < n2) { acc |= (bpos < bend ? bytes[bpos] : 0) << nacc; bpos++; nacc += 8; }
-            mant += (acc & ((1 << n2) - 1)) * (1 << got);
-            acc >>>= n2;
-            nacc -= n2;
-            got += n2;
-          }
-          const m = (1 << ex) + mant;
-          R[i + a] = sign ? -m : m;
-        }
-      }
-      if (!reconstruct(key, mode, P, K, base, per, R)) fail('corrupt frame (decoded coordinate out of range)');
-    }
-    if (x0 !== RANS_L || x1 !== RANS_L || rpos !== rend) fail('entropy stream does not end where the frame says');
-    const avail = (bend - bstart) * 8, used = (bpos - bstart) * 8 - nacc;
-    if (used > avail || avail - used >= 8) fail(`raw bit stream is ${avail} bits, frame used ${used}`);
+    info.seq = h.seq; info.refSeq = h.refSeq; info.simTime = h.simTime; info.step = h.step; info.maxError = h.maxError;
+    info.keyframe = h.keyframe; info.nstrandsTotal = h.nstrandsTotal; info.nstrandsSent = h.nstrandsSent;
+    info.nverts = h.nverts; info.stride = h.stride; info.payloadLen = h.payloadLen; info.frameLen = h.frameLen;
+    return info;
   }
 }
 
-// out = round(R k + t) per vertex in binary64, clamped (codec_motion_apply): trunc of a sum
-// that stays in (0, 2^31), so `| 0` is exact.
-function applyMotion(m, k, out, nverts) {
-  const lim = MAX_QUANT - 1, off = 1073741824;
-  const r0 = m[0], r1 = m[1], r2 = m[2], r3 = m[3], r4 = m[4], r5 = m[5], r6 = m[6], r7 = m[7], r8 = m[8];
-  const c0 = m[9] + 1073741824.5, c1 = m[10] + 1073741824.5, c2 = m[11] + 1073741824.5;
-  for (let j = 0, n = nverts * 3; j < n; j += 3) {
-    const x = k[j], y = k[j + 1], z = k[j + 2];
-    let w = ((r0 * x + r1 * y + r2 * z + c0) | 0) - off;
-    out[j] = w < -lim ? -lim : w > lim ? lim : w;
-    w = ((r3 * x + r4 * y + r5 * z + c1) | 0) - off;
-    out[j + 1] = w < -lim ? -lim : w > lim ? lim : w;
-    w = ((r6 * x + r7 * y + r8 * z + c2) | 0) - off;
-    out[j + 2] = w < -lim ? -lim : w > lim ? lim : w;
-  }
+// LEB128 value of at most 2 bytes at bytes[pos] (pos < end checked); returns value << 16 | bytes.
+function varint(bytes, pos, end) {
+  if (pos >= end) fail('truncated probability tables');
+  const b0 = bytes[pos];
+  if (!(b0 & 0x80)) return (b0 << 16) | 1;
+  if (pos + 1 >= end) fail('truncated probability tables');
+  const b1 = bytes[pos + 1];
+  if (b1 & 0x80) fail('oversized value in probability tables');
+  return (((b0 & 0x7f) | (b1 << 7)) << 16) | 2;
 }
 
-// positions = float32(q * step), exactly as the C decoder.
-function dequantize(q, positions, n, step) {
-  for (let i = 0; i < n; i++) positions[i] = q[i] * step;
-}
-
-const inRange = (q) => q > -MAX_QUANT && q < MAX_QUANT;
-
-// Rebuilds strand `base` (per = 3 * nverts coordinates) of P from residuals R with the
-// predictions of proto/CODEC.md; K is the moved keyframe, the previous strand starts at
-// base - per. One loop per prediction, the previous vertices carried in locals. Returns false
-// on an out-of-range coordinate (|q| >= 2^26; values stay below 2^31 until the first one).
-function reconstruct(key, mode, P, K, base, per, R) {
-  const hasN = base > 0, end = base + per;
-  // root
-  for (let a = 0; a < 3; a++) {
-    const i = base + a, n = i - per;
-    const pred = key ? (hasN ? P[n] : 0) : (hasN ? K[i] + P[n] - K[n] : K[i]);
-    const q = pred + R[a];
-    if (!inRange(q)) return false;
-    P[i] = q;
+// Reads the ten probability tables at bytes[pos, end) into the kernel's lookups
+// (codec_kernel.js): info, per table and slot, the INFO entry of the symbol whose
+// [start, start + freq) holds the slot; freq, per table and symbol key, freq << 12 | start.
+// Returns the position after them.
+function readTables(bytes, pos, end, info, freq) {
+  for (let t = 0; t < NTABLES; t++) {
+    let vb = varint(bytes, pos, end);
+    pos += vb & 3;
+    const used = vb >> 16;
+    if (used > NSYM) fail(`table ${t} lists ${used} symbols (max ${NSYM})`);
+    const lut = t * SCALE;
+    if (used === 0) {
+      info.fill(INFO_UNUSED, lut, lut + SCALE);
+      continue;
+    }
+    let st = 0, next = 0;
+    for (let k = 0; k < used; k++) {
+      vb = varint(bytes, pos, end);
+      pos += vb & 3;
+      const gap = vb >> 16;
+      vb = varint(bytes, pos, end);
+      pos += vb & 3;
+      const f = vb >> 16;
+      if (gap >= NSYM - next) fail(`table ${t} names a symbol beyond ${NSYM - 1}`);
+      const s = next + gap;
+      if (f === 0 || f > SCALE - st) fail(`table ${t} frequency ${f} invalid (sum must be ${SCALE})`);
+      const from = lut + st, to = from + f;
+      const v = t === T_MODE || t === T_ESC ? s : t === T_ROOT ? (SYM_INFO[s] & ~(15 << 9)) | (T_FIRST << 9) : SYM_INFO[s];
+      info.fill(v, from, to);
+      freq[(t << 9) | (v & 511)] = (f << SCALE_BITS) | st;
+      st += f;
+      next = s + 1;
+    }
+    if (st !== SCALE) fail(`table ${t} frequencies sum to ${st}, not ${SCALE}`);
   }
-  // vertex 1
-  for (let a = 0; a < 3; a++) {
-    const i = base + 3 + a, p = i - 3, n = i - per, np = p - per;
-    let pred;
-    if (key) pred = hasN ? P[p] + P[n] - P[np] : P[p];
-    else pred = P[p] + K[i] - K[p];
-    const q = pred + R[3 + a];
-    if (!inRange(q)) return false;
-    P[i] = q;
-  }
-  if (end - base <= 6) return true;
-  const L = 67108863, L2 = 134217726; // |q| < 2^26  <=>  (q + L) >>> 0 <= L2
-  let bad = 0, i = base + 6, r = 6;
-  let a0 = P[i - 3], a1 = P[i - 2], a2 = P[i - 1]; // vertex v - 1
-  let b0 = P[i - 6], b1 = P[i - 5], b2 = P[i - 4]; // vertex v - 2
-  let q0, q1, q2;
-  if (key && mode === 1 && hasN) { // the neighbour's segment
-    for (; i < end; i += 3, r += 3) {
-      const n = i - per;
-      q0 = a0 + P[n] - P[n - 3] + R[r];
-      q1 = a1 + P[n + 1] - P[n - 2] + R[r + 1];
-      q2 = a2 + P[n + 2] - P[n - 1] + R[r + 2];
-      bad |= (((q0 + L) >>> 0) > L2) | (((q1 + L) >>> 0) > L2) | (((q2 + L) >>> 0) > L2);
-      P[i] = q0; P[i + 1] = q1; P[i + 2] = q2;
-      a0 = q0; a1 = q1; a2 = q2;
-    }
-  } else if (key ? mode === 2 : mode === 3) { // smooth linear (linear at vertex 2)
-    q0 = 2 * a0 - b0 + R[r]; q1 = 2 * a1 - b1 + R[r + 1]; q2 = 2 * a2 - b2 + R[r + 2];
-    bad |= (((q0 + L) >>> 0) > L2) | (((q1 + L) >>> 0) > L2) | (((q2 + L) >>> 0) > L2);
-    P[i] = q0; P[i + 1] = q1; P[i + 2] = q2;
-    let c0 = b0, c1 = b1, c2 = b2;
-    b0 = a0; b1 = a1; b2 = a2; a0 = q0; a1 = q1; a2 = q2;
-    for (i += 3, r += 3; i < end; i += 3, r += 3) {
-      // previous vertex + (a - c) / 2 rounded half to even (codec_smooth)
-      let d = a0 - c0; q0 = a0 + ((d + ((d >> 1) & 1)) >> 1) + R[r];
-      d = a1 - c1; q1 = a1 + ((d + ((d >> 1) & 1)) >> 1) + R[r + 1];
-      d = a2 - c2; q2 = a2 + ((d + ((d >> 1) & 1)) >> 1) + R[r + 2];
-      bad |= (((q0 + L) >>> 0) > L2) | (((q1 + L) >>> 0) > L2) | (((q2 + L) >>> 0) > L2);
-      P[i] = q0; P[i + 1] = q1; P[i + 2] = q2;
-      c0 = b0; c1 = b1; c2 = b2; b0 = a0; b1 = a1; b2 = a2; a0 = q0; a1 = q1; a2 = q2;
-    }
-  } else if (key || mode === 2) { // linear
-    for (; i < end; i += 3, r += 3) {
-      q0 = 2 * a0 - b0 + R[r]; q1 = 2 * a1 - b1 + R[r + 1]; q2 = 2 * a2 - b2 + R[r + 2];
-      bad |= (((q0 + L) >>> 0) > L2) | (((q1 + L) >>> 0) > L2) | (((q2 + L) >>> 0) > L2);
-      P[i] = q0; P[i + 1] = q1; P[i + 2] = q2;
-      b0 = a0; b1 = a1; b2 = a2; a0 = q0; a1 = q1; a2 = q2;
-    }
-  } else if (mode === 1) { // the keyframe's segment plus the change of displacement
-    let k0 = K[i - 3], k1 = K[i - 2], k2 = K[i - 1], l0 = K[i - 6], l1 = K[i - 5], l2 = K[i - 4];
-    for (; i < end; i += 3, r += 3) {
-      const n0 = K[i], n1 = K[i + 1], n2 = K[i + 2];
-      q0 = a0 + n0 - k0 + (a0 - k0) - (b0 - l0) + R[r];
-      q1 = a1 + n1 - k1 + (a1 - k1) - (b1 - l1) + R[r + 1];
-      q2 = a2 + n2 - k2 + (a2 - k2) - (b2 - l2) + R[r + 2];
-      bad |= (((q0 + L) >>> 0) > L2) | (((q1 + L) >>> 0) > L2) | (((q2 + L) >>> 0) > L2);
-      P[i] = q0; P[i + 1] = q1; P[i + 2] = q2;
-      b0 = a0; b1 = a1; b2 = a2; a0 = q0; a1 = q1; a2 = q2;
-      l0 = k0; l1 = k1; l2 = k2; k0 = n0; k1 = n1; k2 = n2;
-    }
-  } else { // the keyframe's segment
-    let k0 = K[i - 3], k1 = K[i - 2], k2 = K[i - 1];
-    for (; i < end; i += 3, r += 3) {
-      const n0 = K[i], n1 = K[i + 1], n2 = K[i + 2];
-      q0 = a0 + n0 - k0 + R[r]; q1 = a1 + n1 - k1 + R[r + 1]; q2 = a2 + n2 - k2 + R[r + 2];
-      bad |= (((q0 + L) >>> 0) > L2) | (((q1 + L) >>> 0) > L2) | (((q2 + L) >>> 0) > L2);
-      P[i] = q0; P[i + 1] = q1; P[i + 2] = q2;
-      a0 = q0; a1 = q1; a2 = q2; k0 = n0; k1 = n1; k2 = n2;
-    }
-  }
-  return bad === 0;
+  return pos;
 }

@@ -96,6 +96,19 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     const char *listen = d->listen && *d->listen ? d->listen : "127.0.0.1";
     if (strcmp(listen, "localhost") == 0) listen = "127.0.0.1";
     if (strcmp(listen, "0.0.0.0") == 0 || strcmp(listen, "*") == 0) listen = NULL;
+    if (d->ping_s < 0 || d->ping_s >= NET_MAX_HANGUP_S)
+        return core_fail(err, CORE_EINVAL, "net: ping interval %d s is outside [1, %d]", d->ping_s, NET_MAX_HANGUP_S - 1);
+    int ping_s = d->ping_s ? d->ping_s : NET_DEFAULT_PING_S;
+    int hangup_s = d->hangup_s;
+    if (!hangup_s) {
+        hangup_s = ping_s + NET_DEFAULT_HANGUP_EXTRA_S;
+        if (hangup_s > NET_MAX_HANGUP_S) hangup_s = NET_MAX_HANGUP_S;
+    }
+    /* lws asserts hangup > ping: past the ping it waits hangup - ping more seconds for a pong */
+    if (hangup_s <= ping_s || hangup_s > NET_MAX_HANGUP_S)
+        return core_fail(err, CORE_EINVAL,
+                         "net: hangup time %d s must be longer than the ping interval (%d s) and at most %d s", hangup_s,
+                         ping_s, NET_MAX_HANGUP_S);
     core_status st = listen ? check_listen(listen, err) : CORE_OK;
     if (st != CORE_OK) return st;
     net *n = calloc(1, sizeof *n);
@@ -103,7 +116,8 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     n->desc = *d;
     if (!n->desc.max_message) n->desc.max_message = NET_DEFAULT_MAX_MESSAGE;
     if (n->desc.text_queue <= 0) n->desc.text_queue = NET_DEFAULT_TEXT_QUEUE;
-    if (n->desc.ping_s <= 0) n->desc.ping_s = NET_DEFAULT_PING_S;
+    n->desc.ping_s = ping_s;
+    n->desc.hangup_s = hangup_s;
     if (n->desc.sndbuf <= 0) n->desc.sndbuf = NET_DEFAULT_SNDBUF;
     n->listen = dup_or_null(listen);
     n->web_dir = dup_or_null(d->web_dir);
@@ -120,7 +134,7 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
 
     lws_set_log_level(LLL_ERR | LLL_WARN, lws_log_to_core);
     n->retry.secs_since_valid_ping = (uint16_t)n->desc.ping_s;
-    n->retry.secs_since_valid_hangup = (uint16_t)(n->desc.ping_s + 10);
+    n->retry.secs_since_valid_hangup = (uint16_t)n->desc.hangup_s;
     n->protocols[0] = (struct lws_protocols){ "http", net_http_callback, sizeof(net_http), 0, 0, NULL, 0 };
     n->protocols[1] = (struct lws_protocols){ n->subprotocol, net_ws_callback, sizeof(net_session), 4096, 0, NULL, 0 };
     setup_mounts(n);

@@ -18,6 +18,8 @@
 #define NET_DEFAULT_MAX_MESSAGE (64 * 1024)
 #define NET_DEFAULT_TEXT_QUEUE 32
 #define NET_DEFAULT_PING_S 20
+#define NET_DEFAULT_HANGUP_EXTRA_S 10 /* default hangup_s = ping_s + this */
+#define NET_MAX_HANGUP_S 65535     /* lws keeps both times as uint16 seconds */
 #define NET_DEFAULT_SNDBUF (256 * 1024)
 #define NET_INBOX_MAX 8192         /* pending posts from other threads before posting fails */
 
@@ -55,7 +57,9 @@ typedef struct net_desc {
     const char *subprotocol;   /* the WebSocket subprotocol clients must ask for (required) */
     size_t max_message;        /* largest client text message; default 64 KiB (bigger: close 1009) */
     int text_queue;            /* queued text messages per client; default 32 */
-    int ping_s;                /* idle seconds before a ping; hang up ping_s + 10 s without a pong */
+    int ping_s;                /* seconds without a pong before the server pings; default 20, max 65534 */
+    int hangup_s;              /* seconds without a pong before the client is dropped; > ping_s,
+                                * max 65535; default ping_s + 10 (at most 65535) */
     int sndbuf;                /* kernel send buffer per client (SO_SNDBUF), bytes; default 256 KiB */
     net_callbacks cb;
 } net_desc;

@@ -110,6 +110,7 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
               dz = c->rest[2][i] - c->rest[2][i - c->ns];
         c->max_segment = fmaxf(c->max_segment, sqrtf(dx * dx + dy * dy + dz * dz));
     }
+    c->sph.scalar = desc && desc->scalar_only;
     core_status st = sim_pool_init(&c->pool, desc ? desc->threads : 0, err);
     if (st != CORE_OK) {
         cpu_destroy(c);

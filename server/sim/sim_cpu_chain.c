@@ -422,19 +422,16 @@ static void chain_chunk(const chain_ctx *ctx, chunk_tmp *restrict t, size_t s0, 
     }
 }
 
-static void chain_job(void *vctx, int tid, int nt)
+/* One task = one chunk: the chunks (and their collider culling) are the same for any thread
+ * count and any assignment to workers, so results are bitwise identical. */
+static void chain_task(void *vctx, size_t task, size_t ntasks, int worker)
 {
+    (void)ntasks;
     const chain_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
-    size_t b, e;
-    /* whole chunks per worker: the chunks (and their collider culling) are the same for any
-     * thread count, so results are bitwise identical */
-    sim_pool_range(c->ns, tid, nt, CHUNK, &b, &e);
+    const size_t s = task * CHUNK, cnt = c->ns - s < CHUNK ? c->ns - s : CHUNK;
     chunk_tmp t;
-    for (size_t s = b; s < e; s += CHUNK) {
-        size_t cnt = e - s < CHUNK ? e - s : CHUNK;
-        chain_chunk(ctx, &t, s, cnt, &c->nan_per_thread[tid]);
-    }
+    chain_chunk(ctx, &t, s, cnt, &c->nan_per_thread[worker]);
 }
 
 void sim_cpu_chain_pass(sim_cpu *c, core_xform head, float dt, bool use_sph_accel)
@@ -449,5 +446,5 @@ void sim_cpu_chain_pass(sim_cpu *c, core_xform head, float dt, bool use_sph_acce
         ctx.nwc = c->ncolliders;
         sim_cpu_world_colliders(c, head, ctx.wc);
     }
-    sim_pool_run(&c->pool, chain_job, &ctx);
+    sim_pool_run_tasks(&c->pool, chain_task, &ctx, (c->ns + CHUNK - 1) / CHUNK);
 }

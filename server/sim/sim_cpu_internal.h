@@ -29,6 +29,7 @@ typedef struct sim_cpu_sph {
     size_t cells_cap;        /* cells the per-cell arrays hold */
     int cap;                 /* neighbour slots per particle the arrays hold */
     bool lists_valid;        /* order/nbr describe the current particles (may be reused) */
+    bool scalar;             /* use the scalar kernels even where AVX2 ones exist */
     uint32_t *cell;          /* hash bucket of each particle, original order */
     uint32_t *order;         /* sorted slot -> original particle index */
     uint32_t *strand;        /* sorted slot -> strand index */

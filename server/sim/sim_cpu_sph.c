@@ -12,10 +12,12 @@
 #define SPH_ACCEL_SCALE 3600.0f
 /* Candidates within h kept per particle before the nearest neighbour_cap are selected. */
 #define SPH_MAX_CANDIDATES 1024
-/* Candidates whose distances are computed in one vector loop. */
-#define SPH_SCAN_BLOCK 64
-/* Elements of padding after the sorted SoA arrays (one AVX2 vector). */
-#define SPH_PAD 8
+/* Elements of padding after the sorted SoA arrays and scan buffers (two AVX2 vectors). */
+#define SPH_PAD 16
+/* Shares of the per-particle and per-cell passes, taken by whichever worker is free. */
+#define SPH_PARTS 64
+/* The largest neighbour_cap (sim_params.c). */
+#define SPH_MAX_NEIGHBOURS 64
 
 #define MAX0(a) ((a) > 0.0f ? (a) : 0.0f)
 
@@ -41,7 +43,9 @@ void sim_cpu_sph_free(sim_cpu_sph *s)
     free(s->nnbr);
     free(s->cell_start);
     free(s->hist);
+    const bool scalar = s->scalar;
     memset(s, 0, sizeof *s);
+    s->scalar = scalar;
 }
 
 static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, int nthreads, core_err *err)
@@ -59,7 +63,7 @@ static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, 
         s->sy = calloc(n + SPH_PAD, sizeof *s->sy);
         s->sz = calloc(n + SPH_PAD, sizeof *s->sz);
         s->sv = malloc(n * 4 * sizeof *s->sv);
-        s->nbr = malloc(n * (size_t)cap * sizeof *s->nbr);
+        s->nbr = calloc(n * (size_t)cap + SPH_PAD, sizeof *s->nbr); /* padded for 8-wide row loads */
         s->nnbr = malloc(n * sizeof *s->nnbr);
         s->n = n;
         s->cap = cap;
@@ -219,43 +223,51 @@ static const uint32_t compact_lut[256] = {
 };
 #endif
 
-/* Appends to r2s[]/idx[] the candidates j in [b, e) within h (r2 < h2) that belong to another
- * strand than si, in slot order; returns the new count. The buffers need 8 spare entries.
- * r2 = (dx*dx + dy*dy) + dz*dz in both paths, so AVX2 and scalar code give the same lists. */
-static size_t gather_candidates(const sim_cpu_sph *s, uint32_t b, uint32_t e, float x, float y, float z, float h2,
-                                uint32_t si, float *r2s, uint32_t *idx, size_t m)
+/* The candidate scan of one run [rb, re) of sorted slots: appends to r2s[]/idx[] the slots j
+ * within h (r2 < h2) of another strand than si, in slot order, taking blocks of 8 slots from rb
+ * while fewer than SPH_MAX_CANDIDATES are held; returns the new count. The buffers need 16
+ * spare entries. r2 = (dx*dx + dy*dy) + dz*dz in both paths, so AVX2 and scalar code give the
+ * same lists. */
+static size_t scan_run(const sim_cpu_sph *s, uint32_t rb, uint32_t re, float x, float y, float z, float h2,
+                       uint32_t si, float *r2s, uint32_t *idx, size_t m)
 {
-    uint32_t j = b;
 #ifdef __AVX2__
-    const __m256 vx = _mm256_set1_ps(x), vy = _mm256_set1_ps(y), vz = _mm256_set1_ps(z), vh2 = _mm256_set1_ps(h2);
-    const __m256i vsi = _mm256_set1_epi32((int)si);
-    const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-    const __m256i nibbles = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
-    for (; j < e; j += 8) { /* the arrays are padded by 8, so the last block may read past e */
-        __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(s->sx + j), vx);
-        __m256 dy = _mm256_sub_ps(_mm256_loadu_ps(s->sy + j), vy);
-        __m256 dz = _mm256_sub_ps(_mm256_loadu_ps(s->sz + j), vz);
-        __m256 r2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
-        __m256i same = _mm256_cmpeq_epi32(_mm256_loadu_si256((const __m256i *)(s->strand + j)), vsi);
-        __m256i inside = _mm256_cmpgt_epi32(_mm256_set1_epi32((int)(e - j)), lanes);
-        __m256 ok = _mm256_andnot_ps(_mm256_castsi256_ps(same), _mm256_castsi256_ps(inside));
-        unsigned mask = (unsigned)_mm256_movemask_ps(_mm256_and_ps(ok, _mm256_cmp_ps(r2, vh2, _CMP_LT_OQ)));
-        /* branch-free: store the compacted lanes, advance by the number selected */
-        __m256i perm = _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)compact_lut[mask]), nibbles),
-                                        _mm256_set1_epi32(15));
-        _mm256_storeu_ps(r2s + m, _mm256_permutevar8x32_ps(r2, perm));
-        __m256i slots = _mm256_add_epi32(_mm256_set1_epi32((int)j), lanes);
-        _mm256_storeu_si256((__m256i *)(idx + m), _mm256_permutevar8x32_epi32(slots, perm));
-        m += (size_t)__builtin_popcount(mask);
+    if (!s->scalar) {
+        const __m256 vx = _mm256_set1_ps(x), vy = _mm256_set1_ps(y), vz = _mm256_set1_ps(z), vh2 = _mm256_set1_ps(h2);
+        const __m256i vsi = _mm256_set1_epi32((int)si);
+        const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        const __m256i nibbles = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
+        /* The first two blocks come without a loop (most runs hold at most 16 slots; a loop
+         * whose trip count changes from run to run costs a branch miss per run). A block may
+         * start past re (its lanes are all masked); the arrays are padded by SPH_PAD. */
+        for (uint32_t j = rb; (j < rb + 16 || j < re) && m < SPH_MAX_CANDIDATES; j += 8) {
+            __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(s->sx + j), vx);
+            __m256 dy = _mm256_sub_ps(_mm256_loadu_ps(s->sy + j), vy);
+            __m256 dz = _mm256_sub_ps(_mm256_loadu_ps(s->sz + j), vz);
+            __m256 r2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+            __m256i same = _mm256_cmpeq_epi32(_mm256_loadu_si256((const __m256i *)(s->strand + j)), vsi);
+            __m256i inside = _mm256_cmpgt_epi32(_mm256_set1_epi32((int)re - (int)j), lanes);
+            __m256 ok = _mm256_andnot_ps(_mm256_castsi256_ps(same), _mm256_castsi256_ps(inside));
+            unsigned mask = (unsigned)_mm256_movemask_ps(_mm256_and_ps(ok, _mm256_cmp_ps(r2, vh2, _CMP_LT_OQ)));
+            /* branch-free: store the compacted lanes, advance by the number selected */
+            __m256i perm = _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)compact_lut[mask]), nibbles),
+                                            _mm256_set1_epi32(15));
+            _mm256_storeu_ps(r2s + m, _mm256_permutevar8x32_ps(r2, perm));
+            __m256i slots = _mm256_add_epi32(_mm256_set1_epi32((int)j), lanes);
+            _mm256_storeu_si256((__m256i *)(idx + m), _mm256_permutevar8x32_epi32(slots, perm));
+            m += (size_t)__builtin_popcount(mask);
+        }
+        return m;
     }
 #endif
-    for (; j < e; j++) {
-        float dx = s->sx[j] - x, dy = s->sy[j] - y, dz = s->sz[j] - z;
-        float r2 = (dx * dx + dy * dy) + dz * dz;
-        r2s[m] = r2;
-        idx[m] = j;
-        m += (r2 < h2) & (s->strand[j] != si);
-    }
+    for (uint32_t j0 = rb; j0 < re && m < SPH_MAX_CANDIDATES; j0 += 8)
+        for (uint32_t j = j0; j < j0 + 8 && j < re; j++) {
+            float dx = s->sx[j] - x, dy = s->sy[j] - y, dz = s->sz[j] - z;
+            float r2 = (dx * dx + dy * dy) + dz * dz;
+            r2s[m] = r2;
+            idx[m] = j;
+            m += (r2 < h2) & (s->strand[j] != si);
+        }
     return m;
 }
 
@@ -333,6 +345,52 @@ static int neighbour_ranges(const sim_cpu_sph *s, uint32_t x0, uint32_t y0, uint
     return m;
 }
 
+/* The density kernel of a neighbour at squared distance r2: q^3 with q = max(1 - r2 / h^2, 0). */
+static inline float density_term(float r2, float inv_h2)
+{
+    const float q = MAX0(1.0f - r2 * inv_h2);
+    return q * q * q;
+}
+
+#ifdef __AVX2__
+static inline __m256 density_term8(__m256 r2, __m256 inv_h2)
+{
+    const __m256 q = _mm256_max_ps(_mm256_sub_ps(_mm256_set1_ps(1.0f), _mm256_mul_ps(r2, inv_h2)), _mm256_setzero_ps());
+    return _mm256_mul_ps(_mm256_mul_ps(q, q), q);
+}
+
+/* ((t0+t1)+(t2+t3))+((t4+t5)+(t6+t7)) of the lanes of t. */
+static inline float tree_sum8(__m256 t)
+{
+    const __m256 h = _mm256_hadd_ps(_mm256_hadd_ps(t, t), t); /* lane 0: (t0+t1)+(t2+t3); lane 4: (t4+t5)+(t6+t7) */
+    return _mm_cvtss_f32(_mm_add_ss(_mm256_castps256_ps128(h), _mm256_extractf128_ps(h, 1)));
+}
+#endif
+
+/* 1 + the kernel sum over r2[0, m): blocks of 8 (missing terms +0) summed as the tree
+ * ((t0+t1)+(t2+t3))+((t4+t5)+(t6+t7)), blocks added in order -- the order of every density
+ * path. r2 has 8 readable entries past m. */
+static inline float density_sum(const sim_cpu_sph *s, const float *r2, size_t m, float inv_h2)
+{
+    (void)s; /* only the AVX2 path asks it which kernels to use */
+    float rho = 1.0f;
+    size_t k0 = 0;
+#ifdef __AVX2__
+    const __m256 vinv = _mm256_set1_ps(inv_h2);
+    const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    for (; !s->scalar && k0 < m; k0 += 8) {
+        const __m256 live = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32((int)(m - k0)), lanes));
+        rho += tree_sum8(_mm256_and_ps(density_term8(_mm256_loadu_ps(r2 + k0), vinv), live));
+    }
+#endif
+    for (; k0 < m; k0 += 8) {
+        float t[8];
+        for (size_t l = 0; l < 8; l++) t[l] = k0 + l < m ? density_term(r2[k0 + l], inv_h2) : 0.0f;
+        rho += ((t[0] + t[1]) + (t[2] + t[3])) + ((t[4] + t[5]) + (t[6] + t[7]));
+    }
+    return rho;
+}
+
 /* Neighbour search and density for every particle of the cells in this worker's range. */
 static void density_job(void *vctx, int tid, int nt)
 {
@@ -343,9 +401,9 @@ static void density_job(void *vctx, int tid, int nt)
     const int cap = c->params.neighbor_cap;
     size_t b, e;
     sim_pool_range(s->ncells, tid, nt, 1, &b, &e);
-    uint64_t keys[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK];
-    float r2s[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK + SPH_PAD];
-    uint32_t idx[SPH_MAX_CANDIDATES + SPH_SCAN_BLOCK + SPH_PAD];
+    uint64_t keys[SPH_MAX_CANDIDATES + SPH_PAD];
+    float r2s[SPH_MAX_CANDIDATES + SPH_PAD];
+    uint32_t idx[SPH_MAX_CANDIDATES + SPH_PAD];
     uint32_t ccx = UINT32_MAX, ccy = 0, ccz = 0; /* corner whose neighbour ranges are in rlo/rhi */
     uint32_t rlo[8], rhi[8];
     int nr = 0;
@@ -364,10 +422,7 @@ static void density_job(void *vctx, int tid, int nt)
             size_t m = 0;
             for (int r = 0; r < nr; r++) {
                 const uint32_t rb = s->cell_start[rlo[r]], re = s->cell_start[rhi[r] + 1];
-                for (uint32_t j0 = rb; j0 < re && m < SPH_MAX_CANDIDATES; j0 += SPH_SCAN_BLOCK) {
-                    uint32_t j1 = re - j0 < SPH_SCAN_BLOCK ? re : j0 + SPH_SCAN_BLOCK;
-                    m = gather_candidates(s, j0, j1, xi, yi, zi, h2, si, r2s, idx, m);
-                }
+                m = scan_run(s, rb, re, xi, yi, zi, h2, si, r2s, idx, m);
             }
             if (m > (size_t)cap) { /* keep the cap nearest: key (r2 bits, slot) orders like (r2, slot) */
                 for (size_t k = 0; k < m; k++) {
@@ -383,15 +438,9 @@ static void density_job(void *vctx, int tid, int nt)
                     idx[k] = (uint32_t)keys[k];
                 }
             }
-            float rho = 1.0f;
-            uint32_t *out = s->nbr + (size_t)i * (size_t)cap;
-            for (size_t k = 0; k < m; k++) {
-                float q = 1.0f - r2s[k] * inv_h2;
-                rho += q * q * q;
-                out[k] = idx[k];
-            }
+            memcpy(s->nbr + (size_t)i * (size_t)cap, idx, m * sizeof *idx);
             s->nnbr[i] = (uint8_t)m;
-            s->sp[4 * (size_t)i + 3] = rho;
+            s->sp[4 * (size_t)i + 3] = density_sum(s, r2s, m, inv_h2);
         }
     }
 }
@@ -407,49 +456,242 @@ static void pressure_job(void *vctx, int tid, int nt)
     for (size_t i = b; i < e; i++) s->sv[4 * i + 3] = MAX0(s->sp[4 * i + 3] * inv_rho0 - 1.0f);
 }
 
+/* The per-particle constants of the force pass. */
+typedef struct force_consts {
+    float inv_h, kp, mu_dt, inv_dt;
+    int cap;
+} force_consts;
+
+/* The sums over a particle's neighbours: pressure acceleration (3), viscosity weight W, and
+ * W-weighted neighbour velocity (3). Neighbours are taken in blocks of 8 (missing ones add
+ * +0); a block's terms are summed as the tree ((t0+t1)+(t2+t3))+((t4+t5)+(t6+t7)) and the
+ * blocks are added in order. The scalar and AVX2 paths follow this order exactly. */
+enum { FORCE_TERMS = 7 };
+
+/* e^x for the viscosity blend, written out so that the scalar and AVX2 paths give the same
+ * bits: Cody-Waite reduction by ln 2, a degree-6 Taylor polynomial on |r| <= ln(2)/2 (relative
+ * error below 3e-7), the power of two put into the exponent. x is clamped to [-87, 88]; NaN
+ * gives e^-87. */
+#define SPH_EXP_LO (-87.0f)
+#define SPH_EXP_HI 88.0f
+#define SPH_LOG2E 1.44269504f
+#define SPH_LN2_HI 0.693359375f
+#define SPH_LN2_LO (-2.12194440e-4f)
+static inline float sph_exp(float x)
+{
+    x = x > SPH_EXP_LO ? x : SPH_EXP_LO;
+    x = x < SPH_EXP_HI ? x : SPH_EXP_HI;
+    const float n = floorf(x * SPH_LOG2E + 0.5f);
+    const float r = (x - n * SPH_LN2_HI) - n * SPH_LN2_LO;
+    const float p =
+        1.0f + r * (1.0f + r * (0.5f + r * (1.0f / 6.0f + r * (1.0f / 24.0f + r * (1.0f / 120.0f + r * (1.0f / 720.0f))))));
+    const uint32_t bits = (uint32_t)((int32_t)n + 127) << 23;
+    float scale;
+    memcpy(&scale, &bits, sizeof scale);
+    return p * scale;
+}
+
+/* Turns the sums over particle i's neighbours into its acceleration, stored at its unsorted index. */
+static void force_finish(sim_cpu *c, const force_consts *fc, size_t i, const float sum[FORCE_TERMS])
+{
+    const sim_cpu_sph *s = &c->sph;
+    const float *vi = s->sv + 4 * i;
+    const float W = sum[3];
+    float ax = 0.0f, ay = 0.0f, az = 0.0f;
+    if (W > 0.0f) {
+        float kr = fc->kp / s->sp[4 * i + 3];
+        ax = sum[0] * kr, ay = sum[1] * kr, az = sum[2] * kr;
+        float blend = (1.0f - sph_exp(-fc->mu_dt * W / (1.0f + W))) * fc->inv_dt;
+        ax += blend * (sum[4] / W - vi[0]);
+        ay += blend * (sum[5] / W - vi[1]);
+        az += blend * (sum[6] / W - vi[2]);
+    }
+    const uint32_t o = s->order[i];
+    c->a[0][o] = ax, c->a[1][o] = ay, c->a[2][o] = az;
+}
+
+/* Pressure and viscosity of particle i from its neighbour list (scalar path). */
+static void force_one(sim_cpu *c, const force_consts *fc, size_t i)
+{
+    const sim_cpu_sph *s = &c->sph;
+    const float *pi = s->sp + 4 * i;
+    const float Pi = s->sv[4 * i + 3];
+    const uint32_t *nb = s->nbr + i * (size_t)fc->cap;
+    const int n = s->nnbr[i];
+    float sum[FORCE_TERMS] = { 0.0f };
+    for (int k0 = 0; k0 < n; k0 += 8) {
+        float t[FORCE_TERMS][8];
+        for (int l = 0; l < 8; l++) {
+            const bool live = k0 + l < n;
+            const float *pj = s->sp + 4 * (size_t)(live ? nb[k0 + l] : 0);
+            const float *vj = s->sv + 4 * (size_t)(live ? nb[k0 + l] : 0);
+            float dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
+            float r = sqrtf((dx * dx + dy * dy) + dz * dz);
+            float q = MAX0(1.0f - r * fc->inv_h); /* a kept neighbour may have moved beyond h */
+            float inv_rhoj = 1.0f / pj[3];
+            float f = (Pi + vj[3]) * 0.5f * inv_rhoj * q * q / r;
+            const bool pair = live && r > 1e-9f;
+            float w = q * inv_rhoj;
+            t[0][l] = pair ? f * dx : 0.0f;
+            t[1][l] = pair ? f * dy : 0.0f;
+            t[2][l] = pair ? f * dz : 0.0f;
+            t[3][l] = live ? w : 0.0f;
+            t[4][l] = live ? w * vj[0] : 0.0f;
+            t[5][l] = live ? w * vj[1] : 0.0f;
+            t[6][l] = live ? w * vj[2] : 0.0f;
+        }
+        for (int m = 0; m < FORCE_TERMS; m++)
+            sum[m] += ((t[m][0] + t[m][1]) + (t[m][2] + t[m][3])) + ((t[m][4] + t[m][5]) + (t[m][6] + t[m][7]));
+    }
+    force_finish(c, fc, i, sum);
+}
+
+#ifdef __AVX2__
+/* The float4 records a[4 j[0..7]] as four vectors of x, y, z and w (lane l = record j[l]). */
+static inline void transpose8(const float *a, const uint32_t j[8], __m256 *x, __m256 *y, __m256 *z, __m256 *w)
+{
+    const __m256 r0 = _mm256_set_m128(_mm_loadu_ps(a + 4 * (size_t)j[4]), _mm_loadu_ps(a + 4 * (size_t)j[0]));
+    const __m256 r1 = _mm256_set_m128(_mm_loadu_ps(a + 4 * (size_t)j[5]), _mm_loadu_ps(a + 4 * (size_t)j[1]));
+    const __m256 r2 = _mm256_set_m128(_mm_loadu_ps(a + 4 * (size_t)j[6]), _mm_loadu_ps(a + 4 * (size_t)j[2]));
+    const __m256 r3 = _mm256_set_m128(_mm_loadu_ps(a + 4 * (size_t)j[7]), _mm_loadu_ps(a + 4 * (size_t)j[3]));
+    const __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpackhi_ps(r0, r1);
+    const __m256 t2 = _mm256_unpacklo_ps(r2, r3), t3 = _mm256_unpackhi_ps(r2, r3);
+    *x = _mm256_shuffle_ps(t0, t2, 0x44);
+    *y = _mm256_shuffle_ps(t0, t2, 0xee);
+    *z = _mm256_shuffle_ps(t1, t3, 0x44);
+    *w = _mm256_shuffle_ps(t1, t3, 0xee);
+}
+
+/* Lane m of the result is ((a0+a1)+(a2+a3))+((a4+a5)+(a6+a7)) of the m-th input vector. */
+static inline __m256 tree_sums8(__m256 a, __m256 b, __m256 c, __m256 d, __m256 e, __m256 f, __m256 g, __m256 h)
+{
+    const __m256 abcd = _mm256_hadd_ps(_mm256_hadd_ps(a, b), _mm256_hadd_ps(c, d));
+    const __m256 efgh = _mm256_hadd_ps(_mm256_hadd_ps(e, f), _mm256_hadd_ps(g, h));
+    return _mm256_add_ps(_mm256_permute2f128_ps(abcd, efgh, 0x20), _mm256_permute2f128_ps(abcd, efgh, 0x31));
+}
+
+/* The sums of force_one with the 8 neighbours of a block in the lanes of AVX2 vectors; lane m
+ * of the result is sum[m] (lane 7 is 0). */
+static __m256 force_sums_vec(const sim_cpu *c, const force_consts *fc, size_t i)
+{
+    const sim_cpu_sph *s = &c->sph;
+    const float *pi = s->sp + 4 * i;
+    const __m256 pix = _mm256_set1_ps(pi[0]), piy = _mm256_set1_ps(pi[1]), piz = _mm256_set1_ps(pi[2]);
+    const __m256 Pi = _mm256_set1_ps(s->sv[4 * i + 3]);
+    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), half = _mm256_set1_ps(0.5f);
+    const __m256 inv_h = _mm256_set1_ps(fc->inv_h), tiny = _mm256_set1_ps(1e-9f);
+    const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const uint32_t *nb = s->nbr + i * (size_t)fc->cap;
+    const int n = s->nnbr[i];
+    __m256 sum = zero;
+    for (int k0 = 0; k0 < n; k0 += 8) {
+        const __m256i livei = _mm256_cmpgt_epi32(_mm256_set1_epi32(n - k0), lanes);
+        const __m256 live = _mm256_castsi256_ps(livei);
+        /* the list rows are padded: lanes past the count read slot 0 and are masked out */
+        uint32_t j[8];
+        _mm256_storeu_si256((__m256i *)j, _mm256_and_si256(_mm256_loadu_si256((const __m256i *)(nb + k0)), livei));
+        __m256 pjx, pjy, pjz, rhoj, vjx, vjy, vjz, Pj;
+        transpose8(s->sp, j, &pjx, &pjy, &pjz, &rhoj);
+        const __m256 inv_rhoj = _mm256_div_ps(one, rhoj);
+        transpose8(s->sv, j, &vjx, &vjy, &vjz, &Pj);
+        const __m256 dx = _mm256_sub_ps(pix, pjx), dy = _mm256_sub_ps(piy, pjy), dz = _mm256_sub_ps(piz, pjz);
+        const __m256 r = _mm256_sqrt_ps(
+            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
+        /* max(x, 0) returns 0 for NaN and for -0, like MAX0 */
+        const __m256 q = _mm256_max_ps(_mm256_sub_ps(one, _mm256_mul_ps(r, inv_h)), zero);
+        __m256 f = _mm256_mul_ps(_mm256_mul_ps(_mm256_add_ps(Pi, Pj), half), inv_rhoj);
+        f = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(f, q), q), r);
+        const __m256 pair = _mm256_and_ps(live, _mm256_cmp_ps(r, tiny, _CMP_GT_OQ));
+        const __m256 w = _mm256_mul_ps(q, inv_rhoj);
+        sum = _mm256_add_ps(sum, tree_sums8(_mm256_and_ps(_mm256_mul_ps(f, dx), pair),
+                                            _mm256_and_ps(_mm256_mul_ps(f, dy), pair),
+                                            _mm256_and_ps(_mm256_mul_ps(f, dz), pair), _mm256_and_ps(w, live),
+                                            _mm256_and_ps(_mm256_mul_ps(w, vjx), live),
+                                            _mm256_and_ps(_mm256_mul_ps(w, vjy), live),
+                                            _mm256_and_ps(_mm256_mul_ps(w, vjz), live), zero));
+    }
+    return sum;
+}
+
+static inline __m256 sph_exp8(__m256 x)
+{
+    x = _mm256_max_ps(x, _mm256_set1_ps(SPH_EXP_LO)); /* NaN -> the second operand, like sph_exp */
+    x = _mm256_min_ps(x, _mm256_set1_ps(SPH_EXP_HI));
+    const __m256 n = _mm256_floor_ps(_mm256_add_ps(_mm256_mul_ps(x, _mm256_set1_ps(SPH_LOG2E)), _mm256_set1_ps(0.5f)));
+    const __m256 r = _mm256_sub_ps(_mm256_sub_ps(x, _mm256_mul_ps(n, _mm256_set1_ps(SPH_LN2_HI))),
+                                   _mm256_mul_ps(n, _mm256_set1_ps(SPH_LN2_LO)));
+    __m256 p = _mm256_add_ps(_mm256_set1_ps(1.0f / 120.0f), _mm256_mul_ps(r, _mm256_set1_ps(1.0f / 720.0f)));
+    p = _mm256_add_ps(_mm256_set1_ps(1.0f / 24.0f), _mm256_mul_ps(r, p));
+    p = _mm256_add_ps(_mm256_set1_ps(1.0f / 6.0f), _mm256_mul_ps(r, p));
+    p = _mm256_add_ps(_mm256_set1_ps(0.5f), _mm256_mul_ps(r, p));
+    p = _mm256_add_ps(_mm256_set1_ps(1.0f), _mm256_mul_ps(r, p));
+    p = _mm256_add_ps(_mm256_set1_ps(1.0f), _mm256_mul_ps(r, p));
+    const __m256i bits = _mm256_slli_epi32(_mm256_add_epi32(_mm256_cvttps_epi32(n), _mm256_set1_epi32(127)), 23);
+    return _mm256_mul_ps(p, _mm256_castsi256_ps(bits));
+}
+
+/* force_finish for particles i0..i0+7, one per lane; rows[l] = the sums of particle i0 + l. */
+static void force_finish8(sim_cpu *c, const force_consts *fc, size_t i0, const __m256 rows[8])
+{
+    const sim_cpu_sph *s = &c->sph;
+    /* 8x8 transpose: col[m] lane l = rows[l] lane m */
+    __m256 t[8], u[8], col[8];
+    for (int k = 0; k < 8; k += 2) {
+        t[k] = _mm256_unpacklo_ps(rows[k], rows[k + 1]);
+        t[k + 1] = _mm256_unpackhi_ps(rows[k], rows[k + 1]);
+    }
+    for (int k = 0; k < 8; k += 4) {
+        u[k] = _mm256_shuffle_ps(t[k], t[k + 2], 0x44);
+        u[k + 1] = _mm256_shuffle_ps(t[k], t[k + 2], 0xee);
+        u[k + 2] = _mm256_shuffle_ps(t[k + 1], t[k + 3], 0x44);
+        u[k + 3] = _mm256_shuffle_ps(t[k + 1], t[k + 3], 0xee);
+    }
+    for (int k = 0; k < 4; k++) {
+        col[k] = _mm256_permute2f128_ps(u[k], u[k + 4], 0x20);
+        col[k + 4] = _mm256_permute2f128_ps(u[k], u[k + 4], 0x31);
+    }
+    const __m256i row4 = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
+    const __m256 rho = _mm256_i32gather_ps(s->sp + 4 * i0 + 3, row4, 4);
+    const __m256 vx = _mm256_i32gather_ps(s->sv + 4 * i0, row4, 4), vy = _mm256_i32gather_ps(s->sv + 4 * i0 + 1, row4, 4),
+                 vz = _mm256_i32gather_ps(s->sv + 4 * i0 + 2, row4, 4);
+    const __m256 W = col[3], one = _mm256_set1_ps(1.0f);
+    const __m256 kr = _mm256_div_ps(_mm256_set1_ps(fc->kp), rho);
+    const __m256 arg = _mm256_div_ps(_mm256_mul_ps(_mm256_set1_ps(-fc->mu_dt), W), _mm256_add_ps(one, W));
+    const __m256 blend = _mm256_mul_ps(_mm256_sub_ps(one, sph_exp8(arg)), _mm256_set1_ps(fc->inv_dt));
+    const __m256 ax = _mm256_add_ps(_mm256_mul_ps(col[0], kr), _mm256_mul_ps(blend, _mm256_sub_ps(_mm256_div_ps(col[4], W), vx)));
+    const __m256 ay = _mm256_add_ps(_mm256_mul_ps(col[1], kr), _mm256_mul_ps(blend, _mm256_sub_ps(_mm256_div_ps(col[5], W), vy)));
+    const __m256 az = _mm256_add_ps(_mm256_mul_ps(col[2], kr), _mm256_mul_ps(blend, _mm256_sub_ps(_mm256_div_ps(col[6], W), vz)));
+    const __m256 has = _mm256_cmp_ps(W, _mm256_setzero_ps(), _CMP_GT_OQ); /* no neighbour weight: no acceleration */
+    float out[3][8];
+    _mm256_storeu_ps(out[0], _mm256_and_ps(ax, has));
+    _mm256_storeu_ps(out[1], _mm256_and_ps(ay, has));
+    _mm256_storeu_ps(out[2], _mm256_and_ps(az, has));
+    for (int l = 0; l < 8; l++) {
+        const uint32_t o = s->order[i0 + (size_t)l];
+        c->a[0][o] = out[0][l], c->a[1][o] = out[1][l], c->a[2][o] = out[2][l];
+    }
+}
+#endif
+
 static void force_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
-    sim_cpu_sph *s = &c->sph;
-    const float h = c->params.sph_radius, inv_h = 1.0f / h;
-    const float kp = c->params.repulsion * h * SPH_ACCEL_SCALE;
-    const float mu_dt = c->params.viscosity * ctx->dt, inv_dt = 1.0f / ctx->dt;
-    const int cap = c->params.neighbor_cap;
-    size_t b, e;
+    const float h = c->params.sph_radius;
+    const force_consts fc = { 1.0f / h, c->params.repulsion * h * SPH_ACCEL_SCALE, c->params.viscosity * ctx->dt,
+                              1.0f / ctx->dt, c->params.neighbor_cap };
+    size_t b, e, i;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
-    for (size_t i = b; i < e; i++) {
-        const float *pi = s->sp + 4 * i, *vi = s->sv + 4 * i;
-        const float Pi = vi[3], rhoi = pi[3];
-        float apx = 0.0f, apy = 0.0f, apz = 0.0f, W = 0.0f, vbx = 0.0f, vby = 0.0f, vbz = 0.0f;
-        const uint32_t *nb = s->nbr + i * (size_t)cap;
-        for (int k = 0; k < s->nnbr[i]; k++) {
-            const uint32_t j = nb[k];
-            const float *pj = s->sp + 4 * (size_t)j, *vj = s->sv + 4 * (size_t)j;
-            float dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
-            float r = sqrtf(dx * dx + dy * dy + dz * dz);
-            float q = MAX0(1.0f - r * inv_h); /* a kept neighbour may have moved beyond h */
-            float inv_rhoj = 1.0f / pj[3];
-            if (r > 1e-9f) {
-                float f = (Pi + vj[3]) * 0.5f * inv_rhoj * q * q / r;
-                apx += f * dx, apy += f * dy, apz += f * dz;
-            }
-            float w = q * inv_rhoj;
-            W += w;
-            vbx += w * vj[0], vby += w * vj[1], vbz += w * vj[2];
+    i = b;
+#ifdef __AVX2__
+    if (!c->sph.scalar)
+        for (; i + 8 <= e; i += 8) {
+            __m256 rows[8];
+            for (int l = 0; l < 8; l++) rows[l] = force_sums_vec(c, &fc, i + (size_t)l);
+            force_finish8(c, &fc, i, rows);
         }
-        float ax = 0.0f, ay = 0.0f, az = 0.0f;
-        if (W > 0.0f) {
-            float kr = kp / rhoi;
-            ax = apx * kr, ay = apy * kr, az = apz * kr;
-            float blend = (1.0f - expf(-mu_dt * W / (1.0f + W))) * inv_dt;
-            ax += blend * (vbx / W - vi[0]);
-            ay += blend * (vby / W - vi[1]);
-            az += blend * (vbz / W - vi[2]);
-        }
-        const uint32_t o = s->order[i];
-        c->a[0][o] = ax, c->a[1][o] = ay, c->a[2][o] = az;
-    }
+#endif
+    for (; i < e; i++) force_one(c, &fc, i);
 }
 
 /* Copies positions and velocities (zero without vel) into the sorted slots given by order;
@@ -488,14 +730,29 @@ static void density_reuse_job(void *vctx, int tid, int nt)
     for (size_t i = b; i < e; i++) {
         const float *pi = s->sp + 4 * i;
         const uint32_t *nb = s->nbr + i * (size_t)cap;
-        float rho = 1.0f;
-        for (int k = 0; k < s->nnbr[i]; k++) {
+        const int n = s->nnbr[i];
+        float r2[SPH_MAX_NEIGHBOURS + SPH_PAD];
+        int k = 0;
+#ifdef __AVX2__
+        const __m256 pix = _mm256_set1_ps(pi[0]), piy = _mm256_set1_ps(pi[1]), piz = _mm256_set1_ps(pi[2]);
+        const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        for (; !s->scalar && k < n; k += 8) { /* rows are padded; lanes past n read slot 0 */
+            const __m256i live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n - k), lanes);
+            uint32_t j[8];
+            _mm256_storeu_si256((__m256i *)j, _mm256_and_si256(_mm256_loadu_si256((const __m256i *)(nb + k)), live));
+            __m256 pjx, pjy, pjz, pjw;
+            transpose8(s->sp, j, &pjx, &pjy, &pjz, &pjw);
+            const __m256 dx = _mm256_sub_ps(pjx, pix), dy = _mm256_sub_ps(pjy, piy), dz = _mm256_sub_ps(pjz, piz);
+            _mm256_storeu_ps(r2 + k, _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
+                                                   _mm256_mul_ps(dz, dz)));
+        }
+#endif
+        for (; k < n; k++) {
             const float *pj = s->sp + 4 * (size_t)nb[k];
             float dx = pj[0] - pi[0], dy = pj[1] - pi[1], dz = pj[2] - pi[2];
-            float q = MAX0(1.0f - ((dx * dx + dy * dy) + dz * dz) * inv_h2);
-            rho += q * q * q;
+            r2[k] = (dx * dx + dy * dy) + dz * dz;
         }
-        s->sp[4 * i + 3] = rho;
+        s->sp[4 * i + 3] = density_sum(s, r2, (size_t)n, inv_h2);
     }
 }
 
@@ -510,10 +767,10 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
     ctx->dt = dt;
     sim_cpu_sph *s = &c->sph;
     if (!rebuild && s->lists_valid && vel) {
-        sim_pool_run(&c->pool, regather_job, ctx);
-        sim_pool_run(&c->pool, density_reuse_job, ctx);
-        sim_pool_run(&c->pool, pressure_job, ctx);
-        sim_pool_run(&c->pool, force_job, ctx);
+        sim_pool_run_parts(&c->pool, regather_job, ctx, SPH_PARTS);
+        sim_pool_run_parts(&c->pool, density_reuse_job, ctx, SPH_PARTS);
+        sim_pool_run_parts(&c->pool, pressure_job, ctx, SPH_PARTS);
+        sim_pool_run_parts(&c->pool, force_job, ctx, SPH_PARTS);
         free(ctx);
         return CORE_OK;
     }
@@ -545,16 +802,16 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
     sim_pool_run(&c->pool, scan_sum_job, ctx);
     sim_pool_run(&c->pool, scan_fill_job, ctx);
     sim_pool_run(&c->pool, scatter_job, ctx);
-    sim_pool_run(&c->pool, gather_job, ctx);
-    sim_pool_run(&c->pool, density_job, ctx);
+    sim_pool_run_parts(&c->pool, gather_job, ctx, SPH_PARTS);
+    sim_pool_run_parts(&c->pool, density_job, ctx, SPH_PARTS);
     s->lists_valid = out_mean_rho == NULL; /* lists of the rest pose are not reused */
     if (out_mean_rho) {
         double sum = 0.0; /* serial, in sorted order: the same bits for any thread count */
         for (size_t i = 0; i < c->n; i++) sum += s->sp[4 * i + 3];
         *out_mean_rho = sum / (double)c->n;
     } else {
-        sim_pool_run(&c->pool, pressure_job, ctx);
-        sim_pool_run(&c->pool, force_job, ctx);
+        sim_pool_run_parts(&c->pool, pressure_job, ctx, SPH_PARTS);
+        sim_pool_run_parts(&c->pool, force_job, ctx, SPH_PARTS);
     }
     free(ctx);
     return CORE_OK;

@@ -1,6 +1,7 @@
 /* sim: the worker pool behind the CPU backend's parallel loops. */
 #include "sim_pool.h"
 
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -83,6 +84,45 @@ void sim_pool_run(sim_pool *p, sim_pool_fn fn, void *ctx)
     pthread_mutex_lock(&p->mu);
     while (p->pending > 0) pthread_cond_wait(&p->done, &p->mu);
     pthread_mutex_unlock(&p->mu);
+}
+
+typedef struct task_run {
+    sim_pool_task_fn fn;
+    void *ctx;
+    size_t ntasks;
+    atomic_size_t next;
+} task_run;
+
+static void task_worker(void *vctx, int tid, int nt)
+{
+    (void)nt;
+    task_run *r = vctx;
+    for (size_t t; (t = atomic_fetch_add_explicit(&r->next, 1, memory_order_relaxed)) < r->ntasks;)
+        r->fn(r->ctx, t, r->ntasks, tid);
+}
+
+void sim_pool_run_tasks(sim_pool *p, sim_pool_task_fn fn, void *ctx, size_t ntasks)
+{
+    task_run r = { fn, ctx, ntasks, 0 };
+    sim_pool_run(p, task_worker, &r);
+}
+
+typedef struct parts_run {
+    sim_pool_fn fn;
+    void *ctx;
+} parts_run;
+
+static void part_task(void *vctx, size_t task, size_t ntasks, int worker)
+{
+    (void)worker;
+    const parts_run *r = vctx;
+    r->fn(r->ctx, (int)task, (int)ntasks);
+}
+
+void sim_pool_run_parts(sim_pool *p, sim_pool_fn fn, void *ctx, int nparts)
+{
+    parts_run r = { fn, ctx };
+    sim_pool_run_tasks(p, part_task, &r, nparts > 0 ? (size_t)nparts : 1);
 }
 
 void sim_pool_destroy(sim_pool *p)

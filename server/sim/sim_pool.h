@@ -31,6 +31,20 @@ core_status sim_pool_init(sim_pool *p, int nthreads, core_err *err);
 /* Runs fn on every worker (the caller is worker 0) and returns when all are done. */
 void sim_pool_run(sim_pool *p, sim_pool_fn fn, void *ctx);
 
+/* A task of a task job: called once for each task in [0, ntasks), on whichever worker takes it. */
+typedef void (*sim_pool_task_fn)(void *ctx, size_t task, size_t ntasks, int worker);
+
+/* Runs fn for every task, the workers (the caller is worker 0) each taking the next task not yet
+ * taken, and returns when all are done: a worker slowed by another process leaves its share to
+ * the others. What a task computes must not depend on the worker that runs it (per-worker
+ * scratch and counters are fine). Called by the pool's owner thread. */
+void sim_pool_run_tasks(sim_pool *p, sim_pool_task_fn fn, void *ctx, size_t ntasks);
+
+/* sim_pool_run_tasks for a job written for sim_pool_run: fn(ctx, part, nparts) for every part in
+ * [0, nparts), each on whichever worker takes it (so fn must use its index only to pick its
+ * share of the work, never for per-worker scratch). */
+void sim_pool_run_parts(sim_pool *p, sim_pool_fn fn, void *ctx, int nparts);
+
 /* Joins the helper threads; safe on a zeroed pool. */
 void sim_pool_destroy(sim_pool *p);
 

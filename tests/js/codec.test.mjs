@@ -1,12 +1,15 @@
 // Tests for web/codec.js: bit-exact decoding of proto/vectors, frame skipping, and rejection of
-// truncated, bit-flipped and absurd frames (run with `node --test`).
+// truncated, bit-flipped and absurd frames; the CRC, the kernel's heap (codec_kernel.js) and
+// that it is valid asm.js (run with `node --test`).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
+import { spawnSync } from 'node:child_process';
 import { readFileSync } from 'node:fs';
 import { dirname, join } from 'node:path';
-import { fileURLToPath } from 'node:url';
+import { fileURLToPath, pathToFileURL } from 'node:url';
 
-import { StrandDecoder, peekHeader, HEADER_SIZE } from '../../web/codec.js';
+import { StrandDecoder, peekHeader, crc32 as codecCrc32, HEADER_SIZE } from '../../web/codec.js';
+import { kernelLayout } from '../../web/codec_kernel.js';
 
 const here = dirname(fileURLToPath(import.meta.url));
 const vdir = join(here, '..', '..', 'proto', 'vectors');
@@ -209,4 +212,68 @@ test('peekHeader reads the fixed header', () => {
   assert.equal(h.seq, 1000);
   assert.equal(h.nverts, basic.nverts);
   assert.ok(h.step > 0 && h.step <= 2 * h.maxError);
+});
+
+test('crc32 matches the bitwise CRC at every length, offset and split', () => {
+  const next = rng(777);
+  const big = new Uint8Array(300);
+  for (let i = 0; i < big.length; i++) big[i] = next() & 0xff;
+  for (let off = 0; off < 9; off++) {
+    for (let len = 0; len + off <= 41; len++) {
+      const want = crc32(big.subarray(off, off + len));
+      assert.equal(codecCrc32(big, off, off + len, 0), want, `offset ${off} length ${len}`);
+      assert.equal(codecCrc32(big.subarray(off, off + len), 0, len, 0), want);
+      const cut = len >> 1; // continued: the tail after a prefix
+      assert.equal(codecCrc32(big, off + cut, off + len, codecCrc32(big, off, off + cut, 0)), want);
+    }
+  }
+  assert.equal(codecCrc32(big, 0, big.length, 0), crc32(big));
+  assert.equal(codecCrc32(new TextEncoder().encode('123456789'), 0, 9, 0), 0xcbf43926); // the CRC-32 check value
+});
+
+test('a frame decodes the same at any byte offset of its buffer', () => {
+  const key = keyBytes(), delta = deltaBytes();
+  for (let off = 0; off < 8; off++) {
+    const dec = new StrandDecoder();
+    for (const [bytes, f] of [[key, basic.frames[0]], [delta, basic.frames[1]]]) {
+      const buf = new Uint8Array(bytes.length + 16).fill(0xa5);
+      buf.set(bytes, off);
+      sameBits(dec.decode(buf.subarray(off, off + bytes.length)).positions, f.file + '.out.f32');
+    }
+  }
+});
+
+test('a larger frame that fails keeps the held keyframe while the heap grows', () => {
+  const small = manifest.streams.find((s) => s.nstrands_sent * s.nverts < basic.nstrands_sent * basic.nverts);
+  assert.ok(small, 'a stream smaller than basic');
+  const dec = new StrandDecoder();
+  dec.decode(load(small.frames[0].file + '.bin'));
+  const bad = keyBytes();
+  bad[HEADER_SIZE] ^= 0x7f; // the mode table's symbol count
+  restampCrc(bad);
+  assert.throws(() => dec.decode(bad), /^Error: codec: /);
+  assert.equal(dec.keySeq, small.frames[0].seq);
+  const d = small.frames.find((f) => !f.keyframe);
+  sameBits(dec.decode(load(d.file + '.bin')).positions, d.file + '.out.f32');
+  sameBits(dec.decode(keyBytes()).positions, basic.frames[0].file + '.out.f32'); // and the larger stream now
+});
+
+test('kernel heaps have sizes asm.js accepts and hold their regions', () => {
+  for (const [nq, cap] of [[6, 1], [864, 65536], [393216, 120000], [3 << 20, 1 << 20], [3 << 24, 1 << 26]]) {
+    const l = kernelLayout(nq, cap);
+    assert.ok(l.size >= l.bytes + cap && l.bytes === l.out + 4 * nq && l.out === l.cur + 4 * nq && l.cur === l.key + 4 * nq);
+    const pow2 = (l.size & (l.size - 1)) === 0;
+    assert.ok((pow2 && l.size >= 1 << 12 && l.size <= 1 << 24) || l.size % (1 << 24) === 0, `size ${l.size}`);
+  }
+});
+
+test('the kernel validates as asm.js (V8 warns on stderr otherwise)', () => {
+  const url = pathToFileURL(join(here, '..', '..', 'web', 'codec_kernel.js')).href;
+  const code = `const k = await import(${JSON.stringify(url)});
+    const l = k.kernelLayout(864, 65536);
+    const f = k.CodecKernel(globalThis, null, new ArrayBuffer(l.size)).frame;
+    if (typeof f !== 'function') process.exit(3);`;
+  const r = spawnSync(process.execPath, ['--input-type=module', '-e', code], { encoding: 'utf8' });
+  assert.equal(r.status, 0, r.stderr);
+  assert.doesNotMatch(r.stderr, /asm\.js/i, r.stderr);
 });

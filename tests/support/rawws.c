@@ -134,6 +134,51 @@ int rawws_close_code(int fd, int timeout_ms)
     return code;
 }
 
+/* Reads exactly n bytes before the deadline: 1 done, 0 EOF/error, -1 timeout. */
+static int read_exact(int fd, unsigned char *buf, size_t n, long long end)
+{
+    size_t got = 0;
+    while (got < n) {
+        long long left = end - now_ms();
+        if (left <= 0) return -1;
+        struct pollfd p = { fd, POLLIN, 0 };
+        if (poll(&p, 1, (int)(left < 50 ? left : 50)) <= 0) continue;
+        ssize_t r = read(fd, buf + got, n - got);
+        if (r <= 0) return 0;
+        got += (size_t)r;
+    }
+    return 1;
+}
+
+int rawws_next_control(int fd, int timeout_ms, int *close_code)
+{
+    long long start_by = now_ms() + timeout_ms;
+    unsigned char h[8], skip[4096];
+    for (;;) {
+        int rc = read_exact(fd, h, 1, start_by);
+        if (rc <= 0) return rc;
+        long long end = now_ms() + 5000;
+        if ((rc = read_exact(fd, h + 1, 1, end)) <= 0) return rc;
+        int opcode = h[0] & 15;
+        uint64_t plen = h[1] & 127;
+        if (plen >= 126) {
+            size_t ext = plen == 126 ? 2 : 8;
+            if ((rc = read_exact(fd, h, ext, end)) <= 0) return rc;
+            plen = 0;
+            for (size_t k = 0; k < ext; k++) plen = (plen << 8) | h[k];
+        }
+        unsigned char first[2] = { 0, 0 };
+        for (uint64_t done = 0; done < plen;) {
+            size_t n = plen - done < sizeof skip ? (size_t)(plen - done) : sizeof skip;
+            if ((rc = read_exact(fd, skip, n, end)) <= 0) return rc;
+            if (done == 0) memcpy(first, skip, n < 2 ? n : 2);
+            done += n;
+        }
+        if (opcode == 8 && close_code) *close_code = plen >= 2 ? (first[0] << 8) | first[1] : 1005;
+        if (opcode >= 8) return opcode;
+    }
+}
+
 void rawws_free(int fd)
 {
     if (fd >= 0) close(fd);

@@ -12,6 +12,12 @@ int rawws_send(int fd, int opcode, const void *payload, size_t len, bool fin);
 /* Reads frames until a close frame (returns its code, 1005 when it has none), EOF/error (0) or
  * timeout (-1). */
 int rawws_close_code(int fd, int timeout_ms);
+/* Reads whole frames, skipping data frames, until a control frame arrives: returns its opcode
+ * (8 close, with its code in *close_code, 1005 when it has none; 9 ping; 10 pong), 0 on EOF or a
+ * reset, -1 when no frame started within timeout_ms (the stream stays in step: a frame that has
+ * started is read to its end) or a started frame did not end within 5 s more. Reads no byte past
+ * the control frame. */
+int rawws_next_control(int fd, int timeout_ms, int *close_code);
 void rawws_free(int fd);
 
 #endif

@@ -1,0 +1,105 @@
+/* Test support: the scripted head motion, groom fixture and geometric checks the solver tests share. */
+#include "sim_check.h"
+
+#include <setjmp.h>
+#include <stdarg.h>
+#include <cmocka.h>
+#include <math.h>
+
+#define PI 3.14159265358979323846
+
+core_xform simcheck_head_motion(double t, double speed)
+{
+    double w = t * speed;
+    core_xform h = core_xform_identity();
+    h.pos = core_v3((float)(0.15 * sin(2.0 * PI * 1.3 * w)), (float)(0.08 * sin(2.0 * PI * 2.1 * w)),
+                    (float)(0.10 * sin(2.0 * PI * 0.7 * w)));
+    core_quat yaw = core_q_axis_angle(core_v3(0, 1, 0), (float)(1.2 * sin(2.0 * PI * 1.1 * w)));
+    core_quat pitch = core_q_axis_angle(core_v3(1, 0, 0), (float)(0.6 * sin(2.0 * PI * 1.7 * w)));
+    h.rot = core_q_norm(core_q_mul(yaw, pitch));
+    return h;
+}
+
+void simcheck_groom(core_groom *g, groom_style style, uint32_t ns, uint32_t nv, uint64_t seed)
+{
+    core_err err;
+    groom_desc gd = { .style = style, .nstrands = ns, .nverts = nv, .seed = seed };
+    if (groom_procedural(&gd, g, &err) != CORE_OK) fail_msg("groom %ux%u: %s", ns, nv, err.msg);
+}
+
+double simcheck_worse(double worst, double x)
+{
+    if (isnan(worst) || isnan(x)) return NAN;
+    return x > worst ? x : worst;
+}
+
+double simcheck_dist3(const float *a, const float *b)
+{
+    double dx = (double)a[0] - b[0], dy = (double)a[1] - b[1], dz = (double)a[2] - b[2];
+    return sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+double simcheck_mean_distance(const float *a, const float *b, size_t n)
+{
+    double sum = 0.0;
+    for (size_t i = 0; i < n; i++) sum += simcheck_dist3(a + 3 * i, b + 3 * i);
+    return sum / (double)n;
+}
+
+double simcheck_mean_strand_length(const core_groom *g)
+{
+    double len = 0.0;
+    for (uint32_t s = 0; s < g->nstrands; s++)
+        for (uint32_t l = 1; l < g->nverts; l++) {
+            const float *a = g->pos + 3 * ((size_t)s * g->nverts + l);
+            len += simcheck_dist3(a, a - 3);
+        }
+    return len / g->nstrands;
+}
+
+double simcheck_max_segment_error(const core_groom *g, const float *x)
+{
+    double worst = 0.0;
+    for (uint32_t s = 0; s < g->nstrands; s++)
+        for (uint32_t l = 1; l < g->nverts; l++) {
+            size_t i = 3 * ((size_t)s * g->nverts + l);
+            double rest = simcheck_dist3(g->pos + i, g->pos + i - 3);
+            worst = simcheck_worse(worst, fabs(simcheck_dist3(x + i, x + i - 3) / rest - 1.0));
+        }
+    return worst;
+}
+
+/* Penetration depth of p into collider c (world space under h) relative to its radius. */
+static double relative_depth(const core_collider *c, core_xform h, const float *p)
+{
+    core_vec3 x = core_v3(p[0], p[1], p[2]);
+    core_vec3 a = core_xform_point(h, c->a);
+    switch (c->kind) {
+    case CORE_COLLIDER_SPHERE: return (c->radius - core_v3_len(core_v3_sub(x, a))) / c->radius;
+    case CORE_COLLIDER_CAPSULE: {
+        core_vec3 b = core_xform_point(h, c->b), ab = core_v3_sub(b, a);
+        float ab2 = core_v3_dot(ab, ab);
+        /* a capsule of length 0 is a sphere */
+        float t = ab2 > 0.0f ? core_v3_dot(core_v3_sub(x, a), ab) / ab2 : 0.0f;
+        t = t < 0 ? 0 : t > 1 ? 1 : t;
+        return (c->radius - core_v3_len(core_v3_sub(x, core_v3_add(a, core_v3_scale(ab, t))))) / c->radius;
+    }
+    case CORE_COLLIDER_ELLIPSOID: {
+        core_vec3 u = core_q_rotate(core_q_conj(core_q_mul(h.rot, c->rot)), core_v3_sub(x, a));
+        core_vec3 s = core_v3(u.x / c->radii.x, u.y / c->radii.y, u.z / c->radii.z);
+        return 1.0 - core_v3_len(s); /* fraction of the radius along that direction */
+    }
+    }
+    return 0.0;
+}
+
+double simcheck_deepest_penetration(const core_groom *g, core_xform h, const float *x)
+{
+    double worst = -1.0;
+    for (size_t v = 0; v < (size_t)g->nstrands * g->nverts; v++) {
+        if (v % g->nverts == 0) continue; /* roots are kinematic, placed by the groom */
+        for (uint32_t k = 0; k < g->ncolliders; k++)
+            worst = simcheck_worse(worst, relative_depth(&g->colliders[k], h, x + 3 * v));
+    }
+    return worst;
+}

@@ -1,0 +1,44 @@
+/* Test support: the scripted head motion, groom fixture and geometric checks the solver tests share. */
+#ifndef TESTS_SIM_CHECK_H
+#define TESTS_SIM_CHECK_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core/groom_types.h"
+#include "core/math3.h"
+#include "groom/groom.h"
+
+/* Violent scripted head motion at time t (s): swings, nods and shakes, speed times as fast as
+ * the base script. Pure function; any thread. */
+core_xform simcheck_head_motion(double t, double speed);
+
+/* Makes the procedural groom style, ns strands x nv vertices from seed (0: the groom module's
+ * default seed) with its default colliders into g, which the caller owns and frees with
+ * core_groom_free. Fails the running cmocka test with the reason when the groom is refused. */
+void simcheck_groom(core_groom *g, groom_style style, uint32_t ns, uint32_t nv, uint64_t seed);
+
+/* The larger of worst and x, where a NaN on either side wins and stays: a running maximum
+ * that a non-finite figure makes fail every later <= threshold check. */
+double simcheck_worse(double worst, double x);
+
+/* Distance between the points a[0..2] and b[0..2], computed in double precision. */
+double simcheck_dist3(const float *a, const float *b);
+
+/* Mean distance between the n points of a and of b (3 floats each, same order); n > 0. */
+double simcheck_mean_distance(const float *a, const float *b, size_t n);
+
+/* Mean rest length of g's strands (sum of segment lengths of g->pos / nstrands). */
+double simcheck_mean_strand_length(const core_groom *g);
+
+/* Largest |length / rest length - 1| over every segment of positions x (laid out as g->pos,
+ * which gives the rest lengths); NaN when any position is non-finite. */
+double simcheck_max_segment_error(const core_groom *g, const float *x);
+
+/* Deepest penetration of a non-root vertex of positions x (laid out as g->pos; roots are
+ * kinematic, placed by the groom) into any of g's colliders moved by head transform h, as a
+ * fraction of the collider's radius (for an ellipsoid, of its radius along that direction):
+ * > 0 inside, <= 0 outside, -1 when g has no colliders; NaN when any figure is non-finite. */
+double simcheck_deepest_penetration(const core_groom *g, core_xform h, const float *x);
+
+#endif
