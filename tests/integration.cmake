@@ -23,6 +23,7 @@ set_tests_properties(protocol_schema PROPERTIES LABELS "integration;no_asan" TIM
                      ENVIRONMENT "STRANDCASTD=$<TARGET_FILE:strandcastd>")
 
 # strandbench fanout drives the real daemon with the same WebSocket client as the tests.
-target_sources(strandbench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/support/wsc.c ${CMAKE_CURRENT_SOURCE_DIR}/support/daemon.c)
+target_sources(strandbench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/support/wsc.c ${CMAKE_CURRENT_SOURCE_DIR}/support/daemon.c
+                                   ${CMAKE_CURRENT_SOURCE_DIR}/support/rawws.c)
 target_include_directories(strandbench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
 add_dependencies(strandbench strandcastd)

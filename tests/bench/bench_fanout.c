@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "bench.h"
+#include "fanout_rx.h"
 #include "support/daemon.h"
 #include "support/wsc.h"
 
@@ -21,26 +22,15 @@ typedef struct fanout_opts {
     int clients[MAX_CASES];
     int ncases;
     double seconds;
+    double warmup; /* seconds of streaming before the measurement (the hair settles from its rest pose) */
     double max_rate;
     double server_rate; /* the daemon's --rate; 0 = its default (60) */
     int strands, verts;
     const char *daemon;
     const char *params; /* a set_params "values" object sent before measuring, or NULL */
+    const char *animate; /* a head-motion preset started before the warm-up, or NULL (head at rest) */
     bool json;
 } fanout_opts;
-
-typedef struct client_count {
-    uint64_t frames, bytes;
-} client_count;
-
-static void count_frame(wsc_conn *c, const uint8_t *data, size_t len, void *user)
-{
-    (void)c;
-    (void)data;
-    client_count *k = user;
-    k->frames++;
-    k->bytes += len;
-}
 
 static double now_s(void)
 {
@@ -125,6 +115,7 @@ static int parse_opts(int argc, char **argv, fanout_opts *o)
 {
     o->ncases = 0;
     o->seconds = 5;
+    o->warmup = 6;
     o->max_rate = 30;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -133,15 +124,19 @@ static int parse_opts(int argc, char **argv, fanout_opts *o)
             continue;
         }
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            puts("usage: strandbench fanout [--clients 1,10,100] [--seconds S] [--rate HZ] [--server-rate HZ]\n"
+            puts("usage: strandbench fanout [--clients 1,10,100] [--seconds S] [--warmup S] [--rate HZ] [--server-rate HZ]\n"
                  "                          [--strands N] [--verts N] [--daemon PATH] [--json]\n"
                  "Starts strandcastd (default scene unless --strands/--verts) on a free loopback port, connects N\n"
-                 "WebSocket clients from one thread (each subscribes with max_rate HZ, default 30; 0 = every frame),\n"
-                 "and measures over S seconds (default 5): sim steps/s, frames per client per second, server CPU\n"
+                 "WebSocket clients from one thread (lean raw-socket receivers on one epoll loop; each subscribes\n"
+                 "with max_rate HZ, default 30; 0 = every frame), streams for the warm-up (default 6 s: the hair\n"
+                 "settles from its rest pose, the costliest seconds of a run) and then measures over S seconds\n"
+                 "(default 5): sim steps/s, frames per client per second, server CPU\n"
                  "(fraction of one core, /proc; the net thread's share and its CPU per frame delivered to one client\n"
                  "are robust to other load). A 0-client run first gives the sim's baseline on this machine.\n"
                  "--server-rate passes --rate to the daemon (frames it publishes per second; default 60).\n"
-                 "--params '{\"sph\":false}' sends set_params first (e.g. to separate solver cost from fan-out cost).");
+                 "--params '{\"sph\":false}' sends set_params first (e.g. to separate solver cost from fan-out cost).\n"
+                 "--animate PRESET starts a head-motion preset first (nod, shake, circle, headbang, sway; default: the\n"
+                 "head stays at rest, and once the hair has settled the delta frames are small).");
             return 1;
         }
         if (!v) {
@@ -168,6 +163,9 @@ static int parse_opts(int argc, char **argv, fanout_opts *o)
         } else if (strcmp(a, "--seconds") == 0) {
             o->seconds = atof(v);
             if (!(o->seconds >= 1 && o->seconds <= 600)) return fprintf(stderr, "fanout: --seconds in [1, 600]\n"), 2;
+        } else if (strcmp(a, "--warmup") == 0) {
+            o->warmup = atof(v);
+            if (!(o->warmup >= 0 && o->warmup <= 600)) return fprintf(stderr, "fanout: --warmup in [0, 600]\n"), 2;
         } else if (strcmp(a, "--rate") == 0) {
             o->max_rate = atof(v);
             if (!(o->max_rate >= 0 && o->max_rate <= 240)) return fprintf(stderr, "fanout: --rate in [0, 240]\n"), 2;
@@ -178,6 +176,10 @@ static int parse_opts(int argc, char **argv, fanout_opts *o)
             o->strands = atoi(v);
         } else if (strcmp(a, "--verts") == 0) {
             o->verts = atoi(v);
+        } else if (strcmp(a, "--animate") == 0) {
+            if (strlen(v) > 32 || strspn(v, "abcdefghijklmnopqrstuvwxyz") != strlen(v))
+                return fprintf(stderr, "fanout: --animate wants a preset name\n"), 2;
+            o->animate = v;
         } else if (strcmp(a, "--params") == 0) {
             if (v[0] != '{' || strlen(v) > 1000) return fprintf(stderr, "fanout: --params wants a JSON object\n"), 2;
             o->params = v;
@@ -218,6 +220,15 @@ typedef struct fanout_result {
     double net_us_per_frame;    /* net thread CPU per frame delivered to one client */
 } fanout_result;
 
+/* Reads the receivers for ms milliseconds, keeping the lws control client serviced too. */
+static void run_for(wsc *w, fanout_rx *rx, int ms)
+{
+    for (double end = now_s() + ms / 1000.0; now_s() < end;) { /* ms = 0: nothing */
+        fanout_rx_run(rx, 100);
+        wsc_run(w, 0);
+    }
+}
+
 static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_result *res)
 {
     char strands[16], verts[16];
@@ -232,49 +243,62 @@ static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_
         return 1;
     }
     wsc *w = wsc_new();
-    if (o->params) {
-        /* a control client changes the scene's parameters and stays connected */
+    if (o->params || o->animate) {
+        /* a control client changes the scene (parameters, head motion) and stays connected */
         wsc_conn *ctl = wsc_connect(w, d.port, "strandcast.v1", NULL, NULL);
         char msg[1100];
-        snprintf(msg, sizeof msg, "{\"type\":\"set_params\",\"values\":%s}", o->params);
-        wsc_send_text(ctl, msg);
-        if (!wsc_wait_open(w, ctl, 10000) || !wsc_next_of_type(w, ctl, "ok", 10000)) {
-            fprintf(stderr, "fanout: the daemon refused --params %s\n", o->params);
+        bool ok = wsc_wait_open(w, ctl, 10000);
+        if (ok && o->params) {
+            snprintf(msg, sizeof msg, "{\"type\":\"set_params\",\"values\":%s}", o->params);
+            wsc_send_text(ctl, msg);
+            ok = wsc_next_of_type(w, ctl, "ok", 10000);
+        }
+        if (ok && o->animate) {
+            snprintf(msg, sizeof msg, "{\"type\":\"animate\",\"preset\":\"%s\"}", o->animate);
+            wsc_send_text(ctl, msg);
+            ok = wsc_next_of_type(w, ctl, "ok", 10000);
+        }
+        if (!ok) {
+            fprintf(stderr, "fanout: the daemon refused --params %s / --animate %s\n", o->params ? o->params : "-",
+                    o->animate ? o->animate : "-");
             wsc_free(w);
             daemon_stop(&d, SIGTERM, 15000);
             return 1;
         }
     }
-    client_count *counts = calloc((size_t)(nclients ? nclients : 1), sizeof *counts);
-    wsc_conn **conns = calloc((size_t)(nclients ? nclients : 1), sizeof *conns);
     char sub[96];
     snprintf(sub, sizeof sub, "{\"type\":\"subscribe\",\"max_rate\":%g}", o->max_rate);
-    for (int i = 0; i < nclients; i++) {
-        conns[i] = wsc_connect(w, d.port, "strandcast.v1", count_frame, &counts[i]);
-        wsc_send_text(conns[i], sub);
+    fanout_rx *rx = fanout_rx_open(d.port, "strandcast.v1", nclients, sub);
+    if (!rx) {
+        wsc_free(w);
+        daemon_stop(&d, SIGTERM, 15000);
+        return 1;
     }
-    for (int i = 0; i < nclients; i++) wsc_wait_open(w, conns[i], 10000);
-    wsc_run(w, 2000); /* warm up: hellos, keyframes, the sim settling */
+    run_for(w, rx, (int)(o->warmup * 1000)); /* hellos, keyframes, the hair settling */
     double steps0 = metric(d.port, "strandcast_steps_total");
     double skip0 = metric(d.port, "strandcast_frames_skipped_total");
     double cpu0 = proc_cpu_s(d.pid), net0 = thread_cpu_s(d.pid, "sc-net"), self0 = self_cpu_s(), t0 = now_s();
     uint64_t *f0 = calloc((size_t)(nclients ? nclients : 1), sizeof *f0), b0 = 0;
     for (int i = 0; i < nclients; i++) {
-        f0[i] = counts[i].frames;
-        b0 += counts[i].bytes;
+        f0[i] = fanout_rx_count_of(rx, i)->frames;
+        b0 += fanout_rx_count_of(rx, i)->bytes;
     }
-    wsc_run(w, (int)(o->seconds * 1000));
+    run_for(w, rx, (int)(o->seconds * 1000));
     double t1 = now_s(), cpu1 = proc_cpu_s(d.pid), net1 = thread_cpu_s(d.pid, "sc-net"), self1 = self_cpu_s();
     double steps1 = metric(d.port, "strandcast_steps_total");
     double skip1 = metric(d.port, "strandcast_frames_skipped_total");
     double wall = t1 - t0;
     uint64_t total = 0, minf = UINT64_MAX, b1 = 0;
+    int closed = 0;
     for (int i = 0; i < nclients; i++) {
-        uint64_t f = counts[i].frames - f0[i];
+        const fanout_rx_count *k = fanout_rx_count_of(rx, i);
+        uint64_t f = k->frames - f0[i];
         total += f;
         if (f < minf) minf = f;
-        b1 += counts[i].bytes;
+        b1 += k->bytes;
+        closed += k->closed;
     }
+    if (closed) fprintf(stderr, "fanout: %d of %d receivers were disconnected by the server\n", closed, nclients);
     res->clients = nclients;
     res->steps_per_s = (steps1 - steps0) / wall;
     res->fpc = nclients ? (double)total / nclients / wall : 0;
@@ -285,9 +309,8 @@ static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_
     res->skipped_per_s = (skip1 - skip0) / wall;
     res->net_cpu = (net1 - net0) / wall;
     res->net_us_per_frame = total ? (net1 - net0) / (double)total * 1e6 : 0;
+    fanout_rx_free(rx);
     wsc_free(w);
-    free(counts);
-    free(conns);
     free(f0);
     int rc = daemon_stop(&d, SIGTERM, 15000);
     if (rc != 0) fprintf(stderr, "fanout: strandcastd exited with %d\n", rc);
@@ -315,6 +338,7 @@ int bench_fanout_main(int argc, char **argv)
                o.strands ? o.strands : 4096, o.verts ? o.verts : 32, o.server_rate ? o.server_rate : 60.0, o.max_rate,
                o.seconds, cores);
         if (o.params) printf("scene parameters changed with set_params %s\n", o.params);
+        if (o.animate) printf("head motion: preset %s\n", o.animate);
         printf("baseline (0 clients): %.1f sim steps/s, server CPU %.2f cores\n", base.steps_per_s, base.server_cpu);
         printf("%8s %9s %8s %12s %12s %8s %11s %9s %12s %10s\n", "clients", "steps/s", "vs base", "frames/cl/s",
                "min fr/cl/s", "MB/s", "server CPU", "net CPU", "net us/frame", "bench CPU");
@@ -324,16 +348,16 @@ int bench_fanout_main(int argc, char **argv)
         if (run_case(&o, exe, o.clients[i], &r)) return 1;
         double ratio = base.steps_per_s > 0 ? r.steps_per_s / base.steps_per_s : 0;
         if (o.json) {
-            printf("{\"bench\":\"fanout\",\"clients\":%d,\"strands\":%d,\"verts\":%d,\"max_rate\":%g,\"server_rate\":%g,\"seconds\":%g,"
+            printf("{\"bench\":\"fanout\",\"clients\":%d,\"strands\":%d,\"verts\":%d,\"max_rate\":%g,\"server_rate\":%g,\"seconds\":%g,\"warmup_s\":%g,"
                    "\"sim_steps_per_s\":%.2f,\"baseline_steps_per_s\":%.2f,\"frames_per_client_per_s\":%.2f,"
                    "\"min_frames_per_client_per_s\":%.2f,\"mbytes_per_s\":%.3f,\"frames_skipped_per_s\":%.1f,"
                    "\"server_cpu\":%.3f,\"net_thread_cpu\":%.3f,\"net_us_per_client_frame\":%.1f,"
-                   "\"bench_cpu\":%.3f,\"cores\":%ld,\"params\":%s}\n",
+                   "\"bench_cpu\":%.3f,\"cores\":%ld,\"params\":%s,\"animate\":\"%s\"}\n",
                    r.clients, o.strands ? o.strands : 4096, o.verts ? o.verts : 32, o.max_rate,
-                   o.server_rate ? o.server_rate : 60.0, o.seconds, r.steps_per_s,
+                   o.server_rate ? o.server_rate : 60.0, o.seconds, o.warmup, r.steps_per_s,
                    base.steps_per_s, r.fpc, r.fpc_min, r.mbytes_per_s, r.skipped_per_s, r.server_cpu, r.net_cpu,
                    r.net_us_per_frame, r.bench_cpu, cores,
-                   o.params ? o.params : "null");
+                   o.params ? o.params : "null", o.animate ? o.animate : "none");
         } else {
             printf("%8d %9.1f %7.2fx %12.1f %12.1f %8.2f %11.2f %9.3f %12.1f %10.2f\n", r.clients, r.steps_per_s, ratio,
                    r.fpc, r.fpc_min, r.mbytes_per_s, r.server_cpu, r.net_cpu, r.net_us_per_frame, r.bench_cpu);
