@@ -170,18 +170,40 @@ static core_status cpu_step(void *self, core_err *err)
     return CORE_OK;
 }
 
+typedef struct read_ctx {
+    const sim_cpu *c;
+    float *xyz, *vel;
+} read_ctx;
+
+/* Strand-major copies of 64 strands (one task) of the level-major state. */
+static void read_task(void *vctx, size_t task, size_t ntasks, int worker)
+{
+    (void)ntasks, (void)worker;
+    const read_ctx *r = vctx;
+    const sim_cpu *c = r->c;
+    const uint32_t s0 = (uint32_t)task * 64, s1 = s0 + 64 < c->ns ? s0 + 64 : c->ns;
+    float *const outs[2] = { r->xyz, r->vel };
+    const float *const *ins[2] = { (const float *const *)c->x, (const float *const *)c->v };
+    for (int a = 0; a < 2; a++) {
+        float *out = outs[a];
+        if (!out) continue;
+        const float *const *in = ins[a];
+        for (uint32_t s = s0; s < s1; s++) {
+            float *o = out + 3 * (size_t)c->perm[s] * c->nv;
+            for (uint32_t l = 0; l < c->nv; l++) {
+                const size_t i = (size_t)l * c->ns + s;
+                o[3 * l] = in[0][i], o[3 * l + 1] = in[1][i], o[3 * l + 2] = in[2][i];
+            }
+        }
+    }
+}
+
 static core_status cpu_read_state(void *self, float *xyz, float *vel, core_err *err)
 {
     (void)err;
     sim_cpu *c = self;
-    for (uint32_t s = 0; s < c->ns; s++)
-        for (uint32_t l = 0; l < c->nv; l++) {
-            size_t i = (size_t)l * c->ns + s, o = 3 * ((size_t)c->perm[s] * c->nv + l);
-            for (int k = 0; k < 3; k++) {
-                if (xyz) xyz[o + k] = c->x[k][i];
-                if (vel) vel[o + k] = c->v[k][i];
-            }
-        }
+    read_ctx r = { c, xyz, vel };
+    sim_pool_run_tasks(&c->pool, read_task, &r, (c->ns + 63) / 64);
     return CORE_OK;
 }
 
