@@ -22,8 +22,15 @@ add_test(NAME protocol_schema COMMAND ${NODE_EXECUTABLE} --test ${CMAKE_CURRENT_
 set_tests_properties(protocol_schema PROPERTIES LABELS "integration;no_asan" TIMEOUT 120
                      ENVIRONMENT "STRANDCASTD=$<TARGET_FILE:strandcastd>")
 
-# strandbench fanout drives the real daemon with the same WebSocket client as the tests.
+# strandbench fanout drives the real daemon with lean raw-socket receivers (tests/bench/fanout_rx.c)
+# and the tests' lws client for control messages.
 target_sources(strandbench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/support/wsc.c ${CMAKE_CURRENT_SOURCE_DIR}/support/daemon.c
                                    ${CMAKE_CURRENT_SOURCE_DIR}/support/rawws.c)
 target_include_directories(strandbench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
 add_dependencies(strandbench strandcastd)
+# A short fan-out run: the receivers parse the stream (frames counted, a moving head so the frames
+# are large and span many reads) and every client gets frames.
+add_test(NAME bench_fanout_smoke
+         COMMAND strandbench fanout --clients 3 --seconds 2 --warmup 1 --animate shake --json)
+set_tests_properties(bench_fanout_smoke PROPERTIES TIMEOUT 120 LABELS integration
+                     PASS_REGULAR_EXPRESSION "\"clients\":3,[^\n]*\"min_frames_per_client_per_s\":[1-9]")
