@@ -9,6 +9,9 @@
 #include "../core/groom_types.h"
 #include "../core/param.h"
 
+/* The largest neighbor_cap the parameter table accepts (backends size buffers by it). */
+#define SIM_MAX_NEIGHBOR_CAP 64
+
 /* Physical and numerical parameters. Ranges and defaults are in sim_param_table();
  * sim_params_default() fills the defaults. Applied by a backend at a step boundary. */
 typedef struct sim_params {
@@ -24,7 +27,7 @@ typedef struct sim_params {
     float viscosity;          /* SPH viscosity (friction between strands), 1/s */
     float sph_radius;         /* SPH smoothing length h, m */
     float rest_density;       /* SPH rest density as a multiple of the groom's rest-pose mean */
-    int32_t neighbor_cap;     /* SPH neighbours kept per particle (nearest first) */
+    int32_t neighbor_cap;     /* SPH neighbours kept per particle (nearest first), <= SIM_MAX_NEIGHBOR_CAP */
     int32_t neighbor_rebuild; /* steps between SPH neighbour-list rebuilds */
     bool shape;               /* global + local shape constraints on */
     bool sph;                 /* hair-hair interaction on */

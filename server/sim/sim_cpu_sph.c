@@ -16,8 +16,6 @@
 #define SPH_PAD 16
 /* Shares of the per-particle and per-cell passes, taken by whichever worker is free. */
 #define SPH_PARTS 64
-/* The largest neighbour_cap (sim_params.c). */
-#define SPH_MAX_NEIGHBOURS 64
 
 #define MAX0(a) ((a) > 0.0f ? (a) : 0.0f)
 
@@ -731,7 +729,7 @@ static void density_reuse_job(void *vctx, int tid, int nt)
         const float *pi = s->sp + 4 * i;
         const uint32_t *nb = s->nbr + i * (size_t)cap;
         const int n = s->nnbr[i];
-        float r2[SPH_MAX_NEIGHBOURS + SPH_PAD];
+        float r2[SIM_MAX_NEIGHBOR_CAP + SPH_PAD];
         int k = 0;
 #ifdef __AVX2__
         const __m256 pix = _mm256_set1_ps(pi[0]), piy = _mm256_set1_ps(pi[1]), piz = _mm256_set1_ps(pi[2]);

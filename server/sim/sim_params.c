@@ -27,7 +27,7 @@ static const core_param_info table[] = {
     F(viscosity, 0.0, 200.0, 10.0, "1/s", "SPH viscosity: friction between neighbouring strands."),
     F(sph_radius, 0.001, 0.05, 0.003, "m", "SPH smoothing length h (also the hash-grid cell size)."),
     F(rest_density, 0.1, 10.0, 1.0, "", "SPH rest density as a multiple of the groom's mean rest-pose density."),
-    I(neighbor_cap, 1, 64, 24, "", "SPH neighbours kept per particle, nearest first."),
+    I(neighbor_cap, 1, SIM_MAX_NEIGHBOR_CAP, 24, "", "SPH neighbours kept per particle, nearest first."),
     I(neighbor_rebuild, 1, 8, 2, "steps", "SPH neighbour lists are rebuilt every this many steps; in between they are kept and only the distances are recomputed."),
     B(shape, 1, "Global and local shape constraints."),
     B(sph, 1, "Hair-hair interaction (SPH pressure and viscosity)."),

@@ -7,9 +7,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/epoll.h>
-#include <time.h>
 #include <unistd.h>
 
+#include "core/core.h"
 #include "support/rawws.h"
 
 #define RX_BUF (256 * 1024)
@@ -33,13 +33,6 @@ struct fanout_rx {
     rx_conn *c;
     uint8_t *buf;
 };
-
-static long long now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (long long)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
-}
 
 /* Bytes of header needed once the first two are known (2, 4 or 10; no mask from a server). */
 static size_t header_size(const uint8_t *h)
@@ -125,10 +118,10 @@ fanout_rx *fanout_rx_open(int port, const char *subprotocol, int n, const char *
 
 void fanout_rx_run(fanout_rx *r, int ms)
 {
-    long long end = now_ms() + ms;
+    const unsigned long long end = core_now_ns() + (unsigned long long)ms * 1000000ull;
     struct epoll_event ev[64];
-    for (long long t = now_ms(); t < end; t = now_ms()) {
-        int k = epoll_wait(r->epfd, ev, 64, (int)(end - t));
+    for (unsigned long long t = core_now_ns(); t < end; t = core_now_ns()) {
+        int k = epoll_wait(r->epfd, ev, 64, (int)((end - t + 999999ull) / 1000000ull));
         for (int i = 0; i < k; i++) {
             rx_conn *c = ev[i].data.ptr;
             ssize_t got = read(c->fd, r->buf, RX_BUF);
