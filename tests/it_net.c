@@ -21,11 +21,12 @@
 #include <unistd.h>
 
 #include "codec/codec.h"
+#include "proto/proto.h"
 #include "support/daemon.h"
 #include "support/rawws.h"
 #include "support/wsc.h"
 
-#define SUBPROTOCOL "strandcast.v1"
+#define SUBPROTOCOL PROTO_SUBPROTOCOL
 #define NSTRANDS 128
 #define NVERTS 8
 #define WAIT_MS 8000 /* generous: the ASan build is slow */
@@ -293,7 +294,7 @@ static void test_hello_and_frames(void **state)
     cJSON *h = expect_msg(fx, c, "hello");
     assert_string_equal(str(h, "server"), "strandcastd");
     assert_string_equal(str(h, "subprotocol"), SUBPROTOCOL);
-    assert_true(num(h, "protocol") == 1);
+    assert_true(num(h, "protocol") == PROTO_VERSION);
     assert_true(num(h, "client") >= 1);
     const cJSON *caps = get(h, "capabilities");
     bool has_params = false;
@@ -573,19 +574,19 @@ static void test_subprotocol_refused(void **state)
         "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n%s\r\n";
     char buf[512];
     http_reply r;
-    snprintf(buf, sizeof buf, req, "Sec-WebSocket-Protocol: strandcast.v0\r\n");
+    snprintf(buf, sizeof buf, req, "Sec-WebSocket-Protocol: strandcast.v1\r\n");
     assert_int_equal(http_exchange(fx->d.port, buf, &r, 3000), 0);
     assert_int_equal(r.status, 400);
+    assert_non_null(strstr(r.body, "strandcast.v2"));
     assert_non_null(strstr(r.body, "strandcast.v1"));
-    assert_non_null(strstr(r.body, "strandcast.v0"));
     http_reply_free(&r);
     snprintf(buf, sizeof buf, req, "");
     assert_int_equal(http_exchange(fx->d.port, buf, &r, 3000), 0);
     assert_int_equal(r.status, 400);
-    assert_non_null(strstr(r.body, "strandcast.v1"));
+    assert_non_null(strstr(r.body, "strandcast.v2"));
     http_reply_free(&r);
     /* the right name in a list is accepted */
-    snprintf(buf, sizeof buf, req, "Sec-WebSocket-Protocol: chat, strandcast.v1\r\n");
+    snprintf(buf, sizeof buf, req, "Sec-WebSocket-Protocol: chat, strandcast.v2\r\n");
     assert_int_equal(http_exchange(fx->d.port, buf, &r, 300), 0);
     assert_int_equal(r.status, 101);
     http_reply_free(&r);

@@ -118,6 +118,8 @@ static void test_bound_all_styles(void **state)
         run_sequence(bounds[b], CODEC_SYNTH_TELEPORT, 1, 30, 64, 16, 150, 21u + (uint64_t)b);
         run_sequence(bounds[b], CODEC_SYNTH_VIOLENT, 3, 10, 100, 24, 90, 31u + (uint64_t)b);
     }
+    /* 2101 strands: the motion is estimated from every other root, a partial last group */
+    run_sequence(1e-4f, CODEC_SYNTH_VIOLENT, 1, 30, 2101, 5, 16, 41u);
 }
 
 /* Resets: positions jump between unrelated poses (rest pose vs. swung far away) mid-GOP. */
@@ -179,6 +181,96 @@ static void test_bound_magnitudes(void **state)
         codec_decoder_free(&dec);
         codec_encoder_free(&enc);
     }
+}
+
+/* Keyframe segments longer than 32767 lattice units (clamped before the rotation in deltas) and
+ * a rotating head: deltas still meet the bound, in a frame with a partial group of 8. */
+static void test_bound_long_segments(void **state)
+{
+    (void)state;
+    const uint32_t ns = 11, nv = 6;
+    size_t n = (size_t)ns * nv * 3u;
+    float base[11 * 6 * 3], in[11 * 6 * 3], out[11 * 6 * 3];
+    const float bound = 1e-5f;
+    const double step = 2.0 * (double)bound * (1.0 - 1.0 / 32.0);
+    for (uint32_t j = 0; j < ns; j++)
+        for (uint32_t v = 0; v < nv; v++) {
+            float *p = base + 3u * (j * nv + v);
+            p[0] = 0.01f * (float)j + 0.002f * (float)v;
+            p[1] = 0.05f - 0.004f * (float)v;
+            p[2] = 0.003f * (float)(j % 3);
+            if (v >= 3) p[0] += (j % 2) ? 1.5f : -1.2f; /* segment 2 -> 3: over 60000 units */
+            if (v >= 5) p[2] -= 0.9f;
+        }
+    assert_true(fabs((double)(base[3 * 3] - base[3 * 2])) / step > 32767.0);
+    codec_desc d = { .max_error_m = bound, .key_interval = 1000 };
+    codec_encoder enc;
+    codec_decoder dec;
+    core_err err;
+    codec_buf buf = { 0 };
+    assert_int_equal(codec_encoder_init(&enc, &d, ns, nv, &err), CORE_OK);
+    codec_decoder_init(&dec);
+    for (int f = 0; f < 12; f++) {
+        double a = 0.07 * f, c = cos(a), s = sin(a);
+        for (size_t i = 0; i < n; i += 3) { /* rotate about z, translate, a little wobble */
+            double x = base[i], y = base[i + 1], z = base[i + 2];
+            in[i] = (float)(c * x - s * y + 0.01 * f);
+            in[i + 1] = (float)(s * x + c * y - 0.002 * f);
+            in[i + 2] = (float)(z + 1e-4 * sin(0.37 * (double)i + f));
+        }
+        assert_int_equal(codec_encode(&enc, in, (uint64_t)f + 1u, 0.0, false, &buf, &err), CORE_OK);
+        codec_frame_info info;
+        assert_int_equal(codec_decode(&dec, buf.data, buf.len, out, n, &info, &err), CORE_OK);
+        assert_true(info.keyframe == (f == 0));
+        if (max_abs_err(in, out, n) > (double)bound) fail_msg("frame %d: error %g", f, max_abs_err(in, out, n));
+    }
+    codec_buf_free(&buf);
+    codec_decoder_free(&dec);
+    codec_encoder_free(&enc);
+}
+
+/* Far from the origin float32 cannot hold every coordinate within a small bound: such a
+ * coordinate is refused (the magnitude shortcut of the quantiser must not skip the check). */
+static void test_bound_float32_reach(void **state)
+{
+    (void)state;
+    const uint32_t ns = 9, nv = 3;
+    float in[9 * 3 * 3], out[9 * 3 * 3];
+    const float bound = 1e-5f;
+    codec_desc d = { .max_error_m = bound };
+    codec_encoder enc;
+    codec_decoder dec;
+    core_err err;
+    codec_buf buf = { 0 };
+    assert_int_equal(codec_encoder_init(&enc, &d, ns, nv, &err), CORE_OK);
+    codec_decoder_init(&dec);
+    for (uint32_t i = 0; i < ns * nv * 3u; i++) in[i] = 0.3f + 0.001f * (float)i;
+    /* 3 m and 300 m are beyond the shortcut's 2^18 bound = 2.6 m but reachable */
+    in[40] = 3.0f;
+    in[41] = -300.0f;
+    assert_int_equal(codec_encode(&enc, in, 1, 0.0, false, &buf, &err), CORE_OK);
+    assert_int_equal(codec_decode(&dec, buf.data, buf.len, out, ns * nv * 3u, NULL, &err), CORE_OK);
+    assert_true(max_abs_err(in, out, ns * nv * 3u) <= (double)bound);
+    /* at 200 m float32's spacing is 1.5e-5 m: a value about halfway between two lattice points
+     * has no lattice point whose float32 is within 1e-5 */
+    uint32_t refused = 0;
+    const int tries = 3000;
+    for (int k = 0; k < tries; k++) {
+        in[40] = nextafterf(in[40] == 3.0f ? 200.0f : in[40], 30.0f); /* consecutive float32 values */
+        core_status st = codec_encode(&enc, in, 2u + (uint64_t)k, 0.0, false, &buf, &err);
+        if (st != CORE_OK) {
+            assert_int_equal(st, CORE_EINVAL);
+            assert_non_null(strstr(err.msg, "cannot be held"));
+            refused++;
+            continue;
+        }
+        assert_int_equal(codec_decode(&dec, buf.data, buf.len, out, ns * nv * 3u, NULL, &err), CORE_OK);
+        assert_true(max_abs_err(in, out, ns * nv * 3u) <= (double)bound);
+    }
+    assert_true(refused > 0 && refused < (uint32_t)tries / 2u);
+    codec_buf_free(&buf);
+    codec_decoder_free(&dec);
+    codec_encoder_free(&enc);
 }
 
 /* ---------------------------------------------------------------- encoder argument checks */
@@ -404,7 +496,7 @@ static void test_absurd_headers(void **state)
         memcpy(c, f.key.data, f.key.len);
         switch (which) {
         case 0: c[0] = 'X'; break;
-        case 1: c[4] = 2; break;
+        case 1: c[4] = 1; break;                               /* a version 1 frame */
         case 2: c[6] = 9; break;
         case 3: c[7] = 0x81; break;
         case 4: put64(c + 16, 0); break;                       /* keyframe ref != seq */
@@ -438,22 +530,146 @@ static void test_absurd_headers(void **state)
         if (which < 24) assert_int_equal(codec_peek_header(c, f.key.len, &info, &err), CORE_EFORMAT);
     }
     free(c);
-    /* a delta whose rigid motion is absurd */
+    /* a delta whose rigid motion is out of range or has nonzero padding */
     core_err err;
     assert_int_equal(codec_decode(&dec, f.key.data, f.key.len, out, f.n, NULL, &err), CORE_OK);
     c = malloc(f.delta.len);
-    const float bad_motion[4] = { NAN, 2.5f, -INFINITY, 1e30f };
-    for (int k = 0; k < 4; k++) {
+    uint8_t *m = c + CODEC_HEADER_SIZE;
+    for (int k = 0; k < 8; k++) {
         memcpy(c, f.delta.data, f.delta.len);
-        memcpy(&u32, &bad_motion[k], 4);
-        put32(c + CODEC_HEADER_SIZE + (k < 2 ? 4u * (uint32_t)k : 40u), u32);
+        switch (k) {
+        case 0: m[0] = 0x01; m[1] = 0x40; break;               /* rho_0 = 16385 */
+        case 1: m[8] = 0xff; m[9] = 0xbf; break;               /* rho_4 = -16385 */
+        case 2: m[16] = 0x00; m[17] = 0x80; break;             /* rho_8 = -32768 */
+        case 3: m[18] = 1; break;                              /* padding after rho */
+        case 4: m[47] = 0x80; break;                           /* trailing padding */
+        case 5: put32(m + 20, (1u << 28) + 1u); break;         /* t_0 */
+        case 6: put32(m + 28, (uint32_t)-(1 << 28) - 1u); break; /* t_2 */
+        case 7: m[35] = 2; break;
+        }
         restamp_crc(c, f.delta.len);
         expect_reject(&dec, c, f.delta.len, out, f.n, CORE_EFORMAT);
         assert_int_equal(codec_decode(&dec, c, f.delta.len, out, f.n, NULL, &err), CORE_EFORMAT);
         assert_non_null(strstr(err.msg, "motion"));
     }
+    /* the extremes of the ranges are valid */
+    memcpy(c, f.delta.data, f.delta.len);
+    put32(m + 20, 1u << 28);
+    put32(m + 24, (uint32_t)-(1 << 28));
+    m[0] = 0x00; m[1] = 0x40;
+    m[2] = 0x00; m[3] = 0xc0;
+    restamp_crc(c, f.delta.len);
+    if (codec_decode(&dec, c, f.delta.len, out, f.n, NULL, &err) != CORE_OK) assert_null(strstr(err.msg, "motion"));
     assert_int_equal(codec_decode(&dec, f.delta.data, f.delta.len, out, f.n, NULL, &err), CORE_OK);
     free(c);
+    free(out);
+    codec_decoder_free(&dec);
+    free_frames(&f);
+}
+
+/* Offset in a frame of rans_len (after the motion and the nine tables). */
+static size_t rans_len_offset(const uint8_t *frame)
+{
+    size_t pos = CODEC_HEADER_SIZE + ((frame[7] & 1u) ? 0u : 48u);
+    for (int t = 0; t < 9; t++) {
+        uint32_t vals[2], count = 0; /* the count, then gap and frequency pairs */
+        for (int b = 0; b < 2; b++) {
+            count |= (uint32_t)(frame[pos] & 0x7fu) << (7 * b);
+            if (!(frame[pos++] & 0x80u)) break;
+        }
+        for (uint32_t i = 0; i < 2u * count; i++) {
+            vals[i & 1u] = 0;
+            for (int b = 0; b < 2; b++) {
+                vals[i & 1u] |= (uint32_t)(frame[pos] & 0x7fu) << (7 * b);
+                if (!(frame[pos++] & 0x80u)) break;
+            }
+        }
+    }
+    return pos;
+}
+
+static uint32_t get32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+/* Offset in a frame of the raw bit stream. */
+static size_t rl_bits_offset(const uint8_t *frame)
+{
+    size_t rl = rans_len_offset(frame);
+    return rl + 4u + get32(frame + rl);
+}
+
+/* Frames of format version 1 and entropy streams that break the version 2 rules are refused. */
+static void test_v2_rejections(void **state)
+{
+    (void)state;
+    frames3 f;
+    make_frames(&f);
+    float *out = malloc(f.n * sizeof *out);
+    codec_decoder dec;
+    codec_decoder_init(&dec);
+    core_err err;
+    uint8_t *c = malloc(f.key.len);
+    const size_t rl = rans_len_offset(f.key.data);
+    const uint32_t rans_len = get32(f.key.data + rl);
+    assert_true(rans_len >= 32 && rans_len % 2 == 0 && rl + 4 + rans_len <= f.key.len);
+    for (int k = 0; k < 9; k++) {
+        memcpy(c, f.key.data, f.key.len);
+        const char *want = "entropy";
+        switch (k) {
+        case 0: c[4] = 1; want = "unsupported format version"; break;
+        case 1: put32(c + rl + 4 + 12, 0xffffu); want = "state"; break;   /* x[3] below 2^16 */
+        case 2: put32(c + rl + 4, 0); want = "state"; break;             /* x[0] = 0 */
+        case 3: put32(c + rl, rans_len - 1u); break;                     /* odd */
+        case 4: put32(c + rl, 30); break;                                /* shorter than the states */
+        case 5: put32(c + rl, rans_len - 2u); want = "codec: "; break;   /* a word short */
+        case 6: put32(c + rl, rans_len + 2u); want = "codec: "; break;   /* an unused word */
+        case 7: put32(c + rl + 4 + 28, get32(c + rl + 4 + 28) ^ 0x100u); want = "codec: "; break;
+        case 8: put32(c + rl, (uint32_t)(f.key.len - rl - 3u)); break;   /* past the payload */
+        }
+        restamp_crc(c, f.key.len);
+        expect_reject(&dec, c, f.key.len, out, f.n, CORE_EFORMAT);
+        assert_int_equal(codec_decode(&dec, c, f.key.len, out, f.n, NULL, &err), CORE_EFORMAT);
+        if (!strstr(err.msg, want)) fail_msg("case %d: '%s' does not say '%s'", k, err.msg, want);
+    }
+    assert_int_equal(codec_decode(&dec, f.key.data, f.key.len, out, f.n, NULL, &err), CORE_OK);
+    free(c);
+
+    /* an escaped root: its first raw bits are 5 bits of e - 5; above 24 is refused */
+    const uint32_t ns = 8, nv = 4;
+    float in[8 * 4 * 3], got[8 * 4 * 3];
+    for (uint32_t i = 0; i < ns * nv * 3u; i++) in[i] = 0.75f + 0.001f * (float)i;
+    codec_encoder enc;
+    codec_buf buf = { 0 };
+    assert_int_equal(codec_encoder_init(&enc, NULL, ns, nv, &err), CORE_OK);
+    assert_int_equal(codec_encode(&enc, in, 1, 0.0, false, &buf, &err), CORE_OK);
+    codec_decoder d2;
+    codec_decoder_init(&d2);
+    assert_int_equal(codec_decode(&d2, buf.data, buf.len, got, ns * nv * 3u, NULL, &err), CORE_OK);
+    /* strand 0's root x is predicted by 0: q = round(0.75 / step), e = floor(log2 q) */
+    const double step = 2.0 * 1e-4 * (1.0 - 1.0 / 32.0);
+    uint32_t q = (uint32_t)lrint(0.75 / step), e = 0;
+    while ((q >> (e + 1)) != 0) e++;
+    const size_t bits = rl_bits_offset(buf.data);
+    assert_int_equal(buf.data[bits] & 31u, e - 5u);
+    /* the sign bit (0) and the bits below the leading one follow */
+    uint64_t w = 0;
+    for (int b = 0; b < 8; b++) w |= (uint64_t)buf.data[bits + (size_t)b] << (8 * b);
+    assert_int_equal((w >> 5) & 1u, 0);
+    assert_int_equal((w >> 6) & ((1ull << e) - 1u), q - (1u << e));
+    for (uint32_t bad = 25; bad < 32; bad += 6) {
+        memcpy(c = malloc(buf.len), buf.data, buf.len);
+        c[bits] = (uint8_t)((c[bits] & ~31u) | bad);
+        restamp_crc(c, buf.len);
+        expect_reject(&d2, c, buf.len, got, ns * nv * 3u, CORE_EFORMAT);
+        assert_int_equal(codec_decode(&d2, c, buf.len, got, ns * nv * 3u, NULL, &err), CORE_EFORMAT);
+        assert_non_null(strstr(err.msg, "escape"));
+        free(c);
+    }
+    codec_buf_free(&buf);
+    codec_encoder_free(&enc);
+    codec_decoder_free(&d2);
     free(out);
     codec_decoder_free(&dec);
     free_frames(&f);
@@ -475,6 +691,7 @@ static const vstream VSTREAMS[] = {
     { "basic", 24, 12, 1, 3, 1e-4f, CODEC_SYNTH_GENTLE, 5, 0.0, 1.0 / 30.0, -1 },
     { "stride3", 24, 12, 3, 30, 5e-4f, CODEC_SYNTH_VIOLENT, 4, 0.25, 1.0 / 60.0, 2 },
     { "teleport", 16, 9, 1, 30, 2e-5f, CODEC_SYNTH_TELEPORT, 3, 0.95, 0.05, -1 },
+    { "partial", 13, 10, 1, 4, 2e-4f, CODEC_SYNTH_VIOLENT, 6, 0.4, 1.0 / 30.0, -1 },
 };
 
 static char *vpath(const char *dir, const char *name, int frame, const char *ext)
@@ -634,11 +851,14 @@ int main(void)
         cmocka_unit_test(test_bound_all_styles),
         cmocka_unit_test(test_bound_resets),
         cmocka_unit_test(test_bound_magnitudes),
+        cmocka_unit_test(test_bound_long_segments),
+        cmocka_unit_test(test_bound_float32_reach),
         cmocka_unit_test(test_encoder_rejects),
         cmocka_unit_test(test_reference_rules),
         cmocka_unit_test(test_truncated_prefixes),
         cmocka_unit_test(test_bit_flips),
         cmocka_unit_test(test_absurd_headers),
+        cmocka_unit_test(test_v2_rejections),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

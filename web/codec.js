@@ -1,19 +1,17 @@
 // Strand frame decoder (proto/CODEC.md), bit-exact with server/codec; browser, Worker or Node.
 
-import {
-  CodecKernel, kernelLayout, K_FREQ, K_INFO, K_RES, K_MOTION, K_STATE, K_BAD_STREAM, K_BAD_VALUE, INFO_SLOW,
-  INFO_UNUSED,
-} from './codec_kernel.js';
+import { KERNEL_WASM } from './codec_kernel_wasm.js';
 
 export const HEADER_SIZE = 68;
-export const FORMAT_VERSION = 1;
+export const FORMAT_VERSION = 2;
 export const CODEC_ID_STRAND = 1;
 export const FLAG_KEY = 1;
 
 const MAGIC = [0x53, 0x43, 0x46, 0x31]; // "SCF1"
 const SCALE_BITS = 12;
 const SCALE = 1 << SCALE_BITS;
-const RANS_L = 1 << 23;
+const RANS_L = 1 << 16;
+const LANES = 8;
 const NCLASS = 7;
 const ESCAPE = 6;
 const NSYM = NCLASS * NCLASS * NCLASS;
@@ -22,16 +20,60 @@ const T_MODE = 0;
 const T_ROOT = 1;
 const T_FIRST = 2;
 const T_BODY = 3;
-const T_ESC = T_BODY + NBODY;
-const NTABLES = T_ESC + 1;
+const NTABLES = T_BODY + NBODY;
 const MAX_VERTICES = 1 << 24;
 const MAX_NVERTS = 4096;
-const MAX_QUANT = 1 << 26;
 const MOTION_BYTES = 48;
-const BAD_STREAM = 'corrupt entropy-coded data (invalid symbol or stream overrun)';
-const BAD_VALUE = 'corrupt frame (decoded coordinate out of range)';
+const ROT_ONE = 1 << 14;
+const MAX_SHIFT = 1 << 28;
 
-// Per vertex symbol: its kernel INFO entry (codec_kernel.js) in a vertex table (1..8): the
+// The WebAssembly kernel (web/wasm/codec_kernel.c): compiled once, on first use, synchronously
+// (workers and Node allow that for a module this small); one instance per memory.
+let kernelModule = null;
+function kernelInstance(memory) {
+  if (!kernelModule) {
+    const text = atob(KERNEL_WASM);
+    const bytes = new Uint8Array(text.length);
+    for (let i = 0; i < text.length; i++) bytes[i] = text.charCodeAt(i);
+    try {
+      kernelModule = new WebAssembly.Module(bytes);
+    } catch (e) {
+      fail(`this engine cannot compile the WebAssembly SIMD decode kernel (${e.message})`);
+    }
+  }
+  return new WebAssembly.Instance(kernelModule, { env: { memory } }).exports;
+}
+
+// Kernel result codes (codec_kernel.c).
+const K_BAD_SYMBOL = -1, K_BAD_MODE = -2, K_OVERRUN = -3, K_BAD_ESCAPE = -4, K_BAD_VALUE = -5;
+const K_BITS_SHORT = -6, K_BAD_END = -7, K_BITS_LEFT = -8;
+// INFO entries (codec_kernel.c, kern.info): an escaped axis; every slot of an unused table.
+const INFO_SLOW = 1 << 13;
+const INFO_UNUSED = 0xffff;
+// Where the kernel's state (struct kern) lies in its memory: above the module's own stack
+// (build.sh: 64 KiB, first).
+export const KERN_BASE = 65536;
+// Bytes after a frame that a corrupt frame's group may read before the kernel refuses it (at
+// most 120 per vertex of a strand, plus 64).
+const READ_SLACK = 1 << 19;
+
+/**
+ * Byte offsets, in the kernel's memory, of the regions for frames of nq lattice coordinates (of
+ * strands of at most 4096 vertices) whose bytes need frameCap bytes, after the kernel's state of
+ * kernSize bytes: the held keyframe's and the current frame's lattice (Int32), two outputs
+ * (Float32), the held keyframe's and the current frame's clamped segments (Int16, 4 per vertex,
+ * in groups of 8 strands, padded), the frame's bytes (READ_SLACK readable bytes after them),
+ * and the memory's size in 64 KiB pages.
+ */
+export function kernelLayout(nq, frameCap, kernSize) {
+  const key = (KERN_BASE + kernSize + 15) & ~15, cur = key + 4 * nq, out = cur + 4 * nq, out2 = out + 4 * nq;
+  const seg = ((8 * nq) / 3 + 8 * 7 * 4096 + 15) & ~15;
+  const dkey = out2 + 4 * nq, dcur = dkey + seg, bytes = dcur + seg;
+  const pages = Math.ceil((bytes + frameCap + 16 + READ_SLACK) / 65536);
+  return { key, cur, out, out2, dkey, dcur, bytes, pages };
+}
+
+// Per vertex symbol: its kernel INFO entry (codec_kernel.c) in a vertex table (1..8): the
 // classes c0 | c1 << 3 | c2 << 6, the next vertex's body table << 9, INFO_SLOW when an axis
 // is escaped. In the root table the next table is T_FIRST instead.
 const SYM_INFO = new Uint16Array(NSYM);
@@ -41,6 +83,18 @@ for (let s = 0; s < NSYM; s++) {
   SYM_INFO[s] = c0 | (c1 << 3) | (c2 << 6) | ((T_BODY + Math.min(Math.max(c0, c1, c2), NBODY - 1)) << 9) |
     (esc ? INFO_SLOW : 0);
 }
+
+// The kernel's error codes, as messages.
+const KERNEL_ERRORS = new Map([
+  [K_BAD_SYMBOL, 'corrupt entropy-coded data (a symbol from an unused probability table)'],
+  [K_BAD_MODE, 'corrupt entropy-coded data (prediction mode out of range)'],
+  [K_OVERRUN, 'corrupt entropy-coded data (rANS stream overrun)'],
+  [K_BAD_ESCAPE, 'corrupt raw bits (escape exponent above 24)'],
+  [K_BAD_VALUE, 'corrupt frame (decoded coordinate out of range)'],
+  [K_BITS_SHORT, 'corrupt raw bits (raw bit stream overrun)'],
+  [K_BAD_END, 'entropy stream does not end in the initial states with every word read'],
+  [K_BITS_LEFT, 'raw bit stream is longer than the frame uses'],
+]);
 
 // CRC-32 (zlib polynomial), slicing by 8: CRC_TABLE[t * 256 + n] is the CRC of byte n followed
 // by t zero bytes.
@@ -144,9 +198,12 @@ export function peekHeader(bytes, info = newFrameInfo()) {
 /**
  * Decodes a stream of strand frames. decode() returns a record (reused between calls) holding the
  * header fields and `positions`, a Float32Array (3 * nstrandsSent * nverts, strand-major xyz)
- * owned by the decoder and overwritten by the next successful decode. Bad frames throw an Error;
- * the decoder's state (the held keyframe) and `positions` are then unchanged. Nothing is
- * allocated per frame once a frame of the same size (or larger) has been decoded.
+ * owned by the decoder. Successive successful decodes return two such arrays in turn (the
+ * decoder writes a frame where the previous frame's positions are not, so that a bad frame
+ * leaves them as they were, without copying them): `positions` stays valid until the next
+ * successful decode but one, which overwrites it. Bad frames throw an Error; the decoder's state
+ * (the held keyframe) and `positions` are then unchanged. Nothing is allocated per frame once a
+ * frame of the same size (or larger) has been decoded.
  */
 export class StrandDecoder {
   constructor() {
@@ -155,21 +212,26 @@ export class StrandDecoder {
     this._hdr = newFrameInfo();
     this._key = newFrameInfo();
     this._keyValid = false;
-    // the kernel's heap (codec_kernel.js), grown to the largest frame seen
-    this._heap = null;
+    // the kernel's memory (codec_kernel.c), grown to the largest frame seen, and its instance
+    this._memory = null;
     this._kernel = null;
+    this._kernSize = 0;   // its state's size (struct kern)
+    this._state = 0;      // its lane states (Int32 index)
+    this._motion = 0;     // its motion (Int32 index)
+    this._list = 0;       // its table list (Int32 index)
     this._nqCap = 0;      // lattice coordinates its regions hold
     this._bytesCap = 0;   // frame bytes it holds
     this._keyOff = 0;     // the held keyframe's lattice (Int32)
     this._curOff = 0;     // the lattice being decoded (Int32)
-    this._outOff = 0;     // positions being decoded (Float32)
+    this._dkeyOff = 0;    // the held keyframe's clamped segments (Int16)
+    this._dcurOff = 0;    // the clamped segments of the keyframe being decoded (Int16)
+    this._segBytes = 0;   // the bytes of a clamped segments region
+    this._outOffs = [0, 0]; // the two output regions (Float32): positions alternate between them
+    this._outViews = [null, null]; // their Float32Array views as returned
+    this._next = 0;       // the output region the next frame is decoded into
     this._bytesOff = 0;   // the frame being decoded
     this._u8 = null;
     this._i32 = null;
-    this._f64 = null;
-    this._info16 = null;  // K_INFO
-    this._freq32 = null;  // K_FREQ
-    this._out = new Float32Array(0); // view of the output region, nq floats
   }
 
   /** True when a keyframe is held (deltas against it can be decoded). */
@@ -181,41 +243,46 @@ export class StrandDecoder {
   /** Forgets the held keyframe (e.g. after a reconnect). */
   reset() { this._keyValid = false; }
 
-  // Makes the heap hold nq coordinates and a frame of frameLen bytes, keeping the held keyframe.
+  // Makes the kernel's memory hold nq coordinates and a frame of frameLen bytes, keeping the held
+  // keyframe (a new memory and instance when it grows).
   _reserve(nq, frameLen) {
-    if (this._heap && nq <= this._nqCap && frameLen <= this._bytesCap) {
-      if (this._out.length !== nq) this._out = new Float32Array(this._heap, this._outOff, nq);
+    if (this._memory && nq <= this._nqCap && frameLen <= this._bytesCap) {
       return;
     }
     const nqCap = Math.max(nq, this._nqCap);
     const bytesCap = Math.max(frameLen + (frameLen >> 2), this._bytesCap, 1 << 16);
-    const lay = kernelLayout(nqCap, bytesCap);
-    const heap = new ArrayBuffer(lay.size);
-    const i32 = new Int32Array(heap);
+    let kernSize = this._kernSize;
+    if (!kernSize) {
+      kernSize = kernelInstance(new WebAssembly.Memory({ initial: 2 })).kern_offset(3);
+    }
+    const lay = kernelLayout(nqCap, bytesCap, kernSize);
+    const memory = new WebAssembly.Memory({ initial: lay.pages });
+    const kernel = kernelInstance(memory);
+    const heap = memory.buffer;
     if (this._keyValid) {
       const kq = this._key.nstrandsSent * this._key.nverts * 3;
-      i32.set(this._i32.subarray(this._keyOff >> 2, (this._keyOff >> 2) + kq), lay.key >> 2);
+      new Int32Array(heap, lay.key, kq).set(new Int32Array(this._memory.buffer, this._keyOff, kq));
+      new Uint8Array(heap, lay.dkey, this._segBytes).set(new Uint8Array(this._memory.buffer, this._dkeyOff, this._segBytes));
     }
-    for (let c = 1; c < 6; c++) {
-      for (let b = 0; b < 32; b++) {
-        const f = b & ((1 << c) - 1), m = (1 << (c - 1)) | (f >> 1);
-        i32[(K_RES >> 2) + ((c << 5) | b)] = f & 1 ? -m : m;
-      }
-    }
-    this._heap = heap;
-    this._kernel = CodecKernel(globalThis, null, heap);
+    kernel.kern_init(KERN_BASE);
+    this._memory = memory;
+    this._kernel = kernel;
+    this._kernSize = kernSize;
+    this._state = (KERN_BASE + kernel.kern_offset(1)) >> 2;
+    this._motion = (KERN_BASE + kernel.kern_offset(2)) >> 2;
+    this._list = (KERN_BASE + kernel.kern_offset(0)) >> 2;
     this._nqCap = nqCap;
-    this._bytesCap = lay.size - lay.bytes;
+    this._bytesCap = bytesCap;
     this._keyOff = lay.key;
     this._curOff = lay.cur;
-    this._outOff = lay.out;
+    this._dkeyOff = lay.dkey;
+    this._dcurOff = lay.dcur;
+    this._segBytes = lay.dcur - lay.dkey;
+    this._outOffs = [lay.out, lay.out2];
+    this._outViews = [null, null];
     this._bytesOff = lay.bytes;
     this._u8 = new Uint8Array(heap);
-    this._i32 = i32;
-    this._f64 = new Float64Array(heap);
-    this._info16 = new Uint16Array(heap, K_INFO, NTABLES * SCALE);
-    this._freq32 = new Int32Array(heap, K_FREQ, NTABLES * 512);
-    this._out = new Float32Array(heap, lay.out, nq);
+    this._i32 = new Int32Array(heap);
   }
 
   /** Decodes one frame (a Uint8Array holding exactly the frame). */
@@ -237,39 +304,48 @@ export class StrandDecoder {
     let pos = HEADER_SIZE;
     if (!h.keyframe) {
       if (end - pos < MOTION_BYTES) fail('truncated payload (no motion)');
-      const m = this._f64, mo = K_MOTION >> 3;
-      for (let k = 0; k < 12; k++) {
-        const v = f32(bytes, pos + 4 * k);
-        if (!(Math.abs(v) <= (k < 9 ? 2 : 4 * MAX_QUANT))) fail('invalid rigid motion');
-        m[mo + k] = k < 9 ? v : v + 1073741824.5;
-      }
+      readMotion(bytes, pos, this._i32, this._motion);
       pos += MOTION_BYTES;
     }
-    pos = readTables(bytes, pos, end, this._info16, this._freq32);
+    pos = readTables(bytes, pos, end, this._i32, this._list, this._kernel);
     if (end - pos < 4) fail('truncated payload (no stream length)');
     const ransLen = u32(bytes, pos);
     pos += 4;
-    if (ransLen < 8 || ransLen > end - pos) fail(`entropy stream length ${ransLen} invalid for ${end - pos} payload bytes left`);
-    const x0 = u32(bytes, pos), x1 = u32(bytes, pos + 4);
-    if (x0 < RANS_L || x0 >= RANS_L * 256 || x1 < RANS_L || x1 >= RANS_L * 256) fail('invalid entropy coder state');
-    const rend = pos + ransLen, b0 = this._bytesOff;
+    if (ransLen < 4 * LANES || ransLen % 2 !== 0 || ransLen > end - pos) {
+      fail(`entropy stream length ${ransLen} invalid (even, at least ${4 * LANES}, at most the ${end - pos} payload bytes left)`);
+    }
+    const lane = this._state;
+    for (let l = 0; l < LANES; l++) {
+      const x = u32(bytes, pos + 4 * l);
+      if (x < RANS_L) fail(`invalid entropy coder state ${x} in lane ${l} (below 2^16)`);
+      this._i32[lane + l] = x | 0;
+    }
+    const rend = pos + ransLen, avail = (end - rend) * 8;
+    if (avail > 0x7fffffff) fail(`raw bit stream of ${avail} bits is longer than any frame uses`);
+    // the frame goes to the kernel's memory, zeros after it
+    const b0 = this._bytesOff;
     this._u8.set(bytes, b0);
-    const rc = this._kernel.frame(h.keyframe ? 1 : 0, h.nstrandsSent, 3 * h.nverts, x0, x1, b0 + pos + 8, b0 + rend,
-      b0 + rend, b0 + end, this._keyOff, this._curOff, this._outOff, h.step);
-    if (rc === K_BAD_STREAM) fail(BAD_STREAM);
-    if (rc === K_BAD_VALUE) fail(BAD_VALUE);
-    const st = this._i32, so = K_STATE >> 2;
-    if (st[so] !== RANS_L || st[so + 1] !== RANS_L || st[so + 2] !== b0 + rend) fail('entropy stream does not end where the frame says');
-    const avail = (end - rend) * 8, used = st[so + 3];
-    if (used > avail || avail - used >= 8) fail(`raw bit stream is ${avail} bits, frame used ${used}`);
+    this._u8.fill(0, b0 + end, b0 + end + 16);
+    const rc = this._kernel.kern_frame(KERN_BASE, h.keyframe ? 1 : 0, h.nstrandsSent, h.nverts, b0 + pos + 4 * LANES,
+      b0 + rend, b0 + rend, avail, this._keyOff, this._curOff, this._outOffs[this._next], this._dkeyOff, this._dcurOff,
+      h.step);
+    if (rc !== 0) {
+      const used = this._i32[this._state + 9] >>> 0;
+      if (rc === K_BITS_SHORT || rc === K_BITS_LEFT) fail(`raw bit stream is ${avail} bits, frame used ${used}`);
+      fail(KERNEL_ERRORS.get(rc) ?? `kernel error ${rc}`);
+    }
 
     const info = this.info;
-    if (info.positions.length !== nq) info.positions = new Float32Array(nq);
-    info.positions.set(this._out);
+    const k = this._next, view = this._outViews[k];
+    info.positions = view && view.length === nq ? view : (this._outViews[k] = new Float32Array(this._memory.buffer, this._outOffs[k], nq));
+    this._next = k ^ 1;
     if (h.keyframe) {
-      const t = this._keyOff;
+      let t = this._keyOff;
       this._keyOff = this._curOff;
       this._curOff = t;
+      t = this._dkeyOff;
+      this._dkeyOff = this._dcurOff;
+      this._dcurOff = t;
       Object.assign(this._key, h);
       this._keyValid = true;
     }
@@ -277,6 +353,24 @@ export class StrandDecoder {
     info.keyframe = h.keyframe; info.nstrandsTotal = h.nstrandsTotal; info.nstrandsSent = h.nstrandsSent;
     info.nverts = h.nverts; info.stride = h.stride; info.payloadLen = h.payloadLen; info.frameLen = h.frameLen;
     return info;
+  }
+}
+
+// Reads and checks a delta's rigid motion at bytes[pos, pos + 48) into the kernel's motion at
+// i32[mo] (rho_0..rho_8, then t_0..t_2).
+function readMotion(bytes, pos, i32, mo) {
+  for (let k = 0; k < 9; k++) {
+    const r = (u16(bytes, pos + 2 * k) << 16) >> 16;
+    if (r < -ROT_ONE || r > ROT_ONE) fail(`invalid rigid motion (rotation entry ${k} is ${r}, outside [-16384, 16384])`);
+    i32[mo + k] = r;
+  }
+  for (let k = 0; k < 3; k++) {
+    const t = u32(bytes, pos + 20 + 4 * k) | 0;
+    if (t < -MAX_SHIFT || t > MAX_SHIFT) fail(`invalid rigid motion (translation ${k} is ${t}, outside [-2^28, 2^28])`);
+    i32[mo + 9 + k] = t;
+  }
+  for (const k of [18, 19, 32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43, 44, 45, 46, 47]) {
+    if (bytes[pos + k] !== 0) fail(`invalid rigid motion (padding byte ${k} is not zero)`);
   }
 }
 
@@ -291,19 +385,19 @@ function varint(bytes, pos, end) {
   return (((b0 & 0x7f) | (b1 << 7)) << 16) | 2;
 }
 
-// Reads the ten probability tables at bytes[pos, end) into the kernel's lookups
-// (codec_kernel.js): info, per table and slot, the INFO entry of the symbol whose
-// [start, start + freq) holds the slot; freq, per table and symbol key, freq << 12 | start.
-// Returns the position after them.
-function readTables(bytes, pos, end, info, freq) {
+// Reads the nine probability tables at bytes[pos, end) and has the kernel build its per-slot
+// lookups from them (codec_kernel.c, kern_tables(): a list at i32[list] of entries
+// table << 16 | INFO entry, freq << 12 | start). Returns the position after them.
+function readTables(bytes, pos, end, i32, list, kernel) {
+  let li = list;
   for (let t = 0; t < NTABLES; t++) {
     let vb = varint(bytes, pos, end);
     pos += vb & 3;
     const used = vb >> 16;
     if (used > NSYM) fail(`table ${t} lists ${used} symbols (max ${NSYM})`);
-    const lut = t * SCALE;
     if (used === 0) {
-      info.fill(INFO_UNUSED, lut, lut + SCALE);
+      i32[li++] = (t << 16) | INFO_UNUSED;
+      i32[li++] = SCALE << SCALE_BITS;
       continue;
     }
     let st = 0, next = 0;
@@ -317,14 +411,14 @@ function readTables(bytes, pos, end, info, freq) {
       if (gap >= NSYM - next) fail(`table ${t} names a symbol beyond ${NSYM - 1}`);
       const s = next + gap;
       if (f === 0 || f > SCALE - st) fail(`table ${t} frequency ${f} invalid (sum must be ${SCALE})`);
-      const from = lut + st, to = from + f;
-      const v = t === T_MODE || t === T_ESC ? s : t === T_ROOT ? (SYM_INFO[s] & ~(15 << 9)) | (T_FIRST << 9) : SYM_INFO[s];
-      info.fill(v, from, to);
-      freq[(t << 9) | (v & 511)] = (f << SCALE_BITS) | st;
+      const v = t === T_MODE ? s : t === T_ROOT ? (SYM_INFO[s] & ~(15 << 9)) | (T_FIRST << 9) : SYM_INFO[s];
+      i32[li++] = (t << 16) | v;
+      i32[li++] = (f << SCALE_BITS) | st;
       st += f;
       next = s + 1;
     }
     if (st !== SCALE) fail(`table ${t} frequencies sum to ${st}, not ${SCALE}`);
   }
+  kernel.kern_tables(KERN_BASE, (li - list) >> 1);
   return pos;
 }

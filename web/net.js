@@ -2,8 +2,8 @@
 // strand frames, a silence watchdog, and reconnects with backoff after a lost connection.
 import { Backoff } from './backoff.js';
 
-export const SUBPROTOCOL = 'strandcast.v1';
-export const PROTOCOL_VERSION = 1;
+export const SUBPROTOCOL = 'strandcast.v2';
+export const PROTOCOL_VERSION = 2;
 // The server sends stats about once a second; a connection silent for this long is taken as
 // half-open (sleep, NAT drop) and reopened. Generous, as a loaded server may step slowly.
 const WATCHDOG_MS = 30000;

@@ -10,8 +10,8 @@
 
 /* The wire format is specified byte by byte in proto/CODEC.md. */
 #define CODEC_MAGIC "SCF1"
-#define CODEC_VERSION 1u
-#define CODEC_ID_STRAND 1u         /* the only codec of format version 1 */
+#define CODEC_VERSION 2u
+#define CODEC_ID_STRAND 1u         /* the only codec of format version 2 */
 #define CODEC_HEADER_SIZE 68u
 #define CODEC_FLAG_KEY 1u          /* keyframe: intra-coded, no reference */
 #define CODEC_DEFAULT_MAX_ERROR 1e-4f
@@ -67,6 +67,7 @@ typedef struct codec_encoder {
     uint16_t *syms;      /* entropy-coder symbols of this frame, table * 343 + symbol */
     uint32_t *counts;    /* their histogram (several copies, summed per frame) */
     struct codec_rans_sym *rsyms; /* per-frame encoding tables */
+    uint32_t *rfs;                /* the same tables' freq | start << 16 (codec_rans_sym_init) */
     uint8_t *bits;       /* raw bit stream of this frame */
     uint8_t *rans;       /* rANS output, written backwards from the end */
     int32_t *work;       /* per-group scratch */
@@ -78,11 +79,13 @@ typedef struct codec_encoder {
 typedef struct codec_decoder {
     bool key_valid;
     codec_frame_info key;  /* header of the held keyframe */
-    int32_t *key_q, *cur_q, *key_m; /* keyframe, this frame, keyframe moved by the frame's motion */
-    size_t cap;            /* int32 capacity of key_q, cur_q and key_m */
+    int32_t *key_g;        /* keyframe, in groups of 8 strands [vertex][axis][lane] */
+    int32_t *cur_q;        /* this frame, strand-major */
+    size_t cap;            /* int32 capacity of cur_q (key_g holds as many, rounded up to groups) */
     uint16_t *slots;       /* rANS slot -> symbol lookup, one 4096-entry table per context */
-    int32_t *res;          /* residuals of one strand */
-    uint32_t res_cap;      /* vertices res holds */
+    int32_t *res;          /* residuals of one group of 8 strands */
+    int32_t *key_m;        /* one group's reference: moved roots and moved segments (deltas) */
+    uint32_t res_cap;      /* vertices per strand res and key_m hold */
 } codec_decoder;
 
 /* Releases buf's memory and zeroes it. Safe on a zeroed buf. */

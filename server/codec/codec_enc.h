@@ -1,7 +1,7 @@
 /* codec: the encoder's kernels on groups of 8 strands held side by side (one strand per vector
- * lane): quantise, motion-compensate, estimate the mode costs, tokenise; each kernel has a
- * portable path and, when built with __AVX2__, a vector path that gives exactly the same
- * results. */
+ * lane; the same lanes as the format's rANS states): quantise, motion-compensate (the decoder
+ * uses this one too), estimate the mode costs, tokenise, emit; each kernel has a portable path
+ * and, when built with __AVX2__, a vector path that gives exactly the same results. */
 #ifndef CODEC_CODEC_ENC_H
 #define CODEC_CODEC_ENC_H
 
@@ -24,6 +24,7 @@ typedef struct codec_quant {
     double step, inv;
     float bound;
     float xlim; /* |x| up to this takes the fast path */
+    float xsafe; /* |x| up to this needs no float32 check (codec_quant_setup proves it) */
 } codec_quant;
 
 void codec_quant_setup(codec_quant *qz, float bound);
@@ -31,9 +32,10 @@ void codec_quant_setup(codec_quant *qz, float bound);
 /* The fast path for a group: src[l] holds the nv vertices (xyz) of lane l's strand, P gets the
  * lattice coordinates rounded half up (truncation of x / step + 2^27 + 1/2 in binary64). Returns the mask of lanes where a coordinate is out of
  * the fast range or its float32 reconstruction misses the bound (those lanes hold garbage; the
- * caller quantises them with codec_quant_careful). */
+ * caller quantises them with codec_quant_careful). next: NULL, or the 8 strands to prefetch
+ * meanwhile (the next group's). */
 uint32_t codec_quant_group(const codec_quant *qz, const float *const src[CODEC_GROUP], uint32_t nv, int32_t *P,
-                           bool portable);
+                           const float *const *next, bool portable);
 
 /* The careful path for lane l: per coordinate the nearest lattice point (half to even) whose
  * float32 reconstruction is within the bound, or its neighbour. Fails with CORE_EINVAL on the
@@ -46,8 +48,10 @@ core_status codec_quant_careful(const codec_quant *qz, const float *src, uint32_
  * root fails (then quantise the whole strand to learn it). */
 bool codec_quant_root(const codec_quant *qz, const float *src, int32_t q[3]);
 
-/* out = the rigid motion m applied to the group k (as codec_motion_apply), nv vertices. */
-void codec_motion_apply_group(const float m[12], const int32_t *k, int32_t *out, uint32_t nv, bool portable);
+/* The delta reference of the keyframe group k (nv vertices) under motion m: X[0] = the moved
+ * roots, X[v] = X[v-1] + S[v] (the moved segments), so that X's segments are the S of
+ * proto/CODEC.md. more: another group follows k (prefetched meanwhile). */
+void codec_motion_group(const codec_motion *m, const int32_t *k, int32_t *X, uint32_t nv, bool more, bool portable);
 
 /* Candidate residuals of vertex v >= 2 of a strand P against a reference X (the moved keyframe
  * in deltas, the previous strand or zeros in keyframes); dP, dX are segments (P[v] - P[v-1]):
@@ -69,20 +73,24 @@ void codec_motion_apply_group(const float m[12], const int32_t *k, int32_t *out,
 void codec_costs_group(const int32_t *P, const int32_t *X, uint32_t nv, uint32_t cost[CODEC_KINDS * CODEC_GROUP],
                        int32_t *cand, bool portable);
 
-/* Per-group token scratch (codec_tokens_group fills it, codec_emit_lane reads it). */
+/* Per-group token scratch (codec_tokens_group fills it, codec_emit_group reads it; an escaped
+ * vertex's residuals are taken again from the candidates). */
 typedef struct codec_tokens {
-    int32_t *R;      /* residuals of the chosen kinds, group layout */
-    uint32_t *pidx;  /* [k][lane]: symbols (table * CODEC_NSYM + classes) of vertices 2k (low 16 bits)
-                        and 2k + 1 (high 16 bits) */
-    uint32_t *pbits; /* [k][lane]: raw bits of vertices 2k, 2k+1 (valid where neither escapes) */
-    uint32_t *pnb;   /* [k][lane]: their length */
-    uint32_t *esc;   /* [c][lane]: bit v - 32c set when vertex v escapes */
+    const int32_t *cand;   /* the group's candidates (codec_costs_group) */
+    const uint32_t *kind;  /* [lane]: the residual kind */
+    const int32_t *root;   /* [axis][lane]: the root residuals */
+    uint16_t *sym;   /* [vertex][lane]: table * CODEC_NSYM + classes (may be where
+                        codec_emit_group puts them, after the group's modes: then not copied) */
+    uint64_t *pbits; /* [vertex][4]: raw bits of lanes 0-3 and 4-7, then their lengths (at most
+                        60 bits; valid where no lane of the vertex escapes) */
+    uint32_t *lane;  /* [vertex][lane]: the lane's raw bits | their length << 16 (valid where the
+                        lane's vertex does not escape) */
+    uint8_t *esc;    /* [vertex]: the lanes whose vertex escapes */
 } codec_tokens;
 
-/* Tokens of every lane of a group from its candidates: kind[l] is lane l's residual kind,
- * root[a * CODEC_GROUP + l] its root residuals. */
-void codec_tokens_group(const uint32_t kind[CODEC_GROUP], const int32_t *cand, const int32_t root[3 * CODEC_GROUP],
-                        uint32_t nv, const codec_tokens *t, bool portable);
+/* Tokens of every lane of the group t describes (nv vertices). Returns the lanes with an escape
+ * anywhere. */
+uint32_t codec_tokens_group(const codec_tokens *t, uint32_t nv, bool portable);
 
 /* Symbols, histogram and raw bits of one frame, in coding order. */
 typedef struct codec_emitter {
@@ -107,7 +115,7 @@ static inline void codec_put_le64(uint8_t *p, uint64_t v)
 #endif
 }
 
-/* Appends the nb (<= 32) low bits of v to the raw bit stream. */
+/* Appends the nb (<= 56) low bits of v to the raw bit stream. */
 static inline void codec_emit_bits(codec_emitter *e, uint64_t v, uint32_t nb)
 {
     uint64_t acc = e->acc | v << e->n;
@@ -127,8 +135,10 @@ static inline void codec_emit_symbol(codec_emitter *e, uint32_t t, uint32_t sym)
     e->counts[idx]++;
 }
 
-/* Emits the vertex symbols (with their escapes) and raw bits of lane l of a tokenised group. */
-void codec_emit_lane(codec_emitter *e, const codec_tokens *t, uint32_t l, uint32_t nv);
+/* Emits the symbols (modes, then vertex by vertex across the lanes) and raw bits of lanes
+ * 0..n-1 of a tokenised group; esc is codec_tokens_group's result. */
+void codec_emit_group(codec_emitter *e, const codec_tokens *t, const uint32_t mode[CODEC_GROUP], uint32_t n,
+                      uint32_t nv, uint32_t esc);
 
 /* Pads the raw bit stream to a whole byte; returns its end. */
 uint8_t *codec_emit_finish(codec_emitter *e);

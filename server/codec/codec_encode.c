@@ -6,9 +6,10 @@
 #include "codec_enc.h"
 
 _Static_assert(CODEC_NTABLES * CODEC_NSYM <= 65536, "symbols are packed as table * 343 + symbol in 16 bits");
+_Static_assert(CODEC_GROUP == CODEC_LANES, "a group's strands are the rANS lanes");
 
 /* Per-group scratch, in int32 units: P of this and the previous group, the reference X (moved
- * keyframe or previous strands), the chosen residuals, the candidates, then the tokens. */
+ * keyframe or previous strands), the candidates, then the tokens. */
 static size_t group_size(uint32_t nverts)
 {
     return (size_t)nverts * CODEC_GSTRIDE;
@@ -16,8 +17,8 @@ static size_t group_size(uint32_t nverts)
 
 static size_t work_size(uint32_t nverts)
 {
-    return 4u * group_size(nverts) + (size_t)nverts * CODEC_CSTRIDE +
-           (size_t)CODEC_GROUP * (3u * ((nverts + 1u) / 2u) + (nverts + 31u) / 32u);
+    return 3u * group_size(nverts) + (size_t)nverts * CODEC_CSTRIDE + (size_t)nverts * CODEC_GROUP * 3u +
+           (size_t)nverts;
 }
 
 void codec_encoder_free(codec_encoder *enc)
@@ -32,6 +33,7 @@ void codec_encoder_free(codec_encoder *enc)
     free(enc->bits);
     free(enc->rans);
     free(enc->rsyms);
+    free(enc->rfs);
     free(enc->work);
     memset(enc, 0, sizeof *enc);
 }
@@ -64,9 +66,9 @@ core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint3
     enc->step = codec_step_for_bound(d.max_error_m);
     enc->inv_step = 1.0 / enc->step;
     size_t nq = (size_t)enc->ngroups * group_size(nverts);
-    enc->nsyms_max = (size_t)sent * (1u + 4u * (size_t)nverts);
-    enc->bits_cap = (size_t)sent * nverts * 12u + 16u;
-    enc->rans_cap = enc->nsyms_max * 2u + 16u;
+    enc->nsyms_max = (size_t)sent * (1u + (size_t)nverts);
+    enc->bits_cap = (size_t)sent * nverts * 14u + 16u;
+    enc->rans_cap = enc->nsyms_max * 2u + 64u;
     enc->key_q = calloc(nq, sizeof *enc->key_q);
     enc->cur_q = calloc(nq, sizeof *enc->cur_q);
     enc->key_roots = calloc((size_t)sent * 3u, sizeof *enc->key_roots);
@@ -76,9 +78,10 @@ core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint3
     enc->bits = malloc(enc->bits_cap);
     enc->rans = malloc(enc->rans_cap);
     enc->rsyms = malloc((size_t)CODEC_HIST_SIZE * sizeof *enc->rsyms);
+    enc->rfs = malloc((size_t)CODEC_HIST_SIZE * sizeof *enc->rfs);
     enc->work = calloc(work_size(nverts), sizeof *enc->work);
     if (!enc->key_q || !enc->cur_q || !enc->key_roots || !enc->cur_roots || !enc->syms || !enc->counts ||
-        !enc->bits || !enc->rans || !enc->rsyms || !enc->work) {
+        !enc->bits || !enc->rans || !enc->rsyms || !enc->rfs || !enc->work) {
         codec_encoder_free(enc);
         return core_fail(err, CORE_ENOMEM, "codec: out of memory for %u x %u vertices", sent, nverts);
     }
@@ -92,18 +95,32 @@ static core_status quantize_strand(const codec_encoder *enc, const codec_quant *
 {
     const float *src = xyz + (size_t)j * enc->desc.stride * enc->nverts * 3u;
     const float *const srcs[CODEC_GROUP] = { src, src, src, src, src, src, src, src };
-    if (!(codec_quant_group(qz, srcs, enc->nverts, P, enc->portable) & 1u)) return CORE_OK;
+    if (!(codec_quant_group(qz, srcs, enc->nverts, P, NULL, enc->portable) & 1u)) return CORE_OK;
     return codec_quant_careful(qz, src, enc->nverts, P, 0, j * enc->desc.stride, err);
 }
 
-/* The roots of this frame into enc->cur_roots (for the motion estimate), as the group pass
- * will quantise them; on a bad coordinate, the first one in strand order fails. */
-static core_status quantize_roots(codec_encoder *enc, const codec_quant *qz, const float *xyz, core_err *err)
+/* How many strands ahead quantize_roots prefetches a root. */
+#define ROOT_AHEAD 16u
+
+/* The motion is estimated from at most about this many roots (every k-th strand). */
+#define ROOT_SAMPLES 1024u
+
+static uint32_t root_step(const codec_encoder *enc)
+{
+    return enc->nstrands_sent >= 2u * ROOT_SAMPLES ? enc->nstrands_sent / ROOT_SAMPLES : 1u;
+}
+
+/* The roots of every step-th strand of this frame into enc->cur_roots (for the motion
+ * estimate), as the group pass will quantise them; on a bad coordinate in one of them, the first
+ * one in strand order fails. */
+static core_status quantize_roots(codec_encoder *enc, const codec_quant *qz, const float *xyz, uint32_t step,
+                                  core_err *err)
 {
     int32_t *P = enc->work;
     const size_t per = (size_t)enc->desc.stride * enc->nverts * 3u;
-    for (uint32_t j = 0; j < enc->nstrands_sent; j++) {
+    for (uint32_t j = 0; j < enc->nstrands_sent; j += step) {
         int32_t *q = enc->cur_roots + 3u * j;
+        if (j + ROOT_AHEAD * step < enc->nstrands_sent) __builtin_prefetch(xyz + (j + ROOT_AHEAD * step) * per);
         if (codec_quant_root(qz, xyz + j * per, q)) continue;
         if (quantize_strand(enc, qz, xyz, j, P, err)) {
             for (uint32_t i = 0; i <= j; i++)
@@ -126,7 +143,11 @@ static core_status quantize_group(codec_encoder *enc, const codec_quant *qz, con
     const size_t per = (size_t)enc->desc.stride * nv * 3u;
     const float *src[CODEC_GROUP];
     for (uint32_t l = 0; l < CODEC_GROUP; l++) src[l] = xyz + ((size_t)g * CODEC_GROUP + (l < nreal ? l : nreal - 1u)) * per;
-    uint32_t bad = codec_quant_group(qz, src, nv, P, enc->portable);
+    const float *next[CODEC_GROUP]; /* the next group's strands, prefetched meanwhile */
+    const uint32_t ahead = g + 1u, left = ahead < enc->ngroups ? enc->nstrands_sent - ahead * CODEC_GROUP : 0;
+    for (uint32_t l = 0; l < CODEC_GROUP && left; l++)
+        next[l] = xyz + ((size_t)ahead * CODEC_GROUP + (l < left ? l : left - 1u)) * per;
+    uint32_t bad = codec_quant_group(qz, src, nv, P, left ? next : NULL, enc->portable);
     for (uint32_t l = 0; l < nreal; l++) {
         if (!(bad >> l & 1u)) continue;
         enc->careful++;
@@ -142,17 +163,18 @@ static core_status quantize_group(codec_encoder *enc, const codec_quant *qz, con
 /* Pass 1, group by group: quantise, build the reference, choose each strand's cheapest mode,
  * tokenise, emit the strands' symbols and raw bits in order. */
 static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const float *xyz, bool key,
-                            const float motion[12], codec_emitter *e, core_err *err)
+                            const codec_motion *motion, codec_emitter *e, core_err *err)
 {
     const uint32_t nv = enc->nverts;
     const bool portable = enc->portable;
     const size_t gs = group_size(nv);
     int32_t *const Pg[2] = { enc->work, enc->work + gs }, *const X = enc->work + 2u * gs;
-    int32_t *const cand = enc->work + 4u * gs;
+    int32_t *const cand = enc->work + 3u * gs;
     uint32_t *const tw = (uint32_t *)(void *)(cand + (size_t)nv * CODEC_CSTRIDE);
-    const size_t pairs = (size_t)(nv + 1u) / 2u * CODEC_GROUP;
-    const codec_tokens tok = { .R = enc->work + 3u * gs, .pidx = tw, .pbits = tw + pairs, .pnb = tw + 2u * pairs,
-                               .esc = tw + 3u * pairs };
+    const size_t nvl = (size_t)nv * CODEC_GROUP;
+    uint16_t *const symtmp = (uint16_t *)(void *)(tw + 2u * nvl); /* a partial group's symbols */
+    codec_tokens tok = { .cand = cand, .pbits = (uint64_t *)(void *)tw, .lane = tw + nvl,
+                         .esc = (uint8_t *)(void *)(tw + 2u * nvl + nvl / 2u) };
     int32_t kprev[3] = { 0, 0, 0 }; /* root of the previous strand in the moved keyframe */
     for (uint32_t g = 0; g < enc->ngroups; g++) {
         const uint32_t j0 = g * CODEC_GROUP, nreal = enc->nstrands_sent - j0 < CODEC_GROUP ? enc->nstrands_sent - j0 : CODEC_GROUP;
@@ -170,7 +192,7 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
                     memcpy(X + CODEC_GAT(v, a, 1), P + CODEC_GAT(v, a, 0), (CODEC_GROUP - 1u) * sizeof *X);
                 }
         } else {
-            codec_motion_apply_group(motion, enc->key_q + (size_t)g * gs, X, nv, portable);
+            codec_motion_group(motion, enc->key_q + (size_t)g * gs, X, nv, g + 1u < enc->ngroups, portable);
         }
         uint32_t cost[CODEC_KINDS * CODEC_GROUP], mode[CODEC_GROUP], kind[CODEC_GROUP];
         int32_t root[3 * CODEC_GROUP];
@@ -205,11 +227,12 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
             }
         }
         for (uint32_t a = 0; a < 3; a++) kprev[a] = X[CODEC_GAT(0, a, CODEC_GROUP - 1u)];
-        codec_tokens_group(kind, cand, root, nv, &tok, portable);
-        for (uint32_t l = 0; l < nreal; l++) {
-            codec_emit_symbol(e, CODEC_T_MODE, mode[l]);
-            codec_emit_lane(e, &tok, l, nv);
-        }
+        tok.kind = kind;
+        tok.root = root;
+        /* a full group's symbols go straight to their place in the frame, after its modes */
+        tok.sym = nreal == CODEC_GROUP ? e->syms + e->nsyms + CODEC_GROUP : symtmp;
+        uint32_t esc = codec_tokens_group(&tok, nv, portable);
+        codec_emit_group(e, &tok, mode, nreal, nv, esc);
     }
     return CORE_OK;
 }
@@ -228,18 +251,19 @@ core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, dou
     codec_quant_setup(&qz, enc->desc.max_error_m);
     enc->careful = 0;
 
-    float motion[12];
-    codec_motion_identity(motion);
+    codec_motion motion;
+    codec_motion_identity(&motion);
     core_status st;
     if (!key) {
-        st = quantize_roots(enc, &qz, xyz, err);
+        const uint32_t step = root_step(enc);
+        st = quantize_roots(enc, &qz, xyz, step, err);
         if (st) return st;
-        codec_motion_estimate(enc->key_roots, enc->cur_roots, enc->nstrands_sent, motion);
+        codec_motion_estimate(enc->key_roots, enc->cur_roots, enc->nstrands_sent, step, &motion);
     }
 
     memset(enc->counts, 0, (size_t)CODEC_HIST_COPIES * CODEC_HIST_SIZE * sizeof *enc->counts);
     codec_emitter e = { .syms = enc->syms, .nsyms = 0, .counts = enc->counts, .bits = enc->bits, .acc = 0, .n = 0 };
-    st = tokenize(enc, &qz, xyz, key, motion, &e, err);
+    st = tokenize(enc, &qz, xyz, key, &motion, &e, err);
     if (st) return st;
     size_t nbits_bytes = (size_t)(codec_emit_finish(&e) - enc->bits);
 
@@ -253,16 +277,19 @@ core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, dou
         nsym[t] = codec_rans_normalize(counts + t * CODEC_NSYM, CODEC_NSYM, freq[t]);
         uint32_t start = 0;
         for (uint32_t s = 0; s < nsym[t]; s++) {
-            if (freq[t][s]) codec_rans_sym_init(&rs[t * CODEC_NSYM + s], start, freq[t][s]);
+            if (freq[t][s]) codec_rans_sym_init(&rs[t * CODEC_NSYM + s], &enc->rfs[t * CODEC_NSYM + s], start, freq[t][s]);
             start += freq[t][s];
         }
     }
 
-    /* rANS, last symbol first; symbol i uses state i & 1. */
+    /* rANS, last symbol first; the symbols of lane l of a group use state l. */
     uint8_t *end = enc->rans + enc->rans_cap;
-    uint32_t x[2];
-    uint8_t *p = codec_rans_encode(e.syms, e.nsyms, rs, end, x);
-    for (int k = 1; k >= 0; k--) {
+    uint32_t x[CODEC_LANES];
+    const uint32_t tail_lanes = enc->nstrands_sent % CODEC_GROUP;
+    const size_t ntail = (size_t)tail_lanes * (1u + enc->nverts);
+    uint8_t *p = codec_rans_encode(e.syms, e.nsyms - ntail, ntail, tail_lanes, rs, enc->rfs, end, x,
+                                   enc->portable);
+    for (int k = CODEC_LANES - 1; k >= 0; k--) {
         p -= 4;
         codec_put_u32(p, x[k]);
     }
@@ -273,11 +300,7 @@ core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, dou
     if (st) return st;
     uint8_t *w = out->data + CODEC_HEADER_SIZE;
     if (!key) {
-        for (int k = 0; k < 12; k++) {
-            uint32_t u;
-            memcpy(&u, &motion[k], 4);
-            codec_put_u32(w + 4 * k, u);
-        }
+        codec_motion_write(w, &motion);
         w += CODEC_MOTION_BYTES;
     }
     for (uint32_t t = 0; t < CODEC_NTABLES; t++) w = codec_rans_write_table(w, freq[t], nsym[t]);

@@ -9,15 +9,18 @@
 
 #include "codec.h"
 
-/* rANS: 12-bit probabilities, byte-wise renormalisation, state in [2^23, 2^31), two states. */
+/* rANS: 12-bit probabilities, 16-bit renormalisation, states in [2^16, 2^32), one state per lane
+ * of a group of CODEC_LANES strands. */
 #define CODEC_SCALE_BITS 12u
 #define CODEC_SCALE (1u << CODEC_SCALE_BITS)
-#define CODEC_RANS_L (1u << 23)
+#define CODEC_RANS_L (1u << 16)
+#define CODEC_LANES 8u
+#define CODEC_RANS_HEAD (4u * CODEC_LANES) /* the initial states at the start of the stream */
 
 /* Residuals are coded per vertex: one rANS symbol holds the magnitude class of all three axes,
  * sym = c0 + 7 c1 + 49 c2, and raw bits give signs and the bits below the leading one.
  * Class of |r| = m: 0 for 0, c (1..5) for 2^(c-1) <= m < 2^c, 6 (escape) for m >= 32; an
- * escaped axis adds a symbol of table CODEC_T_ESC for floor(log2 m). */
+ * escaped axis has floor(log2 m) - 5 in CODEC_ESC_BITS raw bits (at most CODEC_ESC_MAX). */
 #define CODEC_NCLASS 7u
 #define CODEC_ESCAPE 6u
 #define CODEC_NSYM (CODEC_NCLASS * CODEC_NCLASS * CODEC_NCLASS)
@@ -32,9 +35,9 @@
 #define CODEC_T_ROOT 1u
 #define CODEC_T_FIRST 2u
 #define CODEC_T_BODY 3u
-#define CODEC_T_ESC (CODEC_T_BODY + CODEC_NBODY) /* e - 5 of an escaped axis (e = floor(log2 m)) */
-#define CODEC_NESC 25u                           /* e in 5..29 */
-#define CODEC_NTABLES (CODEC_T_ESC + 1u)
+#define CODEC_NTABLES (CODEC_T_BODY + CODEC_NBODY)
+#define CODEC_ESC_BITS 5u
+#define CODEC_ESC_MAX 24u /* e - 5 for e in 5..29 */
 
 static inline uint32_t codec_class(uint32_t m)
 {
@@ -62,46 +65,6 @@ static inline int32_t codec_half(int32_t d)
 static inline int32_t codec_smooth(const int32_t *P, uint32_t i)
 {
     return P[i - 3u] + codec_half(P[i - 3u] - P[i - 9u]);
-}
-
-/* Predicted lattice coordinate of vertex v (>= 1), axis a, of the current strand.
- * P: this strand so far (this frame); K: the same strand in the motion-compensated keyframe
- * (deltas only);
- * N: the previous strand sent, this frame (NULL for the first strand).
- * All inputs are below CODEC_MAX_QUANT in magnitude, so no sum overflows. */
-static inline int32_t codec_predict(bool key, uint32_t mode, const int32_t *P, const int32_t *K,
-                                    const int32_t *N, uint32_t v, uint32_t a)
-{
-    uint32_t i = 3u * v + a, p = i - 3u, pp = i - 6u;
-    if (key) {
-        if (mode == 1u && N) return P[p] + N[i] - N[p];
-        if (v == 1u) return N ? P[p] + N[i] - N[p] : P[p];
-        if (mode == 2u && v >= 3u) return codec_smooth(P, i);
-        return 2 * P[p] - P[pp];
-    }
-    switch (mode) {
-    case 1u:
-        if (v == 1u) break;
-        return P[p] + K[i] - K[p] + (P[p] - K[p]) - (P[pp] - K[pp]);
-    case 2u:
-        if (v == 1u) break;
-        return 2 * P[p] - P[pp];
-    case 3u:
-        if (v == 1u) break;
-        if (v == 2u) return 2 * P[p] - P[pp];
-        return codec_smooth(P, i);
-    default:
-        break;
-    }
-    return P[p] + K[i] - K[p];
-}
-
-/* Predicted root coordinate (axis a) of the current strand. */
-static inline int32_t codec_predict_root(bool key, const int32_t *K, const int32_t *N,
-                                         const int32_t *KN, uint32_t a)
-{
-    if (key) return N ? N[a] : 0;
-    return K[a] + (N ? N[a] - KN[a] : 0);
 }
 
 /* Header layout helpers (little-endian). */
@@ -140,22 +103,52 @@ static inline uint64_t codec_get_u64(const uint8_t *p)
 #define CODEC_OFF_PAYLOAD 60u
 #define CODEC_OFF_CRC 64u
 
-/* Delta frames start their payload with a rigid motion in lattice units: 12 f32, the rotation
- * row-major then the translation; the decoder predicts from the keyframe moved by it. */
+/* Delta frames start their payload with a rigid motion in lattice units: nine i16 rotation
+ * entries (2^-14 units, row-major), two zero bytes, three i32 translations, 16 zero bytes. */
 #define CODEC_MOTION_BYTES 48u
+#define CODEC_RHO_ONE 16384          /* 1.0 in rotation units; also the largest |rho| */
+#define CODEC_T_MAX (1 << 28)        /* the largest |t| */
+#define CODEC_SEG_MAX 32767          /* keyframe segments are clamped to this before rotation */
 
-void codec_motion_identity(float m[12]);
+typedef struct codec_motion {
+    int32_t rho[9]; /* rotation, row-major, units of 2^-14, each in [-16384, 16384] */
+    int32_t t[3];   /* translation, lattice units, each in [-2^28, 2^28] */
+} codec_motion;
 
-/* True when every rotation entry is within [-2, 2] and the translation within 2^28. */
-bool codec_motion_valid(const float m[12]);
+void codec_motion_identity(codec_motion *m);
+
+/* The 48 bytes of m at p (m must be in range). */
+void codec_motion_write(uint8_t *p, const codec_motion *m);
+
+/* Parses the 48 bytes at p; false when an entry is out of range or the padding is not zero. */
+bool codec_motion_read(const uint8_t *p, codec_motion *m);
 
 /* Least-squares rigid motion taking the keyframe's roots to this frame's (lattice units, root j
- * at key[3 j .. 3 j + 2], cur[3 j .. 3 j + 2]); identity when it cannot be estimated. */
-void codec_motion_estimate(const int32_t *key, const int32_t *cur, uint32_t nstrands, float m[12]);
+ * at key[3 j .. 3 j + 2], cur[3 j .. 3 j + 2]; the roots j = 0, step, 2 step, ... below
+ * nstrands), quantised; identity when it cannot be estimated. */
+void codec_motion_estimate(const int32_t *key, const int32_t *cur, uint32_t nstrands, uint32_t step, codec_motion *m);
 
-/* out = round(R k + t) per vertex (binary64, exactly as proto/CODEC.md; clamped to the lattice
- * range). m must be codec_motion_valid. */
-void codec_motion_apply(const float m[12], const int32_t *k, int32_t *out, size_t nverts);
+/* Axis a of the moved root of a strand whose keyframe root is k (exact; proto/CODEC.md). */
+static inline int32_t codec_moved_root(const codec_motion *m, const int32_t k[3], uint32_t a)
+{
+    const int32_t *r = m->rho + 3u * a;
+    int64_t s = (int64_t)r[0] * k[0] + (int64_t)r[1] * k[1] + (int64_t)r[2] * k[2] + 8192;
+    int64_t w = (s >> 14) + m->t[a];
+    const int64_t lim = CODEC_MAX_QUANT - 1;
+    return (int32_t)(w < -lim ? -lim : w > lim ? lim : w);
+}
+
+static inline int32_t codec_clamp15(int32_t d)
+{
+    return d < -CODEC_SEG_MAX ? -CODEC_SEG_MAX : d > CODEC_SEG_MAX ? CODEC_SEG_MAX : d;
+}
+
+/* Axis a of the moved segment of the (clamped) keyframe segment d (proto/CODEC.md). */
+static inline int32_t codec_moved_seg(const codec_motion *m, const int32_t d[3], uint32_t a)
+{
+    const int32_t *r = m->rho + 3u * a;
+    return (r[0] * d[0] + r[1] * d[1] + r[2] * d[2] + 8192) >> 14;
+}
 
 /* Quantization step for a bound: 2 * bound * (1 - 2^-5), leaving room for float32 rounding. */
 double codec_step_for_bound(float max_error_m);

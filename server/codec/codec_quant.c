@@ -16,6 +16,12 @@ void codec_quant_setup(codec_quant *qz, float bound)
     qz->inv = 1.0 / qz->step;
     qz->bound = bound;
     qz->xlim = (float)((double)(CODEC_MAX_QUANT - 4) * qz->step);
+    /* For |x| <= xsafe = 2^18 bound the fast path's q = floor(x / step + 1/2) always passes the
+     * float32 check, so the check is skipped there: x / step and the shifted sum are each rounded
+     * by at most 2^-26 (units of step), so |q step - x| <= step (1/2 + 2^-25) < bound (1 - 2^-5 + 2^-25);
+     * rounding q step to binary64, then to binary32, adds at most (2^-24 + 2^-53) (|x| + step)
+     * < bound (2^-6 + 2^-22); the sum stays below bound. */
+    qz->xsafe = (float)ldexp((double)bound, 18);
 }
 
 /* One coordinate on the fast path: truncation of a shifted positive value, i.e. floor(t + 1/2);
@@ -25,7 +31,7 @@ static inline bool fast_one(const codec_quant *qz, float x, int32_t *q)
     if (!(fabsf(x) <= qz->xlim)) return false;
     int32_t v = (int32_t)((double)x * qz->inv + (SHIFT + 0.5)) - 2 * CODEC_MAX_QUANT;
     *q = v;
-    return !(fabsf((float)((double)v * qz->step) - x) > qz->bound);
+    return fabsf(x) <= qz->xsafe || !(fabsf((float)((double)v * qz->step) - x) > qz->bound);
 }
 
 static uint32_t group_portable(const codec_quant *qz, const float *const src[CODEC_GROUP], uint32_t nv, int32_t *P)
@@ -44,7 +50,7 @@ static uint32_t group_portable(const codec_quant *qz, const float *const src[COD
 /* Constants of the vector path. */
 typedef struct quant8 {
     __m256d inv, step, shift, two_max;
-    __m256 absmask, xlim, bound;
+    __m256 absmask, xlim, bound, xsafe;
 } quant8;
 
 /* 4 coordinates: the lattice values of fast_one (floor of the shifted value, then the shift
@@ -70,6 +76,17 @@ static inline __m256i fast8(const quant8 *k, __m256 x, __m256 *bad)
     return _mm256_set_m128i(qhi, qlo);
 }
 
+/* 8 coordinates without the float32 check: the lattice values (the same as fast4's), lanes
+ * beyond xsafe (or NaN) set in the mask. */
+static inline __m256i quick8(const quant8 *k, __m256 x, __m256 *big)
+{
+    const __m256d off = _mm256_set1_pd(SHIFT + 0.5);
+    __m128i lo = _mm256_cvttpd_epi32(_mm256_add_pd(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(x)), k->inv), off));
+    __m128i hi = _mm256_cvttpd_epi32(_mm256_add_pd(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(x, 1)), k->inv), off));
+    *big = _mm256_or_ps(*big, _mm256_cmp_ps(_mm256_and_ps(x, k->absmask), k->xsafe, _CMP_NLE_UQ));
+    return _mm256_sub_epi32(_mm256_set_m128i(hi, lo), _mm256_set1_epi32(2 * CODEC_MAX_QUANT));
+}
+
 /* Four floats at p of strands l (low half) and l + 4 (high half). */
 static inline __m256 load2(const float *lo, const float *hi)
 {
@@ -78,17 +95,17 @@ static inline __m256 load2(const float *lo, const float *hi)
 
 /* Per vertex one 4-float load per strand (x y z of the vertex and the next x; the last vertex
  * loads from one float earlier) and a 4 x 4 transposition in each half. */
-static uint32_t group_avx2(const codec_quant *qz, const float *const src[CODEC_GROUP], uint32_t nv, int32_t *P)
+static inline __attribute__((always_inline)) uint32_t group_avx2(const quant8 *kp, const float *const src[CODEC_GROUP],
+                                                                  uint32_t nv, int32_t *P, const bool check,
+                                                                  const float *const *next)
 {
-    const quant8 k = {
-        .inv = _mm256_set1_pd(qz->inv), .step = _mm256_set1_pd(qz->step), .shift = _mm256_set1_pd(SHIFT + 0.5),
-        .two_max = _mm256_set1_pd(SHIFT), .absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff)),
-        .xlim = _mm256_set1_ps(qz->xlim), .bound = _mm256_set1_ps(qz->bound),
-    };
+    const quant8 k = *kp;
     const float *s0 = src[0], *s1 = src[1], *s2 = src[2], *s3 = src[3], *s4 = src[4], *s5 = src[5], *s6 = src[6],
                 *s7 = src[7];
     __m256 bad = _mm256_setzero_ps();
     for (uint32_t v = 0; v < nv; v++) {
+        if (next && (12u * v & 63u) < 12u) /* the next group's strands, a cache line at a time */
+            for (uint32_t l = 0; l < CODEC_GROUP; l++) __builtin_prefetch(next[l] + 3u * v);
         /* the last vertex: read x y z ending at its z (element 1..3) */
         const size_t o = 3u * (size_t)v - (v + 1u == nv);
         __m256 r0 = load2(s0 + o, s4 + o), r1 = load2(s1 + o, s5 + o), r2 = load2(s2 + o, s6 + o),
@@ -104,21 +121,42 @@ static uint32_t group_avx2(const codec_quant *qz, const float *const src[CODEC_G
             z = e3;
         }
         int32_t *q = P + (size_t)v * CODEC_GSTRIDE;
-        _mm256_storeu_si256((__m256i *)(void *)q, fast8(&k, x, &bad));
-        _mm256_storeu_si256((__m256i *)(void *)(q + CODEC_GROUP), fast8(&k, y, &bad));
-        _mm256_storeu_si256((__m256i *)(void *)(q + 2u * CODEC_GROUP), fast8(&k, z, &bad));
+        if (check) {
+            _mm256_storeu_si256((__m256i *)(void *)q, fast8(&k, x, &bad));
+            _mm256_storeu_si256((__m256i *)(void *)(q + CODEC_GROUP), fast8(&k, y, &bad));
+            _mm256_storeu_si256((__m256i *)(void *)(q + 2u * CODEC_GROUP), fast8(&k, z, &bad));
+        } else {
+            _mm256_storeu_si256((__m256i *)(void *)q, quick8(&k, x, &bad));
+            _mm256_storeu_si256((__m256i *)(void *)(q + CODEC_GROUP), quick8(&k, y, &bad));
+            _mm256_storeu_si256((__m256i *)(void *)(q + 2u * CODEC_GROUP), quick8(&k, z, &bad));
+        }
     }
     return (uint32_t)_mm256_movemask_ps(bad);
+}
+
+/* Without the float32 check while every coordinate is within xsafe (the common case), else
+ * again with it. */
+static uint32_t group_avx2_any(const codec_quant *qz, const float *const src[CODEC_GROUP], uint32_t nv, int32_t *P,
+                               const float *const *next)
+{
+    const quant8 k = {
+        .inv = _mm256_set1_pd(qz->inv), .step = _mm256_set1_pd(qz->step), .shift = _mm256_set1_pd(SHIFT + 0.5),
+        .two_max = _mm256_set1_pd(SHIFT), .absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff)),
+        .xlim = _mm256_set1_ps(qz->xlim), .bound = _mm256_set1_ps(qz->bound), .xsafe = _mm256_set1_ps(qz->xsafe),
+    };
+    if (!group_avx2(&k, src, nv, P, false, next)) return 0;
+    return group_avx2(&k, src, nv, P, true, NULL);
 }
 #endif
 
 uint32_t codec_quant_group(const codec_quant *qz, const float *const src[CODEC_GROUP], uint32_t nv, int32_t *P,
-                           bool portable)
+                           const float *const *next, bool portable)
 {
 #ifdef __AVX2__
-    if (!portable) return group_avx2(qz, src, nv, P);
+    if (!portable) return group_avx2_any(qz, src, nv, P, next);
 #endif
     (void)portable;
+    (void)next;
     return group_portable(qz, src, nv, P);
 }
 

@@ -1,6 +1,10 @@
 /* codec: rANS frequency tables (normalise, serialise, parse) and encoder symbol setup. */
 #include <string.h>
 
+#ifdef __AVX2__
+#include <immintrin.h>
+#endif
+
 #include "codec_rans.h"
 
 uint32_t codec_rans_normalize(const uint32_t *counts, uint32_t n, uint16_t *freq)
@@ -41,22 +45,15 @@ uint32_t codec_rans_normalize(const uint32_t *counts, uint32_t n, uint16_t *freq
     return used;
 }
 
-void codec_rans_sym_init(codec_rans_sym *s, uint32_t start, uint32_t freq)
+void codec_rans_sym_init(codec_rans_sym *s, uint32_t *fs, uint32_t start, uint32_t freq)
 {
-    s->x_max = ((CODEC_RANS_L >> CODEC_SCALE_BITS) << 8) * freq;
-    s->cmpl_freq = (uint16_t)(CODEC_SCALE - freq);
-    if (freq < 2) {
-        /* x / 1 == x: q = x - 1 via the all-ones reciprocal, the bias adds the rest back */
-        s->rcp_freq = ~0u;
-        s->rcp_shift = 32;
-        s->bias = start + CODEC_SCALE - 1u;
-    } else {
-        uint32_t shift = 0;
-        while (freq > (1u << shift)) shift++;
-        s->rcp_freq = (uint32_t)(((1ull << (shift + 31u)) + freq - 1u) / freq);
-        s->rcp_shift = (uint16_t)(shift + 31u);
-        s->bias = start;
-    }
+    /* x < freq 2^20 and rcp = ceil(2^44 / freq): x rcp / 2^44 - x / freq < x / 2^44 <= 1/freq
+     * less the fraction of x / freq, so the floor is exact (freq = 4096 needs no quotient) */
+    s->freq = freq;
+    s->bias = start;
+    s->cmpl_freq = CODEC_SCALE - freq;
+    s->rcp = freq < CODEC_SCALE ? ((1ull << 44) + freq - 1u) / freq : 0;
+    *fs = freq | start << 16;
 }
 
 static uint8_t *put_varint(uint8_t *p, uint32_t v)
@@ -141,41 +138,146 @@ core_status codec_rans_read_tables(const uint8_t *data, size_t len, size_t *pos,
     return CORE_OK;
 }
 
-/* One symbol into state x, without branches: at most two renormalisation bytes (x < 2^31 and
- * x_max >= 2^19), both stored, the pointer moved by their count; the state's chain is two
- * selects, two multiplications and an addition. */
-static inline uint32_t put(uint32_t x, uint8_t **pp, const codec_rans_sym *s)
+/* floor(x / freq) for x < freq * 2^20 (codec_rans_sym_init); exact. */
+static inline uint32_t quot(uint32_t x, const codec_rans_sym *s)
 {
-    const uint32_t xm = s->x_max, x1 = x >> 8, x2 = x >> 16;
-    uint32_t v = x >= xm ? x1 : x;
-    v = x1 >= xm ? x2 : v;
-    uint8_t *p = *pp;
-    const uint16_t w = (uint16_t)((x & 0xffu) << 8 | (x1 & 0xffu)); /* p[-2] = x1, p[-1] = x (low bytes) */
-#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
-    memcpy(p - 2, &w, 2);
+#ifdef __SIZEOF_INT128__
+    return (uint32_t)((unsigned __int128)x * s->rcp >> 44);
 #else
-    p[-2] = (uint8_t)w;
-    p[-1] = (uint8_t)(w >> 8);
+    return x / s->freq;
 #endif
-    *pp = p - ((uint32_t)(x >= xm) + (uint32_t)(x1 >= xm));
-    uint32_t q = (uint32_t)(((uint64_t)v * s->rcp_freq) >> s->rcp_shift);
-    return v + s->bias + q * s->cmpl_freq;
 }
 
-uint8_t *codec_rans_encode(const uint16_t *syms, size_t n, const codec_rans_sym *rs, uint8_t *end, uint32_t x[2])
+/* One symbol into state x without branches: the low word is always stored, the pointer moves
+ * when it is emitted. */
+static inline __attribute__((always_inline)) uint32_t put(uint32_t x, uint8_t **pp, const codec_rans_sym *s)
+{
+    const uint32_t emit = (x >> 20) >= s->freq;
+    uint8_t *p = *pp - 2;
+    codec_put_u16(p, x & 0xffffu);
+    *pp = p + 2u * (1u - emit);
+    x = emit ? x >> 16 : x;
+    return x + s->bias + quot(x, s) * s->cmpl_freq;
+}
+
+#if defined(__AVX2__) && defined(__FMA__)
+/* For each mask of emitting lanes: the byte shuffle that moves their words (ascending lanes) to
+ * the top of 16 bytes (0x80: zero). */
+typedef struct compact_lut {
+    uint8_t b[256][16];
+} compact_lut;
+
+static void compact_init(compact_lut *t)
+{
+    for (uint32_t m = 0; m < 256; m++) {
+        uint32_t c = (uint32_t)__builtin_popcount(m), k = 0;
+        memset(t->b[m], 0x80, 16);
+        for (uint32_t l = 0; l < 8; l++)
+            if (m >> l & 1u) {
+                t->b[m][16u - 2u * c + 2u * k] = (uint8_t)(2u * l);
+                t->b[m][16u - 2u * c + 2u * k + 1u] = (uint8_t)(2u * l + 1u);
+                k++;
+            }
+    }
+}
+
+/* u32 lanes (4) of v as binary64, and back (values below 2^32). */
+static inline __m256d u32_to_pd(__m128i v)
+{
+    return _mm256_add_pd(_mm256_cvtepi32_pd(_mm_xor_si128(v, _mm_set1_epi32(INT32_MIN))), _mm256_set1_pd(2147483648.0));
+}
+
+static inline __m128i pd_to_u32(__m256d v)
+{
+    return _mm_xor_si128(_mm256_cvttpd_epi32(_mm256_sub_pd(v, _mm256_set1_pd(2147483648.0))), _mm_set1_epi32(INT32_MIN));
+}
+
+/* One half (4 lanes) of a block on states held in binary64 (every value an integer below 2^33,
+ * so exact): emit where x >= freq 2^20 (the word is x - 2^16 h, h = floor(x / 2^16)), x' = h
+ * there, else x; then x' + start + floor(x' / freq) (4096 - freq). The quotient comes straight
+ * from x, as floor(x c + 2^-30) with c = 1 / freq, or 2^-16 / freq where the lane emits
+ * (floor(h / freq) = floor(x / (2^16 freq))): the quotient is below 2^20 and its fraction is 0
+ * or at least 2^-28 from the next integer, and the roundings of c and of the fused sum move it
+ * by less than 2^-32, so adding 2^-30 keeps the floor. */
+static inline __attribute__((always_inline)) __m256d half_step(__m256d x, __m128i fs, __m256d rcp, __m128i *word,
+                                                                uint32_t *emit)
+{
+    const __m256d f = _mm256_cvtepi32_pd(_mm_and_si128(fs, _mm_set1_epi32(0xffff)));
+    const __m256d start = _mm256_cvtepi32_pd(_mm_srli_epi32(fs, 16));
+    const __m256d hi = _mm256_round_pd(_mm256_mul_pd(x, _mm256_set1_pd(1.0 / 65536.0)), _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    const __m256d e = _mm256_cmp_pd(x, _mm256_mul_pd(f, _mm256_set1_pd(1048576.0)), _CMP_GE_OQ);
+    *word = _mm256_cvttpd_epi32(_mm256_fnmadd_pd(hi, _mm256_set1_pd(65536.0), x));
+    *emit = (uint32_t)_mm256_movemask_pd(e);
+    const __m256d c = _mm256_blendv_pd(rcp, _mm256_mul_pd(rcp, _mm256_set1_pd(1.0 / 65536.0)), e);
+    const __m256d q = _mm256_round_pd(_mm256_fmadd_pd(x, c, _mm256_set1_pd(1.0 / 1073741824.0)),
+                                      _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    return _mm256_fmadd_pd(q, _mm256_sub_pd(_mm256_set1_pd((double)CODEC_SCALE), f),
+                           _mm256_add_pd(_mm256_blendv_pd(x, hi, e), start));
+}
+
+/* Blocks of 8 symbols (lanes 0..7), last first, the 8 states as two vectors of 4 binary64
+ * (two independent chains): gathered frequency and start, the reciprocal divided off the
+ * chain, the emitting lanes' words compacted and stored at once. The same words and states as
+ * put(). */
+static uint8_t *encode_avx2(const uint16_t *syms, size_t nfull, const uint32_t *fsv, uint8_t *p,
+                            uint32_t x[CODEC_LANES])
+{
+    compact_lut lut; /* 4 KB, built per frame (about a microsecond) */
+    compact_init(&lut);
+    const int *fsbase = (const int *)(const void *)fsv;
+    const __m128i lo16 = _mm_set1_epi32(0xffff);
+    const __m256d one = _mm256_set1_pd(1.0);
+    __m256d x0 = u32_to_pd(_mm_loadu_si128((const __m128i *)(const void *)x));
+    __m256d x1 = u32_to_pd(_mm_loadu_si128((const __m128i *)(const void *)(x + 4)));
+    for (size_t i = nfull; i >= CODEC_LANES; i -= CODEC_LANES) {
+        const __m128i raw = _mm_loadu_si128((const __m128i *)(const void *)(syms + i - CODEC_LANES));
+        const __m128i i0 = _mm_cvtepu16_epi32(raw), i1 = _mm_cvtepu16_epi32(_mm_srli_si128(raw, 8));
+        const __m256i fs = _mm256_i32gather_epi32(fsbase, _mm256_set_m128i(i1, i0), 4);
+        const __m128i fs0 = _mm256_castsi256_si128(fs), fs1 = _mm256_extracti128_si256(fs, 1);
+        const __m256d r0 = _mm256_div_pd(one, _mm256_cvtepi32_pd(_mm_and_si128(fs0, lo16)));
+        const __m256d r1 = _mm256_div_pd(one, _mm256_cvtepi32_pd(_mm_and_si128(fs1, lo16)));
+        __m128i w0, w1;
+        uint32_t e0, e1;
+        x0 = half_step(x0, fs0, r0, &w0, &e0);
+        x1 = half_step(x1, fs1, r1, &w1, &e1);
+        const uint32_t m = e0 | e1 << 4;
+        _mm_storeu_si128((__m128i *)(void *)(p - 16), _mm_shuffle_epi8(_mm_packus_epi32(w0, w1),
+                                                                         _mm_loadu_si128((const __m128i *)(const void *)lut.b[m])));
+        p -= 2u * (uint32_t)__builtin_popcount(m); /* the bytes below the words are written again later */
+    }
+    _mm_storeu_si128((__m128i *)(void *)x, pd_to_u32(x0));
+    _mm_storeu_si128((__m128i *)(void *)(x + 4), pd_to_u32(x1));
+    return p;
+}
+#endif
+
+uint8_t *codec_rans_encode(const uint16_t *syms, size_t nfull, size_t ntail, uint32_t tail_lanes,
+                           const codec_rans_sym *rs, const uint32_t *fs, uint8_t *end, uint32_t x[CODEC_LANES],
+                           bool portable)
 {
     uint8_t *p = end;
-    uint32_t x0 = CODEC_RANS_L, x1 = CODEC_RANS_L;
-    size_t i = n;
-    if (i & 1u) {
-        i--;
-        x0 = put(x0, &p, &rs[syms[i]]);
+    for (uint32_t l = 0; l < CODEC_LANES; l++) x[l] = CODEC_RANS_L;
+    for (size_t i = ntail; i-- > 0;) {
+        const uint32_t l = (uint32_t)(i % tail_lanes);
+        x[l] = put(x[l], &p, &rs[syms[nfull + i]]);
     }
-    for (; i >= 2; i -= 2) {
-        x1 = put(x1, &p, &rs[syms[i - 1]]);
-        x0 = put(x0, &p, &rs[syms[i - 2]]);
+#if defined(__AVX2__) && defined(__FMA__)
+    if (!portable) return encode_avx2(syms, nfull, fs, p, x);
+#endif
+    (void)portable;
+    (void)fs;
+    uint32_t x0 = x[0], x1 = x[1], x2 = x[2], x3 = x[3], x4 = x[4], x5 = x[5], x6 = x[6], x7 = x[7];
+    for (size_t i = nfull; i >= CODEC_LANES; i -= CODEC_LANES) {
+        const uint16_t *s = syms + i - CODEC_LANES;
+        x7 = put(x7, &p, &rs[s[7]]);
+        x6 = put(x6, &p, &rs[s[6]]);
+        x5 = put(x5, &p, &rs[s[5]]);
+        x4 = put(x4, &p, &rs[s[4]]);
+        x3 = put(x3, &p, &rs[s[3]]);
+        x2 = put(x2, &p, &rs[s[2]]);
+        x1 = put(x1, &p, &rs[s[1]]);
+        x0 = put(x0, &p, &rs[s[0]]);
     }
-    x[0] = x0;
-    x[1] = x1;
+    x[0] = x0, x[1] = x1, x[2] = x2, x[3] = x3, x[4] = x4, x[5] = x5, x[6] = x6, x[7] = x7;
     return p;
 }

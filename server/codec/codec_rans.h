@@ -1,18 +1,18 @@
-/* codec: two-state byte-wise rANS with per-frame static tables, plus the raw bit stream. */
+/* codec: eight-state rANS with 16-bit renormalisation and per-frame static tables. */
 #ifndef CODEC_CODEC_RANS_H
 #define CODEC_CODEC_RANS_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "codec_internal.h"
 
 /* One symbol of one table, prepared for division-free encoding. */
 typedef struct codec_rans_sym {
-    uint32_t x_max;     /* renormalise while the state is at or above this */
-    uint32_t rcp_freq;  /* fixed-point reciprocal of freq */
-    uint32_t bias;
-    uint16_t cmpl_freq; /* SCALE - freq */
-    uint16_t rcp_shift; /* q = x * rcp_freq >> rcp_shift = floor(x / freq) */
+    uint64_t rcp;       /* floor(x / freq) = x * rcp >> 44 for every state x < freq * 2^20 */
+    uint32_t freq;      /* renormalise when x >> 20 >= freq */
+    uint32_t bias;      /* start */
+    uint32_t cmpl_freq; /* SCALE - freq */
 } codec_rans_sym;
 
 /* Decoder side of all tables of a frame. */
@@ -26,8 +26,9 @@ typedef struct codec_rans_tables {
  * Returns the used alphabet size (last nonzero + 1; 0 when all counts are zero). */
 uint32_t codec_rans_normalize(const uint32_t *counts, uint32_t n, uint16_t *freq);
 
-/* Prepares symbol (start, freq) for encoding. */
-void codec_rans_sym_init(codec_rans_sym *s, uint32_t start, uint32_t freq);
+/* Prepares symbol (start, freq) for encoding; *fs gets freq | start << 16 (the vector path
+ * gathers it from an array of these, 4 bytes per symbol). */
+void codec_rans_sym_init(codec_rans_sym *s, uint32_t *fs, uint32_t start, uint32_t freq);
 
 /* Appends a table's description at *p (LEB128: the count of used symbols, then for each the
  * gap from the previous used symbol and its frequency); returns the new end. The caller
@@ -39,9 +40,14 @@ uint8_t *codec_rans_write_table(uint8_t *p, const uint16_t *freq, uint32_t nsym)
 core_status codec_rans_read_tables(const uint8_t *data, size_t len, size_t *pos, codec_rans_tables *tabs,
                                    uint16_t *slots, core_err *err);
 
-/* Encodes syms[0..n) (indices table * CODEC_NSYM + symbol into rs) last first, symbol i with
- * state x[i & 1] (both start at CODEC_RANS_L), writing bytes downwards ending at end; returns
- * the first byte. The buffer needs 2 * n + 2 bytes below end. */
-uint8_t *codec_rans_encode(const uint16_t *syms, size_t n, const codec_rans_sym *rs, uint8_t *end, uint32_t x[2]);
+/* Encodes the symbols of a frame (indices table * CODEC_NSYM + symbol into rs) last first:
+ * syms[0..nfull) have lane i % CODEC_LANES, the ntail after them lane (i - nfull) % tail_lanes
+ * (nfull a multiple of CODEC_LANES; tail_lanes >= 1 when ntail > 0). The states start at
+ * CODEC_RANS_L; 16-bit words go downwards ending at end. Returns the first word; x gets the
+ * final states. The buffer needs 2 * (nfull + ntail) + 16 bytes below end. The AVX2 path (unless
+ * portable) gives the same words and states; it reads fs (codec_rans_sym_init) instead of rs. */
+uint8_t *codec_rans_encode(const uint16_t *syms, size_t nfull, size_t ntail, uint32_t tail_lanes,
+                           const codec_rans_sym *rs, const uint32_t *fs, uint8_t *end, uint32_t x[CODEC_LANES],
+                           bool portable);
 
 #endif

@@ -1,5 +1,5 @@
 /* codec: a group's residuals into vertex symbols (magnitude classes) and raw bits, and their
- * emission strand by strand with escapes and the symbol histogram. */
+ * emission vertex by vertex across the lanes, with escapes and the symbol histogram. */
 #include "codec_simd.h"
 
 static inline uint32_t mag(int32_t r)
@@ -22,46 +22,47 @@ static inline uint32_t class_of(uint32_t m)
 }
 
 /* The vector path's loop with the 8 lanes as an inner loop. */
-static void tokens_portable(const uint32_t kind[CODEC_GROUP], const int32_t *cand, const int32_t root[3 * CODEC_GROUP],
-                            uint32_t nv, const codec_tokens *t)
+/* Residual of vertex v, axis a, lane l: the root's, else the candidate of the lane's kind. */
+static inline int32_t resid(const codec_tokens *t, uint32_t v, uint32_t a, uint32_t l)
 {
-    uint32_t base[CODEC_GROUP], pb[CODEC_GROUP], pn[CODEC_GROUP], pi[CODEC_GROUP], esc[CODEC_GROUP];
+    return v ? t->cand[CODEC_CAT(v, a, t->kind[l], l)] : t->root[a * CODEC_GROUP + l];
+}
+
+static uint32_t tokens_portable(const codec_tokens *t, uint32_t nv)
+{
+    uint32_t base[CODEC_GROUP], any = 0;
     for (uint32_t l = 0; l < CODEC_GROUP; l++) base[l] = CODEC_T_ROOT * CODEC_NSYM;
     for (uint32_t v = 0; v < nv; v++) {
-        if (v % 32u == 0)
-            for (uint32_t l = 0; l < CODEC_GROUP; l++) esc[l] = 0;
+        uint32_t bits[CODEC_GROUP], nb[CODEC_GROUP], esc = 0;
         for (uint32_t l = 0; l < CODEC_GROUP; l++) {
             uint32_t c[3], f[3], mx = 0;
             for (uint32_t a = 0; a < 3; a++) {
-                int32_t r = v ? cand[CODEC_CAT(v, a, kind[l], l)] : root[a * CODEC_GROUP + l];
-                t->R[CODEC_GAT(v, a, l)] = r;
+                int32_t r = resid(t, v, a, l);
                 c[a] = class_of(mag(r));
                 f[a] = field(r, c[a] < CODEC_ESCAPE ? c[a] : 0);
                 mx = c[a] > mx ? c[a] : mx;
             }
-            esc[l] |= (uint32_t)(mx == CODEC_ESCAPE) << (v % 32u);
-            uint32_t idx = base[l] + c[0] + CODEC_NCLASS * c[1] + CODEC_NCLASS * CODEC_NCLASS * c[2];
+            esc |= (uint32_t)(mx == CODEC_ESCAPE) << l;
+            t->sym[v * CODEC_GROUP + l] = (uint16_t)(base[l] + c[0] + CODEC_NCLASS * c[1] + CODEC_NCLASS * CODEC_NCLASS * c[2]);
             base[l] = v == 0 ? CODEC_T_FIRST * CODEC_NSYM : codec_body_table(c[0], c[1], c[2]) * CODEC_NSYM;
-            uint32_t nb = c[0] + c[1] + c[2], bits = f[0] | f[1] << c[0] | f[2] << (c[0] + c[1]);
-            if (v % 2u == 0) {
-                pb[l] = bits;
-                pn[l] = nb;
-                pi[l] = idx;
-            } else {
-                pb[l] |= bits << pn[l];
-                pn[l] += nb;
-                pi[l] |= idx << 16;
-            }
+            nb[l] = c[0] + c[1] + c[2];
+            bits[l] = f[0] | f[1] << c[0] | f[2] << (c[0] + c[1]);
+            t->lane[v * CODEC_GROUP + l] = bits[l] | nb[l] << 16;
         }
-        if (v % 2u == 1u || v + 1u == nv)
-            for (uint32_t l = 0; l < CODEC_GROUP; l++) {
-                t->pbits[(v / 2u) * CODEC_GROUP + l] = pb[l];
-                t->pnb[(v / 2u) * CODEC_GROUP + l] = pn[l];
-                t->pidx[(v / 2u) * CODEC_GROUP + l] = pi[l];
+        for (uint32_t h = 0; h < 2u; h++) { /* lanes 4h .. 4h + 3, the vector path's order */
+            uint64_t q = 0;
+            uint32_t len = 0;
+            for (uint32_t l = 4u * h; l < 4u * h + 4u; l++) {
+                q |= (uint64_t)bits[l] << len;
+                len += nb[l];
             }
-        if (v % 32u == 31u || v + 1u == nv)
-            for (uint32_t l = 0; l < CODEC_GROUP; l++) t->esc[(v / 32u) * CODEC_GROUP + l] = esc[l];
+            t->pbits[4u * v + h] = q;
+            t->pbits[4u * v + 2u + h] = len;
+        }
+        t->esc[v] = (uint8_t)esc;
+        any |= esc;
     }
+    return any;
 }
 
 #ifdef __AVX2__
@@ -96,180 +97,177 @@ static inline __attribute__((always_inline)) __m256i resid8(const kindsel *ks, c
     return _mm256_blendv_epi8(_mm256_blendv_epi8(r0, r1, ks->is1), _mm256_blendv_epi8(r2, r3, ks->is3), ks->hi);
 }
 
-/* State carried from vertex to vertex. */
-typedef struct tokstate {
-    __m256i base;       /* table base (table * CODEC_NSYM) of this vertex */
-    __m256i pbits, pnb, pidx; /* the even vertex of the current pair */
-    __m256i esc;        /* escape bits of the current 32 vertices */
-} tokstate;
-
-static inline __attribute__((always_inline)) void tok_vertex(tokstate *st, const kindsel *ks, const int32_t *cand,
-                                                             const int32_t *root, uint32_t v, int phase,
-                                                             const codec_tokens *t)
+/* One vertex of all lanes: residuals stored, symbols (table from base, the next base
+ * returned), each lane's raw bits and length, lanes 0-3 and 4-7 packed, the escape mask. */
+static inline __attribute__((always_inline)) __m256i tok_vertex(__m256i base, const kindsel *ks, uint32_t v, int phase,
+                                                                const codec_tokens *t, uint32_t *any)
 {
-    __m256i r[3], c[3], f[3];
-    for (uint32_t a = 0; a < 3; a++) {
-        r[a] = resid8(ks, cand, root, v, a, phase);
-        codec_stg(t->R, v, a, r[a]);
-        c[a] = class8(r[a], &f[a]);
-    }
-    const __m256i seven = _mm256_set1_epi32((int32_t)CODEC_NCLASS);
+    __m256i c[3], f[3];
+    for (uint32_t a = 0; a < 3; a++) c[a] = class8(resid8(ks, t->cand, t->root, v, a, phase), &f[a]);
     __m256i mx = _mm256_max_epi32(_mm256_max_epi32(c[0], c[1]), c[2]);
-    __m256i esc = _mm256_cmpeq_epi32(mx, _mm256_set1_epi32((int32_t)CODEC_ESCAPE));
-    st->esc = _mm256_or_si256(st->esc, _mm256_and_si256(esc, _mm256_set1_epi32((int32_t)(1u << (v % 32u)))));
-    if (v % 32u == 31u) {
-        _mm256_storeu_si256((__m256i *)(void *)(t->esc + (v / 32u) * CODEC_GROUP), st->esc);
-        st->esc = _mm256_setzero_si256();
-    }
-    __m256i sym = _mm256_add_epi32(c[0], _mm256_mullo_epi32(seven, _mm256_add_epi32(c[1], _mm256_mullo_epi32(seven, c[2]))));
-    const __m256i idx = _mm256_add_epi32(st->base, sym);
-    st->base = phase == 0 ? _mm256_set1_epi32((int32_t)(CODEC_T_FIRST * CODEC_NSYM))
-                          : _mm256_add_epi32(_mm256_set1_epi32((int32_t)(CODEC_T_BODY * CODEC_NSYM)),
-                                             _mm256_mullo_epi32(_mm256_set1_epi32((int32_t)CODEC_NSYM),
-                                                                _mm256_min_epi32(mx, _mm256_set1_epi32((int32_t)CODEC_NBODY - 1))));
+    uint32_t esc = (uint32_t)_mm256_movemask_ps(
+        _mm256_castsi256_ps(_mm256_cmpeq_epi32(mx, _mm256_set1_epi32((int32_t)CODEC_ESCAPE))));
+    t->esc[v] = (uint8_t)esc;
+    *any |= esc;
+    __m256i c12 = _mm256_add_epi32(c[1], _mm256_sub_epi32(_mm256_slli_epi32(c[2], 3), c[2])); /* c1 + 7 c2 */
+    __m256i sym = _mm256_add_epi32(c[0], _mm256_sub_epi32(_mm256_slli_epi32(c12, 3), c12));
+    __m256i idx = _mm256_add_epi32(base, sym);
+    __m256i w = _mm256_permute4x64_epi64(_mm256_packus_epi32(idx, idx), 0x08);
+    _mm_storeu_si128((__m128i *)(void *)(t->sym + (size_t)v * CODEC_GROUP), _mm256_castsi256_si128(w));
     __m256i nb = _mm256_add_epi32(_mm256_add_epi32(c[0], c[1]), c[2]);
     __m256i bits = _mm256_or_si256(_mm256_or_si256(f[0], _mm256_sllv_epi32(f[1], c[0])),
                                    _mm256_sllv_epi32(f[2], _mm256_add_epi32(c[0], c[1])));
-    if (v % 2u == 0) {
-        st->pbits = bits;
-        st->pnb = nb;
-        st->pidx = idx;
-    } else {
-        _mm256_storeu_si256((__m256i *)(void *)(t->pidx + (v / 2u) * CODEC_GROUP),
-                            _mm256_or_si256(st->pidx, _mm256_slli_epi32(idx, 16)));
-        _mm256_storeu_si256((__m256i *)(void *)(t->pbits + (v / 2u) * CODEC_GROUP),
-                            _mm256_or_si256(st->pbits, _mm256_sllv_epi32(bits, st->pnb)));
-        _mm256_storeu_si256((__m256i *)(void *)(t->pnb + (v / 2u) * CODEC_GROUP), _mm256_add_epi32(st->pnb, nb));
-    }
+    _mm256_storeu_si256((__m256i *)(void *)(t->lane + (size_t)v * CODEC_GROUP), _mm256_or_si256(bits, _mm256_slli_epi32(nb, 16)));
+    /* lane pairs: even | odd << nb(even), in 64-bit lanes (at most 30 bits) */
+    const __m256i lo = _mm256_set1_epi64x(0xffffffff);
+    __m256i nbe = _mm256_and_si256(nb, lo);
+    __m256i pb = _mm256_or_si256(_mm256_and_si256(bits, lo), _mm256_sllv_epi64(_mm256_srli_epi64(bits, 32), nbe));
+    __m256i pn = _mm256_add_epi32(nbe, _mm256_srli_epi64(nb, 32));
+    /* pairs of pairs: lanes 0-3 and 4-7 (at most 60 bits), then their lengths */
+    __m256i q = _mm256_or_si256(pb, _mm256_sllv_epi64(_mm256_permute4x64_epi64(pb, 0xf5), pn));
+    __m256i len = _mm256_add_epi64(pn, _mm256_permute4x64_epi64(pn, 0xf5));
+    __m256i out = _mm256_blend_epi32(_mm256_permute4x64_epi64(q, 0x08), _mm256_permute4x64_epi64(len, 0x80), 0xf0);
+    _mm256_storeu_si256((__m256i *)(void *)(t->pbits + 4u * (size_t)v), out);
+    if (phase == 0) return _mm256_set1_epi32((int32_t)(CODEC_T_FIRST * CODEC_NSYM));
+    const __m256i body = _mm256_setr_epi32((int32_t)((CODEC_T_BODY + 0u) * CODEC_NSYM), (int32_t)((CODEC_T_BODY + 1u) * CODEC_NSYM),
+                                           (int32_t)((CODEC_T_BODY + 2u) * CODEC_NSYM), (int32_t)((CODEC_T_BODY + 3u) * CODEC_NSYM),
+                                           (int32_t)((CODEC_T_BODY + 4u) * CODEC_NSYM), (int32_t)((CODEC_T_BODY + 5u) * CODEC_NSYM),
+                                           (int32_t)((CODEC_T_BODY + 5u) * CODEC_NSYM), (int32_t)((CODEC_T_BODY + 5u) * CODEC_NSYM));
+    return _mm256_permutevar8x32_epi32(body, mx); /* the body table of classes up to 6 */
 }
 
 /* Vertex by vertex, all lanes at once; vertices 0 and 1 peeled (root, first segment). */
-static void tokens_avx2(const uint32_t kind[CODEC_GROUP], const int32_t *cand, const int32_t root[3 * CODEC_GROUP],
-                        uint32_t nv, const codec_tokens *t)
+static uint32_t tokens_avx2(const codec_tokens *t, uint32_t nv)
 {
-    const __m256i k = _mm256_loadu_si256((const __m256i *)(const void *)kind);
+    const __m256i k = _mm256_loadu_si256((const __m256i *)(const void *)t->kind);
     const kindsel ks = { .is1 = _mm256_cmpeq_epi32(k, _mm256_set1_epi32(1)), .is3 = _mm256_cmpeq_epi32(k, _mm256_set1_epi32(3)),
                          .hi = _mm256_cmpgt_epi32(k, _mm256_set1_epi32(1)) };
-    tokstate st = { .base = _mm256_set1_epi32((int32_t)(CODEC_T_ROOT * CODEC_NSYM)), .pbits = _mm256_setzero_si256(),
-                    .pnb = _mm256_setzero_si256(), .pidx = _mm256_setzero_si256(), .esc = _mm256_setzero_si256() };
-    tok_vertex(&st, &ks, cand, root, 0, 0, t);
-    tok_vertex(&st, &ks, cand, root, 1, 1, t);
-    for (uint32_t v = 2; v < nv; v++) tok_vertex(&st, &ks, cand, root, v, 2, t);
-    if (nv % 2u) { /* the last vertex pairs with nothing */
-        _mm256_storeu_si256((__m256i *)(void *)(t->pbits + (nv / 2u) * CODEC_GROUP), st.pbits);
-        _mm256_storeu_si256((__m256i *)(void *)(t->pnb + (nv / 2u) * CODEC_GROUP), st.pnb);
-        _mm256_storeu_si256((__m256i *)(void *)(t->pidx + (nv / 2u) * CODEC_GROUP), st.pidx);
-    }
-    if (nv % 32u) _mm256_storeu_si256((__m256i *)(void *)(t->esc + (nv / 32u) * CODEC_GROUP), st.esc);
+    uint32_t any = 0;
+    __m256i base = _mm256_set1_epi32((int32_t)(CODEC_T_ROOT * CODEC_NSYM));
+    base = tok_vertex(base, &ks, 0, 0, t, &any);
+    base = tok_vertex(base, &ks, 1, 1, t, &any);
+    for (uint32_t v = 2; v < nv; v++) base = tok_vertex(base, &ks, v, 2, t, &any);
+    return any;
 }
 #endif
 
-void codec_tokens_group(const uint32_t kind[CODEC_GROUP], const int32_t *cand, const int32_t root[3 * CODEC_GROUP],
-                        uint32_t nv, const codec_tokens *t, bool portable)
+uint32_t codec_tokens_group(const codec_tokens *t, uint32_t nv, bool portable)
 {
 #ifdef __AVX2__
-    if (!portable) {
-        tokens_avx2(kind, cand, root, nv, t);
-        return;
-    }
+    if (!portable) return tokens_avx2(t, nv);
 #endif
     (void)portable;
-    tokens_portable(kind, cand, root, nv, t);
+    return tokens_portable(t, nv);
 }
 
-/* Vertex v of lane l one axis at a time: raw bits per axis, its symbol (table already chosen),
- * then an escape symbol per escaped axis. */
-static void emit_vertex(codec_emitter *e, const codec_tokens *t, uint32_t v, uint32_t l)
+/* Raw bits of vertex v of lane l from its residuals, x then y then z; an escaped axis as 5 bits
+ * of e - 5, the sign and the e bits below the leading one. */
+static void emit_vertex_bits(codec_emitter *e, const codec_tokens *t, uint32_t v, uint32_t l)
 {
-    uint32_t esc[3], nesc = 0;
     for (uint32_t a = 0; a < 3; a++) {
-        int32_t r = t->R[CODEC_GAT(v, a, l)];
+        int32_t r = resid(t, v, a, l);
         uint32_t m = mag(r), c = codec_class(m);
         if (c < CODEC_ESCAPE) {
             codec_emit_bits(e, field(r, c), c);
         } else {
             uint32_t ex = 31u - (uint32_t)__builtin_clz(m);
-            esc[nesc++] = ex - 5u;
-            codec_emit_bits(e, ((uint32_t)r >> 31) | (uint64_t)(m - (1u << ex)) << 1, ex + 1u);
+            uint64_t w = (uint64_t)(ex - 5u) | (uint64_t)((uint32_t)r >> 31) << CODEC_ESC_BITS |
+                         (uint64_t)(m - (1u << ex)) << (CODEC_ESC_BITS + 1u);
+            codec_emit_bits(e, w, CODEC_ESC_BITS + 1u + ex);
         }
     }
-    uint32_t idx = t->pidx[(v / 2u) * CODEC_GROUP + l] >> (16u * (v & 1u)) & 0xffffu;
-    e->syms[e->nsyms++] = (uint16_t)idx;
-    e->counts[idx]++;
-    for (uint32_t k = 0; k < nesc; k++) codec_emit_symbol(e, CODEC_T_ESC, esc[k]);
 }
 
-/* Lane l without escapes: pair by pair, the raw bits appended and the two symbols stored and
- * counted (histogram copies alternating, so that repeated symbols do not wait on each other). */
-static void emit_lane_fast(codec_emitter *e, const codec_tokens *t, uint32_t l, uint32_t nv)
+/* Raw bits of vertex v of lanes 0..n-1 one lane at a time: an escaping lane axis by axis, the
+ * others in one append each. */
+static void emit_vertex_lanes(codec_emitter *e, const codec_tokens *t, uint32_t v, uint32_t n)
 {
+    const uint32_t *lw = t->lane + (size_t)v * CODEC_GROUP;
+    for (uint32_t l = 0; l < n; l++) {
+        if (t->esc[v] >> l & 1u)
+            emit_vertex_bits(e, t, v, l);
+        else
+            codec_emit_bits(e, lw[l] & 0xffffu, lw[l] >> 16);
+    }
+}
+
+/* A full group: the symbols copied (unless already in place), the histogram counted in four
+ * copies (so repeated symbols do not wait on each other), the raw bits appended four lanes at a
+ * time where no lane of the vertex escapes (esc: a lane escapes somewhere), else lane by lane. */
+static inline __attribute__((always_inline)) void emit_full(codec_emitter *e, const codec_tokens *t, uint32_t nv,
+                                                            const bool esc)
+{
+    const size_t n = (size_t)nv * CODEC_GROUP;
+    uint16_t *out = e->syms + e->nsyms;
+    if (out != t->sym) memcpy(out, t->sym, n * sizeof *out);
+    e->nsyms += n;
     uint32_t *const h0 = e->counts, *const h1 = h0 + CODEC_HIST_SIZE, *const h2 = h1 + CODEC_HIST_SIZE,
                    *const h3 = h2 + CODEC_HIST_SIZE;
-    const uint32_t *pidx = t->pidx + l, *pbits = t->pbits + l, *pnb = t->pnb + l;
+    for (size_t i = 0; i < n; i += 4u) {
+        h0[out[i]]++;
+        h1[out[i + 1u]]++;
+        h2[out[i + 2u]]++;
+        h3[out[i + 3u]]++;
+    }
     uint8_t *p = e->bits;
     uint64_t acc = e->acc;
-    uint32_t n = e->n;
-    uint16_t *out = e->syms + e->nsyms;
-    const uint32_t npairs = nv / 2u;
-    uint32_t k = 0;
-#define BITS()                                        \
-    do {                                              \
-        acc |= (uint64_t)pbits[k * CODEC_GROUP] << n; \
-        n += pnb[k * CODEC_GROUP];                    \
-        codec_put_le64(p, acc);                       \
-        p += n >> 3;                                  \
-        acc >>= n & ~7u;                              \
-        n &= 7u;                                      \
-    } while (0)
-#define PAIR(H0, H1)                                  \
-    do {                                              \
-        BITS();                                       \
-        uint32_t w = pidx[k * CODEC_GROUP];           \
-        out[2u * k] = (uint16_t)w;                    \
-        out[2u * k + 1u] = (uint16_t)(w >> 16);       \
-        H0[w & 0xffffu]++;                            \
-        H1[w >> 16]++;                                \
-        k++;                                          \
-    } while (0)
-    for (; k + 2u <= npairs;) {
-        PAIR(h0, h1);
-        PAIR(h2, h3);
-    }
-    if (k < npairs) PAIR(h0, h1);
-    if (nv % 2u) { /* the last vertex alone */
-        BITS();
-        uint32_t i0 = pidx[k * CODEC_GROUP];
-        out[nv - 1u] = (uint16_t)i0;
-        h2[i0]++;
-    }
-#undef PAIR
-#undef BITS
-    e->bits = p;
-    e->acc = acc;
-    e->n = n;
-    e->nsyms += nv;
-}
-
-void codec_emit_lane(codec_emitter *e, const codec_tokens *t, uint32_t l, uint32_t nv)
-{
-    uint32_t any = 0;
-    for (uint32_t c = 0; c < (nv + 31u) / 32u; c++) any |= t->esc[c * CODEC_GROUP + l];
-    if (!any) {
-        emit_lane_fast(e, t, l, nv);
-        return;
-    }
-    for (uint32_t v = 0; v < nv; v += 2u) {
-        const uint32_t esc = t->esc[(v / 32u) * CODEC_GROUP + l] >> (v % 32u) & 3u, k = v / 2u;
-        if (esc || v + 1u == nv) {
-            emit_vertex(e, t, v, l);
-            if (v + 1u < nv) emit_vertex(e, t, v + 1u, l);
+    uint32_t nb = e->n;
+    for (uint32_t v = 0; v < nv; v++) {
+        if (esc && t->esc[v]) {
+            e->bits = p;
+            e->acc = acc;
+            e->n = nb;
+            emit_vertex_lanes(e, t, v, CODEC_GROUP);
+            p = e->bits;
+            acc = e->acc;
+            nb = e->n;
             continue;
         }
-        codec_emit_bits(e, t->pbits[k * CODEC_GROUP + l], t->pnb[k * CODEC_GROUP + l]);
-        for (uint32_t w = t->pidx[k * CODEC_GROUP + l], h = 0; h < 2; h++, w >>= 16) {
-            e->syms[e->nsyms++] = (uint16_t)w;
-            e->counts[w & 0xffffu]++;
+        const uint64_t *pb = t->pbits + 4u * (size_t)v;
+        for (uint32_t k = 0; k < 2u; k++) {
+            uint64_t q = pb[k];
+            uint32_t len = (uint32_t)pb[2u + k];
+            if (len > 56u) { /* rare: 57 to 60 bits do not fit beside 7 pending ones */
+                acc |= (q & 0xffffffffu) << nb;
+                nb += 32u;
+                codec_put_le64(p, acc);
+                p += nb >> 3;
+                acc >>= nb & ~7u;
+                nb &= 7u;
+                q >>= 32;
+                len -= 32u;
+            }
+            acc |= q << nb;
+            nb += len;
+            codec_put_le64(p, acc);
+            p += nb >> 3;
+            acc >>= nb & ~7u;
+            nb &= 7u;
         }
+    }
+    e->bits = p;
+    e->acc = acc;
+    e->n = nb;
+}
+
+void codec_emit_group(codec_emitter *e, const codec_tokens *t, const uint32_t mode[CODEC_GROUP], uint32_t n,
+                      uint32_t nv, uint32_t esc)
+{
+    for (uint32_t l = 0; l < n; l++) codec_emit_symbol(e, CODEC_T_MODE, mode[l]);
+    if (n == CODEC_GROUP) {
+        if (esc)
+            emit_full(e, t, nv, true);
+        else
+            emit_full(e, t, nv, false);
+        return;
+    }
+    for (uint32_t v = 0; v < nv; v++) { /* the last group's lanes 0 .. n - 1 */
+        const uint16_t *sym = t->sym + (size_t)v * CODEC_GROUP;
+        for (uint32_t l = 0; l < n; l++) {
+            e->syms[e->nsyms++] = sym[l];
+            e->counts[sym[l]]++;
+        }
+        emit_vertex_lanes(e, t, v, n);
     }
 }
 

@@ -245,7 +245,7 @@ static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_
     wsc *w = wsc_new();
     if (o->params || o->animate) {
         /* a control client changes the scene (parameters, head motion) and stays connected */
-        wsc_conn *ctl = wsc_connect(w, d.port, "strandcast.v1", NULL, NULL);
+        wsc_conn *ctl = wsc_connect(w, d.port, "strandcast.v2", NULL, NULL);
         char msg[1100];
         bool ok = wsc_wait_open(w, ctl, 10000);
         if (ok && o->params) {
@@ -268,7 +268,7 @@ static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_
     }
     char sub[96];
     snprintf(sub, sizeof sub, "{\"type\":\"subscribe\",\"max_rate\":%g}", o->max_rate);
-    fanout_rx *rx = fanout_rx_open(d.port, "strandcast.v1", nclients, sub);
+    fanout_rx *rx = fanout_rx_open(d.port, "strandcast.v2", nclients, sub);
     if (!rx) {
         wsc_free(w);
         daemon_stop(&d, SIGTERM, 15000);

@@ -101,7 +101,7 @@ function startDaemon(port, logName) {
 // A second protocol client: resolves once its hello arrived; collects every text message.
 function secondClient(wsUrl) {
   return new Promise((resolve, reject) => {
-    const ws = new WebSocket(wsUrl, 'strandcast.v1');
+    const ws = new WebSocket(wsUrl, 'strandcast.v2');
     const client = { ws, hello: null, messages: [], waiters: [] };
     ws.on('message', (data, isBinary) => {
       if (isBinary) return;

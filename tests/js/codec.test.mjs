@@ -1,15 +1,18 @@
-// Tests for web/codec.js: bit-exact decoding of proto/vectors, frame skipping, and rejection of
-// truncated, bit-flipped and absurd frames; the CRC, the kernel's heap (codec_kernel.js) and
-// that it is valid asm.js (run with `node --test`).
+// Tests for web/codec.js (frame format version 2): bit-exact decoding of proto/vectors, frame
+// skipping, frames of every mode, escape and group shape built by a reference encoder written
+// from CODEC.md (codec_encode.mjs), every rejection of CODEC.md (truncated, bit-flipped, version
+// 1, bad states, stream lengths, motion, tables, escapes, coordinates), each leaving the decoder
+// unchanged, a worst-case overrun refused inside the kernel's memory; the CRC, the kernel's
+// memory layout (codec.js, web/wasm/codec_kernel.c) (run with `node --test`).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { spawnSync } from 'node:child_process';
 import { readFileSync } from 'node:fs';
 import { dirname, join } from 'node:path';
-import { fileURLToPath, pathToFileURL } from 'node:url';
+import { fileURLToPath } from 'node:url';
 
-import { StrandDecoder, peekHeader, crc32 as codecCrc32, HEADER_SIZE } from '../../web/codec.js';
-import { kernelLayout } from '../../web/codec_kernel.js';
+import { StrandDecoder, peekHeader, crc32 as codecCrc32, HEADER_SIZE, kernelLayout, KERN_BASE } from '../../web/codec.js';
+import { KERNEL_WASM } from '../../web/codec_kernel_wasm.js';
+import { encodeFrame, stampCrc } from './codec_encode.mjs';
 
 const here = dirname(fileURLToPath(import.meta.url));
 const vdir = join(here, '..', '..', 'proto', 'vectors');
@@ -50,16 +53,18 @@ function sameBits(positions, file) {
 }
 
 test('manifest describes the format this decoder reads', () => {
-  assert.equal(manifest.format_version, 1);
-  assert.ok(manifest.streams.length >= 3);
+  assert.equal(manifest.format_version, 2);
+  assert.ok(manifest.streams.length >= 4);
   assert.ok(manifest.streams.some((s) => s.stride > 1));
+  assert.ok(manifest.streams.some((s) => s.nstrands_sent % 8 !== 0), 'a stream with a partial group of 8');
+  assert.ok(manifest.streams.some((s) => s.nstrands_sent > 8), 'a stream with more than one group');
 });
 
 test('every vector decodes bit for bit, in order and with frames skipped', () => {
   for (const s of manifest.streams) {
     for (const pass of [0, 1]) {
       const dec = new StrandDecoder();
-      let last = null, n = 0;
+      let last = [], n = 0;
       s.frames.forEach((f, idx) => {
         if (pass === 1 && !f.keyframe && idx !== s.frames.length - 1) return;
         const bytes = load(f.file + '.bin');
@@ -76,8 +81,9 @@ test('every vector decodes bit for bit, in order and with frames skipped', () =>
         assert.equal(info.maxError, Math.fround(s.max_error_m));
         assert.equal(info.positions.length, s.nstrands_sent * s.nverts * 3);
         sameBits(info.positions, f.file + '.out.f32');
-        if (last) assert.equal(info.positions, last, 'positions array is reused');
-        last = info.positions;
+        if (last.length === 2) assert.equal(info.positions, last[0], 'two positions arrays in turn');
+        if (last.length) assert.notEqual(info.positions, last[last.length - 1]);
+        last = [...last, info.positions].slice(-2);
         n++;
       });
       assert.ok(n >= 2);
@@ -175,7 +181,7 @@ test('absurd header fields are rejected', () => {
   const f64 = (b, o, v) => new DataView(b.buffer).setFloat64(o, v, true);
   const f32 = (b, o, v) => new DataView(b.buffer).setFloat32(o, v, true);
   const edits = [
-    (c) => { c[0] = 0x58; }, (c) => { c[4] = 2; }, (c) => { c[6] = 9; }, (c) => { c[7] = 0x81; },
+    (c) => { c[0] = 0x58; }, (c) => { c[4] = 3; }, (c) => { c[6] = 9; }, (c) => { c[7] = 0x81; },
     (c) => { put32(c, 16, 0); put32(c, 20, 0); }, (c) => { c[7] = 0; },
     (c) => f64(c, 24, NaN), (c) => f64(c, 32, NaN), (c) => f64(c, 32, 0), (c) => f64(c, 32, 1e300),
     (c) => f32(c, 40, NaN), (c) => f32(c, 40, Infinity), (c) => f32(c, 40, 1e-7),
@@ -194,16 +200,280 @@ test('absurd header fields are rejected', () => {
     if (i < 25) assert.throws(() => peekHeader(c), /^Error: codec: /, `peek ${i}`);
   });
   assert.throws(() => peekHeader(new ArrayBuffer(100)), /Uint8Array/);
-  // a delta whose rigid motion is absurd
+});
+
+// Every rejection below: a clear message, and the decoder unchanged (held keyframe, output).
+function rejects(dec, frame, pattern) {
+  const seq = dec.keySeq, before = Float32Array.from(dec.info.positions);
+  assert.throws(() => dec.decode(frame), pattern);
+  assert.equal(dec.keySeq, seq, 'held keyframe unchanged');
+  assert.deepEqual(dec.info.positions, before, 'output unchanged');
+}
+
+test('version 1 frames are refused', () => {
+  const c = keyBytes();
+  c[4] = 1;
+  stampCrc(c);
+  assert.throws(() => peekHeader(c), /unsupported format version 1/);
   const dec = new StrandDecoder();
   dec.decode(keyBytes());
-  [[0, NaN], [4, 2.5], [40, -Infinity], [44, 1e30]].forEach(([off, v]) => {
+  rejects(dec, c, /^Error: codec: unsupported format version 1/);
+});
+
+test('a delta whose rigid motion is out of range or badly padded is refused', () => {
+  const dec = new StrandDecoder();
+  dec.decode(keyBytes());
+  const dv = (b) => new DataView(b.buffer, b.byteOffset);
+  const edits = [
+    (d) => dv(d).setInt16(HEADER_SIZE, 16385, true), (d) => dv(d).setInt16(HEADER_SIZE + 16, -16385, true),
+    (d) => dv(d).setInt16(HEADER_SIZE + 8, -32768, true),
+    (d) => { d[HEADER_SIZE + 18] = 1; }, (d) => { d[HEADER_SIZE + 19] = 0x80; },
+    (d) => dv(d).setInt32(HEADER_SIZE + 20, 2 ** 28 + 1, true), (d) => dv(d).setInt32(HEADER_SIZE + 28, -(2 ** 28) - 1, true),
+    (d) => dv(d).setInt32(HEADER_SIZE + 24, -(2 ** 31), true),
+    ...Array.from({ length: 16 }, (_, k) => (d) => { d[HEADER_SIZE + 32 + k] = 1 << (k & 7); }),
+  ];
+  edits.forEach((edit, i) => {
     const d = deltaBytes();
-    f32(d, HEADER_SIZE + off, v);
-    restampCrc(d);
-    assert.throws(() => dec.decode(d), /invalid rigid motion/);
+    edit(d);
+    stampCrc(d);
+    rejects(dec, d, /^Error: codec: invalid rigid motion/, `edit ${i}`);
   });
-  dec.decode(deltaBytes());
+  sameBits(dec.decode(deltaBytes()).positions, basic.frames[1].file + '.out.f32');
+});
+
+test('the rotation and translation limits themselves are accepted', () => {
+  const nverts = 4, ns = 3, step = 1.9375e-4;
+  const kq = Int32Array.from({ length: ns * nverts * 3 }, (_, i) => ((i * 7919) % 4001) - 2000);
+  const key = encodeFrame({ key: true, seq: 1, step, maxError: 1e-4, nverts, q: kq, modes: [0, 1, 2] });
+  for (const motion of [{ rho: [16384, 0, 0, 0, -16384, 0, 0, 0, 16384], t: [2 ** 28, -(2 ** 28), 0] },
+    { rho: [-16384, 16384, -16384, 16384, -16384, 16384, -16384, 16384, -16384], t: [-5, 0, 5] }]) {
+    const q = kq.map((v, i) => v + (i % 5) - 2);
+    const d = encodeFrame({ key: false, seq: 2, refSeq: 1, step, maxError: 1e-4, nverts, q, keyQ: kq, motion, modes: [0, 1, 3] });
+    const dec = new StrandDecoder();
+    dec.decode(key.bytes);
+    const out = dec.decode(d.bytes).positions;
+    q.forEach((v, i) => assert.equal(out[i], Math.fround(v * step)));
+  }
+});
+
+// A seeded lattice of ns strands of nverts vertices: smooth strands, and with big jumps when
+// `wild` (escapes of every size).
+function lattice(ns, nverts, seed, wild) {
+  const next = rng(seed);
+  const q = new Int32Array(ns * nverts * 3);
+  for (let j = 0; j < ns; j++) {
+    for (let v = 0; v < nverts; v++) {
+      for (let a = 0; a < 3; a++) {
+        const jitter = wild && next() % 7 === 0 ? (next() % (1 << 25)) - (1 << 24) : (next() % 41) - 20;
+        q[(j * nverts + v) * 3 + a] = 3000 * j + 700 * v * (a + 1) - 40000 + jitter;
+      }
+    }
+  }
+  return q;
+}
+
+test('frames of every mode, group shape and escape size decode exactly (reference encoder)', () => {
+  const motion = { rho: [16380, 300, -200, -300, 16379, 150, 200, -150, 16381], t: [12345, -6789, 1011] };
+  for (const [ns, nverts] of [[1, 2], [3, 3], [8, 4], [9, 2], [13, 9], [24, 12], [17, 33]]) {
+    for (const wild of [false, true]) {
+      const step = 1.9375e-4, maxError = 1e-4;
+      const kq = lattice(ns, nverts, ns * 100 + nverts, wild);
+      const dec = new StrandDecoder();
+      const key = encodeFrame({ key: true, seq: 10, step, maxError, nverts, q: kq, modes: Array.from({ length: ns }, (_, j) => j % 3) });
+      const ko = dec.decode(key.bytes).positions;
+      kq.forEach((v, i) => { if (ko[i] !== Math.fround(v * step)) assert.fail(`key ${ns}x${nverts} wild ${wild}: coordinate ${i}`); });
+      for (let m = 0; m < 4; m++) {
+        const q = lattice(ns, nverts, 7 * m + ns, wild).map((v, i) => kq[i] + ((v % 61) - 30));
+        const modes = Array.from({ length: ns }, (_, j) => (j + m) % 4);
+        const d = encodeFrame({ key: false, seq: 11 + m, refSeq: 10, step, maxError, nverts, q, keyQ: kq, motion, modes });
+        const o = dec.decode(d.bytes).positions;
+        q.forEach((v, i) => { if (o[i] !== Math.fround(v * step)) assert.fail(`delta ${ns}x${nverts} wild ${wild} m ${m}: coordinate ${i}`); });
+      }
+    }
+  }
+});
+
+test('moved segments clamp long keyframe segments to 15 bits', () => {
+  const nverts = 3, step = 1e-5;
+  const kq = Int32Array.from([0, 0, 0, 40000, -50000, 10, 40001, 60000, -32768]);
+  const dec = new StrandDecoder();
+  dec.decode(encodeFrame({ key: true, seq: 1, step, maxError: 1e-5, nverts, q: kq, modes: [0] }).bytes);
+  const motion = { rho: [16000, 2000, -1000, -2000, 16000, 500, 1000, -500, 16300], t: [7, 8, 9] };
+  for (const mode of [0, 1]) {
+    const q = Int32Array.from(kq, (v, i) => v + 3 * i);
+    const d = encodeFrame({ key: false, seq: 2 + mode, refSeq: 1, step, maxError: 1e-5, nverts, q, keyQ: kq, motion, modes: [mode] });
+    const o = dec.decode(d.bytes).positions;
+    q.forEach((v, i) => assert.equal(o[i], Math.fround(v * step)));
+  }
+});
+
+// A small keyframe (two groups, the second partial) and its encoder record, for the rejections.
+const smallKey = (extra = {}) => encodeFrame({ key: true, seq: 1, step: 1.9375e-4, maxError: 1e-4, nverts: 5,
+  q: lattice(11, 5, 4242, true), modes: Array.from({ length: 11 }, (_, j) => j % 3), ...extra });
+
+function withHeldKey() {
+  const dec = new StrandDecoder();
+  dec.decode(keyBytes());
+  return dec;
+}
+
+test('entropy stream lengths and states are checked', () => {
+  const dec = withHeldKey();
+  const base = smallKey();
+  const dv = (b) => new DataView(b.buffer, b.byteOffset);
+  const len = dv(base.bytes).getUint32(base.ransLenAt, true);
+  for (const bad of [len + 1, len - 1, 30, 0, base.bytes.length]) {
+    const c = base.bytes.slice();
+    dv(c).setUint32(base.ransLenAt, bad, true);
+    stampCrc(c);
+    rejects(dec, c, /entropy stream length \d+ invalid/);
+  }
+  for (const [lane, state] of [[0, 0xffff], [7, 0], [3, 1]]) {
+    const c = base.bytes.slice();
+    dv(c).setUint32(base.ransAt + 4 * lane, state, true);
+    stampCrc(c);
+    rejects(dec, c, new RegExp(`invalid entropy coder state ${state} in lane ${lane}`));
+  }
+  // an encoder that starts a lane from another state: the stream does not end in 2^16
+  rejects(dec, smallKey({ states: [65536, 65536, 65536, 65536, 65536, 65537, 65536, 65536] }).bytes,
+    /entropy stream does not end in the initial states/);
+  // a lane that codes nothing (5 strands: lanes 5..7) must still be 2^16; a 5-strand frame
+  // decodes whatever the idle lanes' tables would give
+  const five = encodeFrame({ key: true, seq: 1, step: 1.9375e-4, maxError: 1e-4, nverts: 3, q: lattice(5, 3, 99, true),
+    modes: [0, 1, 2, 0, 1] });
+  assert.equal(new StrandDecoder().decode(five.bytes).positions.length, 45);
+  for (const lane of [5, 7]) {
+    const idle = five.bytes.slice();
+    dv(idle).setUint32(five.ransAt + 4 * lane, 65537, true);
+    stampCrc(idle);
+    rejects(dec, idle, /entropy stream does not end in the initial states/);
+  }
+  // a word too many, a word too few
+  const grow = (b, at, n) => {
+    const c = new Uint8Array(b.length + n);
+    c.set(b.subarray(0, at));
+    c.set(b.subarray(at - (n < 0 ? n : 0)), at + (n > 0 ? n : 0));
+    dv(c).setUint32(60, c.length - HEADER_SIZE, true);
+    dv(c).setUint32(base.ransLenAt, len + n, true);
+    stampCrc(c);
+    return c;
+  };
+  rejects(dec, grow(base.bytes, base.bitsAt, 2), /entropy stream does not end in the initial states with every word read/);
+  rejects(dec, grow(base.bytes, base.bitsAt - 2, -2), /^Error: codec: (corrupt|entropy|raw bit)/);
+  sameBits(dec.decode(deltaBytes()).positions, basic.frames[1].file + '.out.f32');
+  const ok = new StrandDecoder();
+  assert.equal(ok.decode(base.bytes).positions.length, 11 * 5 * 3);
+});
+
+test('the raw bit stream must be used up to its padding', () => {
+  const dec = withHeldKey();
+  const base = smallKey();
+  const dv = (b) => new DataView(b.buffer, b.byteOffset);
+  const longer = new Uint8Array(base.bytes.length + 1);
+  longer.set(base.bytes);
+  dv(longer).setUint32(60, longer.length - HEADER_SIZE, true);
+  stampCrc(longer);
+  const avail = (base.bytes.length - base.bitsAt) * 8;
+  rejects(dec, longer, /raw bit stream is \d+ bits, frame used \d+/);
+  const [, said, used] = /is (\d+) bits, frame used (\d+)/.exec((() => { try { dec.decode(longer); } catch (e) { return e.message; } })());
+  assert.equal(+said, avail + 8);
+  assert.ok(+used <= avail && +used > avail - 8, `used ${used} of ${avail}`);
+  const shorter = base.bytes.slice(0, base.bytes.length - 1);
+  dv(shorter).setUint32(60, shorter.length - HEADER_SIZE, true);
+  stampCrc(shorter);
+  rejects(dec, shorter, /raw bit stream is \d+ bits, frame used \d+/);
+});
+
+test('escape exponents above 24 are refused, 24 is accepted', () => {
+  const dec = withHeldKey();
+  const q = new Int32Array(2 * 3 * 3);
+  q[4] = (1 << 29) + 12345; // vertex 1 y of strand 0: a residual of exponent 29
+  q[5] = -(1 << 29);
+  for (let i = 6; i < 9; i++) q[i] = q[i - 3];
+  q.copyWithin(9, 0, 9);
+  const f = { key: true, seq: 1, step: 1e-5, maxError: 1e-5, nverts: 3, q, modes: [0, 0] };
+  // exponent 29 is field 24: decodes, then fails only on its coordinate range
+  rejects(dec, encodeFrame(f).bytes, /decoded coordinate out of range/);
+  rejects(dec, encodeFrame({ ...f, escapeExp: (e) => (e === 29 ? 30 : e) }).bytes, /escape exponent above 24/);
+  const ok = Int32Array.from(q, (v) => v >> 4); // exponent 25: in range
+  const out = new StrandDecoder().decode(encodeFrame({ ...f, q: ok }).bytes).positions;
+  ok.forEach((v, i) => assert.equal(out[i], Math.fround(v * 1e-5)));
+});
+
+test('coordinates must stay below 2^26 in magnitude', () => {
+  const lim = (1 << 26) - 1;
+  for (const [v, good] of [[lim, true], [-lim, true], [lim + 1, false], [-lim - 1, false]]) {
+    for (const at of [0, 4, 8]) { // a root, vertex 1, vertex 2 (linear)
+      const q = new Int32Array(9);
+      q[at] = v;
+      const frame = encodeFrame({ key: true, seq: 1, step: 1e-5, maxError: 1e-5, nverts: 3, q, modes: [0] }).bytes;
+      if (good) assert.equal(new StrandDecoder().decode(frame).positions[at], Math.fround(v * 1e-5));
+      else rejects(withHeldKey(), frame, /decoded coordinate out of range/);
+    }
+  }
+  // a delta whose moved root is clamped, then a residual pushing it out of range
+  const kq = Int32Array.from([lim, -lim, 5, lim, -lim, 6]);
+  const dec = new StrandDecoder();
+  dec.decode(encodeFrame({ key: true, seq: 1, step: 1e-5, maxError: 1e-5, nverts: 2, q: kq, modes: [0] }).bytes);
+  const motion = { rho: [16384, 0, 0, 0, 16384, 0, 0, 0, 16384], t: [1000, -1000, 0] };
+  const keep = encodeFrame({ key: false, seq: 2, refSeq: 1, step: 1e-5, maxError: 1e-5, nverts: 2, q: kq, keyQ: kq, motion, modes: [0] });
+  assert.equal(dec.decode(keep.bytes).positions[0], Math.fround(lim * 1e-5));
+  const out = Int32Array.from(kq);
+  out[3] = lim + 1;
+  rejects(dec, encodeFrame({ key: false, seq: 3, refSeq: 1, step: 1e-5, maxError: 1e-5, nverts: 2, q: out, keyQ: kq, motion, modes: [0] }).bytes,
+    /decoded coordinate out of range/);
+});
+
+test('modes out of range and symbols of unused tables are refused', () => {
+  const dec = withHeldKey();
+  // keyframes allow modes 0..2
+  rejects(dec, smallKey({ modes: Array.from({ length: 11 }, (_, j) => (j === 9 ? 3 : 0)) }).bytes, /prediction mode out of range/);
+  // the mode table listed as unused; then a vertex table
+  const base = smallKey();
+  const tables = Array.from(base.bytes.subarray(base.tablesAt, base.ransLenAt));
+  rejects(dec, encodeFrame({ key: true, seq: 1, step: 1.9375e-4, maxError: 1e-4, nverts: 5, q: lattice(11, 5, 4242, true),
+    modes: Array.from({ length: 11 }, (_, j) => j % 3), tableBytes: [0, ...tables.slice(tableLength(tables, 0))] }).bytes,
+  /a symbol from an unused probability table/);
+  const rootAt = tableLength(tables, 0);
+  rejects(dec, encodeFrame({ key: true, seq: 1, step: 1.9375e-4, maxError: 1e-4, nverts: 5, q: lattice(11, 5, 4242, true),
+    modes: Array.from({ length: 11 }, (_, j) => j % 3),
+    tableBytes: [...tables.slice(0, rootAt), 0, ...tables.slice(rootAt + tableLength(tables, rootAt))] }).bytes,
+  /a symbol from an unused probability table/);
+});
+
+// The length in bytes of the table at tables[at] (count, then gap/freq varints).
+function tableLength(tables, at) {
+  let p = at;
+  const varint = () => { const b = tables[p++]; if (b & 128) p++; return b & 128 ? (b & 127) | (tables[p - 1] << 7) : b; };
+  const n = varint();
+  for (let k = 0; k < 2 * n; k++) varint();
+  return p - at;
+}
+
+test('malformed probability tables are refused', () => {
+  const dec = withHeldKey();
+  const f = { key: true, seq: 1, step: 1.9375e-4, maxError: 1e-4, nverts: 2, q: new Int32Array(6), modes: [0] };
+  const rest = [0, 0, 0, 0, 0, 0, 0, 0]; // tables 1..8 unused
+  const cases = [
+    [[1, 0, 0xff, 0x1f, ...rest], /frequencies sum to 4095, not 4096/],
+    [[2, 0, 0x80, 0x20, 0, 1, ...rest], /frequency 1 invalid/],
+    [[1, 0, 0, ...rest], /frequency 0 invalid/],
+    [[1, 0xd7, 0x02, 0x80, 0x20, ...rest], /names a symbol beyond 342/],
+    [[0xd8, 0x02, ...rest], /lists 344 symbols/],
+    [[1, 0, 0x80, 0xa0, 0x01, ...rest], /oversized value/],
+  ];
+  for (const [tableBytes, pattern] of cases) rejects(dec, encodeFrame({ ...f, tableBytes }).bytes, pattern);
+  // tables that end with the frame
+  for (const cut of [[1, 0, 0x80], [1], [2, 0, 0x80, 0x10, 3]]) {
+    const e = encodeFrame({ ...f, tableBytes: cut });
+    const c = e.bytes.slice(0, e.ransLenAt);
+    new DataView(c.buffer).setUint32(60, c.length - HEADER_SIZE, true);
+    stampCrc(c);
+    rejects(dec, c, /truncated probability tables/);
+  }
+  // a mode table may list any symbol below 343 (only decoding an invalid mode is an error)
+  const wide = encodeFrame({ ...f, tableBytes: [2, 0, 0x80, 0x10, 0xd5, 0x02, 0x80, 0x10, 1, 0, 0x80, 0x20, ...rest.slice(1)] });
+  assert.throws(() => dec.decode(wide.bytes), (e) => !/probability tables|table \d/.test(e.message));
 });
 
 test('peekHeader reads the fixed header', () => {
@@ -258,22 +528,45 @@ test('a larger frame that fails keeps the held keyframe while the heap grows', (
   sameBits(dec.decode(keyBytes()).positions, basic.frames[0].file + '.out.f32'); // and the larger stream now
 });
 
-test('kernel heaps have sizes asm.js accepts and hold their regions', () => {
+test('a group that reads as far as a corrupt frame can is refused with a codec error', () => {
+  // 8 strands of 4096 vertices whose every residual is an escape of exponent 28 (34 raw bits an
+  // axis); then the same frame with its raw bits cut to 8 bytes: the first group reads on past
+  // the cut (through zeros, or the whole frame's bits left in the kernel's memory) until an
+  // escape field or the check after the group refuses the frame (a read outside the memory
+  // would be a RuntimeError; kernelLayout's READ_SLACK is checked below)
+  const ns = 8, nverts = 4096, x = (1 << 26) - 1;
+  const q = new Int32Array(ns * nverts * 3);
+  for (let i = 0; i < q.length; i++) q[i] = (Math.floor(i / 3) % nverts) % 2 ? x : -x;
+  const f = encodeFrame({ key: true, seq: 1, step: 1e-5, maxError: 1e-5, nverts, q, modes: new Array(ns).fill(0) });
+  const dec = new StrandDecoder();
+  const out = dec.decode(f.bytes).positions;
+  q.forEach((v, i) => assert.equal(out[i], Math.fround(v * 1e-5)));
+  const cut = f.bytes.slice(0, f.bitsAt + 8);
+  new DataView(cut.buffer).setUint32(60, cut.length - HEADER_SIZE, true);
+  stampCrc(cut);
+  rejects(dec, cut, /^Error: codec: (raw bit stream is 64 bits, frame used \d+|corrupt raw bits)/);
+  rejects(new StrandDecoder(), cut, /^Error: codec: raw bit stream is 64 bits, frame used \d+/);
+});
+
+test('kernel memory regions are disjoint and leave the read slack after the frame', () => {
   for (const [nq, cap] of [[6, 1], [864, 65536], [393216, 120000], [3 << 20, 1 << 20], [3 << 24, 1 << 26]]) {
-    const l = kernelLayout(nq, cap);
-    assert.ok(l.size >= l.bytes + cap && l.bytes === l.out + 4 * nq && l.out === l.cur + 4 * nq && l.cur === l.key + 4 * nq);
-    const pow2 = (l.size & (l.size - 1)) === 0;
-    assert.ok((pow2 && l.size >= 1 << 12 && l.size <= 1 << 24) || l.size % (1 << 24) === 0, `size ${l.size}`);
+    const l = kernelLayout(nq, cap, 1 << 20);
+    assert.ok(l.key >= KERN_BASE + (1 << 20) && l.key % 16 === 0);
+    assert.ok(l.cur === l.key + 4 * nq && l.out === l.cur + 4 * nq && l.out2 === l.out + 4 * nq);
+    // clamped segments: 4 Int16 per vertex, 8 strands a group (at most 7 strands of 4096 padding)
+    const seg = (8 * nq) / 3 + 8 * 7 * 4096;
+    assert.ok(l.dkey >= l.out2 + 4 * nq && l.dcur >= l.dkey + seg && l.bytes >= l.dcur + seg && l.dkey % 16 === 0);
+    assert.ok(l.pages * 65536 >= l.bytes + cap + 16 + 120 * 4096 + 64 && l.pages <= 65536, `pages ${l.pages}`);
   }
 });
 
-test('the kernel validates as asm.js (V8 warns on stderr otherwise)', () => {
-  const url = pathToFileURL(join(here, '..', '..', 'web', 'codec_kernel.js')).href;
-  const code = `const k = await import(${JSON.stringify(url)});
-    const l = k.kernelLayout(864, 65536);
-    const f = k.CodecKernel(globalThis, null, new ArrayBuffer(l.size)).frame;
-    if (typeof f !== 'function') process.exit(3);`;
-  const r = spawnSync(process.execPath, ['--input-type=module', '-e', code], { encoding: 'utf8' });
-  assert.equal(r.status, 0, r.stderr);
-  assert.doesNotMatch(r.stderr, /asm\.js/i, r.stderr);
+test('the kernel module imports only its memory and keeps its own stack below KERN_BASE', () => {
+  const bytes = Uint8Array.from(atob(KERNEL_WASM), (c) => c.charCodeAt(0));
+  const mod = new WebAssembly.Module(bytes);
+  assert.deepEqual(WebAssembly.Module.imports(mod), [{ module: 'env', name: 'memory', kind: 'memory' }]);
+  const names = WebAssembly.Module.exports(mod).map((e) => e.name).sort();
+  assert.deepEqual(names, ['__heap_base', 'kern_frame', 'kern_init', 'kern_offset', 'kern_tables']);
+  const k = new WebAssembly.Instance(mod, { env: { memory: new WebAssembly.Memory({ initial: 2 }) } }).exports;
+  assert.ok(k.__heap_base.value <= KERN_BASE, `heap base ${k.__heap_base.value}`);
+  assert.equal(k.kern_offset(0) % 4, 0);
 });

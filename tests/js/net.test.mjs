@@ -32,9 +32,9 @@ globalThis.WebSocket = FakeSocket;
 let fetchStatus = 200;
 globalThis.fetch = async () => ({ status: fetchStatus });
 
-const { Connection, SUBPROTOCOL, defaultUrl } = await import('../../web/net.js');
+const { Connection, SUBPROTOCOL, PROTOCOL_VERSION, defaultUrl } = await import('../../web/net.js');
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-const HELLO = { type: 'hello', protocol: 1, server: 'strandcastd', version: '0.1.0' };
+const HELLO = { type: 'hello', protocol: PROTOCOL_VERSION, server: 'strandcastd', version: '0.1.0' };
 
 function make(extra = {}) {
   FakeSocket.all = [];
@@ -83,9 +83,9 @@ test('a hello with another protocol version stops with a mismatch', async () => 
   const { c, log } = make();
   c.start();
   FakeSocket.all[0].accept();
-  FakeSocket.all[0].text({ ...HELLO, protocol: 2 });
+  FakeSocket.all[0].text({ ...HELLO, protocol: 1 });
   assert.equal(log.status.at(-1).state, 'mismatch');
-  assert.match(log.status.at(-1).reason, /protocol 2.*protocol 1/);
+  assert.match(log.status.at(-1).reason, /protocol 1.*protocol 2/);
   assert.equal(log.hello.length, 0);
   await sleep(60);
   assert.equal(FakeSocket.all.length, 1, 'no reconnect after a mismatch');

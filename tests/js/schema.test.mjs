@@ -105,7 +105,7 @@ function startDaemon(assets) {
 }
 
 function open(port) {
-  const ws = new WebSocket(`ws://127.0.0.1:${port}/`, 'strandcast.v1');
+  const ws = new WebSocket(`ws://127.0.0.1:${port}/`, 'strandcast.v2');
   const texts = [];
   let waiters = [];
   ws.on('message', (data, isBinary) => {
