@@ -122,6 +122,22 @@ static void test_bound_all_styles(void **state)
     run_sequence(1e-4f, CODEC_SYNTH_VIOLENT, 1, 30, 2101, 5, 16, 41u);
 }
 
+/* An encoder (for ns x nv vertices, desc d) and a decoder, for a round-trip test. */
+static void pair_open(codec_encoder *enc, codec_decoder *dec, const codec_desc *d, uint32_t ns, uint32_t nv)
+{
+    core_err err;
+    assert_int_equal(codec_encoder_init(enc, d, ns, nv, &err), CORE_OK);
+    codec_decoder_init(dec);
+}
+
+/* Frees what pair_open made and the frame buffer. */
+static void pair_close(codec_encoder *enc, codec_decoder *dec, codec_buf *buf)
+{
+    codec_buf_free(buf);
+    codec_decoder_free(dec);
+    codec_encoder_free(enc);
+}
+
 /* Resets: positions jump between unrelated poses (rest pose vs. swung far away) mid-GOP. */
 static void test_bound_resets(void **state)
 {
@@ -134,8 +150,7 @@ static void test_bound_resets(void **state)
     codec_decoder dec;
     core_err err;
     codec_buf buf = { 0 };
-    assert_int_equal(codec_encoder_init(&enc, &d, ns, nv, &err), CORE_OK);
-    codec_decoder_init(&dec);
+    pair_open(&enc, &dec, &d, ns, nv);
     for (int f = 0; f < 40; f++) {
         double t = (f % 2) ? 0.0 : 7.3 + f;
         codec_synth_frame(ns, nv, t, (f % 3) ? CODEC_SYNTH_VIOLENT : CODEC_SYNTH_TELEPORT, in);
@@ -147,9 +162,7 @@ static void test_bound_resets(void **state)
     }
     free(in);
     free(out);
-    codec_buf_free(&buf);
-    codec_decoder_free(&dec);
-    codec_encoder_free(&enc);
+    pair_close(&enc, &dec, &buf);
 }
 
 /* Coordinates near float32 rounding limits and at several magnitudes still meet the bound. */
@@ -167,8 +180,7 @@ static void test_bound_magnitudes(void **state)
         codec_decoder dec;
         core_err err;
         codec_buf buf = { 0 };
-        assert_int_equal(codec_encoder_init(&enc, &d, ns, nv, &err), CORE_OK);
-        codec_decoder_init(&dec);
+        pair_open(&enc, &dec, &d, ns, nv);
         for (int f = 0; f < 50; f++) {
             float scale = (float)(1u << (f % 4));
             for (size_t i = 0; i < n; i++)
@@ -177,9 +189,7 @@ static void test_bound_magnitudes(void **state)
             assert_int_equal(codec_decode(&dec, buf.data, buf.len, out, n, NULL, &err), CORE_OK);
             assert_true(max_abs_err(in, out, n) <= (double)bound);
         }
-        codec_buf_free(&buf);
-        codec_decoder_free(&dec);
-        codec_encoder_free(&enc);
+        pair_close(&enc, &dec, &buf);
     }
 }
 
@@ -208,8 +218,7 @@ static void test_bound_long_segments(void **state)
     codec_decoder dec;
     core_err err;
     codec_buf buf = { 0 };
-    assert_int_equal(codec_encoder_init(&enc, &d, ns, nv, &err), CORE_OK);
-    codec_decoder_init(&dec);
+    pair_open(&enc, &dec, &d, ns, nv);
     for (int f = 0; f < 12; f++) {
         double a = 0.07 * f, c = cos(a), s = sin(a);
         for (size_t i = 0; i < n; i += 3) { /* rotate about z, translate, a little wobble */
@@ -224,9 +233,7 @@ static void test_bound_long_segments(void **state)
         assert_true(info.keyframe == (f == 0));
         if (max_abs_err(in, out, n) > (double)bound) fail_msg("frame %d: error %g", f, max_abs_err(in, out, n));
     }
-    codec_buf_free(&buf);
-    codec_decoder_free(&dec);
-    codec_encoder_free(&enc);
+    pair_close(&enc, &dec, &buf);
 }
 
 /* Far from the origin float32 cannot hold every coordinate within a small bound: such a
@@ -242,8 +249,7 @@ static void test_bound_float32_reach(void **state)
     codec_decoder dec;
     core_err err;
     codec_buf buf = { 0 };
-    assert_int_equal(codec_encoder_init(&enc, &d, ns, nv, &err), CORE_OK);
-    codec_decoder_init(&dec);
+    pair_open(&enc, &dec, &d, ns, nv);
     for (uint32_t i = 0; i < ns * nv * 3u; i++) in[i] = 0.3f + 0.001f * (float)i;
     /* 3 m and 300 m are beyond the shortcut's 2^18 bound = 2.6 m but reachable */
     in[40] = 3.0f;
@@ -268,9 +274,7 @@ static void test_bound_float32_reach(void **state)
         assert_true(max_abs_err(in, out, ns * nv * 3u) <= (double)bound);
     }
     assert_true(refused > 0 && refused < (uint32_t)tries / 2u);
-    codec_buf_free(&buf);
-    codec_decoder_free(&dec);
-    codec_encoder_free(&enc);
+    pair_close(&enc, &dec, &buf);
 }
 
 /* ---------------------------------------------------------------- encoder argument checks */
