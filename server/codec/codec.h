@@ -67,7 +67,7 @@ typedef struct codec_encoder {
     uint16_t *syms;      /* entropy-coder symbols of this frame, table * 343 + symbol */
     uint32_t *counts;    /* their histogram (several copies, summed per frame) */
     struct codec_rans_sym *rsyms; /* per-frame encoding tables */
-    uint32_t *rfs;                /* the same tables' freq | start << 16 (codec_rans_sym_init) */
+    struct codec_rans_vsym *rvsyms; /* the same tables for the vector path */
     uint8_t *bits;       /* raw bit stream of this frame */
     uint8_t *rans;       /* rANS output, written backwards from the end */
     int32_t *work;       /* per-group scratch */

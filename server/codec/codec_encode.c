@@ -33,7 +33,7 @@ void codec_encoder_free(codec_encoder *enc)
     free(enc->bits);
     free(enc->rans);
     free(enc->rsyms);
-    free(enc->rfs);
+    free(enc->rvsyms);
     free(enc->work);
     memset(enc, 0, sizeof *enc);
 }
@@ -78,10 +78,10 @@ core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint3
     enc->bits = malloc(enc->bits_cap);
     enc->rans = malloc(enc->rans_cap);
     enc->rsyms = malloc((size_t)CODEC_HIST_SIZE * sizeof *enc->rsyms);
-    enc->rfs = malloc((size_t)CODEC_HIST_SIZE * sizeof *enc->rfs);
+    enc->rvsyms = malloc((size_t)CODEC_HIST_SIZE * sizeof *enc->rvsyms);
     enc->work = calloc(work_size(nverts), sizeof *enc->work);
     if (!enc->key_q || !enc->cur_q || !enc->key_roots || !enc->cur_roots || !enc->syms || !enc->counts ||
-        !enc->bits || !enc->rans || !enc->rsyms || !enc->rfs || !enc->work) {
+        !enc->bits || !enc->rans || !enc->rsyms || !enc->rvsyms || !enc->work) {
         codec_encoder_free(enc);
         return core_fail(err, CORE_ENOMEM, "codec: out of memory for %u x %u vertices", sent, nverts);
     }
@@ -277,7 +277,7 @@ core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, dou
         nsym[t] = codec_rans_normalize(counts + t * CODEC_NSYM, CODEC_NSYM, freq[t]);
         uint32_t start = 0;
         for (uint32_t s = 0; s < nsym[t]; s++) {
-            if (freq[t][s]) codec_rans_sym_init(&rs[t * CODEC_NSYM + s], &enc->rfs[t * CODEC_NSYM + s], start, freq[t][s]);
+            if (freq[t][s]) codec_rans_sym_init(&rs[t * CODEC_NSYM + s], &enc->rvsyms[t * CODEC_NSYM + s], start, freq[t][s]);
             start += freq[t][s];
         }
     }
@@ -287,7 +287,7 @@ core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, dou
     uint32_t x[CODEC_LANES];
     const uint32_t tail_lanes = enc->nstrands_sent % CODEC_GROUP;
     const size_t ntail = (size_t)tail_lanes * (1u + enc->nverts);
-    uint8_t *p = codec_rans_encode(e.syms, e.nsyms - ntail, ntail, tail_lanes, rs, enc->rfs, end, x,
+    uint8_t *p = codec_rans_encode(e.syms, e.nsyms - ntail, ntail, tail_lanes, rs, enc->rvsyms, end, x,
                                    enc->portable);
     for (int k = CODEC_LANES - 1; k >= 0; k--) {
         p -= 4;

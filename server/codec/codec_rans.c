@@ -45,7 +45,7 @@ uint32_t codec_rans_normalize(const uint32_t *counts, uint32_t n, uint16_t *freq
     return used;
 }
 
-void codec_rans_sym_init(codec_rans_sym *s, uint32_t *fs, uint32_t start, uint32_t freq)
+void codec_rans_sym_init(codec_rans_sym *s, codec_rans_vsym *vs, uint32_t start, uint32_t freq)
 {
     /* x < freq 2^20 and rcp = ceil(2^44 / freq): x rcp / 2^44 - x / freq < x / 2^44 <= 1/freq
      * less the fraction of x / freq, so the floor is exact (freq = 4096 needs no quotient) */
@@ -53,7 +53,10 @@ void codec_rans_sym_init(codec_rans_sym *s, uint32_t *fs, uint32_t start, uint32
     s->bias = start;
     s->cmpl_freq = CODEC_SCALE - freq;
     s->rcp = freq < CODEC_SCALE ? ((1ull << 44) + freq - 1u) / freq : 0;
-    *fs = freq | start << 16;
+    vs->freq20 = (double)freq * (double)(1u << 20);
+    vs->start = start;
+    vs->cmpl = (double)(CODEC_SCALE - freq);
+    vs->rcp = 1.0 / (double)freq;
 }
 
 static uint8_t *put_varint(uint8_t *p, uint32_t v)
@@ -193,53 +196,59 @@ static inline __m128i pd_to_u32(__m256d v)
 }
 
 /* One half (4 lanes) of a block on states held in binary64 (every value an integer below 2^33,
- * so exact): emit where x >= freq 2^20 (the word is x - 2^16 h, h = floor(x / 2^16)), x' = h
- * there, else x; then x' + start + floor(x' / freq) (4096 - freq). The quotient comes straight
- * from x, as floor(x c + 2^-30) with c = 1 / freq, or 2^-16 / freq where the lane emits
+ * so exact), with the symbols' freq 2^20, start, SCALE - freq and 1 / freq: emit where
+ * x >= freq 2^20 (the word is x - 2^16 h, h = floor(x / 2^16)), x' = h there, else x; then
+ * x' + start + floor(x' / freq) (SCALE - freq). The quotient comes straight from x, as
+ * floor(x c + 2^-30) with c = 1 / freq, or 2^-16 / freq where the lane emits
  * (floor(h / freq) = floor(x / (2^16 freq))): the quotient is below 2^20 and its fraction is 0
  * or at least 2^-28 from the next integer, and the roundings of c and of the fused sum move it
  * by less than 2^-32, so adding 2^-30 keeps the floor. */
-static inline __attribute__((always_inline)) __m256d half_step(__m256d x, __m128i fs, __m256d rcp, __m128i *word,
+static inline __attribute__((always_inline)) __m256d half_step(__m256d x, const __m256d sym[4], __m128i *word,
                                                                 uint32_t *emit)
 {
-    const __m256d f = _mm256_cvtepi32_pd(_mm_and_si128(fs, _mm_set1_epi32(0xffff)));
-    const __m256d start = _mm256_cvtepi32_pd(_mm_srli_epi32(fs, 16));
     const __m256d hi = _mm256_round_pd(_mm256_mul_pd(x, _mm256_set1_pd(1.0 / 65536.0)), _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-    const __m256d e = _mm256_cmp_pd(x, _mm256_mul_pd(f, _mm256_set1_pd(1048576.0)), _CMP_GE_OQ);
+    const __m256d e = _mm256_cmp_pd(x, sym[0], _CMP_GE_OQ);
     *word = _mm256_cvttpd_epi32(_mm256_fnmadd_pd(hi, _mm256_set1_pd(65536.0), x));
     *emit = (uint32_t)_mm256_movemask_pd(e);
-    const __m256d c = _mm256_blendv_pd(rcp, _mm256_mul_pd(rcp, _mm256_set1_pd(1.0 / 65536.0)), e);
+    const __m256d c = _mm256_blendv_pd(sym[3], _mm256_mul_pd(sym[3], _mm256_set1_pd(1.0 / 65536.0)), e);
     const __m256d q = _mm256_round_pd(_mm256_fmadd_pd(x, c, _mm256_set1_pd(1.0 / 1073741824.0)),
                                       _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-    return _mm256_fmadd_pd(q, _mm256_sub_pd(_mm256_set1_pd((double)CODEC_SCALE), f),
-                           _mm256_add_pd(_mm256_blendv_pd(x, hi, e), start));
+    return _mm256_fmadd_pd(q, sym[2], _mm256_add_pd(_mm256_blendv_pd(x, hi, e), sym[1]));
+}
+
+/* The tables of the symbols s[0..4) as four vectors (freq 2^20, start, SCALE - freq, 1 / freq):
+ * one load per symbol and a 4 x 4 transposition (on this kind of machine much cheaper than
+ * gathers). */
+static inline __attribute__((always_inline)) void load_syms(const codec_rans_vsym *vs, const uint16_t *s, __m256d out[4])
+{
+    const __m256d r0 = _mm256_loadu_pd(&vs[s[0]].freq20), r1 = _mm256_loadu_pd(&vs[s[1]].freq20),
+                  r2 = _mm256_loadu_pd(&vs[s[2]].freq20), r3 = _mm256_loadu_pd(&vs[s[3]].freq20);
+    const __m256d u0 = _mm256_unpacklo_pd(r0, r1), u1 = _mm256_unpackhi_pd(r0, r1), u2 = _mm256_unpacklo_pd(r2, r3),
+                  u3 = _mm256_unpackhi_pd(r2, r3);
+    out[0] = _mm256_permute2f128_pd(u0, u2, 0x20);
+    out[1] = _mm256_permute2f128_pd(u1, u3, 0x20);
+    out[2] = _mm256_permute2f128_pd(u0, u2, 0x31);
+    out[3] = _mm256_permute2f128_pd(u1, u3, 0x31);
 }
 
 /* Blocks of 8 symbols (lanes 0..7), last first, the 8 states as two vectors of 4 binary64
- * (two independent chains): gathered frequency and start, the reciprocal divided off the
- * chain, the emitting lanes' words compacted and stored at once. The same words and states as
- * put(). */
-static uint8_t *encode_avx2(const uint16_t *syms, size_t nfull, const uint32_t *fsv, uint8_t *p,
+ * (two independent chains), the emitting lanes' words compacted and stored at once. The same
+ * words and states as put(). */
+static uint8_t *encode_avx2(const uint16_t *syms, size_t nfull, const codec_rans_vsym *vs, uint8_t *p,
                             uint32_t x[CODEC_LANES])
 {
     compact_lut lut; /* 4 KB, built per frame (about a microsecond) */
     compact_init(&lut);
-    const int *fsbase = (const int *)(const void *)fsv;
-    const __m128i lo16 = _mm_set1_epi32(0xffff);
-    const __m256d one = _mm256_set1_pd(1.0);
     __m256d x0 = u32_to_pd(_mm_loadu_si128((const __m128i *)(const void *)x));
     __m256d x1 = u32_to_pd(_mm_loadu_si128((const __m128i *)(const void *)(x + 4)));
     for (size_t i = nfull; i >= CODEC_LANES; i -= CODEC_LANES) {
-        const __m128i raw = _mm_loadu_si128((const __m128i *)(const void *)(syms + i - CODEC_LANES));
-        const __m128i i0 = _mm_cvtepu16_epi32(raw), i1 = _mm_cvtepu16_epi32(_mm_srli_si128(raw, 8));
-        const __m256i fs = _mm256_i32gather_epi32(fsbase, _mm256_set_m128i(i1, i0), 4);
-        const __m128i fs0 = _mm256_castsi256_si128(fs), fs1 = _mm256_extracti128_si256(fs, 1);
-        const __m256d r0 = _mm256_div_pd(one, _mm256_cvtepi32_pd(_mm_and_si128(fs0, lo16)));
-        const __m256d r1 = _mm256_div_pd(one, _mm256_cvtepi32_pd(_mm_and_si128(fs1, lo16)));
+        __m256d s0[4], s1[4];
+        load_syms(vs, syms + i - CODEC_LANES, s0);
+        load_syms(vs, syms + i - CODEC_LANES / 2u, s1);
         __m128i w0, w1;
         uint32_t e0, e1;
-        x0 = half_step(x0, fs0, r0, &w0, &e0);
-        x1 = half_step(x1, fs1, r1, &w1, &e1);
+        x0 = half_step(x0, s0, &w0, &e0);
+        x1 = half_step(x1, s1, &w1, &e1);
         const uint32_t m = e0 | e1 << 4;
         _mm_storeu_si128((__m128i *)(void *)(p - 16), _mm_shuffle_epi8(_mm_packus_epi32(w0, w1),
                                                                          _mm_loadu_si128((const __m128i *)(const void *)lut.b[m])));
@@ -252,8 +261,8 @@ static uint8_t *encode_avx2(const uint16_t *syms, size_t nfull, const uint32_t *
 #endif
 
 uint8_t *codec_rans_encode(const uint16_t *syms, size_t nfull, size_t ntail, uint32_t tail_lanes,
-                           const codec_rans_sym *rs, const uint32_t *fs, uint8_t *end, uint32_t x[CODEC_LANES],
-                           bool portable)
+                           const codec_rans_sym *rs, const codec_rans_vsym *vs, uint8_t *end,
+                           uint32_t x[CODEC_LANES], bool portable)
 {
     uint8_t *p = end;
     for (uint32_t l = 0; l < CODEC_LANES; l++) x[l] = CODEC_RANS_L;
@@ -262,10 +271,10 @@ uint8_t *codec_rans_encode(const uint16_t *syms, size_t nfull, size_t ntail, uin
         x[l] = put(x[l], &p, &rs[syms[nfull + i]]);
     }
 #if defined(__AVX2__) && defined(__FMA__)
-    if (!portable) return encode_avx2(syms, nfull, fs, p, x);
+    if (!portable) return encode_avx2(syms, nfull, vs, p, x);
 #endif
     (void)portable;
-    (void)fs;
+    (void)vs;
     uint32_t x0 = x[0], x1 = x[1], x2 = x[2], x3 = x[3], x4 = x[4], x5 = x[5], x6 = x[6], x7 = x[7];
     for (size_t i = nfull; i >= CODEC_LANES; i -= CODEC_LANES) {
         const uint16_t *s = syms + i - CODEC_LANES;
