@@ -160,48 +160,58 @@ uint32_t codec_tokens_group(const codec_tokens *t, uint32_t nv, bool portable)
     return tokens_portable(t, nv);
 }
 
-/* Raw bits of vertex v of lane l from its residuals, x then y then z; an escaped axis as 5 bits
- * of e - 5, the sign and the e bits below the leading one. */
-static void emit_vertex_bits(codec_emitter *e, const codec_tokens *t, uint32_t v, uint32_t l)
+/* Raw bits of one residual without branches: class c < 6 as c bits (the sign, then the bits
+ * below the leading one), an escape (m >= 32) as CODEC_ESC_BITS bits of e - 5 (e = floor(log2
+ * m)), the sign and the e bits below the leading one. */
+static inline void emit_resid(codec_emitter *e, int32_t r)
 {
-    for (uint32_t a = 0; a < 3; a++) {
-        int32_t r = resid(t, v, a, l);
-        uint32_t m = mag(r), c = codec_class(m);
-        if (c < CODEC_ESCAPE) {
-            codec_emit_bits(e, field(r, c), c);
+    const uint32_t m = mag(r), s = (uint32_t)r >> 31, ex = 31u - (uint32_t)__builtin_clz(m | 1u);
+    const uint32_t c = (ex + 1u) & (0u - (uint32_t)(m != 0));
+    const uint64_t small = ((m << 1) | s) & ((1u << c) - 1u);
+    const uint64_t big = (uint64_t)(ex - 5u) | (uint64_t)s << CODEC_ESC_BITS | (uint64_t)(m - (1u << ex)) << (CODEC_ESC_BITS + 1u);
+    const uint64_t esc = 0u - (uint64_t)(m >= 1u << (CODEC_ESCAPE - 1u));
+    codec_emit_bits(e, small ^ ((small ^ big) & esc), c ^ ((c ^ (CODEC_ESC_BITS + 1u + ex)) & (uint32_t)esc));
+}
+
+/* Raw bits of vertex v of lanes l0..l1-1 one lane at a time: a lane that escapes (its bit in
+ * esc) axis by axis, x then y then z, the others in one append each. */
+static inline __attribute__((always_inline)) void emit_lanes(codec_emitter *e, const codec_tokens *t, uint32_t v,
+                                                             uint32_t l0, uint32_t l1, uint32_t esc)
+{
+    const uint32_t *lw = t->lane + (size_t)v * CODEC_GROUP;
+    for (uint32_t l = l0; l < l1; l++) {
+        if (esc >> l & 1u) {
+            for (uint32_t a = 0; a < 3; a++) emit_resid(e, resid(t, v, a, l));
         } else {
-            uint32_t ex = 31u - (uint32_t)__builtin_clz(m);
-            uint64_t w = (uint64_t)(ex - 5u) | (uint64_t)((uint32_t)r >> 31) << CODEC_ESC_BITS |
-                         (uint64_t)(m - (1u << ex)) << (CODEC_ESC_BITS + 1u);
-            codec_emit_bits(e, w, CODEC_ESC_BITS + 1u + ex);
+            codec_emit_bits(e, lw[l] & 0xffffu, lw[l] >> 16);
         }
     }
 }
 
-/* Raw bits of vertex v of lanes 0..n-1 one lane at a time: an escaping lane axis by axis, the
- * others in one append each. */
-static void emit_vertex_lanes(codec_emitter *e, const codec_tokens *t, uint32_t v, uint32_t n)
+/* Four lanes' raw bits packed into q (len <= 60 bits). */
+static inline void emit_packed(codec_emitter *e, uint64_t q, uint32_t len)
 {
-    const uint32_t *lw = t->lane + (size_t)v * CODEC_GROUP;
-    for (uint32_t l = 0; l < n; l++) {
-        if (t->esc[v] >> l & 1u)
-            emit_vertex_bits(e, t, v, l);
-        else
-            codec_emit_bits(e, lw[l] & 0xffffu, lw[l] >> 16);
+    if (len > 56u) { /* rare: 57 to 60 bits do not fit beside 7 pending ones */
+        codec_emit_bits(e, q & 0xffffffffu, 32u);
+        q >>= 32;
+        len -= 32u;
     }
+    codec_emit_bits(e, q, len);
 }
 
 /* A full group: the symbols copied (unless already in place), the histogram counted in four
  * copies (so repeated symbols do not wait on each other), the raw bits appended four lanes at a
- * time where no lane of the vertex escapes (esc: a lane escapes somewhere), else lane by lane. */
-static inline __attribute__((always_inline)) void emit_full(codec_emitter *e, const codec_tokens *t, uint32_t nv,
+ * time where none of the four escapes, else lane by lane (esc: a lane escapes somewhere). The
+ * emitter is worked on in a local copy, kept in registers. */
+static inline __attribute__((always_inline)) void emit_full(codec_emitter *ep, const codec_tokens *t, uint32_t nv,
                                                             const bool esc)
 {
+    codec_emitter e = *ep;
     const size_t n = (size_t)nv * CODEC_GROUP;
-    uint16_t *out = e->syms + e->nsyms;
+    uint16_t *out = e.syms + e.nsyms;
     if (out != t->sym) memcpy(out, t->sym, n * sizeof *out);
-    e->nsyms += n;
-    uint32_t *const h0 = e->counts, *const h1 = h0 + CODEC_HIST_SIZE, *const h2 = h1 + CODEC_HIST_SIZE,
+    e.nsyms += n;
+    uint32_t *const h0 = e.counts, *const h1 = h0 + CODEC_HIST_SIZE, *const h2 = h1 + CODEC_HIST_SIZE,
                    *const h3 = h2 + CODEC_HIST_SIZE;
     for (size_t i = 0; i < n; i += 4u) {
         h0[out[i]]++;
@@ -209,45 +219,18 @@ static inline __attribute__((always_inline)) void emit_full(codec_emitter *e, co
         h2[out[i + 2u]]++;
         h3[out[i + 3u]]++;
     }
-    uint8_t *p = e->bits;
-    uint64_t acc = e->acc;
-    uint32_t nb = e->n;
     for (uint32_t v = 0; v < nv; v++) {
-        if (esc && t->esc[v]) {
-            e->bits = p;
-            e->acc = acc;
-            e->n = nb;
-            emit_vertex_lanes(e, t, v, CODEC_GROUP);
-            p = e->bits;
-            acc = e->acc;
-            nb = e->n;
-            continue;
-        }
         const uint64_t *pb = t->pbits + 4u * (size_t)v;
+        const uint32_t ev = esc ? t->esc[v] : 0u;
         for (uint32_t k = 0; k < 2u; k++) {
-            uint64_t q = pb[k];
-            uint32_t len = (uint32_t)pb[2u + k];
-            if (len > 56u) { /* rare: 57 to 60 bits do not fit beside 7 pending ones */
-                acc |= (q & 0xffffffffu) << nb;
-                nb += 32u;
-                codec_put_le64(p, acc);
-                p += nb >> 3;
-                acc >>= nb & ~7u;
-                nb &= 7u;
-                q >>= 32;
-                len -= 32u;
-            }
-            acc |= q << nb;
-            nb += len;
-            codec_put_le64(p, acc);
-            p += nb >> 3;
-            acc >>= nb & ~7u;
-            nb &= 7u;
+            if (ev >> (4u * k) & 0xfu) { /* every axis of the four lanes on its own: no branch per lane */
+                for (uint32_t l = 4u * k; l < 4u * k + 4u; l++)
+                    for (uint32_t a = 0; a < 3; a++) emit_resid(&e, resid(t, v, a, l));
+            } else
+                emit_packed(&e, pb[k], (uint32_t)pb[2u + k]);
         }
     }
-    e->bits = p;
-    e->acc = acc;
-    e->n = nb;
+    *ep = e;
 }
 
 void codec_emit_group(codec_emitter *e, const codec_tokens *t, const uint32_t mode[CODEC_GROUP], uint32_t n,
@@ -267,7 +250,7 @@ void codec_emit_group(codec_emitter *e, const codec_tokens *t, const uint32_t mo
             e->syms[e->nsyms++] = sym[l];
             e->counts[sym[l]]++;
         }
-        emit_vertex_lanes(e, t, v, n);
+        emit_lanes(e, t, v, 0, n, t->esc[v]);
     }
 }
 
