@@ -53,31 +53,35 @@ bool codec_quant_root(const codec_quant *qz, const float *src, int32_t q[3]);
  * proto/CODEC.md. more: another group follows k (prefetched meanwhile). */
 void codec_motion_group(const codec_motion *m, const int32_t *k, int32_t *X, uint32_t nv, bool more, bool portable);
 
-/* Candidate residuals of vertex v >= 2 of a strand P against a reference X (the moved keyframe
- * in deltas, the previous strand or zeros in keyframes); dP, dX are segments (P[v] - P[v-1]):
- *   kind 0: dP - dX                          (delta mode 0, keyframe mode 1)
- *   kind 1: (dP - dX)[v] - (dP - dX)[v-1]    (delta mode 1)
- *   kind 2: dP[v] - dP[v-1]                  (delta mode 2, keyframe mode 0)
- *   kind 3: dP[v] - half(dP[v-1] + dP[v-2]), at v = 2 as kind 2 (delta mode 3, keyframe mode 2)
- * Vertex 1 is dP - dX under every mode. */
-#define CODEC_KINDS 4u
+/* The modes the encoder tries, one candidate residual each for vertex v >= 2 of a strand P
+ * against a reference X (the moved keyframe in deltas, the previous strand or zeros in
+ * keyframes); dP, dX are segments (P[v] - P[v-1]):
+ *   delta mode 0: dP - dX
+ *   delta mode 1: (dP - dX)[v] - (dP - dX)[v-1]
+ *   delta mode 2, keyframe mode 0: dP[v] - dP[v-1]
+ *   keyframe mode 1: dP - dX
+ *   keyframe mode 2: dP[v] - half(dP[v-1] + dP[v-2]), at v = 2 as mode 0
+ * Vertex 1 is dP - dX under every mode. Delta mode 3 (smooth linear) is valid in a frame but
+ * not tried: on recorded simulation frames it never made a stream smaller. */
+#define CODEC_CANDS 3u
 
-/* Candidate residuals of a group, [vertex][axis][kind][lane] (CODEC_CSTRIDE int32 per vertex);
- * vertex 1 holds dP - dX under every kind, vertex 0 is unused. */
-#define CODEC_CSTRIDE (3u * CODEC_KINDS * CODEC_GROUP)
-#define CODEC_CAT(v, a, k, l) \
-    ((size_t)(v) * CODEC_CSTRIDE + ((size_t)(a) * CODEC_KINDS + (size_t)(k)) * CODEC_GROUP + (size_t)(l))
+/* Candidate residuals of a group, [vertex][axis][mode][lane] (CODEC_CSTRIDE int32 per vertex);
+ * vertex 1 holds dP - dX under every mode, vertex 0 is unused. */
+#define CODEC_CSTRIDE (3u * CODEC_CANDS * CODEC_GROUP)
+#define CODEC_CAT(v, a, m, l) \
+    ((size_t)(v) * CODEC_CSTRIDE + ((size_t)(a) * CODEC_CANDS + (size_t)(m)) * CODEC_GROUP + (size_t)(l))
 
-/* Fills cand (nv vertices) and cost[k * CODEC_GROUP + l] = the sum over v >= 2 and the axes of
- * floor(log2(2 |r| + 1)) (the float32 exponent of 2 |r| + 1) of kind k of lane l. */
-void codec_costs_group(const int32_t *P, const int32_t *X, uint32_t nv, uint32_t cost[CODEC_KINDS * CODEC_GROUP],
+/* Fills cand (nv vertices) for a keyframe (key) or a delta and cost[m * CODEC_GROUP + l] = the
+ * sum over v >= 2 and the axes of floor(log2(2 |r| + 1)) (the float32 exponent of 2 |r| + 1) of
+ * mode m's residuals r in lane l. */
+void codec_costs_group(const int32_t *P, const int32_t *X, uint32_t nv, bool key, uint32_t cost[CODEC_CANDS * CODEC_GROUP],
                        int32_t *cand, bool portable);
 
 /* Per-group token scratch (codec_tokens_group fills it, codec_emit_group reads it; an escaped
  * vertex's residuals are taken again from the candidates). */
 typedef struct codec_tokens {
     const int32_t *cand;   /* the group's candidates (codec_costs_group) */
-    const uint32_t *kind;  /* [lane]: the residual kind */
+    const uint32_t *mode;  /* [lane]: the mode (its candidate) */
     const int32_t *root;   /* [axis][lane]: the root residuals */
     uint16_t *sym;   /* [vertex][lane]: table * CODEC_NSYM + classes (may be where
                         codec_emit_group puts them, after the group's modes: then not copied) */

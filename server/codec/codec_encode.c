@@ -131,9 +131,6 @@ static core_status quantize_roots(codec_encoder *enc, const codec_quant *qz, con
     return CORE_OK;
 }
 
-/* Keyframe mode m predicts as kind KEY_KIND[m]; delta mode m as kind m. */
-static const uint32_t KEY_KIND[CODEC_KEY_MODES] = { 2, 0, 3 };
-
 /* Quantises group g (lanes past the last strand repeat it) into P; the careful path for the
  * lanes the fast one refuses. */
 static core_status quantize_group(codec_encoder *enc, const codec_quant *qz, const float *xyz, uint32_t g,
@@ -194,26 +191,15 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
         } else {
             codec_motion_group(motion, enc->key_q + (size_t)g * gs, X, nv, g + 1u < enc->ngroups, portable);
         }
-        uint32_t cost[CODEC_KINDS * CODEC_GROUP], mode[CODEC_GROUP], kind[CODEC_GROUP];
+        uint32_t cost[CODEC_CANDS * CODEC_GROUP], mode[CODEC_GROUP];
         int32_t root[3 * CODEC_GROUP];
-        codec_costs_group(P, X, nv, cost, cand, portable);
+        codec_costs_group(P, X, nv, key, cost, cand, portable);
         for (uint32_t l = 0; l < CODEC_GROUP; l++) {
             const uint32_t j = j0 + l;
             uint32_t m = 0;
-            if (key) {
-                uint32_t best = cost[KEY_KIND[0] * CODEC_GROUP + l];
-                for (uint32_t k = 1; k < CODEC_KEY_MODES; k++) {
-                    if (k == 1u && j == 0) continue; /* no neighbour: the same as mode 0 */
-                    if (cost[KEY_KIND[k] * CODEC_GROUP + l] < best) {
-                        best = cost[KEY_KIND[k] * CODEC_GROUP + l];
-                        m = k;
-                    }
-                }
-                kind[l] = KEY_KIND[m];
-            } else {
-                for (uint32_t k = 1; k < CODEC_DELTA_MODES; k++)
-                    if (cost[k * CODEC_GROUP + l] < cost[m * CODEC_GROUP + l]) m = k;
-                kind[l] = m;
+            for (uint32_t k = 1; k < CODEC_CANDS; k++) {
+                if (key && k == 1u && j == 0) continue; /* no neighbour: the same as mode 0 */
+                if (cost[k * CODEC_GROUP + l] < cost[m * CODEC_GROUP + l]) m = k;
             }
             mode[l] = m;
             for (uint32_t a = 0; a < 3; a++) {
@@ -227,7 +213,7 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
             }
         }
         for (uint32_t a = 0; a < 3; a++) kprev[a] = X[CODEC_GAT(0, a, CODEC_GROUP - 1u)];
-        tok.kind = kind;
+        tok.mode = mode;
         tok.root = root;
         /* a full group's symbols go straight to their place in the frame, after its modes */
         tok.sym = nreal == CODEC_GROUP ? e->syms + e->nsyms + CODEC_GROUP : symtmp;

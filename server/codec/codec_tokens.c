@@ -22,10 +22,10 @@ static inline uint32_t class_of(uint32_t m)
 }
 
 /* The vector path's loop with the 8 lanes as an inner loop. */
-/* Residual of vertex v, axis a, lane l: the root's, else the candidate of the lane's kind. */
+/* Residual of vertex v, axis a, lane l: the root's, else the candidate of the lane's mode. */
 static inline int32_t resid(const codec_tokens *t, uint32_t v, uint32_t a, uint32_t l)
 {
-    return v ? t->cand[CODEC_CAT(v, a, t->kind[l], l)] : t->root[a * CODEC_GROUP + l];
+    return v ? t->cand[CODEC_CAT(v, a, t->mode[l], l)] : t->root[a * CODEC_GROUP + l];
 }
 
 static uint32_t tokens_portable(const codec_tokens *t, uint32_t nv)
@@ -78,13 +78,13 @@ static inline __m256i class8(__m256i r, __m256i *f)
     return c;
 }
 
-/* Selection masks of the lanes' kinds. */
-typedef struct kindsel {
-    __m256i is1, is3, hi;
-} kindsel;
+/* Selection masks of the lanes' modes. */
+typedef struct modesel {
+    __m256i is1, is2;
+} modesel;
 
 /* Residuals of axis a, vertex v (phase: 0 the root, 1 vertex 1, 2 later ones) of every lane. */
-static inline __attribute__((always_inline)) __m256i resid8(const kindsel *ks, const int32_t *cand, const int32_t *root,
+static inline __attribute__((always_inline)) __m256i resid8(const modesel *ms, const int32_t *cand, const int32_t *root,
                                                             uint32_t v, uint32_t a, int phase)
 {
     if (phase == 0) return _mm256_loadu_si256((const __m256i *)(const void *)(root + a * CODEC_GROUP));
@@ -92,18 +92,17 @@ static inline __attribute__((always_inline)) __m256i resid8(const kindsel *ks, c
     if (phase == 1) return _mm256_loadu_si256((const __m256i *)(const void *)c);
     __m256i r0 = _mm256_loadu_si256((const __m256i *)(const void *)c),
             r1 = _mm256_loadu_si256((const __m256i *)(const void *)(c + CODEC_GROUP)),
-            r2 = _mm256_loadu_si256((const __m256i *)(const void *)(c + 2u * CODEC_GROUP)),
-            r3 = _mm256_loadu_si256((const __m256i *)(const void *)(c + 3u * CODEC_GROUP));
-    return _mm256_blendv_epi8(_mm256_blendv_epi8(r0, r1, ks->is1), _mm256_blendv_epi8(r2, r3, ks->is3), ks->hi);
+            r2 = _mm256_loadu_si256((const __m256i *)(const void *)(c + 2u * CODEC_GROUP));
+    return _mm256_blendv_epi8(_mm256_blendv_epi8(r0, r1, ms->is1), r2, ms->is2);
 }
 
 /* One vertex of all lanes: residuals stored, symbols (table from base, the next base
  * returned), each lane's raw bits and length, lanes 0-3 and 4-7 packed, the escape mask. */
-static inline __attribute__((always_inline)) __m256i tok_vertex(__m256i base, const kindsel *ks, uint32_t v, int phase,
+static inline __attribute__((always_inline)) __m256i tok_vertex(__m256i base, const modesel *ms, uint32_t v, int phase,
                                                                 const codec_tokens *t, uint32_t *any)
 {
     __m256i c[3], f[3];
-    for (uint32_t a = 0; a < 3; a++) c[a] = class8(resid8(ks, t->cand, t->root, v, a, phase), &f[a]);
+    for (uint32_t a = 0; a < 3; a++) c[a] = class8(resid8(ms, t->cand, t->root, v, a, phase), &f[a]);
     __m256i mx = _mm256_max_epi32(_mm256_max_epi32(c[0], c[1]), c[2]);
     uint32_t esc = (uint32_t)_mm256_movemask_ps(
         _mm256_castsi256_ps(_mm256_cmpeq_epi32(mx, _mm256_set1_epi32((int32_t)CODEC_ESCAPE))));
@@ -139,14 +138,13 @@ static inline __attribute__((always_inline)) __m256i tok_vertex(__m256i base, co
 /* Vertex by vertex, all lanes at once; vertices 0 and 1 peeled (root, first segment). */
 static uint32_t tokens_avx2(const codec_tokens *t, uint32_t nv)
 {
-    const __m256i k = _mm256_loadu_si256((const __m256i *)(const void *)t->kind);
-    const kindsel ks = { .is1 = _mm256_cmpeq_epi32(k, _mm256_set1_epi32(1)), .is3 = _mm256_cmpeq_epi32(k, _mm256_set1_epi32(3)),
-                         .hi = _mm256_cmpgt_epi32(k, _mm256_set1_epi32(1)) };
+    const __m256i k = _mm256_loadu_si256((const __m256i *)(const void *)t->mode);
+    const modesel ms = { .is1 = _mm256_cmpeq_epi32(k, _mm256_set1_epi32(1)), .is2 = _mm256_cmpeq_epi32(k, _mm256_set1_epi32(2)) };
     uint32_t any = 0;
     __m256i base = _mm256_set1_epi32((int32_t)(CODEC_T_ROOT * CODEC_NSYM));
-    base = tok_vertex(base, &ks, 0, 0, t, &any);
-    base = tok_vertex(base, &ks, 1, 1, t, &any);
-    for (uint32_t v = 2; v < nv; v++) base = tok_vertex(base, &ks, v, 2, t, &any);
+    base = tok_vertex(base, &ms, 0, 0, t, &any);
+    base = tok_vertex(base, &ms, 1, 1, t, &any);
+    for (uint32_t v = 2; v < nv; v++) base = tok_vertex(base, &ms, v, 2, t, &any);
     return any;
 }
 #endif
