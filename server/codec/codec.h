@@ -60,7 +60,8 @@ typedef struct codec_encoder {
     bool key_valid;
     bool portable;       /* use the portable kernels even where SIMD ones were built: the same
                             bytes (tests set it after init to compare the two) */
-    int32_t *key_q;      /* keyframe lattice coordinates: per group of 8 strands [vertex][axis][strand] */
+    int32_t *key_q;      /* the keyframe as deltas use it: per group of 8 strands its roots and
+                            clamped segments (codec_kref_group) */
     int32_t *cur_q;      /* this frame's, when it is a keyframe */
     int32_t *key_roots, *cur_roots; /* root xyz of every sent strand: keyframe, this frame */
     uint64_t last_seq;   /* sequence numbers must increase */
@@ -79,9 +80,10 @@ typedef struct codec_encoder {
 typedef struct codec_decoder {
     bool key_valid;
     codec_frame_info key;  /* header of the held keyframe */
-    int32_t *key_g;        /* keyframe, in groups of 8 strands [vertex][axis][lane] */
+    int32_t *key_g;        /* the keyframe as deltas use it: per group of 8 strands its roots and
+                              clamped segments (codec_kref_group) */
     int32_t *cur_q;        /* this frame, strand-major */
-    size_t cap;            /* int32 capacity of cur_q (key_g holds as many, rounded up to groups) */
+    size_t cap, key_cap;   /* int32 capacity of cur_q and of key_g */
     uint16_t *slots;       /* rANS slot -> symbol lookup, one 4096-entry table per context */
     int32_t *res;          /* residuals of one group of 8 strands */
     int32_t *key_m;        /* one group's reference: moved roots and moved segments (deltas) */

@@ -214,12 +214,15 @@ static core_status reserve(codec_decoder *dec, size_t nq, uint32_t nverts, core_
         dec->key_m = m;
         dec->res_cap = nverts;
     }
+    /* the held keyframe's references, group by group (grown only by keyframes, which replace it) */
+    size_t ng = (nq / 3u / nverts + CODEC_LANES - 1u) / CODEC_LANES * CODEC_KREF_SIZE(nverts);
+    if (dec->key_cap < ng) {
+        int32_t *k = realloc(dec->key_g, ng * sizeof *k);
+        if (!k) return core_fail(err, CORE_ENOMEM, "codec: out of memory for %zu coordinates", nq);
+        dec->key_g = k;
+        dec->key_cap = ng;
+    }
     if (dec->cap >= nq) return CORE_OK;
-    /* the held keyframe in groups of 8 (grown only by keyframes, which replace it) */
-    size_t ng = (nq / 3u / nverts + CODEC_LANES - 1u) / CODEC_LANES * nverts * CODEC_GSTRIDE;
-    int32_t *k = realloc(dec->key_g, ng * sizeof *k);
-    if (!k) return core_fail(err, CORE_ENOMEM, "codec: out of memory for %zu coordinates", nq);
-    dec->key_g = k;
     int32_t *c = realloc(dec->cur_q, nq * sizeof *c);
     if (!c) return core_fail(err, CORE_ENOMEM, "codec: out of memory for %zu coordinates", nq);
     dec->cur_q = c;
@@ -259,7 +262,7 @@ static core_status decode_strands(codec_decoder *dec, const codec_frame_info *h,
         }
         if (r->overrun) goto bad_stream;
         if (!key) /* the group's moved roots and (as differences) moved segments */
-            codec_motion_group(motion, dec->key_g + (size_t)(j0 / CODEC_LANES) * nv * CODEC_GSTRIDE, X, nv,
+            codec_motion_group(motion, dec->key_g + (size_t)(j0 / CODEC_LANES) * CODEC_KREF_SIZE(nv), X, nv,
                                j0 + CODEC_LANES < h->nstrands_sent, false);
         for (uint32_t l = 0; l < n; l++) {
             const uint32_t j = j0 + l;
@@ -349,15 +352,16 @@ core_status codec_decode(codec_decoder *dec, const uint8_t *data, size_t len, fl
                          bits_used);
 
     for (size_t i = 0; i < nq; i++) xyz_out[i] = (float)((double)dec->cur_q[i] * h.step);
-    if (h.keyframe) { /* held in groups of 8, unused lanes repeating the last strand */
+    if (h.keyframe) { /* held as references of groups of 8, unused lanes repeating the last strand */
         const size_t per = (size_t)h.nverts * 3u;
+        int32_t *const G = dec->key_m; /* one group's lattice coordinates, [vertex][axis][lane] */
         for (uint32_t j0 = 0; j0 < h.nstrands_sent; j0 += CODEC_LANES) {
-            int32_t *G = dec->key_g + (size_t)(j0 / CODEC_LANES) * h.nverts * CODEC_GSTRIDE;
             for (uint32_t l = 0; l < CODEC_LANES; l++) {
                 const uint32_t j = j0 + l < h.nstrands_sent ? j0 + l : h.nstrands_sent - 1u;
                 const int32_t *P = dec->cur_q + (size_t)j * per;
                 for (size_t i = 0; i < per; i++) G[i * CODEC_LANES + l] = P[i];
             }
+            codec_kref_group(G, h.nverts, dec->key_g + (size_t)(j0 / CODEC_LANES) * CODEC_KREF_SIZE(h.nverts), false);
         }
         dec->key = h;
         dec->key_valid = true;

@@ -48,10 +48,18 @@ core_status codec_quant_careful(const codec_quant *qz, const float *src, uint32_
  * root fails (then quantise the whole strand to learn it). */
 bool codec_quant_root(const codec_quant *qz, const float *src, int32_t q[3]);
 
-/* The delta reference of the keyframe group k (nv vertices) under motion m: X[0] = the moved
+/* A keyframe group as deltas use it (its "reference"), in int32 units: the roots [axis][lane],
+ * then per vertex v >= 1 the clamped segments d = clamp15(K[v] - K[v-1]) of proto/CODEC.md
+ * packed for 16-bit multiply-adds: [lane] d_x | d_y << 16, then [lane] d_z | 1 << 16. */
+#define CODEC_KREF_SIZE(nv) (16u * (size_t)(nv) + 8u)
+
+/* The reference kref (CODEC_KREF_SIZE(nv) int32) of the keyframe group K (nv vertices). */
+void codec_kref_group(const int32_t *K, uint32_t nv, int32_t *kref, bool portable);
+
+/* The delta reference of the keyframe group kref (nv vertices) under motion m: X[0] = the moved
  * roots, X[v] = X[v-1] + S[v] (the moved segments), so that X's segments are the S of
- * proto/CODEC.md. more: another group follows k (prefetched meanwhile). */
-void codec_motion_group(const codec_motion *m, const int32_t *k, int32_t *X, uint32_t nv, bool more, bool portable);
+ * proto/CODEC.md. more: another group's reference follows kref (prefetched meanwhile). */
+void codec_motion_group(const codec_motion *m, const int32_t *kref, int32_t *X, uint32_t nv, bool more, bool portable);
 
 /* The modes the encoder tries, one candidate residual each for vertex v >= 2 of a strand P
  * against a reference X (the moved keyframe in deltas, the previous strand or zeros in

@@ -65,7 +65,7 @@ core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint3
     enc->ngroups = (sent + CODEC_GROUP - 1u) / CODEC_GROUP;
     enc->step = codec_step_for_bound(d.max_error_m);
     enc->inv_step = 1.0 / enc->step;
-    size_t nq = (size_t)enc->ngroups * group_size(nverts);
+    size_t nq = (size_t)enc->ngroups * CODEC_KREF_SIZE(nverts);
     enc->nsyms_max = (size_t)sent * (1u + (size_t)nverts);
     enc->bits_cap = (size_t)sent * nverts * 14u + 16u;
     enc->rans_cap = enc->nsyms_max * 2u + 64u;
@@ -180,7 +180,7 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
         core_status st = quantize_group(enc, qz, xyz, g, nreal, P, err);
         if (st) return st;
         if (key) {
-            memcpy(enc->cur_q + (size_t)g * gs, P, gs * sizeof *P);
+            codec_kref_group(P, nv, enc->cur_q + (size_t)g * CODEC_KREF_SIZE(nv), portable);
             for (uint32_t l = 0; l < nreal; l++)
                 for (uint32_t a = 0; a < 3; a++) enc->cur_roots[3u * (j0 + l) + a] = P[CODEC_GAT(0, a, l)];
             for (uint32_t v = 0; v < nv; v++) /* X = the previous strand, zeros before the first */
@@ -189,7 +189,8 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
                     memcpy(X + CODEC_GAT(v, a, 1), P + CODEC_GAT(v, a, 0), (CODEC_GROUP - 1u) * sizeof *X);
                 }
         } else {
-            codec_motion_group(motion, enc->key_q + (size_t)g * gs, X, nv, g + 1u < enc->ngroups, portable);
+            codec_motion_group(motion, enc->key_q + (size_t)g * CODEC_KREF_SIZE(nv), X, nv, g + 1u < enc->ngroups,
+                               portable);
         }
         uint32_t cost[CODEC_CANDS * CODEC_GROUP], mode[CODEC_GROUP];
         int32_t root[3 * CODEC_GROUP];

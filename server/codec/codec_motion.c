@@ -118,54 +118,89 @@ void codec_motion_estimate(const int32_t *key, const int32_t *cur, uint32_t nstr
     }
 }
 
+/* Where the packed segment words of vertex v >= 1 begin in a reference: [lane] d_x | d_y << 16,
+ * then [lane] d_z | 1 << 16. */
+static inline size_t kref_seg(uint32_t v)
+{
+    return CODEC_GSTRIDE + 2u * CODEC_GROUP * (size_t)(v - 1u);
+}
+
+static void kref_portable(const int32_t *K, uint32_t nv, int32_t *kref)
+{
+    memcpy(kref, K, CODEC_GSTRIDE * sizeof *kref);
+    for (uint32_t v = 1; v < nv; v++) {
+        int32_t *w = kref + kref_seg(v);
+        for (uint32_t l = 0; l < CODEC_GROUP; l++) {
+            uint32_t d[3];
+            for (uint32_t a = 0; a < 3; a++)
+                d[a] = (uint32_t)codec_clamp15(K[CODEC_GAT(v, a, l)] - K[CODEC_GAT(v - 1u, a, l)]) & 0xffffu;
+            w[l] = (int32_t)(d[0] | d[1] << 16);
+            w[CODEC_GROUP + l] = (int32_t)(d[2] | 1u << 16);
+        }
+    }
+}
+
 /* X[0] = the moved roots, X[v] = X[v-1] + S[v]: the segments of X are the moved segments (no
  * sum overflows: |S| < 2^17 and nv <= 4096). */
-static void group_portable(const codec_motion *m, const int32_t *k, int32_t *X, uint32_t nv)
+static void moved_roots(const codec_motion *m, const int32_t *kref, int32_t *X)
 {
     for (uint32_t l = 0; l < CODEC_GROUP; l++) {
-        const int32_t r[3] = { k[CODEC_GAT(0, 0, l)], k[CODEC_GAT(0, 1, l)], k[CODEC_GAT(0, 2, l)] };
+        const int32_t r[3] = { kref[CODEC_GAT(0, 0, l)], kref[CODEC_GAT(0, 1, l)], kref[CODEC_GAT(0, 2, l)] };
         for (uint32_t a = 0; a < 3; a++) X[CODEC_GAT(0, a, l)] = codec_moved_root(m, r, a);
     }
-    for (uint32_t v = 1; v < nv; v++)
+}
+
+static void group_portable(const codec_motion *m, const int32_t *kref, int32_t *X, uint32_t nv)
+{
+    moved_roots(m, kref, X);
+    for (uint32_t v = 1; v < nv; v++) {
+        const int32_t *w = kref + kref_seg(v);
         for (uint32_t l = 0; l < CODEC_GROUP; l++) {
-            int32_t d[3];
-            for (uint32_t a = 0; a < 3; a++) d[a] = codec_clamp15(k[CODEC_GAT(v, a, l)] - k[CODEC_GAT(v - 1u, a, l)]);
+            const int32_t d[3] = { (int16_t)(w[l] & 0xffff), (int16_t)((uint32_t)w[l] >> 16),
+                                   (int16_t)(w[CODEC_GROUP + l] & 0xffff) };
             for (uint32_t a = 0; a < 3; a++) X[CODEC_GAT(v, a, l)] = X[CODEC_GAT(v - 1u, a, l)] + codec_moved_seg(m, d, a);
         }
+    }
 }
 
 #ifdef __AVX2__
-/* The same, 8 lanes at a time: per axis two 16-bit multiply-adds, (d_x, d_y) . (rho_0, rho_1)
- * and (d_z, 1) . (rho_2, 8192) (|rho| <= 2^14 and |d| < 2^15 fit in 16 bits, no sum overflows). */
-static void group_avx2(const codec_motion *m, const int32_t *k, int32_t *X, uint32_t nv, bool more)
+static void kref_avx2(const int32_t *K, uint32_t nv, int32_t *kref)
 {
-    for (uint32_t l = 0; l < CODEC_GROUP; l++) {
-        const int32_t r[3] = { k[CODEC_GAT(0, 0, l)], k[CODEC_GAT(0, 1, l)], k[CODEC_GAT(0, 2, l)] };
-        for (uint32_t a = 0; a < 3; a++) X[CODEC_GAT(0, a, l)] = codec_moved_root(m, r, a);
-    }
-    __m256i rxy[3], rz[3];
-    for (uint32_t a = 0; a < 3; a++) {
-        rxy[a] = _mm256_set1_epi32((int32_t)(((uint32_t)m->rho[3 * a] & 0xffffu) | (uint32_t)m->rho[3 * a + 1] << 16));
-        rz[a] = _mm256_set1_epi32((int32_t)(((uint32_t)m->rho[3 * a + 2] & 0xffffu) | 8192u << 16));
-    }
+    memcpy(kref, K, CODEC_GSTRIDE * sizeof *kref);
     const __m256i lo = _mm256_set1_epi32(-CODEC_SEG_MAX), hi = _mm256_set1_epi32(CODEC_SEG_MAX),
                   one_hi = _mm256_set1_epi32(1 << 16);
-    __m256i k0[3], x0[3];
-    for (uint32_t a = 0; a < 3; a++) {
-        k0[a] = codec_ldg(k, 0, a);
-        x0[a] = codec_ldg(X, 0, a);
-    }
+    __m256i k0[3];
+    for (uint32_t a = 0; a < 3; a++) k0[a] = codec_ldg(K, 0, a);
     for (uint32_t v = 1; v < nv; v++) {
-        if (more) /* the next group follows: a vertex (96 bytes) of it per vertex */
-            __builtin_prefetch(k + CODEC_GAT(nv + v, 0, 0));
         __m256i d[3];
         for (uint32_t a = 0; a < 3; a++) {
-            __m256i k1 = codec_ldg(k, v, a);
+            __m256i k1 = codec_ldg(K, v, a);
             d[a] = _mm256_max_epi32(_mm256_min_epi32(_mm256_sub_epi32(k1, k0[a]), hi), lo);
             k0[a] = k1;
         }
-        const __m256i dxy = _mm256_blend_epi16(d[0], _mm256_slli_epi32(d[1], 16), 0xaa);
-        const __m256i dz1 = _mm256_blend_epi16(d[2], one_hi, 0xaa);
+        int32_t *w = kref + kref_seg(v);
+        _mm256_storeu_si256((__m256i *)(void *)w, _mm256_blend_epi16(d[0], _mm256_slli_epi32(d[1], 16), 0xaa));
+        _mm256_storeu_si256((__m256i *)(void *)(w + CODEC_GROUP), _mm256_blend_epi16(d[2], one_hi, 0xaa));
+    }
+}
+
+/* The same, 8 lanes at a time: per axis two 16-bit multiply-adds, (d_x, d_y) . (rho_0, rho_1)
+ * and (d_z, 1) . (rho_2, 8192) (|rho| <= 2^14 and |d| < 2^15 fit in 16 bits, no sum overflows). */
+static void group_avx2(const codec_motion *m, const int32_t *kref, int32_t *X, uint32_t nv, bool more)
+{
+    moved_roots(m, kref, X);
+    __m256i rxy[3], rz[3], x0[3];
+    for (uint32_t a = 0; a < 3; a++) {
+        rxy[a] = _mm256_set1_epi32((int32_t)(((uint32_t)m->rho[3 * a] & 0xffffu) | (uint32_t)m->rho[3 * a + 1] << 16));
+        rz[a] = _mm256_set1_epi32((int32_t)(((uint32_t)m->rho[3 * a + 2] & 0xffffu) | 8192u << 16));
+        x0[a] = codec_ldg(X, 0, a);
+    }
+    for (uint32_t v = 1; v < nv; v++) {
+        const int32_t *w = kref + kref_seg(v);
+        if (more && (v & 1u)) /* the next group's reference, a cache line per two vertices */
+            __builtin_prefetch(w + CODEC_KREF_SIZE(nv));
+        const __m256i dxy = _mm256_loadu_si256((const __m256i *)(const void *)w);
+        const __m256i dz1 = _mm256_loadu_si256((const __m256i *)(const void *)(w + CODEC_GROUP));
         for (uint32_t a = 0; a < 3; a++) {
             __m256i s = _mm256_add_epi32(_mm256_madd_epi16(dxy, rxy[a]), _mm256_madd_epi16(dz1, rz[a]));
             x0[a] = _mm256_add_epi32(x0[a], _mm256_srai_epi32(s, 14));
@@ -175,15 +210,27 @@ static void group_avx2(const codec_motion *m, const int32_t *k, int32_t *X, uint
 }
 #endif
 
-void codec_motion_group(const codec_motion *m, const int32_t *k, int32_t *X, uint32_t nv, bool more, bool portable)
+void codec_kref_group(const int32_t *K, uint32_t nv, int32_t *kref, bool portable)
 {
 #ifdef __AVX2__
     if (!portable) {
-        group_avx2(m, k, X, nv, more);
+        kref_avx2(K, nv, kref);
+        return;
+    }
+#endif
+    (void)portable;
+    kref_portable(K, nv, kref);
+}
+
+void codec_motion_group(const codec_motion *m, const int32_t *kref, int32_t *X, uint32_t nv, bool more, bool portable)
+{
+#ifdef __AVX2__
+    if (!portable) {
+        group_avx2(m, kref, X, nv, more);
         return;
     }
 #endif
     (void)portable;
     (void)more;
-    group_portable(m, k, X, nv);
+    group_portable(m, kref, X, nv);
 }
