@@ -98,7 +98,13 @@ typedef struct codec_tokens {
     uint32_t *lane;  /* [vertex][lane]: the lane's raw bits | their length << 16 (valid where the
                         lane's vertex does not escape) */
     uint8_t *esc;    /* [vertex]: the lanes whose vertex escapes */
+    uint32_t *xbits; /* [vertex][axis][3][lane]: each axis's raw bits, escapes included (bits
+                        0-31, bits 32 and up), then their count (valid where a lane of the vertex
+                        escapes) */
 } codec_tokens;
+
+/* uint32 per vertex of codec_tokens.xbits. */
+#define CODEC_XSTRIDE (3u * 3u * CODEC_GROUP)
 
 /* Tokens of every lane of the group t describes (nv vertices). Returns the lanes with an escape
  * anywhere. */

@@ -18,7 +18,7 @@ static size_t group_size(uint32_t nverts)
 static size_t work_size(uint32_t nverts)
 {
     return 3u * group_size(nverts) + (size_t)nverts * CODEC_CSTRIDE + (size_t)nverts * CODEC_GROUP * 3u +
-           (size_t)nverts;
+           (size_t)nverts + (size_t)nverts * CODEC_XSTRIDE;
 }
 
 void codec_encoder_free(codec_encoder *enc)
@@ -171,7 +171,8 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
     const size_t nvl = (size_t)nv * CODEC_GROUP;
     uint16_t *const symtmp = (uint16_t *)(void *)(tw + 2u * nvl); /* a partial group's symbols */
     codec_tokens tok = { .cand = cand, .pbits = (uint64_t *)(void *)tw, .lane = tw + nvl,
-                         .esc = (uint8_t *)(void *)(tw + 2u * nvl + nvl / 2u) };
+                         .esc = (uint8_t *)(void *)(tw + 2u * nvl + nvl / 2u),
+                         .xbits = tw + 2u * nvl + nvl / 2u + nv };
     int32_t kprev[3] = { 0, 0, 0 }; /* root of the previous strand in the moved keyframe */
     for (uint32_t g = 0; g < enc->ngroups; g++) {
         const uint32_t j0 = g * CODEC_GROUP, nreal = enc->nstrands_sent - j0 < CODEC_GROUP ? enc->nstrands_sent - j0 : CODEC_GROUP;

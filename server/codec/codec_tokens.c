@@ -21,7 +21,26 @@ static inline uint32_t class_of(uint32_t m)
     return c < CODEC_ESCAPE ? c : CODEC_ESCAPE;
 }
 
-/* The vector path's loop with the 8 lanes as an inner loop. */
+/* Raw bits of residual r: class c < 6 as c bits (the sign, then the bits below the leading one),
+ * an escape (m >= 32) as CODEC_ESC_BITS bits of e - 5 (e = floor(log2 m)), the sign and the e
+ * bits below the leading one; stored as the low 32 bits, the rest, and the count at x[0], x[8],
+ * x[16] (one lane of codec_tokens.xbits). */
+static inline void axis_bits(int32_t r, uint32_t *x)
+{
+    const uint32_t m = mag(r), c = class_of(m);
+    uint64_t w = field(r, c < CODEC_ESCAPE ? c : 0);
+    uint32_t n = c;
+    if (c == CODEC_ESCAPE) {
+        const uint32_t ex = 31u - (uint32_t)__builtin_clz(m);
+        w = (uint64_t)(ex - 5u) | (uint64_t)((uint32_t)r >> 31) << CODEC_ESC_BITS |
+            (uint64_t)(m - (1u << ex)) << (CODEC_ESC_BITS + 1u);
+        n = CODEC_ESC_BITS + 1u + ex;
+    }
+    x[0] = (uint32_t)w;
+    x[CODEC_GROUP] = (uint32_t)(w >> 32);
+    x[2u * CODEC_GROUP] = n;
+}
+
 /* Residual of vertex v, axis a, lane l: the root's, else the candidate of the lane's mode. */
 static inline int32_t resid(const codec_tokens *t, uint32_t v, uint32_t a, uint32_t l)
 {
@@ -61,6 +80,10 @@ static uint32_t tokens_portable(const codec_tokens *t, uint32_t nv)
         }
         t->esc[v] = (uint8_t)esc;
         any |= esc;
+        if (esc)
+            for (uint32_t a = 0; a < 3; a++)
+                for (uint32_t l = 0; l < CODEC_GROUP; l++)
+                    axis_bits(resid(t, v, a, l), t->xbits + (size_t)v * CODEC_XSTRIDE + 3u * CODEC_GROUP * a + l);
     }
     return any;
 }
@@ -76,6 +99,25 @@ static inline __m256i class8(__m256i r, __m256i *f)
     c = _mm256_min_epi32(c, _mm256_set1_epi32((int32_t)CODEC_ESCAPE));
     *f = _mm256_and_si256(_mm256_or_si256(m2, _mm256_srli_epi32(r, 31)), _mm256_sub_epi32(_mm256_sllv_epi32(one, c), one));
     return c;
+}
+
+/* axis_bits() of 8 residuals r (classes c, fields f of class8) into x[0..24). floor(log2 m)
+ * from the float32 exponent of m, one less where rounding carried it past m. */
+static inline void axis_bits8(__m256i r, __m256i c, __m256i f, uint32_t *x)
+{
+    const __m256i one = _mm256_set1_epi32(1), m = _mm256_abs_epi32(r);
+    __m256i ex = _mm256_sub_epi32(_mm256_srli_epi32(_mm256_castps_si256(_mm256_cvtepi32_ps(m)), 23), _mm256_set1_epi32(127));
+    ex = _mm256_add_epi32(ex, _mm256_cmpgt_epi32(_mm256_sllv_epi32(one, ex), m));
+    const __m256i mant = _mm256_sub_epi32(m, _mm256_sllv_epi32(one, ex));
+    const __m256i head = _mm256_or_si256(_mm256_sub_epi32(ex, _mm256_set1_epi32(5)),
+                                         _mm256_slli_epi32(_mm256_srli_epi32(r, 31), CODEC_ESC_BITS));
+    const __m256i e = _mm256_cmpeq_epi32(c, _mm256_set1_epi32((int32_t)CODEC_ESCAPE));
+    const __m256i lo = _mm256_blendv_epi8(f, _mm256_or_si256(head, _mm256_slli_epi32(mant, CODEC_ESC_BITS + 1u)), e);
+    const __m256i hi = _mm256_and_si256(_mm256_srli_epi32(mant, 32u - (CODEC_ESC_BITS + 1u)), e);
+    const __m256i n = _mm256_blendv_epi8(c, _mm256_add_epi32(ex, _mm256_set1_epi32((int32_t)(CODEC_ESC_BITS + 1u))), e);
+    _mm256_storeu_si256((__m256i *)(void *)x, lo);
+    _mm256_storeu_si256((__m256i *)(void *)(x + CODEC_GROUP), hi);
+    _mm256_storeu_si256((__m256i *)(void *)(x + 2u * CODEC_GROUP), n);
 }
 
 /* Selection masks of the lanes' modes. */
@@ -145,6 +187,14 @@ static uint32_t tokens_avx2(const codec_tokens *t, uint32_t nv)
     base = tok_vertex(base, &ms, 0, 0, t, &any);
     base = tok_vertex(base, &ms, 1, 1, t, &any);
     for (uint32_t v = 2; v < nv; v++) base = tok_vertex(base, &ms, v, 2, t, &any);
+    for (uint32_t v = 0; any && v < nv; v++) { /* the vertices that escape somewhere, again */
+        if (!t->esc[v]) continue;
+        for (uint32_t a = 0; a < 3; a++) {
+            __m256i f, r = resid8(&ms, t->cand, t->root, v, a, v < 2u ? (int)v : 2);
+            __m256i c = class8(r, &f);
+            axis_bits8(r, c, f, t->xbits + (size_t)v * CODEC_XSTRIDE + 3u * CODEC_GROUP * a);
+        }
+    }
     return any;
 }
 #endif
@@ -158,17 +208,13 @@ uint32_t codec_tokens_group(const codec_tokens *t, uint32_t nv, bool portable)
     return tokens_portable(t, nv);
 }
 
-/* Raw bits of one residual without branches: class c < 6 as c bits (the sign, then the bits
- * below the leading one), an escape (m >= 32) as CODEC_ESC_BITS bits of e - 5 (e = floor(log2
- * m)), the sign and the e bits below the leading one. */
-static inline void emit_resid(codec_emitter *e, int32_t r)
+/* The raw bits of lane l's vertex v (which escapes somewhere in the group) axis by axis from
+ * codec_tokens.xbits. */
+static inline void emit_axes(codec_emitter *e, const codec_tokens *t, uint32_t v, uint32_t l)
 {
-    const uint32_t m = mag(r), s = (uint32_t)r >> 31, ex = 31u - (uint32_t)__builtin_clz(m | 1u);
-    const uint32_t c = (ex + 1u) & (0u - (uint32_t)(m != 0));
-    const uint64_t small = ((m << 1) | s) & ((1u << c) - 1u);
-    const uint64_t big = (uint64_t)(ex - 5u) | (uint64_t)s << CODEC_ESC_BITS | (uint64_t)(m - (1u << ex)) << (CODEC_ESC_BITS + 1u);
-    const uint64_t esc = 0u - (uint64_t)(m >= 1u << (CODEC_ESCAPE - 1u));
-    codec_emit_bits(e, small ^ ((small ^ big) & esc), c ^ ((c ^ (CODEC_ESC_BITS + 1u + ex)) & (uint32_t)esc));
+    const uint32_t *x = t->xbits + (size_t)v * CODEC_XSTRIDE + l;
+    for (uint32_t a = 0; a < 3; a++, x += 3u * CODEC_GROUP)
+        codec_emit_bits(e, x[0] | (uint64_t)x[CODEC_GROUP] << 32, x[2u * CODEC_GROUP]);
 }
 
 /* Raw bits of vertex v of lanes l0..l1-1 one lane at a time: a lane that escapes (its bit in
@@ -178,11 +224,10 @@ static inline __attribute__((always_inline)) void emit_lanes(codec_emitter *e, c
 {
     const uint32_t *lw = t->lane + (size_t)v * CODEC_GROUP;
     for (uint32_t l = l0; l < l1; l++) {
-        if (esc >> l & 1u) {
-            for (uint32_t a = 0; a < 3; a++) emit_resid(e, resid(t, v, a, l));
-        } else {
+        if (esc >> l & 1u)
+            emit_axes(e, t, v, l);
+        else
             codec_emit_bits(e, lw[l] & 0xffffu, lw[l] >> 16);
-        }
     }
 }
 
@@ -222,8 +267,7 @@ static inline __attribute__((always_inline)) void emit_full(codec_emitter *ep, c
         const uint32_t ev = esc ? t->esc[v] : 0u;
         for (uint32_t k = 0; k < 2u; k++) {
             if (ev >> (4u * k) & 0xfu) { /* every axis of the four lanes on its own: no branch per lane */
-                for (uint32_t l = 4u * k; l < 4u * k + 4u; l++)
-                    for (uint32_t a = 0; a < 3; a++) emit_resid(&e, resid(t, v, a, l));
+                for (uint32_t l = 4u * k; l < 4u * k + 4u; l++) emit_axes(&e, t, v, l);
             } else
                 emit_packed(&e, pb[k], (uint32_t)pb[2u + k]);
         }
