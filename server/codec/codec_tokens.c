@@ -47,6 +47,7 @@ static inline int32_t resid(const codec_tokens *t, uint32_t v, uint32_t a, uint3
     return v ? t->cand[CODEC_CAT(v, a, t->mode[l], l)] : t->root[a * CODEC_GROUP + l];
 }
 
+/* The vector path's loop with the 8 lanes as an inner loop. */
 static uint32_t tokens_portable(const codec_tokens *t, uint32_t nv)
 {
     uint32_t base[CODEC_GROUP], any = 0;
