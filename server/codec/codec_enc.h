@@ -80,8 +80,8 @@ void codec_motion_group(const codec_motion *m, const int32_t *kref, int32_t *X, 
     ((size_t)(v) * CODEC_CSTRIDE + ((size_t)(a) * CODEC_CANDS + (size_t)(m)) * CODEC_GROUP + (size_t)(l))
 
 /* Fills cand (nv vertices) for a keyframe (key) or a delta and cost[m * CODEC_GROUP + l] = the
- * sum over v >= 2 and the axes of floor(log2(2 |r| + 1)) (the float32 exponent of 2 |r| + 1) of
- * mode m's residuals r in lane l. */
+ * sum over v >= 2 and the axes of the bits of |r| (0 for r = 0, else floor(log2 |r|) + 1, from
+ * the float32 exponent of |r|) of mode m's residuals r in lane l. */
 void codec_costs_group(const int32_t *P, const int32_t *X, uint32_t nv, bool key, uint32_t cost[CODEC_CANDS * CODEC_GROUP],
                        int32_t *cand, bool portable);
 

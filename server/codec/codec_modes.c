@@ -2,12 +2,14 @@
  * estimated bit costs. */
 #include "codec_simd.h"
 
-/* floor(log2(2 |r| + 1)) as the float32 exponent (rounded conversion, as the vector path). */
+/* 0 for r = 0, else floor(log2 |r|) + 1, from the float32 exponent of |r| (rounded conversion,
+ * as the vector path). */
 static inline uint32_t cost_one(int32_t r)
 {
     uint32_t m = r < 0 ? 0u - (uint32_t)r : (uint32_t)r;
-    union { float f; uint32_t u; } v = { .f = (float)(int32_t)(2u * m + 1u) };
-    return (v.u >> 23) - 127u;
+    union { float f; uint32_t u; } v = { .f = (float)(int32_t)m };
+    uint32_t e = v.u >> 23;
+    return e > 126u ? e - 126u : 0u;
 }
 
 /* The vector path's loop with the 8 lanes as an inner loop (which compilers vectorise). */
@@ -96,7 +98,7 @@ static inline __attribute__((always_inline)) void costs_avx2(const int32_t *P, c
             x1 = x0;
         }
     }
-    const __m256i bias = _mm256_set1_epi32((int32_t)(127u * 3u * (nv > 2 ? nv - 2u : 0u)));
+    const __m256i bias = _mm256_set1_epi32((int32_t)(126u * 3u * (nv > 2 ? nv - 2u : 0u)));
     _mm256_storeu_si256((__m256i *)(void *)cost, _mm256_sub_epi32(c0, bias));
     _mm256_storeu_si256((__m256i *)(void *)(cost + CODEC_GROUP), _mm256_sub_epi32(c1, bias));
     _mm256_storeu_si256((__m256i *)(void *)(cost + 2u * CODEC_GROUP), _mm256_sub_epi32(c2, bias));

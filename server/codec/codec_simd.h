@@ -25,12 +25,12 @@ static inline __m256i codec_half8(__m256i d)
     return _mm256_srai_epi32(_mm256_add_epi32(d, _mm256_and_si256(_mm256_srai_epi32(d, 1), _mm256_set1_epi32(1))), 1);
 }
 
-/* Biased float32 exponent fields of 2 |r| + 1: floor(log2(2 |r| + 1)) + 127. */
+/* The bit cost estimate of codec_enc.h (0 for r = 0, else floor(log2 |r|) + 1) plus 126: the
+ * float32 exponent field of |r|, at least 126. */
 static inline __m256i codec_log8(__m256i r)
 {
-    __m256i m = _mm256_abs_epi32(r);
-    __m256i t = _mm256_or_si256(_mm256_add_epi32(m, m), _mm256_set1_epi32(1));
-    return _mm256_srli_epi32(_mm256_castps_si256(_mm256_cvtepi32_ps(t)), 23);
+    __m256i e = _mm256_srli_epi32(_mm256_castps_si256(_mm256_cvtepi32_ps(_mm256_abs_epi32(r))), 23);
+    return _mm256_max_epi32(e, _mm256_set1_epi32(126));
 }
 
 #endif
