@@ -85,8 +85,7 @@ void codec_motion_group(const codec_motion *m, const int32_t *kref, int32_t *X, 
 void codec_costs_group(const int32_t *P, const int32_t *X, uint32_t nv, bool key, uint32_t cost[CODEC_CANDS * CODEC_GROUP],
                        int32_t *cand, bool portable);
 
-/* Per-group token scratch (codec_tokens_group fills it, codec_emit_group reads it; an escaped
- * vertex's residuals are taken again from the candidates). */
+/* Per-group token scratch (codec_tokens_group fills it, codec_emit_group reads it). */
 typedef struct codec_tokens {
     const int32_t *cand;   /* the group's candidates (codec_costs_group) */
     const uint32_t *mode;  /* [lane]: the mode (its candidate) */
@@ -95,20 +94,19 @@ typedef struct codec_tokens {
                         codec_emit_group puts them, after the group's modes: then not copied) */
     uint64_t *pbits; /* [vertex][4]: raw bits of lanes 0-3 and 4-7, then their lengths (at most
                         60 bits; valid where no lane of the vertex escapes) */
-    uint32_t *lane;  /* [vertex][lane]: the lane's raw bits | their length << 16 (valid where the
-                        lane's vertex does not escape) */
     uint8_t *esc;    /* [vertex]: the lanes whose vertex escapes */
     uint32_t *xbits; /* [vertex][axis][3][lane]: each axis's raw bits, escapes included (bits
                         0-31, bits 32 and up), then their count (valid where a lane of the vertex
-                        escapes) */
+                        escapes, or everywhere when asked for) */
 } codec_tokens;
 
 /* uint32 per vertex of codec_tokens.xbits. */
 #define CODEC_XSTRIDE (3u * 3u * CODEC_GROUP)
 
-/* Tokens of every lane of the group t describes (nv vertices). Returns the lanes with an escape
- * anywhere. */
-uint32_t codec_tokens_group(const codec_tokens *t, uint32_t nv, bool portable);
+/* Tokens of every lane of the group t describes (nv vertices); xbits of every vertex when all
+ * (a partial group, which codec_emit_group writes lane by lane), else of those that escape.
+ * Returns the lanes with an escape anywhere. */
+uint32_t codec_tokens_group(const codec_tokens *t, uint32_t nv, bool all, bool portable);
 
 /* Symbols, histogram and raw bits of one frame, in coding order. */
 typedef struct codec_emitter {

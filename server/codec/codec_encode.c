@@ -17,7 +17,7 @@ static size_t group_size(uint32_t nverts)
 
 static size_t work_size(uint32_t nverts)
 {
-    return 3u * group_size(nverts) + (size_t)nverts * CODEC_CSTRIDE + (size_t)nverts * CODEC_GROUP * 3u +
+    return 3u * group_size(nverts) + (size_t)nverts * CODEC_CSTRIDE + (size_t)nverts * CODEC_GROUP * 2u +
            (size_t)nverts + (size_t)nverts * CODEC_XSTRIDE;
 }
 
@@ -169,10 +169,9 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
     int32_t *const cand = enc->work + 3u * gs;
     uint32_t *const tw = (uint32_t *)(void *)(cand + (size_t)nv * CODEC_CSTRIDE);
     const size_t nvl = (size_t)nv * CODEC_GROUP;
-    uint16_t *const symtmp = (uint16_t *)(void *)(tw + 2u * nvl); /* a partial group's symbols */
-    codec_tokens tok = { .cand = cand, .pbits = (uint64_t *)(void *)tw, .lane = tw + nvl,
-                         .esc = (uint8_t *)(void *)(tw + 2u * nvl + nvl / 2u),
-                         .xbits = tw + 2u * nvl + nvl / 2u + nv };
+    uint16_t *const symtmp = (uint16_t *)(void *)(tw + nvl); /* a partial group's symbols */
+    codec_tokens tok = { .cand = cand, .pbits = (uint64_t *)(void *)tw, .esc = (uint8_t *)(void *)(tw + nvl + nvl / 2u),
+                         .xbits = tw + nvl + nvl / 2u + nv };
     int32_t kprev[3] = { 0, 0, 0 }; /* root of the previous strand in the moved keyframe */
     for (uint32_t g = 0; g < enc->ngroups; g++) {
         const uint32_t j0 = g * CODEC_GROUP, nreal = enc->nstrands_sent - j0 < CODEC_GROUP ? enc->nstrands_sent - j0 : CODEC_GROUP;
@@ -219,7 +218,7 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
         tok.root = root;
         /* a full group's symbols go straight to their place in the frame, after its modes */
         tok.sym = nreal == CODEC_GROUP ? e->syms + e->nsyms + CODEC_GROUP : symtmp;
-        uint32_t esc = codec_tokens_group(&tok, nv, portable);
+        uint32_t esc = codec_tokens_group(&tok, nv, nreal < CODEC_GROUP, portable);
         codec_emit_group(e, &tok, mode, nreal, nv, esc);
     }
     return CORE_OK;

@@ -48,7 +48,7 @@ static inline int32_t resid(const codec_tokens *t, uint32_t v, uint32_t a, uint3
 }
 
 /* The vector path's loop with the 8 lanes as an inner loop. */
-static uint32_t tokens_portable(const codec_tokens *t, uint32_t nv)
+static uint32_t tokens_portable(const codec_tokens *t, uint32_t nv, bool all)
 {
     uint32_t base[CODEC_GROUP], any = 0;
     for (uint32_t l = 0; l < CODEC_GROUP; l++) base[l] = CODEC_T_ROOT * CODEC_NSYM;
@@ -67,7 +67,6 @@ static uint32_t tokens_portable(const codec_tokens *t, uint32_t nv)
             base[l] = v == 0 ? CODEC_T_FIRST * CODEC_NSYM : codec_body_table(c[0], c[1], c[2]) * CODEC_NSYM;
             nb[l] = c[0] + c[1] + c[2];
             bits[l] = f[0] | f[1] << c[0] | f[2] << (c[0] + c[1]);
-            t->lane[v * CODEC_GROUP + l] = bits[l] | nb[l] << 16;
         }
         for (uint32_t h = 0; h < 2u; h++) { /* lanes 4h .. 4h + 3, the vector path's order */
             uint64_t q = 0;
@@ -81,7 +80,7 @@ static uint32_t tokens_portable(const codec_tokens *t, uint32_t nv)
         }
         t->esc[v] = (uint8_t)esc;
         any |= esc;
-        if (esc)
+        if (esc || all)
             for (uint32_t a = 0; a < 3; a++)
                 for (uint32_t l = 0; l < CODEC_GROUP; l++)
                     axis_bits(resid(t, v, a, l), t->xbits + (size_t)v * CODEC_XSTRIDE + 3u * CODEC_GROUP * a + l);
@@ -98,7 +97,8 @@ static inline __m256i class8(__m256i r, __m256i *f)
     __m256i c = _mm256_sub_epi32(_mm256_srli_epi32(_mm256_castps_si256(_mm256_cvtepi32_ps(_mm256_or_si256(m2, one))), 23),
                                  _mm256_set1_epi32(127));
     c = _mm256_min_epi32(c, _mm256_set1_epi32((int32_t)CODEC_ESCAPE));
-    *f = _mm256_and_si256(_mm256_or_si256(m2, _mm256_srli_epi32(r, 31)), _mm256_sub_epi32(_mm256_sllv_epi32(one, c), one));
+    /* below 2^c, 2 m has its leading one at bit c (m > 0): clearing it keeps the c bits */
+    *f = _mm256_andnot_si256(_mm256_sllv_epi32(one, c), _mm256_or_si256(m2, _mm256_srli_epi32(r, 31)));
     return c;
 }
 
@@ -159,7 +159,6 @@ static inline __attribute__((always_inline)) __m256i tok_vertex(__m256i base, co
     __m256i nb = _mm256_add_epi32(_mm256_add_epi32(c[0], c[1]), c[2]);
     __m256i bits = _mm256_or_si256(_mm256_or_si256(f[0], _mm256_sllv_epi32(f[1], c[0])),
                                    _mm256_sllv_epi32(f[2], _mm256_add_epi32(c[0], c[1])));
-    _mm256_storeu_si256((__m256i *)(void *)(t->lane + (size_t)v * CODEC_GROUP), _mm256_or_si256(bits, _mm256_slli_epi32(nb, 16)));
     /* lane pairs: even | odd << nb(even), in 64-bit lanes (at most 30 bits) */
     const __m256i lo = _mm256_set1_epi64x(0xffffffff);
     __m256i nbe = _mm256_and_si256(nb, lo);
@@ -179,7 +178,7 @@ static inline __attribute__((always_inline)) __m256i tok_vertex(__m256i base, co
 }
 
 /* Vertex by vertex, all lanes at once; vertices 0 and 1 peeled (root, first segment). */
-static uint32_t tokens_avx2(const codec_tokens *t, uint32_t nv)
+static uint32_t tokens_avx2(const codec_tokens *t, uint32_t nv, bool all)
 {
     const __m256i k = _mm256_loadu_si256((const __m256i *)(const void *)t->mode);
     const modesel ms = { .is1 = _mm256_cmpeq_epi32(k, _mm256_set1_epi32(1)), .is2 = _mm256_cmpeq_epi32(k, _mm256_set1_epi32(2)) };
@@ -188,8 +187,8 @@ static uint32_t tokens_avx2(const codec_tokens *t, uint32_t nv)
     base = tok_vertex(base, &ms, 0, 0, t, &any);
     base = tok_vertex(base, &ms, 1, 1, t, &any);
     for (uint32_t v = 2; v < nv; v++) base = tok_vertex(base, &ms, v, 2, t, &any);
-    for (uint32_t v = 0; any && v < nv; v++) { /* the vertices that escape somewhere, again */
-        if (!t->esc[v]) continue;
+    for (uint32_t v = 0; (any || all) && v < nv; v++) { /* the vertices that escape somewhere, again */
+        if (!t->esc[v] && !all) continue;
         for (uint32_t a = 0; a < 3; a++) {
             __m256i f, r = resid8(&ms, t->cand, t->root, v, a, v < 2u ? (int)v : 2);
             __m256i c = class8(r, &f);
@@ -200,36 +199,21 @@ static uint32_t tokens_avx2(const codec_tokens *t, uint32_t nv)
 }
 #endif
 
-uint32_t codec_tokens_group(const codec_tokens *t, uint32_t nv, bool portable)
+uint32_t codec_tokens_group(const codec_tokens *t, uint32_t nv, bool all, bool portable)
 {
 #ifdef __AVX2__
-    if (!portable) return tokens_avx2(t, nv);
+    if (!portable) return tokens_avx2(t, nv, all);
 #endif
     (void)portable;
-    return tokens_portable(t, nv);
+    return tokens_portable(t, nv, all);
 }
 
-/* The raw bits of lane l's vertex v (which escapes somewhere in the group) axis by axis from
- * codec_tokens.xbits. */
+/* The raw bits of lane l's vertex v axis by axis from codec_tokens.xbits. */
 static inline void emit_axes(codec_emitter *e, const codec_tokens *t, uint32_t v, uint32_t l)
 {
     const uint32_t *x = t->xbits + (size_t)v * CODEC_XSTRIDE + l;
     for (uint32_t a = 0; a < 3; a++, x += 3u * CODEC_GROUP)
         codec_emit_bits(e, x[0] | (uint64_t)x[CODEC_GROUP] << 32, x[2u * CODEC_GROUP]);
-}
-
-/* Raw bits of vertex v of lanes l0..l1-1 one lane at a time: a lane that escapes (its bit in
- * esc) axis by axis, x then y then z, the others in one append each. */
-static inline __attribute__((always_inline)) void emit_lanes(codec_emitter *e, const codec_tokens *t, uint32_t v,
-                                                             uint32_t l0, uint32_t l1, uint32_t esc)
-{
-    const uint32_t *lw = t->lane + (size_t)v * CODEC_GROUP;
-    for (uint32_t l = l0; l < l1; l++) {
-        if (esc >> l & 1u)
-            emit_axes(e, t, v, l);
-        else
-            codec_emit_bits(e, lw[l] & 0xffffu, lw[l] >> 16);
-    }
 }
 
 /* Four lanes' raw bits packed into q (len <= 60 bits). */
@@ -293,7 +277,7 @@ void codec_emit_group(codec_emitter *e, const codec_tokens *t, const uint32_t mo
             e->syms[e->nsyms++] = sym[l];
             e->counts[sym[l]]++;
         }
-        emit_lanes(e, t, v, 0, n, t->esc[v]);
+        for (uint32_t l = 0; l < n; l++) emit_axes(e, t, v, l);
     }
 }
 
