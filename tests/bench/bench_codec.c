@@ -192,7 +192,7 @@ static void put_u32(FILE *fp, uint32_t v)
 
 typedef struct js_result {
     int have_meshopt, have_strand;
-    double mo_bytes, mo_enc, mo_dec, strand_dec;
+    double mo_bytes, mo_enc, mo_dec, strand_dec, strand_key_dec;
     int bit_exact;
 } js_result;
 
@@ -216,9 +216,11 @@ static void run_js(const char *quant_path, const char *strand_path, js_result *r
             r->mo_bytes = a;
             r->mo_enc = b;
             r->mo_dec = c;
-        } else if (sscanf(line, "{\"codec\":\"strand\",\"js_decode_ns_per_vertex\":%lf,\"bit_exact\":%d", &a, &exact) == 2) {
+        } else if (sscanf(line, "{\"codec\":\"strand\",\"js_decode_ns_per_vertex\":%lf,\"bit_exact\":%d,"
+                                "\"js_key_decode_ns_per_vertex\":%lf", &a, &exact, &b) == 3) {
             r->have_strand = 1;
             r->strand_dec = a;
+            r->strand_key_dec = b;
             r->bit_exact = exact;
         } else {
             fputs(line, stderr);
@@ -409,8 +411,9 @@ int bench_codec_main(int argc, char **argv)
     double vtot = (double)nv * nf;
     if (!json)
         printf("codec bench: %u frames of %u x %u vertices (%s), Node sample: frames %u..%u\n"
-               "%-22s %9s %10s %12s %10s %10s %12s\n", nf, src.nstrands, src.nverts, path ? path : source,
-               js_start, js_start + js_frames - 1, "codec", "bound_mm", "B/vertex", "max_err_mm", "enc_ns/v", "dec_ns/v", "js_dec_ns/v");
+               "%-22s %9s %10s %12s %10s %10s %12s %12s\n", nf, src.nstrands, src.nverts, path ? path : source,
+               js_start, js_start + js_frames - 1, "codec", "bound_mm", "B/vertex", "max_err_mm", "enc_ns/v", "dec_ns/v", "js_dec_ns/v",
+               "js_key_ns/v");
     for (int b = 0; b < NBOUNDS; b++) {
         js_result js;
         run_js(qpath[b], spath[b], &js);
@@ -445,14 +448,16 @@ int bench_codec_main(int argc, char **argv)
                 if (strand) {
                     printf(",\"ratio_to_best_baseline\":%.3f", ratio);
                     if (js.have_strand)
-                        printf(",\"js_decode_ns_per_vertex\":%.2f,\"js_bit_exact\":%s", js.strand_dec,
+                        printf(",\"js_decode_ns_per_vertex\":%.2f,\"js_key_decode_ns_per_vertex\":%.2f,\"js_bit_exact\":%s",
+                               js.strand_dec, js.strand_key_dec,
                                js.bit_exact ? "true" : "false");
                 }
                 if (c == NCODEC) printf(",\"runtime\":\"node\"");
                 puts("}");
             } else {
                 printf("%-22s %9.3f %10.4f %12.6f %10.2f %10.2f", name, 1e3 * (double)BOUNDS[b], bytes, 1e3 * err, e_ns, d_ns);
-                if (strand && js.have_strand) printf(" %12.2f%s", js.strand_dec, js.bit_exact ? "" : " (NOT bit-exact)");
+                if (strand && js.have_strand)
+                    printf(" %12.2f %12.2f%s", js.strand_dec, js.strand_key_dec, js.bit_exact ? "" : " (NOT bit-exact)");
                 if (strand) printf("   %.3fx the best baseline", ratio);
                 putchar('\n');
             }

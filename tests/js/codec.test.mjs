@@ -307,6 +307,27 @@ test('moved segments clamp long keyframe segments to 15 bits', () => {
   }
 });
 
+test('the lanes past a keyframe\'s last strand hold no segments of an earlier keyframe', () => {
+  // The decoder keeps two segment regions and writes each keyframe into the one not held. K1's
+  // strands 13-15 (lanes 5-7 of group 1) rise by 32767 per segment; K3, two keyframes later in
+  // the same region, has 13 strands. The delta's lanes past strand 12 move along those segments
+  // unless K3 cleared them: 2199 x 32767 lies beyond 2^26 - 1, which the delta would refuse.
+  const nverts = 2200, step = 1.9375e-4, maxError = 1e-4;
+  const ramp = new Int32Array(16 * nverts * 3);
+  for (let j = 0; j < 16; j++) for (let v = 0; v < nverts; v++) ramp[3 * (j * nverts + v)] = -36000000 + 32767 * v;
+  const small = (ns, seed) => lattice(ns, nverts, seed, false);
+  const k3 = small(13, 3);
+  const dec = new StrandDecoder();
+  dec.decode(encodeFrame({ key: true, seq: 1, step, maxError, nverts, q: ramp, modes: new Array(16).fill(0) }).bytes);
+  dec.decode(encodeFrame({ key: true, seq: 2, step, maxError, nverts, q: small(16, 2), modes: new Array(16).fill(0) }).bytes);
+  dec.decode(encodeFrame({ key: true, seq: 3, step, maxError, nverts, q: k3, modes: new Array(13).fill(0) }).bytes);
+  const motion = { rho: [16384, 0, 0, 0, 16384, 0, 0, 0, 16384], t: [0, 0, 0] };
+  const d = encodeFrame({ key: false, seq: 4, refSeq: 3, step, maxError, nverts, q: k3, keyQ: k3, motion,
+    modes: new Array(13).fill(0) });
+  const o = dec.decode(d.bytes).positions;
+  k3.forEach((v, i) => { if (o[i] !== Math.fround(v * step)) assert.fail(`coordinate ${i}`); });
+});
+
 // A small keyframe (two groups, the second partial) and its encoder record, for the rejections.
 const smallKey = (extra = {}) => encodeFrame({ key: true, seq: 1, step: 1.9375e-4, maxError: 1e-4, nverts: 5,
   q: lattice(11, 5, 4242, true), modes: Array.from({ length: 11 }, (_, j) => j % 3), ...extra });

@@ -31,7 +31,7 @@ typedef struct kern {
     int32_t list[2 * 9 * 344];    /* the tables as read: table << 16 | INFO, freq << 12 | start */
     int32_t mode[8];              /* the current group's modes (8 for lanes past the last strand) */
     int32_t root[24];             /* a delta group's roots, axis-major, lane-minor */
-    int32_t zero[6];              /* zeros (the first keyframe strand's missing neighbour) */
+    int32_t zero[8];              /* zeros (the first keyframe strand's missing neighbour; read 4 at 0 and 3) */
     float dump[4 * MAX_NVERTS];   /* where the output of lanes past the last strand goes */
     int32_t r[MAX_NVERTS * 24] __attribute__((aligned(16))); /* residuals [v][axis][lane] */
 } kern;
@@ -218,55 +218,6 @@ static inline int32_t out_of_range(int32_t q)
     return (q + QMAX) | (QMAX - q);
 }
 
-static inline int32_t half(int32_t x)
-{
-    return (x + ((x >> 1) & 1)) >> 1;
-}
-
-/* Rebuilds keyframe strand j (lane l of its group; mode < 3) from the residuals in k->r: the
- * lattice coordinates to pc (nverts vertices), float32(q * step) to po. The neighbour N is the
- * previous strand (at pc - 3 nverts, already rebuilt), zeros for the first. Root N[0] + R;
- * vertex 1 P[0] + N[1] - N[0]; from vertex 2 mode 1 with a neighbour P[v-1] + N[v] - N[v-1],
- * mode 2 linear at vertex 2 and then smooth linear P[v-1] + half(P[v-1] - P[v-3]), else linear
- * 2 P[v-1] - P[v-2]. Returns the OR of the range checks (negative: a coordinate out of range). */
-static int32_t rebuild_key(const kern *k, int l, int mode, int j, int32_t *pc, float *po, int nverts,
-                           double step)
-{
-    const int32_t *pn = j > 0 ? pc - 3 * nverts : k->zero;
-    const int32_t *r = k->r + l;
-    int32_t k0 = pn[0], k1 = pn[1], k2 = pn[2], n0 = pn[3], n1 = pn[4], n2 = pn[5];
-    int32_t b0 = k0 + r[0], b1 = k1 + r[8], b2 = k2 + r[16];
-    int32_t a0 = b0 + n0 - k0 + r[24], a1 = b1 + n1 - k1 + r[32], a2 = b2 + n2 - k2 + r[40];
-    int32_t e0 = 0, e1 = 0, e2 = 0;
-    int32_t bad = out_of_range(b0) | out_of_range(b1) | out_of_range(b2) | out_of_range(a0) |
-                  out_of_range(a1) | out_of_range(a2);
-    pc[0] = b0; pc[1] = b1; pc[2] = b2; pc[3] = a0; pc[4] = a1; pc[5] = a2;
-    po[0] = (float)(b0 * step); po[1] = (float)(b1 * step); po[2] = (float)(b2 * step);
-    po[3] = (float)(a0 * step); po[4] = (float)(a1 * step); po[5] = (float)(a2 * step);
-    /* kind: 1 neighbour, 2 linear, 3 smooth linear, 4 linear once, then smooth linear */
-    int kind = mode == 1 && j > 0 ? 1 : mode == 2 ? 4 : 2;
-    for (int v = 2; v < nverts; v++) {
-        int32_t r0 = r[24 * v], r1 = r[24 * v + 8], r2 = r[24 * v + 16], q0, q1, q2;
-        if (kind == 1) {
-            k0 = n0; k1 = n1; k2 = n2;
-            n0 = pn[3 * v]; n1 = pn[3 * v + 1]; n2 = pn[3 * v + 2];
-            q0 = a0 + n0 - k0 + r0; q1 = a1 + n1 - k1 + r1; q2 = a2 + n2 - k2 + r2;
-        } else if (kind == 3) {
-            q0 = a0 + half(a0 - e0) + r0; q1 = a1 + half(a1 - e1) + r1; q2 = a2 + half(a2 - e2) + r2;
-        } else {
-            q0 = a0 + a0 - b0 + r0; q1 = a1 + a1 - b1 + r1; q2 = a2 + a2 - b2 + r2;
-            kind = kind == 4 ? 3 : kind;
-        }
-        bad |= out_of_range(q0) | out_of_range(q1) | out_of_range(q2);
-        pc[3 * v] = q0; pc[3 * v + 1] = q1; pc[3 * v + 2] = q2;
-        po[3 * v] = (float)(q0 * step); po[3 * v + 1] = (float)(q1 * step); po[3 * v + 2] = (float)(q2 * step);
-        e0 = b0; e1 = b1; e2 = b2;
-        b0 = a0; b1 = a1; b2 = a2;
-        a0 = q0; a1 = q1; a2 = q2;
-    }
-    return bad;
-}
-
 /* float32(q * step) of the 4 lanes of q. */
 static inline v128_t to_float(v128_t q, v128_t st)
 {
@@ -307,9 +258,95 @@ static inline v128_t vhalf(v128_t x)
     return wasm_i32x4_shr(wasm_i32x4_add(x, wasm_v128_and(wasm_i32x4_shr(x, 1), wasm_i32x4_splat(1))), 1);
 }
 
+/* The x, y, z lanes of v (the fourth is not stored) to p: 16 bytes (the fourth lands where the
+ * next vertex goes) unless last (the strand's last vertex: 12 bytes exactly). */
+static inline void store_xyz(void *p, v128_t v, int last)
+{
+    if (!last) {
+        wasm_v128_store(p, v);
+    } else {
+        wasm_v128_store64_lane(p, v, 0);
+        wasm_v128_store32_lane((char *)p + 8, v, 2);
+    }
+}
+
+/* A strand's clamped segment d = clamp15(the x, y, z lanes of s) to pd, where delta_lanes reads
+ * it: (d_0, d_1) at pd[0..2), (d_2, 1) at pd[16..18). Saturation to Int16 clamps the top. */
+static inline void store_seg(int16_t *pd, v128_t s)
+{
+    v128_t d = wasm_i32x4_shuffle(wasm_i32x4_max(s, wasm_i32x4_splat(-32767)), wasm_i32x4_splat(1), 0, 1, 2, 4);
+    v128_t h = wasm_i16x8_narrow_i32x4(d, d);
+    wasm_v128_store32_lane(pd, h, 0);
+    wasm_v128_store32_lane(pd + 16, h, 1);
+}
+
+/* Vertices 2 on of a keyframe strand (see rebuild_key; kind as there, constant per call), the
+ * x, y, z of a vertex in lanes 0..2 of one vector. Returns the OR of the range checks. */
+static inline __attribute__((always_inline)) v128_t key_body(const int32_t *r, const int32_t *pn, int32_t *pc,
+                                                             float *po, int16_t *pd, int nverts, v128_t st, v128_t a,
+                                                             v128_t b, v128_t n, const int kind)
+{
+    v128_t lim = wasm_i32x4_splat(QMAX), bad = wasm_i32x4_splat(0), e = b;
+    for (int v = 2; v < nverts; v++) {
+        v128_t q, rv = wasm_i32x4_make(r[24 * v], r[24 * v + 8], r[24 * v + 16], 0);
+        if (kind == 1) {
+            v128_t kn = n;
+            n = wasm_v128_load(pn + 3 * v);
+            q = wasm_i32x4_add(a, wasm_i32x4_sub(n, kn));
+        } else if (kind == 3 && v > 2) {
+            q = wasm_i32x4_add(a, vhalf(wasm_i32x4_sub(a, e)));
+        } else {
+            q = wasm_i32x4_sub(wasm_i32x4_add(a, a), b);
+        }
+        q = wasm_i32x4_add(q, rv);
+        bad = wasm_v128_or(bad, wasm_v128_or(wasm_i32x4_add(q, lim), wasm_i32x4_sub(lim, q)));
+        int last = v == nverts - 1;
+        store_xyz(pc + 3 * v, q, last);
+        store_xyz(po + 3 * v, to_float(q, st), last);
+        store_seg(pd + 32 * v, wasm_i32x4_sub(q, a));
+        e = b;
+        b = a;
+        a = q;
+    }
+    return bad;
+}
+
+/* Rebuilds keyframe strand j (lane l of its group; mode < 3) from the residuals in k->r: the
+ * lattice coordinates to pc (nverts vertices), float32(q * step) to po, its clamped segments to
+ * pd (the group's in the layout of segments_idle, plus 2 l). The neighbour N is the
+ * previous strand (at pc - 3 nverts, already rebuilt), zeros for the first. Root N[0] + R;
+ * vertex 1 P[0] + N[1] - N[0]; from vertex 2 mode 1 with a neighbour P[v-1] + N[v] - N[v-1],
+ * mode 2 linear at vertex 2 and then smooth linear P[v-1] + half(P[v-1] - P[v-3]), else linear
+ * 2 P[v-1] - P[v-2]. Returns the OR of the range checks (negative: a coordinate out of range). */
+static int32_t rebuild_key(const kern *k, int l, int mode, int j, int32_t *pc, float *po, int16_t *pd, int nverts,
+                           double step)
+{
+    const int32_t *pn = j > 0 ? pc - 3 * nverts : k->zero;
+    const int32_t *r = k->r + l;
+    v128_t st = wasm_f64x2_splat(step), lim = wasm_i32x4_splat(QMAX);
+    v128_t k0 = wasm_v128_load(pn), n = wasm_v128_load(pn + 3);
+    v128_t b = wasm_i32x4_add(k0, wasm_i32x4_make(r[0], r[8], r[16], 0));
+    v128_t a = wasm_i32x4_add(wasm_i32x4_add(b, wasm_i32x4_sub(n, k0)), wasm_i32x4_make(r[24], r[32], r[40], 0));
+    v128_t bad = wasm_v128_or(wasm_v128_or(wasm_i32x4_add(b, lim), wasm_i32x4_sub(lim, b)),
+                              wasm_v128_or(wasm_i32x4_add(a, lim), wasm_i32x4_sub(lim, a)));
+    int last = nverts == 2;
+    store_xyz(pc, b, 0);
+    store_xyz(po, to_float(b, st), 0);
+    store_xyz(pc + 3, a, last);
+    store_xyz(po + 3, to_float(a, st), last);
+    wasm_v128_store32_lane(pd, wasm_i32x4_splat(0), 0); /* vertex 0 */
+    wasm_v128_store32_lane(pd + 16, wasm_i32x4_splat(0), 0);
+    store_seg(pd + 32, wasm_i32x4_sub(a, b));
+    /* kind: 1 neighbour, 2 linear, 3 linear once, then smooth linear */
+    if (mode == 1 && j > 0) bad = wasm_v128_or(bad, key_body(r, pn, pc, po, pd, nverts, st, a, b, n, 1));
+    else if (mode == 2) bad = wasm_v128_or(bad, key_body(r, pn, pc, po, pd, nverts, st, a, b, n, 3));
+    else bad = wasm_v128_or(bad, key_body(r, pn, pc, po, pd, nverts, st, a, b, n, 2));
+    return wasm_i32x4_bitmask(bad) & 7 ? -1 : 0;
+}
+
 /* Vertices 1 on of a delta group's 8 strands at once (the roots are in k->root), from the
  * moved segments S[v] = (rho d[v] + 8192) >> 14 of the held keyframe's clamped segments d (pd:
- * the group's, laid out by segments()): vertex 1 and mode 0 P[v-1] + S[v], mode 1 that plus w = P[v-1] -
+ * the group's, laid out as segments_idle says): vertex 1 and mode 0 P[v-1] + S[v], mode 1 that plus w = P[v-1] -
  * P[v-2] - S[v-1] (the sum of the residuals since vertex 1), mode 2 linear, mode 3 linear at
  * vertex 2 and then smooth linear; plus the residual. general: 0 when every lane's mode is 0 or
  * 1. o[l]: lane l's output (float32(q * step)). Returns the OR of the range checks. */
@@ -433,28 +470,16 @@ static int32_t rebuild_delta_group(kern *k, int g, int n, int nverts, const int3
     return bad | delta_lanes(k, pd, nverts, step, o, 0);
 }
 
-/* The clamped segments of a keyframe's lattice q (ns strands) to d, per group of 8 strands and
- * vertex 32 Int16 laid out for i32x4.dot_i16x8_s (delta_lanes): lane l's (d_0, d_1) at 2 l, its
- * (d_2, 1) at 16 + 2 l, where d = clamp15(L[v] - L[v-1]); vertex 0 and lanes past ns are 0. */
-static void segments(const int32_t *q, int16_t *d, int ns, int nverts)
+/* The clamped segments of a keyframe lie per group of 8 strands and vertex in 32 Int16, laid out
+ * for i32x4.dot_i16x8_s (delta_lanes): lane l's (d_0, d_1) at 2 l, its (d_2, 1) at 16 + 2 l,
+ * where d = clamp15(L[v] - L[v-1]); vertex 0 and lanes past the last strand are 0 (rebuild_key
+ * writes a strand's). Zeros lanes n..7 of a group's pd. */
+static void segments_idle(int16_t *pd, int n, int nverts)
 {
-    int ng = (ns + 7) >> 3;
-    for (int g = 0; g < ng; g++) {
-        for (int l = 0; l < 8; l++) {
-            int j = 8 * g + l;
-            int16_t *pd = d + 32 * nverts * g + 2 * l;
-            const int32_t *pq = q + 3 * nverts * j;
-            for (int v = 0; v < nverts; v++) {
-                int32_t x[3] = { 0, 0, 0 };
-                for (int ax = 0; ax < 3 && j < ns && v > 0; ax++) {
-                    int32_t e = pq[3 * v + ax] - pq[3 * (v - 1) + ax];
-                    x[ax] = e < -32767 ? -32767 : e > 32767 ? 32767 : e;
-                }
-                pd[32 * v] = (int16_t)x[0];
-                pd[32 * v + 1] = (int16_t)x[1];
-                pd[32 * v + 16] = (int16_t)x[2];
-                pd[32 * v + 17] = (int16_t)(v > 0 && j < ns);
-            }
+    for (int v = 0; v < nverts; v++) {
+        for (int l = n; l < 8; l++) {
+            pd[32 * v + 2 * l] = pd[32 * v + 2 * l + 1] = 0;
+            pd[32 * v + 16 + 2 * l] = pd[32 * v + 17 + 2 * l] = 0;
         }
     }
 }
@@ -465,7 +490,7 @@ static void segments(const int32_t *q, int16_t *d, int ns, int nverts)
  * before the checks after the group refuse it). The lane states (k->state, the initial states),
  * the tables (kern_init, kern_tables) and for a delta the motion (k->motion) must be filled in.
  * Writes float32(q * step) to out; a keyframe writes its lattice to curq and its clamped
- * segments to dcur (segments()); a delta reads the held keyframe's at keyq and dkey. Returns
+ * segments to dcur (segments_idle's layout); a delta reads the held keyframe's at keyq and dkey. Returns
  * K_OK or the K_* code of the first error (k->state[8], [9] then hold the words read and the raw
  * bits used). */
 __attribute__((export_name("kern_frame"))) int kern_frame(kern *k, int key, int ns, int nverts,
@@ -487,10 +512,12 @@ __attribute__((export_name("kern_frame"))) int kern_frame(kern *k, int key, int 
         if (rd.bp > bavail) return K_BITS_SHORT;
         int32_t bad = 0;
         if (key) {
+            int16_t *pd = dcur + 4 * nverts * g;
             for (int l = 0; l < n; l++) {
                 int j = g + l;
-                bad |= rebuild_key(k, l, k->mode[l], j, curq + per * j, out + per * j, nverts, step);
+                bad |= rebuild_key(k, l, k->mode[l], j, curq + per * j, out + per * j, pd + 2 * l, nverts, step);
             }
+            segments_idle(pd, n, nverts);
         } else {
             bad = rebuild_delta_group(k, g, n, nverts, keyq, dkey + 4 * nverts * g, out, step, gn, gkn);
         }
@@ -501,6 +528,5 @@ __attribute__((export_name("kern_frame"))) int kern_frame(kern *k, int key, int 
         if (k->state[l] != 65536) return K_BAD_END;
     }
     if (bavail - rd.bp >= 8) return K_BITS_LEFT;
-    if (key) segments(curq, dcur, ns, nverts);
     return K_OK;
 }
