@@ -33,8 +33,9 @@ static void broadcast_state(app *a)
 
 static proto_stream stream_info(const app *a, const app_client *c)
 {
+    uint32_t k = c->tier >= 0 ? a->tiers[c->tier].decimation : app_stream_decimation(a->d.rate, c->max_rate);
     proto_stream s = { "strand", c->stride, app_tier_strands(a, c->stride), c->max_error, c->max_rate,
-                       a->d.rate, a->d.keyframe_interval };
+                       a->d.rate, a->d.rate / k, a->d.keyframe_interval };
     return s;
 }
 
@@ -52,7 +53,7 @@ static void client_open(app *a, uint32_t id)
     c->id = id;
     c->stride = 1;
     c->max_error = a->d.max_error;
-    c->tier = app_tier_acquire(a, c->stride, c->max_error);
+    c->tier = app_tier_acquire(a, c->stride, c->max_error, c->max_rate);
     const char *styles[3] = { a->styles[0], a->styles[1], a->styles[2] };
     proto_hello h = {
         .server = "strandcastd", .version = STRANDCAST_VERSION, .client = id, .groom = &a->groom.json,
@@ -203,10 +204,11 @@ static void subscribe(app *a, uint32_t client, const proto_msg *m)
     if (!c) return;
     int32_t stride = m->u.subscribe.has_stride ? m->u.subscribe.stride : c->stride;
     double max_error = m->u.subscribe.has_max_error ? m->u.subscribe.max_error : c->max_error;
-    int tier = app_tier_acquire(a, stride, max_error);
+    double max_rate = m->u.subscribe.has_max_rate ? m->u.subscribe.max_rate : c->max_rate;
+    int tier = app_tier_acquire(a, stride, max_error, max_rate);
     if (tier < 0) {
         reply_fail(a, client, &m->id, PROTO_ERR_BUSY, "",
-                   "every stream slot is taken by other stride/max_error settings; pick settings another client uses");
+                   "every stream slot is taken by other stride/max_error/rate settings; pick settings another client uses");
         return;
     }
     if (!a->tiers[tier].ready) {
@@ -218,7 +220,7 @@ static void subscribe(app *a, uint32_t client, const proto_msg *m)
     c->tier = tier;
     c->stride = stride;
     c->max_error = max_error;
-    if (m->u.subscribe.has_max_rate) c->max_rate = m->u.subscribe.max_rate;
+    c->max_rate = max_rate;
     if (a->net) net_subscribe(a->net, client, (uint32_t)tier, c->max_rate);
     a->dirty = a->dirty || a->paused;
     atomic_fetch_add(&a->accepted, 1);

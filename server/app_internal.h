@@ -51,11 +51,17 @@ extern const char *const app_preset_names[APP_PRESET_COUNT];
 /* The head transform of preset p at animation time t (s) applied on top of base. Pure. */
 core_xform app_anim_head(app_preset p, double t, core_xform base);
 
-/* ---- streams: one codec encoder per distinct (stride, max_error), each a net stream ---- */
+/* ---- streams: one codec encoder per distinct (stride, max_error, decimation), each a net
+ * stream ---- */
+#define APP_MAX_DECIMATION 100000u /* publish rounds per stream frame, at most */
+
 typedef struct app_tier {
     bool used;
     int32_t stride;
     double max_error;
+    uint32_t decimation;      /* the stream takes every decimation-th publish round */
+    uint32_t countdown;       /* rounds until its next frame (0: the next round) */
+    bool due;                 /* encode it in the current publish round */
     uint32_t subscribers;
     bool force_key;
     bool ready;               /* encoder initialised for the current groom */
@@ -168,19 +174,29 @@ void app_list_assets(app *a);
 void app_free_assets(app *a);
 
 /* Streams (sim thread). A tier is one codec encoder and one net stream, shared by every
- * client with the same (stride, max_error). */
-/* Adds a subscriber to the matching tier (creating it; its first frame is a keyframe); returns
- * the tier index, or -1 when all NET_MAX_STREAMS are taken by other settings. */
-int app_tier_acquire(app *a, int32_t stride, double max_error);
+ * client with the same (stride, max_error, decimation). */
+/* The decimation of a client capped at max_rate (Hz, 0 = no cap) when the server publishes at
+ * rate Hz: the largest k (1..APP_MAX_DECIMATION) with rate / k >= max_rate. Pure. */
+uint32_t app_stream_decimation(double rate, double max_rate);
+/* Adds a subscriber to the tier of (stride, max_error, app_stream_decimation(d.rate, max_rate)),
+ * creating it (its first frame, in the next publish round, is a keyframe). When every
+ * NET_MAX_STREAMS slot is taken it shares the tier of the same stride and max_error with the
+ * largest smaller decimation (a faster stream; the net rate cap thins it). Returns the tier
+ * index, or -1 when no slot is free and no tier fits. */
+int app_tier_acquire(app *a, int32_t stride, double max_error, double max_rate);
 /* Drops a subscriber; the last one frees the encoder and the net stream. */
 void app_tier_release(app *a, int tier);
 /* Re-initialises every tier's encoder for the current groom (after a groom change). */
 void app_tiers_reset(app *a);
 void app_tiers_free(app *a);
-/* True when some stream has subscribers. Sim thread. */
-bool app_streaming(const app *a);
+/* Marks the tiers with subscribers that take a frame now: on a tick (a publish round of the
+ * --rate schedule) those whose decimation countdown runs out, which it advances; with all,
+ * every one (a frame outside the schedule: paused newcomers, reset, keyframe requests while
+ * paused). Returns true when any is due. Sim thread. */
+bool app_tiers_due(app *a, bool tick, bool all);
 
-/* Encodes a->xyz once per tier with subscribers and publishes the frames (one seq per call). */
+/* Encodes a->xyz once per due tier and publishes the frames (one seq per call, so a tier of
+ * decimation k sees seq grow by k per frame). Sim thread. */
 void app_publish(app *a);
 /* Strands per frame at a stride: ceil(nstrands / stride). */
 uint32_t app_tier_strands(const app *a, int32_t stride);

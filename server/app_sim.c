@@ -28,22 +28,23 @@ static core_status step_once(app *a)
     return st;
 }
 
-/* Publishes when the stream rate says so (every step at the default 60 Hz), reading the
- * positions from the backend only then and only when some stream has subscribers. */
+/* Publishes when the stream rate says so (a round every step at the default 60 Hz; a stream
+ * of decimation k takes every k-th round), reading the positions from the backend only when
+ * some stream takes a frame. */
 static void maybe_publish(app *a, bool stepped)
 {
-    bool due = a->dirty;
+    bool tick = false;
     if (stepped) {
         double period = 1.0 / a->d.rate;
         a->publish_acc += a->params.dt;
         if (a->publish_acc >= period - 1e-9) {
             a->publish_acc -= period;
             if (a->publish_acc > period) a->publish_acc = 0.0;
-            due = true;
+            tick = true;
         }
     }
-    if (!due) return;
-    if (!app_streaming(a)) { /* nobody to send to: the positions are not even read */
+    if (!tick && !a->dirty) return;
+    if (!app_tiers_due(a, tick, a->dirty)) { /* nobody to send to: the positions are not even read */
         a->dirty = false;
         return;
     }

@@ -1,4 +1,6 @@
-/* app: subscription tiers: one codec encoder per distinct (stride, max_error), published to net. */
+/* app: subscription tiers: one codec encoder per distinct (stride, max_error, decimation),
+ * published to net. */
+#include <math.h>
 #include <string.h>
 
 #include "app_internal.h"
@@ -18,23 +20,41 @@ static core_status tier_init(app *a, app_tier *t, core_err *err)
     return st;
 }
 
-int app_tier_acquire(app *a, int32_t stride, double max_error)
+uint32_t app_stream_decimation(double rate, double max_rate)
 {
-    int free_slot = -1;
+    if (!(max_rate > 0.0) || !(rate > max_rate)) return 1;
+    /* the relative slack keeps exact ratios (60 / 20) from rounding down to the next k */
+    double k = floor(rate / max_rate * (1.0 + 1e-9));
+    return k >= (double)APP_MAX_DECIMATION ? APP_MAX_DECIMATION : (uint32_t)k;
+}
+
+int app_tier_acquire(app *a, int32_t stride, double max_error, double max_rate)
+{
+    uint32_t decimation = app_stream_decimation(a->d.rate, max_rate);
+    int free_slot = -1, faster = -1;
     for (int i = 0; i < NET_MAX_STREAMS; i++) {
         app_tier *t = &a->tiers[i];
-        if (t->used && t->stride == stride && t->max_error == max_error) {
+        if (!t->used) {
+            if (free_slot < 0) free_slot = i;
+            continue;
+        }
+        if (t->stride != stride || t->max_error != max_error || t->decimation > decimation) continue;
+        if (t->decimation == decimation) {
             t->subscribers++;
             return i;
         }
-        if (!t->used && free_slot < 0) free_slot = i;
+        if (faster < 0 || t->decimation > a->tiers[faster].decimation) faster = i;
     }
-    if (free_slot < 0) return -1;
+    if (free_slot < 0) {
+        if (faster >= 0) a->tiers[faster].subscribers++;
+        return faster;
+    }
     app_tier *t = &a->tiers[free_slot];
     memset(t, 0, sizeof *t);
     t->used = true;
     t->stride = stride;
     t->max_error = max_error;
+    t->decimation = decimation;
     t->subscribers = 1;
     core_err err;
     if (tier_init(a, t, &err) != CORE_OK) core_log(CORE_LOG_ERROR, "app", "stream encoder: %s", err.msg);
@@ -69,11 +89,25 @@ void app_tiers_free(app *a)
     codec_buf_free(&a->enc_buf);
 }
 
-bool app_streaming(const app *a)
+bool app_tiers_due(app *a, bool tick, bool all)
 {
-    for (int i = 0; i < NET_MAX_STREAMS; i++)
-        if (a->tiers[i].used && a->tiers[i].subscribers > 0) return true;
-    return false;
+    bool any = false;
+    for (int i = 0; i < NET_MAX_STREAMS; i++) {
+        app_tier *t = &a->tiers[i];
+        t->due = false;
+        if (!t->used || t->subscribers == 0) continue;
+        if (tick) {
+            if (t->countdown == 0) {
+                t->due = true;
+                t->countdown = t->decimation - 1;
+            } else {
+                t->countdown--;
+            }
+        }
+        t->due = t->due || all;
+        any = any || t->due;
+    }
+    return any;
 }
 
 void app_publish(app *a)
@@ -86,7 +120,7 @@ void app_publish(app *a)
     sim_get_stats(&a->sim, &ss);
     for (int i = 0; i < NET_MAX_STREAMS; i++) {
         app_tier *t = &a->tiers[i];
-        if (!t->used || !t->ready || t->subscribers == 0) continue;
+        if (!t->due || !t->ready) continue;
         core_err err;
         if (codec_encode(&t->enc, a->xyz, seq, ss.sim_time, t->force_key, &a->enc_buf, &err) != CORE_OK) {
             if (!t->failing)

@@ -42,6 +42,8 @@ typedef struct view {
     size_t cap;
     codec_frame_info info; /* of the last decoded frame */
     uint64_t ok, bad, keys;
+    uint64_t last_seq, last_key_seq; /* of the last decoded frame and keyframe */
+    uint64_t seq_gcd, key_gcd;       /* gcd of the seq steps between decoded frames / keyframes */
     bool first_was_key;
     char last_error[256];
 } view;
@@ -55,6 +57,16 @@ typedef struct fixture {
     view views[8];
     int nviews;
 } fixture;
+
+static uint64_t gcd(uint64_t a, uint64_t b)
+{
+    while (b) {
+        uint64_t t = a % b;
+        a = b;
+        b = t;
+    }
+    return a;
+}
 
 static void on_frame(wsc_conn *c, const uint8_t *data, size_t len, void *user)
 {
@@ -78,6 +90,10 @@ static void on_frame(wsc_conn *c, const uint8_t *data, size_t len, void *user)
         return;
     }
     if (v->ok == 0) v->first_was_key = info.keyframe;
+    else v->seq_gcd = gcd(v->seq_gcd, info.seq - v->last_seq);
+    if (info.keyframe && v->keys) v->key_gcd = gcd(v->key_gcd, info.seq - v->last_key_seq);
+    if (info.keyframe) v->last_key_seq = info.seq;
+    v->last_seq = info.seq;
     v->ok++;
     v->keys += info.keyframe;
     v->info = info;
@@ -751,6 +767,73 @@ static void test_slow_client_skips(void **state)
     http_reply_free(&r);
 }
 
+typedef struct keys_arg {
+    view *v;
+    uint64_t n;
+} keys_arg;
+
+static bool has_keys(void *arg)
+{
+    keys_arg *k = arg;
+    return k->v->keys >= k->n;
+}
+
+/* Subscribes c with max_rate and checks the reply's frame rate. */
+static void subscribe_rate(fixture *fx, wsc_conn *c, double max_rate, double frame_rate)
+{
+    char msg[96];
+    snprintf(msg, sizeof msg, "{\"type\":\"subscribe\",\"max_rate\":%g}", max_rate);
+    wsc_send_text(c, msg);
+    cJSON *sub = expect_msg(fx, c, "subscribed");
+    const cJSON *so = get(sub, "stream");
+    if (num(so, "frame_rate") != frame_rate || num(so, "rate") != 60 || num(so, "max_rate") != max_rate)
+        fail_msg("max_rate %g: frame_rate %g, rate %g (want %g, 60)", max_rate, num(so, "frame_rate"), num(so, "rate"),
+                 frame_rate);
+    cJSON_Delete(sub);
+}
+
+/* A client capped below the publishing rate gets a stream of its own rate: every k-th round's
+ * frame, with keyframes every keyframe_interval of its own frames (not the full-rate stream's
+ * frames thinned, which would send it every keyframe of the full stream). */
+static void test_rate_streams(void **state)
+{
+    fixture *fx = *state;
+    view *full, *half, *capped;
+    wsc_conn *cf = connect_view(fx, &full), *ch = connect_view(fx, &half), *cc = connect_view(fx, &capped);
+    wait_frames(fx, half, 1);
+    wait_frames(fx, capped, 1);
+    subscribe_rate(fx, ch, 30, 30);
+    subscribe_rate(fx, cc, 25, 30); /* no divisor rate of 60 is 25: the 30 Hz stream, capped */
+    /* frames from here on are of the new streams (each starts with its keyframe) */
+    wsc_run(fx->w, 100);
+    view *vs[] = { full, half, capped };
+    for (int i = 0; i < 3; i++) {
+        vs[i]->ok = vs[i]->keys = 0;
+        vs[i]->seq_gcd = vs[i]->key_gcd = 0;
+    }
+    keys_arg k = { half, 4 };
+    if (!wsc_until(fx->w, has_keys, &k, 3 * WAIT_MS)) fail_msg("%llu keyframes on the 30 Hz stream", (unsigned long long)half->keys);
+    unsigned long long t0 = core_now_ns();
+    uint64_t c0 = capped->ok;
+    wsc_run(fx->w, 2000);
+    double secs = (double)(core_now_ns() - t0) / 1e9;
+    /* seq counts publishing rounds: the full stream takes each (keyframe every 30), the 30 Hz
+     * streams every second one (keyframe every 30 of theirs = 60 rounds) */
+    if (full->seq_gcd != 1 || full->key_gcd != 30)
+        fail_msg("full stream: seq steps gcd %llu, keyframe steps gcd %llu (want 1, 30)",
+                 (unsigned long long)full->seq_gcd, (unsigned long long)full->key_gcd);
+    if (half->seq_gcd != 2 || half->key_gcd != 60)
+        fail_msg("30 Hz stream: seq steps gcd %llu, keyframe steps gcd %llu (want 2, 60)",
+                 (unsigned long long)half->seq_gcd, (unsigned long long)half->key_gcd);
+    if (capped->seq_gcd % 2 != 0 || capped->key_gcd % 60 != 0)
+        fail_msg("25 Hz cap: seq steps gcd %llu, keyframe steps gcd %llu (want multiples of 2, 60)",
+                 (unsigned long long)capped->seq_gcd, (unsigned long long)capped->key_gcd);
+    double rate = (double)(capped->ok - c0) / secs;
+    if (rate > 25.0 * 1.1) fail_msg("%.1f frames/s at max_rate 25", rate);
+    assert_int_equal(full->bad + half->bad + capped->bad, 0);
+    assert_true(wsc_is_open(cf) && wsc_is_open(ch) && wsc_is_open(cc));
+}
+
 static void test_sigterm_closes_clients(void **state)
 {
     fixture *fx = *state;
@@ -970,6 +1053,7 @@ int main(int argc, char **argv)
         cmocka_unit_test_prestate_setup_teardown(test_http_static_and_metrics, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_pause_step_subscribe_groom, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_slow_client_skips, setup, teardown, &cfg),
+        cmocka_unit_test_prestate_setup_teardown(test_rate_streams, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_sigterm_closes_clients, setup, teardown, &cfg),
         cmocka_unit_test_prestate(test_flags, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_reader_that_never_reads_is_closed, setup, teardown, &cfg),

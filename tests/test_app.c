@@ -1,5 +1,6 @@
-/* Tests for the app's pure pieces: the command mailbox (order, coalescing, bound) and the
- * preset head animations. The pipeline itself is exercised end to end by tests/it_net.c. */
+/* Tests for the app's pure pieces: the command mailbox (order, coalescing, bound), the preset
+ * head animations, and the stream tiers (rate decimation, sharing, the full-table fallback,
+ * the publish schedule). The pipeline itself is exercised end to end by tests/it_net.c. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -108,12 +109,103 @@ static void test_presets(void **state)
     assert_string_equal(app_preset_names[APP_PRESET_NONE], "none");
 }
 
+static void test_stream_decimation(void **state)
+{
+    (void)state;
+    assert_int_equal(app_stream_decimation(60, 0), 1);
+    assert_int_equal(app_stream_decimation(60, 60), 1);
+    assert_int_equal(app_stream_decimation(60, 240), 1);
+    assert_int_equal(app_stream_decimation(60, 59.9), 1);
+    assert_int_equal(app_stream_decimation(60, 30), 2);
+    assert_int_equal(app_stream_decimation(60, 25), 2);
+    assert_int_equal(app_stream_decimation(60, 20), 3);
+    assert_int_equal(app_stream_decimation(60, 60.0 / 7.0), 7);
+    assert_int_equal(app_stream_decimation(30, 10), 3);
+    assert_int_equal(app_stream_decimation(60, 1e-9), APP_MAX_DECIMATION);
+    for (double r = 0.5; r <= 240; r += 0.25) {
+        uint32_t k = app_stream_decimation(60, r);
+        /* the stream is at least as fast as asked, and one more step would be slower */
+        if (r < 60) assert_true(60.0 / k >= r * (1 - 1e-9) && 60.0 / (k + 1) < r);
+    }
+}
+
+/* An app with just what the tiers need: a small groom and the publishing rate. */
+static void tiny_app(app *a)
+{
+    memset(a, 0, sizeof *a);
+    a->d.rate = 60;
+    a->d.keyframe_interval = 30;
+    a->groom.g.nstrands = 16;
+    a->groom.g.nverts = 4;
+}
+
+static void test_tiers_share_and_fall_back(void **state)
+{
+    (void)state;
+    app a;
+    tiny_app(&a);
+    int full = app_tier_acquire(&a, 1, 1e-4, 0), half = app_tier_acquire(&a, 1, 1e-4, 30);
+    assert_true(full >= 0 && half >= 0 && full != half);
+    assert_int_equal(app_tier_acquire(&a, 1, 1e-4, 25), half); /* 25 Hz: the 30 Hz stream */
+    assert_int_equal(a.tiers[half].subscribers, 2);
+    assert_int_equal(a.tiers[half].decimation, 2);
+    assert_true(a.tiers[half].ready);
+    /* fill every other slot with other settings */
+    for (int i = 2; i < NET_MAX_STREAMS; i++) assert_true(app_tier_acquire(&a, 1 + i, 1e-4, 0) >= 0);
+    assert_int_equal(app_tier_acquire(&a, 99, 1e-4, 0), -1);
+    /* full table: 10 Hz shares the nearest faster stream of the same stride and error (30 Hz) */
+    assert_int_equal(app_tier_acquire(&a, 1, 1e-4, 10), half);
+    assert_int_equal(a.tiers[half].subscribers, 3);
+    /* a faster rate than any stream of those settings has no fallback */
+    assert_int_equal(app_tier_acquire(&a, 1, 2e-4, 0), -1);
+    app_tier_release(&a, half);
+    app_tier_release(&a, half);
+    app_tier_release(&a, half);
+    assert_false(a.tiers[half].used);
+    app_tiers_free(&a);
+}
+
+static void test_tiers_due_schedule(void **state)
+{
+    (void)state;
+    app a;
+    tiny_app(&a);
+    int full = app_tier_acquire(&a, 1, 1e-4, 0), third = app_tier_acquire(&a, 1, 1e-4, 20);
+    int idle = app_tier_acquire(&a, 2, 1e-4, 0);
+    app_tier_release(&a, idle);
+    assert_int_equal(a.tiers[third].decimation, 3);
+    int nfull = 0, nthird = 0;
+    for (int round = 0; round < 12; round++) {
+        assert_true(app_tiers_due(&a, true, false));
+        nfull += a.tiers[full].due;
+        nthird += a.tiers[third].due;
+        assert_false(a.tiers[idle].due); /* released: never encoded */
+        /* a new tier takes the next round, then every third */
+        assert_int_equal(a.tiers[third].due, round % 3 == 0);
+    }
+    assert_int_equal(nfull, 12);
+    assert_int_equal(nthird, 4);
+    /* a frame outside the schedule goes to every stream and leaves the countdowns alone */
+    assert_true(app_tiers_due(&a, false, true));
+    assert_true(a.tiers[full].due && a.tiers[third].due);
+    assert_true(app_tiers_due(&a, true, false));
+    assert_true(a.tiers[third].due);
+    assert_false(app_tiers_due(&a, false, false));
+    app_tier_release(&a, full);
+    app_tier_release(&a, third);
+    assert_false(app_tiers_due(&a, true, true)); /* no subscribers: nothing to encode */
+    app_tiers_free(&a);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_mailbox_order_and_coalescing),
         cmocka_unit_test(test_mailbox_bound_and_wait),
         cmocka_unit_test(test_presets),
+        cmocka_unit_test(test_stream_decimation),
+        cmocka_unit_test(test_tiers_share_and_fall_back),
+        cmocka_unit_test(test_tiers_due_schedule),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -424,7 +424,7 @@ static void test_build_hello_and_groom(void **state)
         .server = "strandcastd", .version = "0.1.0", .client = 5, .groom = &gj, .head = core_xform_identity(),
         .params = table, .nparams = 4, .values = &v, .presets = presets, .npresets = 4,
         .animation = { "nod", 2.0 }, .styles = styles, .nstyles = 3, .files = files, .nfiles = 1,
-        .stream = { "strand", 1, 3, 1e-4, 0, 60, 30 }, .state = { true, 1.5, 90, { "nod", 2.0 } },
+        .stream = { "strand", 1, 3, 1e-4, 0, 60, 60, 30 }, .state = { true, 1.5, 90, { "nod", 2.0 } },
     };
     cJSON *j = json(proto_build_hello(&h));
     assert_string_equal(str_of(j, "type"), "hello");
@@ -465,7 +465,7 @@ static void test_build_hello_and_groom(void **state)
     assert_string_equal(cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(grooms, "files"), 0)->valuestring, files[0]);
     const cJSON *stream = cJSON_GetObjectItemCaseSensitive(j, "stream");
     assert_string_equal(str_of(stream, "codec"), "strand");
-    assert_true(num_of(stream, "keyframe_interval") == 30);
+    assert_true(num_of(stream, "frame_rate") == 60 && num_of(stream, "keyframe_interval") == 30);
     const cJSON *st = cJSON_GetObjectItemCaseSensitive(j, "state");
     assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(st, "paused")));
     assert_true(num_of(st, "steps") == 90);
@@ -500,11 +500,12 @@ static void test_build_state_stats_subscribed(void **state)
     assert_true(num_of(j, "steps_per_s") == 59.5 && num_of(j, "clients") == 3 && num_of(j, "nan_resets") == 1);
     cJSON_Delete(j);
 
-    proto_stream ps = { "strand", 4, 1024, 0.001, 30, 60, 30 };
+    proto_stream ps = { "strand", 4, 1024, 0.001, 25, 60, 30, 30 };
     j = json(proto_build_subscribed(&id, &ps));
     assert_string_equal(str_of(j, "type"), "subscribed");
     const cJSON *so = cJSON_GetObjectItemCaseSensitive(j, "stream");
-    assert_true(num_of(so, "stride") == 4 && num_of(so, "strands") == 1024 && num_of(so, "max_rate") == 30);
+    assert_true(num_of(so, "stride") == 4 && num_of(so, "strands") == 1024 && num_of(so, "max_rate") == 25);
+    assert_true(num_of(so, "rate") == 60 && num_of(so, "frame_rate") == 30 && num_of(so, "keyframe_interval") == 30);
     cJSON_Delete(j);
 }
 

@@ -202,7 +202,8 @@ typedef struct proto_stream {
     double max_error;      /* m */
     double max_rate;       /* Hz the client asked for (0 = server rate) */
     double rate;           /* Hz the server publishes at */
-    int32_t keyframe_interval;
+    double frame_rate;     /* Hz of this client's stream: rate / its decimation */
+    int32_t keyframe_interval; /* frames of the stream */
 } proto_stream;
 
 /* {"type":"subscribed","id":..,"stream":{..}} */

@@ -173,7 +173,7 @@ static cJSON *stream_object(const proto_stream *s)
     if (o && cJSON_AddStringToObject(o, "codec", s->codec ? s->codec : "") &&
         cJSON_AddNumberToObject(o, "stride", s->stride) && cJSON_AddNumberToObject(o, "strands", s->strands) &&
         cJSON_AddNumberToObject(o, "max_error", s->max_error) && cJSON_AddNumberToObject(o, "max_rate", s->max_rate) &&
-        cJSON_AddNumberToObject(o, "rate", s->rate) &&
+        cJSON_AddNumberToObject(o, "rate", s->rate) && cJSON_AddNumberToObject(o, "frame_rate", s->frame_rate) &&
         cJSON_AddNumberToObject(o, "keyframe_interval", s->keyframe_interval))
         return o;
     cJSON_Delete(o);
