@@ -249,21 +249,22 @@ static const char *str(const cJSON *o, const char *k)
     return v->valuestring;
 }
 
-typedef struct frames_arg {
-    view *v;
+/* A wsc_until condition: a view's counter (frames, keyframes) has reached n. */
+typedef struct reach_arg {
+    const uint64_t *count;
     uint64_t n;
-} frames_arg;
+} reach_arg;
 
-static bool has_frames(void *arg)
+static bool counted(void *arg)
 {
-    frames_arg *f = arg;
-    return f->v->ok >= f->n;
+    reach_arg *c = arg;
+    return *c->count >= c->n;
 }
 
 static void wait_frames(fixture *fx, view *v, uint64_t n)
 {
-    frames_arg f = { v, n };
-    if (!wsc_until(fx->w, has_frames, &f, WAIT_MS)) fail_msg("only %llu frames decoded (want %llu; %llu bad: %s)",
+    reach_arg f = { &v->ok, n };
+    if (!wsc_until(fx->w, counted, &f, WAIT_MS)) fail_msg("only %llu frames decoded (want %llu; %llu bad: %s)",
                                                              (unsigned long long)v->ok, (unsigned long long)n,
                                                              (unsigned long long)v->bad, v->last_error);
 }
@@ -767,17 +768,6 @@ static void test_slow_client_skips(void **state)
     http_reply_free(&r);
 }
 
-typedef struct keys_arg {
-    view *v;
-    uint64_t n;
-} keys_arg;
-
-static bool has_keys(void *arg)
-{
-    keys_arg *k = arg;
-    return k->v->keys >= k->n;
-}
-
 /* Subscribes c with max_rate and checks the reply's frame rate. */
 static void subscribe_rate(fixture *fx, wsc_conn *c, double max_rate, double frame_rate)
 {
@@ -811,8 +801,8 @@ static void test_rate_streams(void **state)
         vs[i]->ok = vs[i]->keys = 0;
         vs[i]->seq_gcd = vs[i]->key_gcd = 0;
     }
-    keys_arg k = { half, 4 };
-    if (!wsc_until(fx->w, has_keys, &k, 3 * WAIT_MS)) fail_msg("%llu keyframes on the 30 Hz stream", (unsigned long long)half->keys);
+    reach_arg k = { &half->keys, 4 };
+    if (!wsc_until(fx->w, counted, &k, 3 * WAIT_MS)) fail_msg("%llu keyframes on the 30 Hz stream", (unsigned long long)half->keys);
     unsigned long long t0 = core_now_ns();
     uint64_t c0 = capped->ok;
     wsc_run(fx->w, 2000);
