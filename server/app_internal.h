@@ -179,10 +179,11 @@ void app_free_assets(app *a);
  * rate Hz: the largest k (1..APP_MAX_DECIMATION) with rate / k >= max_rate. Pure. */
 uint32_t app_stream_decimation(double rate, double max_rate);
 /* Adds a subscriber to the tier of (stride, max_error, app_stream_decimation(d.rate, max_rate)),
- * creating it (its first frame, in the next publish round, is a keyframe). When every
- * NET_MAX_STREAMS slot is taken it shares the tier of the same stride and max_error with the
- * largest smaller decimation (a faster stream; the net rate cap thins it). Returns the tier
- * index, or -1 when no slot is free and no tier fits. */
+ * creating it (its first frame, in the next publish round, is a keyframe). The last free slot
+ * of NET_MAX_STREAMS is kept for the default stream (stride 1, d.max_error, every round), so a
+ * new client always has one. When no slot can be had it shares the tier of the same stride and
+ * max_error with the largest smaller decimation (a faster stream; the net rate cap thins it).
+ * Returns the tier index, or -1 when no slot is free and no tier fits. */
 int app_tier_acquire(app *a, int32_t stride, double max_error, double max_rate);
 /* Drops a subscriber; the last one frees the encoder and the net stream. */
 void app_tier_release(app *a, int tier);

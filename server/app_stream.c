@@ -31,13 +31,16 @@ uint32_t app_stream_decimation(double rate, double max_rate)
 int app_tier_acquire(app *a, int32_t stride, double max_error, double max_rate)
 {
     uint32_t decimation = app_stream_decimation(a->d.rate, max_rate);
-    int free_slot = -1, faster = -1;
+    int free_slot = -1, nfree = 0, faster = -1;
+    bool have_default = false;
     for (int i = 0; i < NET_MAX_STREAMS; i++) {
         app_tier *t = &a->tiers[i];
         if (!t->used) {
             if (free_slot < 0) free_slot = i;
+            nfree++;
             continue;
         }
+        have_default = have_default || (t->stride == 1 && t->max_error == a->d.max_error && t->decimation == 1);
         if (t->stride != stride || t->max_error != max_error || t->decimation > decimation) continue;
         if (t->decimation == decimation) {
             t->subscribers++;
@@ -45,6 +48,9 @@ int app_tier_acquire(app *a, int32_t stride, double max_error, double max_rate)
         }
         if (faster < 0 || t->decimation > a->tiers[faster].decimation) faster = i;
     }
+    /* the last free slot is kept for the default stream, which every new client starts on */
+    bool is_default = stride == 1 && max_error == a->d.max_error && decimation == 1;
+    if (free_slot >= 0 && nfree == 1 && !have_default && !is_default) free_slot = -1;
     if (free_slot < 0) {
         if (faster >= 0) a->tiers[faster].subscribers++;
         return faster;

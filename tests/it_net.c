@@ -824,6 +824,56 @@ static void test_rate_streams(void **state)
     assert_true(wsc_is_open(cf) && wsc_is_open(ch) && wsc_is_open(cc));
 }
 
+/* Stream slots: with 31 of the 32 taken by other strides and the default stream gone, the last
+ * is kept for the default stream, so a newcomer still gets frames; a subscribe no slot can
+ * serve is refused (busy) and the client keeps its stream; one with a faster stream of its
+ * stride and error shares it. */
+static void test_stream_slots(void **state)
+{
+    fixture *fx = *state;
+    wsc_conn *others[31];
+    for (int i = 0; i < 31; i++) {
+        others[i] = wsc_connect(fx->w, fx->d.port, SUBPROTOCOL, NULL, NULL);
+        assert_true(wsc_wait_open(fx->w, others[i], WAIT_MS));
+        cJSON_Delete(expect_msg(fx, others[i], "hello"));
+        char msg[64];
+        snprintf(msg, sizeof msg, "{\"type\":\"subscribe\",\"stride\":%d}", i + 2);
+        wsc_send_text(others[i], msg);
+        cJSON *sub = expect_msg(fx, others[i], "subscribed");
+        assert_true(num(get(sub, "stream"), "stride") == i + 2);
+        cJSON_Delete(sub);
+    }
+    /* 31 streams, no default one: the free slot is not for stride 40 */
+    wsc_send_text(others[0], "{\"type\":\"subscribe\",\"stride\":40,\"id\":1}");
+    cJSON *busy = expect_msg(fx, others[0], "error");
+    assert_string_equal(str(busy, "code"), "busy");
+    assert_true(num(busy, "id") == 1);
+    cJSON_Delete(busy);
+    /* a newcomer starts on the default stream, in the kept slot */
+    view *v;
+    wsc_conn *c = connect_view(fx, &v);
+    wait_frames(fx, v, 3);
+    assert_int_equal(v->info.nstrands_sent, NSTRANDS);
+    /* every slot taken now: refused, and the stream goes on */
+    wsc_send_text(c, "{\"type\":\"subscribe\",\"stride\":40,\"id\":2}");
+    busy = expect_msg(fx, c, "error");
+    assert_string_equal(str(busy, "code"), "busy");
+    cJSON_Delete(busy);
+    uint64_t n = v->ok;
+    wait_frames(fx, v, n + 3);
+    assert_int_equal(v->info.nstrands_sent, NSTRANDS);
+    /* 10 Hz of stride 2 has no slot of its own: it shares the 60 Hz stride-2 stream, capped */
+    wsc_send_text(c, "{\"type\":\"subscribe\",\"stride\":2,\"max_rate\":10,\"id\":3}");
+    cJSON *sub = expect_msg(fx, c, "subscribed");
+    const cJSON *so = get(sub, "stream");
+    assert_true(num(so, "stride") == 2 && num(so, "max_rate") == 10 && num(so, "frame_rate") == 60);
+    cJSON_Delete(sub);
+    n = v->ok;
+    wait_frames(fx, v, n + 3);
+    assert_int_equal(v->info.nstrands_sent, NSTRANDS / 2);
+    assert_int_equal(v->bad, 0);
+}
+
 static void test_sigterm_closes_clients(void **state)
 {
     fixture *fx = *state;
@@ -1044,6 +1094,7 @@ int main(int argc, char **argv)
         cmocka_unit_test_prestate_setup_teardown(test_pause_step_subscribe_groom, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_slow_client_skips, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_rate_streams, setup, teardown, &cfg),
+        cmocka_unit_test_prestate_setup_teardown(test_stream_slots, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_sigterm_closes_clients, setup, teardown, &cfg),
         cmocka_unit_test_prestate(test_flags, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_reader_that_never_reads_is_closed, setup, teardown, &cfg),

@@ -134,6 +134,7 @@ static void tiny_app(app *a)
 {
     memset(a, 0, sizeof *a);
     a->d.rate = 60;
+    a->d.max_error = 1e-4;
     a->d.keyframe_interval = 30;
     a->groom.g.nstrands = 16;
     a->groom.g.nverts = 4;
@@ -158,6 +159,15 @@ static void test_tiers_share_and_fall_back(void **state)
     assert_int_equal(a.tiers[half].subscribers, 3);
     /* a faster rate than any stream of those settings has no fallback */
     assert_int_equal(app_tier_acquire(&a, 1, 2e-4, 0), -1);
+    /* with the default stream gone, its slot is kept for it: other settings are refused */
+    app_tier_release(&a, full);
+    assert_false(a.tiers[full].used);
+    assert_int_equal(app_tier_acquire(&a, 99, 1e-4, 0), -1);
+    assert_int_equal(app_tier_acquire(&a, 1, 1e-4, 45), full); /* 45 Hz: every round, the default stream */
+    assert_int_equal(app_tier_acquire(&a, 1, 1e-4, 0), full);
+    assert_int_equal(a.tiers[full].subscribers, 2);
+    app_tier_release(&a, full);
+    app_tier_release(&a, full);
     app_tier_release(&a, half);
     app_tier_release(&a, half);
     app_tier_release(&a, half);

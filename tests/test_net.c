@@ -1,4 +1,4 @@
-/* Tests for server/net's pure parts (UTF-8 validation, subprotocol lists, refcounted buffers);
+/* Tests for server/net's pure parts (subprotocol lists, refcounted buffers);
  * the server itself is exercised end to end by tests/it_net.c. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -11,23 +11,6 @@
 #include <string.h>
 
 #include "net/net_internal.h"
-
-static void test_utf8(void **state)
-{
-    (void)state;
-    static const char *const good[] = { "", "plain ascii", "caf\xc3\xa9", "\xe2\x82\xac", "\xf0\x9f\x98\x80",
-                                        "\xed\x9f\xbf", "\xee\x80\x80", "\xf4\x8f\xbf\xbf" };
-    for (size_t i = 0; i < sizeof good / sizeof good[0]; i++) assert_true(net_utf8_valid(good[i], strlen(good[i])));
-    static const char *const bad[] = {
-        "\xff", "\xfe\xff", "\x80", "caf\xc3", "\xc3\x28", "\xc0\xaf" /* overlong '/' */, "\xe0\x80\xaf",
-        "\xed\xa0\x80" /* surrogate */, "\xf4\x90\x80\x80" /* > U+10FFFF */, "\xf8\x88\x80\x80\x80", "\xe2\x82",
-    };
-    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
-        if (net_utf8_valid(bad[i], strlen(bad[i]))) fail_msg("accepted bad sequence %zu", i);
-    /* embedded NUL is valid UTF-8; the length, not the terminator, bounds the check */
-    assert_true(net_utf8_valid("a\0b", 3));
-    assert_false(net_utf8_valid("ok\xc3\xa9", 3));
-}
 
 static void test_token_list(void **state)
 {
@@ -154,7 +137,6 @@ static void test_ping_policy(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_utf8),
         cmocka_unit_test(test_token_list),
         cmocka_unit_test(test_buffers),
         cmocka_unit_test(test_create_errors),

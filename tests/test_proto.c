@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/utf8.h"
 #include "proto/proto.h"
 
 typedef struct test_params {
@@ -340,6 +341,26 @@ static void test_hostile_inputs(void **state)
     cJSON_Delete(j);
     expect_err("{\"type\":\"reset\",\"id\":\"\\ud800\"}", PROTO_ERR_BAD_JSON, "");
     expect_ok("{\"type\":\"r\\u0065set\",\"id\":\"x\"}", PROTO_RESET); /* escapes in names are decoded */
+
+    /* client names cut inside a character for the error message: the reply is still UTF-8 */
+    static const char *const cut[] = {
+        "{\"type\":\"%s\xc3\xa9\xc3\xa9\"}",                     /* unknown type, "%.64s" */
+        "{\"type\":\"reset\",\"%s\xc3\xa9\xc3\xa9\":1}",           /* unknown field */
+        "{\"type\":\"set_params\",\"values\":{\"%s\xc3\xa9\xc3\xa9\":1}}", /* unknown parameter */
+        "{\"type\":\"animate\",\"preset\":\"%s\xc3\xa9\xc3\xa9\"}",   /* unknown preset, "%.48s" */
+    };
+    for (size_t i = 0; i < sizeof cut / sizeof cut[0]; i++)
+        for (int pad = 40; pad <= 90; pad++) {
+            char name[128], text[256];
+            memset(name, 'a', (size_t)pad);
+            name[pad] = 0;
+            int len = snprintf(text, sizeof text, cut[i], name);
+            assert_int_equal(proto_parse(&parser, text, (size_t)len, &msg, &err), CORE_EINVAL);
+            char *reply = proto_build_error(&msg.id, &err);
+            assert_non_null(reply);
+            if (!core_utf8_valid(reply, strlen(reply))) fail_msg("case %zu, %d bytes: reply not UTF-8: %s", i, pad, reply);
+            proto_free(reply);
+        }
 }
 
 static void test_build_error_and_ok(void **state)

@@ -112,10 +112,6 @@ void net_session_enqueue(net *n, net_session *s, net_buf *b, unsigned flags);
 /* Starts a server-side close of s with a WebSocket close code (net thread). */
 void net_session_close(net_session *s, int code, const char *reason);
 
-/* True when data[0, len) is well-formed UTF-8 (no overlongs, surrogates or code points over
- * U+10FFFF). Pure. */
-bool net_utf8_valid(const void *data, size_t len);
-
 /* True when the comma-separated list (blanks around items ignored) contains token. Pure. */
 bool net_token_listed(const char *list, const char *token);
 

@@ -3,6 +3,7 @@
 #include <string.h>
 #include <sys/socket.h>
 
+#include "../core/utf8.h"
 #include "net_internal.h"
 
 static net *net_of(struct lws *wsi) { return lws_context_user(lws_get_context(wsi)); }
@@ -129,7 +130,7 @@ static int session_receive(net *n, net_session *s, struct lws *wsi, const void *
     if (len) memcpy(s->rx + s->rx_len, in, len);
     s->rx_len += len;
     if (!lws_is_final_fragment(wsi) || lws_remaining_packet_payload(wsi) > 0) return 0;
-    if (!net_utf8_valid(s->rx, s->rx_len))
+    if (!core_utf8_valid(s->rx, s->rx_len))
         return close_now(n, s, LWS_CLOSE_STATUS_INVALID_PAYLOAD, "text message is not valid UTF-8");
     atomic_fetch_add(&n->messages_in, 1);
     if (n->desc.cb.on_text) n->desc.cb.on_text(n->desc.cb.user, s->client, s->rx ? s->rx : "", s->rx_len);

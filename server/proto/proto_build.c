@@ -4,16 +4,20 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../core/utf8.h"
 #include "proto.h"
 #include "proto_json.h"
 
 void proto_free(char *text) { cJSON_free(text); }
 
-/* Prints and deletes obj; NULL when any allocation failed on the way (obj may be NULL). */
+/* Prints and deletes obj; NULL when any allocation failed on the way (obj may be NULL). The
+ * text is made valid UTF-8: strings echoed from clients or file names may have been cut inside
+ * a character ("%.64s"), and JSON's structure is ASCII, so a '?' for such bytes is safe. */
 static char *finish(cJSON *obj, bool ok)
 {
     char *s = ok && obj ? cJSON_PrintUnformatted(obj) : NULL;
     cJSON_Delete(obj);
+    if (s) core_utf8_repair(s, strlen(s));
     return s;
 }
 
