@@ -110,7 +110,14 @@ static void motion(app *a, uint32_t client, const proto_msg *m)
 {
     app_client *c = find_client(a, client);
     if (c && m->u.motion.has_t) {
-        if (c->has_t && m->u.motion.t < c->last_t) return; /* stale: a newer pose was applied */
+        if (c->has_t && m->u.motion.t < c->last_t) { /* stale: a newer pose was applied */
+            if (m->id.kind == PROTO_ID_NONE) return;
+            proto_error e;
+            proto_fail(&e, PROTO_ERR_BAD_STATE, "t", "stale motion: t %.17g is older than the last applied t %.17g",
+                       m->u.motion.t, c->last_t);
+            app_reply_error(a, client, &m->id, &e);
+            return;
+        }
         c->has_t = true;
         c->last_t = m->u.motion.t;
     }

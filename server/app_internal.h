@@ -34,7 +34,8 @@ typedef struct app_mailbox {
 
 core_status app_mailbox_init(app_mailbox *m, core_err *err);
 void app_mailbox_free(app_mailbox *m);
-/* Queues a copy of *c; a motion replaces a motion still at the tail (newest wins).
+/* Queues a copy of *c; a motion replaces a motion without an id still at the tail (newest wins;
+ * one with an id is kept, for its reply).
  * CORE_ENOMEM when full. Any thread. */
 core_status app_mailbox_post(app_mailbox *m, const app_cmd *c);
 /* Takes the oldest command into *out; false when empty. Sim thread. */

@@ -34,7 +34,8 @@ core_status app_mailbox_post(app_mailbox *m, const app_cmd *c)
     pthread_mutex_lock(&m->mu);
     if (motion && m->len > 0) {
         app_cmd *tail = &m->ring[(m->head + m->len - 1) % APP_MAILBOX];
-        if (tail->kind == APP_CMD_MSG && tail->msg.type == PROTO_MOTION) {
+        /* only a motion that expects no reply may be replaced */
+        if (tail->kind == APP_CMD_MSG && tail->msg.type == PROTO_MOTION && tail->msg.id.kind == PROTO_ID_NONE) {
             *tail = *c;
             pthread_mutex_unlock(&m->mu);
             return CORE_OK;

@@ -468,6 +468,24 @@ static void test_motion_moves_roots(void **state)
     assert_true(num(ok, "id") == 3);
     roots_arg b = { v, roots, 1, { 0, 0, 0 } };
     if (!wsc_until(fx->w, roots_at, &b, WAIT_MS)) fail_msg("roots did not follow the head rotation");
+    /* a stale motion with an id is answered; motions with ids are never coalesced away */
+    wsc_send_text(c, "{\"type\":\"motion\",\"t\":1.5,\"position\":[0,0,0],\"orientation\":[0,0,0,1],\"id\":\"old\"}");
+    cJSON *stale = expect_msg(fx, c, "error");
+    assert_string_equal(str(stale, "code"), "bad_state");
+    assert_string_equal(str(stale, "field"), "t");
+    assert_string_equal(str(stale, "id"), "old");
+    cJSON_Delete(stale);
+    for (int i = 0; i < 6; i++) {
+        char m[160];
+        snprintf(m, sizeof m, "{\"type\":\"motion\",\"t\":%d,\"position\":[0,0,0],\"orientation\":[0,0.70710678,0,0.70710678],\"id\":%d}",
+                 2 + i, 10 + i);
+        wsc_send_text(c, m);
+    }
+    for (int i = 0; i < 6; i++) {
+        cJSON *o = expect_msg(fx, c, "ok");
+        assert_true(num(o, "id") == 10 + i);
+        cJSON_Delete(o);
+    }
 
     /* a preset moves the head over time and is announced */
     wsc_send_text(c, "{\"type\":\"animate\",\"preset\":\"shake\",\"speed\":2,\"id\":4}");
@@ -482,7 +500,7 @@ static void test_motion_moves_roots(void **state)
     }
     assert_true(maxd > 0.005);
     /* motion stops the preset */
-    wsc_send_text(c, "{\"type\":\"motion\",\"t\":3,\"position\":[0,0,0],\"orientation\":[0,0,0,1]}");
+    wsc_send_text(c, "{\"type\":\"motion\",\"t\":20,\"position\":[0,0,0],\"orientation\":[0,0,0,1]}");
     cJSON *st2 = expect_msg(fx, c, "state");
     assert_string_equal(str(get(st2, "animation"), "preset"), "none");
     assert_int_equal(v->bad, 0);

@@ -39,6 +39,11 @@ static void test_mailbox_order_and_coalescing(void **state)
     assert_int_equal(app_mailbox_post(&m, &c), CORE_OK);
     c = msg_cmd(1, PROTO_MOTION, 3.0f); /* after a reset: a new entry, order kept */
     assert_int_equal(app_mailbox_post(&m, &c), CORE_OK);
+    c = msg_cmd(1, PROTO_MOTION, 4.0f); /* one with an id replaces the tail, and stays for its reply */
+    c.msg.id.kind = PROTO_ID_NUMBER;
+    assert_int_equal(app_mailbox_post(&m, &c), CORE_OK);
+    c = msg_cmd(1, PROTO_MOTION, 5.0f);
+    assert_int_equal(app_mailbox_post(&m, &c), CORE_OK);
     app_cmd out;
     assert_true(app_mailbox_take(&m, &out));
     assert_int_equal(out.kind, APP_CMD_OPEN);
@@ -49,7 +54,9 @@ static void test_mailbox_order_and_coalescing(void **state)
     assert_true(app_mailbox_take(&m, &out));
     assert_int_equal(out.msg.type, PROTO_RESET);
     assert_true(app_mailbox_take(&m, &out));
-    assert_true(out.msg.u.motion.position.x == 3.0f);
+    assert_true(out.msg.u.motion.position.x == 4.0f && out.msg.id.kind == PROTO_ID_NUMBER);
+    assert_true(app_mailbox_take(&m, &out));
+    assert_true(out.msg.u.motion.position.x == 5.0f);
     assert_false(app_mailbox_take(&m, &out));
     app_mailbox_free(&m);
 }
