@@ -271,7 +271,10 @@ static void handle_msg(app *a, uint32_t client, const proto_msg *m)
         if (a->step_budget > PROTO_MAX_STEP) a->step_budget = PROTO_MAX_STEP;
         reply_ok(a, client, m);
         return; /* the state follows when the steps are done */
-    case PROTO_SET_GROOM: set_groom(a, client, m); return;
+    case PROTO_SET_GROOM:
+        set_groom(a, client, m);
+        atomic_fetch_sub(&a->grooms_pending, 1); /* after its replies and groom broadcast */
+        return;
     case PROTO_SUBSCRIBE: subscribe(a, client, m); return;
     case PROTO_KEYFRAME: {
         app_client *c = find_client(a, client);

@@ -148,6 +148,7 @@ typedef struct app {
     pthread_mutex_t stats_mu;
     app_stats stats;
     atomic_uint_fast64_t accepted, rejected;
+    atomic_uint grooms_pending;   /* set_groom commands queued or being carried out (at most 1) */
 } app;
 
 /* Net-thread callbacks (net_callbacks.user = app). */

@@ -62,7 +62,23 @@ void app_on_text(void *user, uint32_t client, const char *text, size_t len)
         app_reply_error(a, client, &c.msg.id, &e);
         return;
     }
-    post(a, &c, &c.msg.id);
+    if (c.msg.type != PROTO_SET_GROOM) {
+        post(a, &c, &c.msg.id);
+        return;
+    }
+    /* a groom change rebuilds the simulation on the sim thread (up to ~0.3 s for the largest):
+     * one at a time, so that no client can queue up seconds of stalls for everyone */
+    if (atomic_fetch_add(&a->grooms_pending, 1) > 0) {
+        atomic_fetch_sub(&a->grooms_pending, 1);
+        proto_fail(&e, PROTO_ERR_BUSY, "", "a groom change is already in progress; retry after its groom message");
+        app_reply_error(a, client, &c.msg.id, &e);
+        return;
+    }
+    if (app_mailbox_post(&a->mb, &c) != CORE_OK) {
+        atomic_fetch_sub(&a->grooms_pending, 1);
+        proto_fail(&e, PROTO_ERR_BUSY, "", "the server's command queue is full; retry later");
+        app_reply_error(a, client, &c.msg.id, &e);
+    }
 }
 
 size_t app_metrics(void *user, char *buf, size_t cap)

@@ -82,6 +82,8 @@ void app_tiers_reset(app *a)
     for (int i = 0; i < NET_MAX_STREAMS; i++) {
         app_tier *t = &a->tiers[i];
         if (!t->used) continue;
+        /* no frame of the old groom may follow the groom message (posted after this) */
+        if (a->net) net_drop_stream(a->net, (uint32_t)i);
         codec_encoder_free(&t->enc);
         core_err err;
         if (tier_init(a, t, &err) != CORE_OK) core_log(CORE_LOG_ERROR, "app", "stream encoder: %s", err.msg);

@@ -750,6 +750,16 @@ static void test_pause_step_subscribe_groom(void **state)
     assert_string_equal(str(get(g2, "groom"), "source"), "procedural:wavy");
     count_arg ca = { v2, 128, 12 };
     assert_true(wsc_until(fx->w, frame_shape, &ca, WAIT_MS));
+    /* one groom change at a time: a second sent right behind a large one is refused */
+    wsc_send_text(c, "{\"type\":\"set_groom\",\"style\":\"curly\",\"strands\":12000,\"verts\":32,\"id\":4}");
+    wsc_send_text(c, "{\"type\":\"set_groom\",\"style\":\"straight\",\"id\":5}");
+    cJSON *busy = expect_msg(fx, c, "error");
+    assert_string_equal(str(busy, "code"), "busy");
+    assert_true(num(busy, "id") == 5);
+    cJSON *ok4 = expect_msg(fx, c, "ok");
+    assert_true(num(ok4, "id") == 4);
+    cJSON *g4 = expect_msg(fx, c2, "groom");
+    assert_true(num(get(g4, "groom"), "strands") == 12000);
     /* a file from the asset folder */
     wsc_send_text(c, "{\"type\":\"set_groom\",\"file\":\"tiny.hair\",\"verts\":6}");
     cJSON *g3 = expect_msg(fx, c2, "groom");
@@ -758,7 +768,7 @@ static void test_pause_step_subscribe_groom(void **state)
     count_arg cb = { v2, 16, 6 };
     assert_true(wsc_until(fx->w, frame_shape, &cb, WAIT_MS));
     assert_int_equal(v->bad + v2->bad, 0);
-    cJSON *items[] = { st, ok, st2, st3, sub, ok2, ok3, g2, g3 };
+    cJSON *items[] = { st, ok, st2, st3, sub, ok2, ok3, g2, g3, busy, ok4, g4 };
     for (size_t i = 0; i < sizeof items / sizeof items[0]; i++) cJSON_Delete(items[i]);
 }
 
