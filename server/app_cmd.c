@@ -130,6 +130,14 @@ static void motion(app *a, uint32_t client, const proto_msg *m)
     if (stopped) broadcast_state(a);
 }
 
+/* After sim_reset or a new sim: the sim's own counters restart at 0 (the daemon's totals go on). */
+static void sim_restarted(app *a)
+{
+    pthread_mutex_lock(&a->stats_mu);
+    a->stats.nan_resets = 0;
+    pthread_mutex_unlock(&a->stats_mu);
+}
+
 static bool swap_groom(app *a, app_groom *g, uint32_t client, const proto_msg *m)
 {
     core_err err;
@@ -155,6 +163,7 @@ static bool swap_groom(app *a, app_groom *g, uint32_t client, const proto_msg *m
     memset(g, 0, sizeof *g);
     sim_set_motion(&a->sim, app_anim_head(a->preset, a->anim_time, a->base_head));
     sim_reset(&a->sim);
+    sim_restarted(a);
     app_tiers_reset(a);
     a->dirty = true;
     return true;
@@ -251,6 +260,7 @@ static void handle_msg(app *a, uint32_t client, const proto_msg *m)
         break;
     case PROTO_RESET:
         sim_reset(&a->sim);
+        sim_restarted(a);
         for (int i = 0; i < NET_MAX_STREAMS; i++) a->tiers[i].force_key = true;
         a->dirty = true;
         break;

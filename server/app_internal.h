@@ -90,12 +90,14 @@ typedef struct app_groom {
 
 /* Numbers the sim thread publishes for /metrics and stats (guarded by stats_mu). */
 typedef struct app_stats {
-    uint64_t steps;
+    uint64_t steps_run;       /* steps since the daemon started (never reset) */
+    uint64_t nan_resets_run;  /* NaN restores since the daemon started (never reset) */
+    uint64_t steps;           /* the sim's own count: since start, reset or groom change */
     double sim_time;
     double steps_per_s;       /* over the last stats window */
     double step_ms;           /* mean over the last stats window */
     double encode_ms;         /* mean per published round over the last window */
-    uint64_t frames_encoded, encode_bytes, nan_resets;
+    uint64_t frames_encoded, encode_bytes, nan_resets; /* nan_resets: of the current sim, since reset */
     uint32_t clients;
 } app_stats;
 

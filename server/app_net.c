@@ -92,8 +92,10 @@ size_t app_metrics(void *user, char *buf, size_t cap)
                      "# TYPE strandcast_steps_per_second gauge\nstrandcast_steps_per_second %.3f\n"
                      "# HELP strandcast_step_seconds Mean wall time of one simulation step (last second).\n"
                      "# TYPE strandcast_step_seconds gauge\nstrandcast_step_seconds %.6f\n"
-                     "# HELP strandcast_steps_total Simulation steps since start or reset.\n"
+                     "# HELP strandcast_steps_total Simulation steps run since the daemon started.\n"
                      "# TYPE strandcast_steps_total counter\nstrandcast_steps_total %llu\n"
+                     "# HELP strandcast_sim_steps Steps of the current simulation (since start, reset or groom change).\n"
+                     "# TYPE strandcast_sim_steps gauge\nstrandcast_sim_steps %llu\n"
                      "# HELP strandcast_sim_time_seconds Simulated time since start or reset.\n"
                      "# TYPE strandcast_sim_time_seconds gauge\nstrandcast_sim_time_seconds %.6f\n"
                      "# HELP strandcast_encode_seconds Mean wall time to encode one frame round, all streams (last second).\n"
@@ -102,15 +104,15 @@ size_t app_metrics(void *user, char *buf, size_t cap)
                      "# TYPE strandcast_frames_encoded_total counter\nstrandcast_frames_encoded_total %llu\n"
                      "# HELP strandcast_encoded_bytes_total Bytes of encoded frames.\n"
                      "# TYPE strandcast_encoded_bytes_total counter\nstrandcast_encoded_bytes_total %llu\n"
-                     "# HELP strandcast_nan_resets_total Strands restored to rest after a non-finite value.\n"
+                     "# HELP strandcast_nan_resets_total Strands restored to rest after a non-finite value, since the daemon started.\n"
                      "# TYPE strandcast_nan_resets_total counter\nstrandcast_nan_resets_total %llu\n"
                      "# HELP strandcast_control_messages_total Client control messages by outcome.\n"
                      "# TYPE strandcast_control_messages_total counter\n"
                      "strandcast_control_messages_total{result=\"accepted\"} %llu\n"
                      "strandcast_control_messages_total{result=\"rejected\"} %llu\n",
-                     s.steps_per_s, s.step_ms / 1e3, (unsigned long long)s.steps, s.sim_time, s.encode_ms / 1e3,
-                     (unsigned long long)s.frames_encoded, (unsigned long long)s.encode_bytes,
-                     (unsigned long long)s.nan_resets, (unsigned long long)atomic_load(&a->accepted),
+                     s.steps_per_s, s.step_ms / 1e3, (unsigned long long)s.steps_run, (unsigned long long)s.steps,
+                     s.sim_time, s.encode_ms / 1e3, (unsigned long long)s.frames_encoded,
+                     (unsigned long long)s.encode_bytes, (unsigned long long)s.nan_resets_run, (unsigned long long)atomic_load(&a->accepted),
                      (unsigned long long)atomic_load(&a->rejected));
     if (w < 0) return 0;
     return (size_t)w < cap ? (size_t)w : cap - 1;

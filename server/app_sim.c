@@ -67,7 +67,6 @@ static void update_stats(app *a, unsigned long long now)
     pthread_mutex_lock(&a->stats_mu);
     a->stats.steps = ss.steps;
     a->stats.sim_time = ss.sim_time;
-    a->stats.nan_resets = ss.nan_resets;
     a->stats.steps_per_s = (double)a->win_steps / secs;
     a->stats.step_ms = a->win_steps ? a->step_ms_acc / (double)a->win_steps : 0.0;
     a->stats.encode_ms = a->encode_rounds ? a->encode_ms_acc / (double)a->encode_rounds : 0.0;
@@ -120,6 +119,9 @@ void *app_sim_main(void *arg)
             sim_stats ss;
             sim_get_stats(&a->sim, &ss);
             pthread_mutex_lock(&a->stats_mu); /* /metrics counters stay exact between stats windows */
+            a->stats.steps_run++;
+            a->stats.nan_resets_run += ss.nan_resets - a->stats.nan_resets; /* zeroed with the sim's */
+            a->stats.nan_resets = ss.nan_resets;
             a->stats.steps = ss.steps;
             a->stats.sim_time = ss.sim_time;
             pthread_mutex_unlock(&a->stats_mu);

@@ -35,3 +35,7 @@ add_test(NAME bench_fanout_smoke
          COMMAND strandbench fanout --clients 3 --seconds 2 --warmup 1 --animate shake --json)
 set_tests_properties(bench_fanout_smoke PROPERTIES TIMEOUT 120 LABELS integration
                      PASS_REGULAR_EXPRESSION "\"clients\":3,[^\n]*\"min_frames_per_client_per_s\":[1-9]")
+# strandbench --help names every benchmark.
+add_test(NAME strandbench_help COMMAND strandbench --help)
+set_tests_properties(strandbench_help PROPERTIES TIMEOUT 30
+                     PASS_REGULAR_EXPRESSION "\n  solver [^\n]+\n  codec [^\n]+\n  fanout [^\n]+")

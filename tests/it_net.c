@@ -681,6 +681,36 @@ static void test_http_static_and_metrics(void **state)
     assert_true(metric(r.body, "strandcast_frames_sent_total") > 10.0);
     assert_true(metric(r.body, "strandcast_bytes_sent_total") > 1000.0);
     http_reply_free(&r);
+
+    /* three clients of one stream: each frame is encoded once and sent three times */
+    wsc_conn *c2 = connect_view(fx, NULL), *c3 = connect_view(fx, NULL);
+    wsc_run(fx->w, 500);
+    assert_int_equal(http_get(fx->d.port, "/metrics", &r), 0);
+    double enc0 = metric(r.body, "strandcast_frames_encoded_total"), sent0 = metric(r.body, "strandcast_frames_sent_total");
+    double acc0 = metric(r.body, "strandcast_control_messages_total{result=\"accepted\"}");
+    double run0 = metric(r.body, "strandcast_steps_total"), sim0 = metric(r.body, "strandcast_sim_steps");
+    http_reply_free(&r);
+    wsc_send_text(c2, "{\"type\":\"get_params\",\"id\":1}");
+    cJSON_Delete(expect_msg(fx, c2, "params"));
+    wsc_run(fx->w, 1500);
+    assert_int_equal(http_get(fx->d.port, "/metrics", &r), 0);
+    double enc = metric(r.body, "strandcast_frames_encoded_total") - enc0;
+    double sent = metric(r.body, "strandcast_frames_sent_total") - sent0;
+    if (!(enc > 10 && sent >= 2.7 * enc && sent <= 3.3 * enc))
+        fail_msg("%g frames encoded, %g sent to 3 clients of one stream", enc, sent);
+    assert_true(metric(r.body, "strandcast_control_messages_total{result=\"accepted\"}") == acc0 + 1);
+    double run1 = metric(r.body, "strandcast_steps_total"), sim1 = metric(r.body, "strandcast_sim_steps");
+    assert_true(run1 > run0 && sim1 > sim0);
+    http_reply_free(&r);
+    /* a reset restarts the simulation's count, not the daemon's */
+    wsc_send_text(c3, "{\"type\":\"reset\"}");
+    cJSON_Delete(expect_msg(fx, c3, "state"));
+    wsc_run(fx->w, 300); /* the figures are taken after each step */
+    assert_int_equal(http_get(fx->d.port, "/metrics", &r), 0);
+    if (!(metric(r.body, "strandcast_steps_total") >= run1 && metric(r.body, "strandcast_sim_steps") < sim1))
+        fail_msg("after reset: steps_total %g (was %g), sim_steps %g (was %g)", metric(r.body, "strandcast_steps_total"),
+                 run1, metric(r.body, "strandcast_sim_steps"), sim1);
+    http_reply_free(&r);
 }
 
 typedef struct count_arg {

@@ -222,6 +222,10 @@ static void test_set_groom(void **state)
     expect_err("{\"type\":\"set_groom\",\"style\":\"wavy\",\"verts\":1}", PROTO_ERR_OUT_OF_RANGE, "verts");
     expect_err("{\"type\":\"set_groom\",\"style\":\"wavy\",\"strands\":65536,\"verts\":256}", PROTO_ERR_TOO_LARGE, "strands");
     expect_err("{\"type\":\"set_groom\",\"style\":\"wavy\",\"seed\":-1}", PROTO_ERR_OUT_OF_RANGE, "seed");
+    expect_err("{\"type\":\"set_groom\",\"style\":\"wavy\",\"seed\":9007199254740992}", PROTO_ERR_OUT_OF_RANGE, "seed");
+    /* the seed a hello shows (the default one, over 2^32) can be sent back */
+    expect_ok("{\"type\":\"set_groom\",\"style\":\"wavy\",\"seed\":104373592858645}", PROTO_SET_GROOM);
+    assert_true(msg.u.set_groom.seed == 104373592858645ull);
 }
 
 static void test_subscribe(void **state)

@@ -108,7 +108,7 @@ typedef struct proto_msg {
             char file[PROTO_MAX_NAME + 1];
             uint32_t strands, verts; /* 0 = keep the current count */
             bool has_seed;
-            uint32_t seed;
+            uint64_t seed; /* 0..2^53-1 (exact in JSON); 0 = the groom module's default */
         } set_groom;
         struct {
             bool has_stride, has_max_error, has_max_rate;

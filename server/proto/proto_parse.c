@@ -334,8 +334,8 @@ static core_status parse_set_groom(const proto_parser *p, const cJSON *root, pro
     if ((uint64_t)m->u.set_groom.strands * m->u.set_groom.verts > PROTO_MAX_VERTICES)
         return proto_fail(e, PROTO_ERR_TOO_LARGE, "strands", "%u strands x %u vertices is over the limit of %u vertices",
                           m->u.set_groom.strands, m->u.set_groom.verts, PROTO_MAX_VERTICES);
-    if ((m->u.set_groom.has_seed = get_ranged(root, "seed", false, true, 0, 4294967295.0, &v, e, &st)))
-        m->u.set_groom.seed = (uint32_t)v;
+    if ((m->u.set_groom.has_seed = get_ranged(root, "seed", false, true, 0, 9007199254740991.0, &v, e, &st)))
+        m->u.set_groom.seed = (uint64_t)v;
     return st;
 }
 

@@ -7,7 +7,10 @@
 int main(int argc, char **argv)
 {
     if (argc > 1 && (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0)) {
-        puts("usage: strandbench [solver] [options]   solver benchmark (default; see strandbench solver --help)");
+        puts("usage: strandbench [solver|codec|fanout] [options]   (strandbench COMMAND --help for each)\n"
+             "  solver   the hair solver's steps/s per scene and backend (the default)\n"
+             "  codec    strand-frame codec vs baselines on simulated frames: size, error, C and JS speed\n"
+             "  fanout   strandcastd streaming to 1..N loopback clients: sim steps/s, frames per client, CPU");
         return 0;
     }
     if (argc > 1 && strcmp(argv[1], "codec") == 0) return bench_codec_main(argc - 1, argv + 1);
