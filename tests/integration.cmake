@@ -1,13 +1,13 @@
 # Integration tests: the real strandcastd on a free loopback port, driven by WebSocket clients
-# (tests/it_net.c with the lws client in tests/support/). One ctest test per scenario.
-add_executable(it_net ${CMAKE_CURRENT_SOURCE_DIR}/it_net.c ${CMAKE_CURRENT_SOURCE_DIR}/support/wsc.c
+# (tests/it_net.c with the lws client server/wsc/). One ctest test per scenario.
+add_executable(it_net ${CMAKE_CURRENT_SOURCE_DIR}/it_net.c
                       ${CMAKE_CURRENT_SOURCE_DIR}/support/daemon.c ${CMAKE_CURRENT_SOURCE_DIR}/support/rawws.c)
 target_include_directories(it_net PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
 target_link_libraries(it_net PRIVATE strandcast PkgConfig::CMOCKA)
-add_dependencies(it_net strandcastd)
+add_dependencies(it_net strandcastd strandcastc)
 foreach(t hello_and_frames params_broadcast_and_physics motion_moves_roots bad_inputs_keep_stream
           subprotocol_refused http_static_and_metrics pause_step_subscribe_groom slow_client_skips rate_streams
-          stream_slots
+          stream_slots cli_client
           sigterm_closes_clients reader_that_never_reads_is_closed flags
           ping_drops_silent_client)
   add_test(NAME integration_${t} COMMAND it_net $<TARGET_FILE:strandcastd> test_${t})
@@ -25,7 +25,7 @@ set_tests_properties(protocol_schema PROPERTIES LABELS "integration;no_asan" TIM
 
 # strandbench fanout drives the real daemon with lean raw-socket receivers (tests/bench/fanout_rx.c)
 # and the tests' lws client for control messages.
-target_sources(strandbench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/support/wsc.c ${CMAKE_CURRENT_SOURCE_DIR}/support/daemon.c
+target_sources(strandbench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/support/daemon.c
                                    ${CMAKE_CURRENT_SOURCE_DIR}/support/rawws.c)
 target_include_directories(strandbench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
 add_dependencies(strandbench strandcastd)

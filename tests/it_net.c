@@ -24,7 +24,7 @@
 #include "proto/proto.h"
 #include "support/daemon.h"
 #include "support/rawws.h"
-#include "support/wsc.h"
+#include "wsc/wsc.h"
 
 #define SUBPROTOCOL PROTO_SUBPROTOCOL
 #define NSTRANDS 128
@@ -1132,6 +1132,65 @@ static void test_flags(void **state)
     assert_non_null(strstr(out, "stopped after 5 steps"));
 }
 
+/* Counts the occurrences of needle in hay. */
+static int count_of(const char *hay, const char *needle)
+{
+    int n = 0;
+    for (const char *p = strstr(hay, needle); p; p = strstr(p + 1, needle)) n++;
+    return n;
+}
+
+/* strandcastc, the command-line client (built beside strandcastd): it subscribes, waits for the
+ * reply, decodes frames with the C decoder, prints them and records them as SCFR; bad flags
+ * exit 2 and a port nobody listens on exits 1. */
+static void test_cli_client(void **state)
+{
+    fixture *fx = *state;
+    char exe[1024], port[16], rec[160];
+    snprintf(exe, sizeof exe, "%s", fx->cfg->exe);
+    char *slash = strrchr(exe, '/');
+    snprintf(slash ? slash + 1 : exe, sizeof exe - (size_t)(slash ? slash + 1 - exe : 0), "strandcastc");
+    snprintf(port, sizeof port, "%d", fx->d.port);
+    snprintf(rec, sizeof rec, "%s/rec.scfr", fx->dir);
+    const char *args[] = { "--port", port, "--frames", "12", "--json", "--out", rec, "--send",
+                           "{\"type\":\"subscribe\",\"stride\":4,\"max_error\":0.001,\"id\":\"s\"}", NULL };
+    static char out[1 << 17];
+    int rc = run_capture(exe, args, out, sizeof out);
+    if (rc != 0) fail_msg("strandcastc exited %d:\n%s", rc, out);
+    if (!strstr(out, "{\"cli\":\"hello\",\"server\":\"strandcastd\"") || !strstr(out, "\"strands\":128,\"verts\":8,"))
+        fail_msg("no hello summary:\n%s", out);
+    const char *sub = strstr(out, "{\"type\":\"subscribed\",\"id\":\"s\"");
+    const char *first = strstr(out, "{\"cli\":\"frame\",\"frame\":0,");
+    if (!sub || !first || first < sub) fail_msg("frames shown before the subscribe's reply:\n%s", out);
+    assert_true(strstr(first, "\"keyframe\":true") < strchr(first, '\n')); /* the new stream starts with a keyframe */
+    if (count_of(out, "{\"cli\":\"frame\"") != 12 || count_of(out, "\"strands\":32,\"strands_total\":128,\"verts\":8,\"stride\":4,") != 12)
+        fail_msg("want 12 frames of every 4th strand:\n%s", out);
+    if (!strstr(out, "\"frames\":12,") || !strstr(out, "\"recorded\":12,") || !strstr(out, "\"ok\":true}"))
+        fail_msg("summary:\n%s", out);
+    /* the recording: SCFR header, then 12 frames of 32 x 8 finite positions near the head */
+    size_t len;
+    FILE *fp = fopen(rec, "rb");
+    assert_non_null(fp);
+    static float xyz[16 + 12 * 32 * 8 * 3];
+    len = fread(xyz, 1, sizeof xyz, fp);
+    fclose(fp);
+    assert_int_equal(len, 16 + 12 * 32 * 8 * 3 * sizeof(float));
+    uint32_t h[4];
+    memcpy(h, xyz, sizeof h);
+    assert_memory_equal(h, "SCFR", 4);
+    assert_true(h[1] == 32 && h[2] == 8 && h[3] == 12);
+    for (size_t i = 4; i < len / sizeof(float); i++)
+        if (!(fabsf(xyz[i]) < 1.0f)) fail_msg("recorded coordinate %zu is %g", i - 4, (double)xyz[i]);
+
+    const char *bad[] = { "--port", "0", NULL };
+    assert_int_equal(run_capture(exe, bad, out, sizeof out), 2);
+    const char *bad2[] = { "--frames", "-1", NULL };
+    assert_int_equal(run_capture(exe, bad2, out, sizeof out), 2);
+    const char *nobody[] = { "--port", "1", "--frames", "1", NULL };
+    rc = run_capture(exe, nobody, out, sizeof out);
+    if (rc != 1 || !strstr(out, "cannot connect")) fail_msg("no daemon: exit %d:\n%s", rc, out);
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2) {
@@ -1153,6 +1212,7 @@ int main(int argc, char **argv)
         cmocka_unit_test_prestate_setup_teardown(test_slow_client_skips, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_rate_streams, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_stream_slots, setup, teardown, &cfg),
+        cmocka_unit_test_prestate_setup_teardown(test_cli_client, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_sigterm_closes_clients, setup, teardown, &cfg),
         cmocka_unit_test_prestate(test_flags, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_reader_that_never_reads_is_closed, setup, teardown, &cfg),

@@ -451,6 +451,18 @@ static void test_build_hello_and_groom(void **state)
         .animation = { "nod", 2.0 }, .styles = styles, .nstyles = 3, .files = files, .nfiles = 1,
         .stream = { "strand", 1, 3, 1e-4, 0, 60, 60, 30 }, .state = { true, 1.5, 90, { "nod", 2.0 } },
     };
+    /* what a client tool reads back of it */
+    char *text = proto_build_hello(&h);
+    proto_hello_info hi;
+    assert_int_equal(proto_read_hello(text, strlen(text), &hi, &cerr), CORE_OK);
+    assert_string_equal(hi.server, "strandcastd");
+    assert_string_equal(hi.version, "0.1.0");
+    assert_true(hi.protocol == PROTO_VERSION && hi.client == 5 && hi.strands == 3 && hi.verts == 4);
+    assert_true(hi.stride == 1 && hi.max_error == 1e-4 && hi.rate == 60 && hi.frame_rate == 60);
+    proto_free(text);
+    static const char *const not_hello[] = { "{\"type\":\"ok\"}", "{\"type\":\"hello\",\"protocol\":2}", "{\"type\":\"hel" };
+    for (size_t i = 0; i < 3; i++)
+        assert_int_equal(proto_read_hello(not_hello[i], strlen(not_hello[i]), &hi, &cerr), CORE_EFORMAT);
     cJSON *j = json(proto_build_hello(&h));
     assert_string_equal(str_of(j, "type"), "hello");
     assert_string_equal(str_of(j, "subprotocol"), PROTO_SUBPROTOCOL);
@@ -507,6 +519,33 @@ static void test_build_hello_and_groom(void **state)
     core_groom_free(&g);
 }
 
+static void test_read_envelope(void **state)
+{
+    (void)state;
+    char type[16];
+    proto_id id, want = { .kind = PROTO_ID_STRING, .str = "s1" };
+    const char *m = "{\"type\":\"subscribed\",\"id\":\"s1\",\"stream\":{}}";
+    assert_int_equal(proto_read_envelope(m, strlen(m), type, sizeof type, &id), CORE_OK);
+    assert_string_equal(type, "subscribed");
+    assert_true(proto_id_equal(&id, &want));
+    want.str[1] = '2';
+    assert_false(proto_id_equal(&id, &want));
+    m = "{\"type\":\"ok\",\"id\":7}";
+    assert_int_equal(proto_read_envelope(m, strlen(m), type, sizeof type, &id), CORE_OK);
+    proto_id seven = { .kind = PROTO_ID_NUMBER, .num = 7 };
+    assert_true(proto_id_equal(&id, &seven));
+    assert_false(proto_id_equal(&id, &want));
+    m = "{\"type\":\"stats\",\"id\":[1]}"; /* an id that is no id */
+    assert_int_equal(proto_read_envelope(m, strlen(m), type, sizeof type, &id), CORE_OK);
+    assert_int_equal(id.kind, PROTO_ID_NONE);
+    m = "{\"type\":\"a-type-longer-than-the-buffer\"}";
+    assert_int_equal(proto_read_envelope(m, strlen(m), type, sizeof type, &id), CORE_OK);
+    assert_int_equal(strlen(type), sizeof type - 1);
+    assert_int_equal(proto_read_envelope("[1,2]", 5, type, sizeof type, &id), CORE_EFORMAT);
+    assert_string_equal(type, "");
+    assert_int_equal(proto_read_envelope("{\"type\":", 8, type, sizeof type, &id), CORE_EFORMAT);
+}
+
 static void test_build_state_stats_subscribed(void **state)
 {
     (void)state;
@@ -544,6 +583,7 @@ int main(void)
         cmocka_unit_test(test_hostile_inputs),    cmocka_unit_test(test_build_error_and_ok),
         cmocka_unit_test(test_build_params),      cmocka_unit_test(test_build_hello_and_groom),
         cmocka_unit_test(test_build_state_stats_subscribed),
+        cmocka_unit_test(test_read_envelope),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -245,4 +245,25 @@ typedef struct proto_stats {
 /* {"type":"stats",..}: broadcast about once per second. */
 char *proto_build_stats(const proto_stats *s);
 
+/* ---- reading server messages (client tools) ---- */
+
+/* The "type" of a message into type (cap bytes; "" when there is none) and its "id" into *id
+ * (PROTO_ID_NONE when absent or not a finite number or a string of at most PROTO_MAX_ID bytes).
+ * CORE_EFORMAT when text is not a JSON object with a string "type". Pure, any thread. */
+core_status proto_read_envelope(const char *text, size_t len, char *type, size_t cap, proto_id *id);
+
+/* True when two ids are the same (kind and value). Pure. */
+bool proto_id_equal(const proto_id *a, const proto_id *b);
+
+/* What a client tool shows of a hello; numbers are NaN where the hello lacks them. */
+typedef struct proto_hello_info {
+    char server[64], version[32], source[PROTO_MAX_NAME + 16];
+    double protocol, client, strands, verts;
+    double stride, max_error, rate, frame_rate; /* the client's stream */
+} proto_hello_info;
+
+/* Reads a hello into *out. CORE_EFORMAT (with the reason in err) when text is not a hello or
+ * lacks the protocol version or the groom's counts. Pure, any thread. */
+core_status proto_read_hello(const char *text, size_t len, proto_hello_info *out, core_err *err);
+
 #endif

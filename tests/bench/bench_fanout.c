@@ -14,7 +14,7 @@
 #include "bench.h"
 #include "fanout_rx.h"
 #include "support/daemon.h"
-#include "support/wsc.h"
+#include "wsc/wsc.h"
 
 #define MAX_CASES 16
 

@@ -1,4 +1,4 @@
-/* Test support: a small synchronous WebSocket client on libwebsockets (many connections, one thread). */
+/* wsc: a small synchronous WebSocket client on libwebsockets (many connections, one thread). */
 #include "wsc.h"
 
 #include <libwebsockets.h>
@@ -169,7 +169,14 @@ void wsc_free(wsc *w)
 
 wsc_conn *wsc_connect(wsc *w, int port, const char *subprotocol, wsc_binary_fn on_binary, void *user)
 {
+    return wsc_connect_host(w, "127.0.0.1", port, subprotocol, on_binary, user);
+}
+
+wsc_conn *wsc_connect_host(wsc *w, const char *host, int port, const char *subprotocol, wsc_binary_fn on_binary,
+                           void *user)
+{
     wsc_conn *c = calloc(1, sizeof *c);
+    if (!c) return NULL;
     c->w = w;
     c->on_binary = on_binary;
     c->user = user;
@@ -178,11 +185,11 @@ wsc_conn *wsc_connect(wsc *w, int port, const char *subprotocol, wsc_binary_fn o
     struct lws_client_connect_info ci;
     memset(&ci, 0, sizeof ci);
     ci.context = w->ctx;
-    ci.address = "127.0.0.1";
+    ci.address = host;
     ci.port = port;
     ci.path = "/";
-    ci.host = "127.0.0.1";
-    ci.origin = "127.0.0.1";
+    ci.host = host;
+    ci.origin = host;
     ci.protocol = subprotocol;
     ci.local_protocol_name = "wsc";
     ci.opaque_user_data = c;

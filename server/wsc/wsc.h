@@ -1,6 +1,8 @@
-/* Test support: a small synchronous WebSocket client on libwebsockets (many connections, one thread). */
-#ifndef TESTS_WSC_H
-#define TESTS_WSC_H
+/* wsc: a small synchronous WebSocket client on libwebsockets (many connections, one thread), for
+ * strandcastc, the integration tests and strandbench fanout. Every call is made on the one thread
+ * that owns the wsc; nothing here is shared with the daemon's net module. */
+#ifndef WSC_WSC_H
+#define WSC_WSC_H
 
 #include <stdbool.h>
 #include <stddef.h>
@@ -17,8 +19,12 @@ wsc *wsc_new(void);
 /* Closes every connection and frees everything. */
 void wsc_free(wsc *w);
 
-/* Starts a connection to 127.0.0.1:port asking for subprotocol (NULL = none). */
+/* Starts a connection to 127.0.0.1:port asking for subprotocol (NULL = none); on_binary (may be
+ * NULL) gets user. The wsc owns the connection (freed by wsc_free). NULL when out of memory. */
 wsc_conn *wsc_connect(wsc *w, int port, const char *subprotocol, wsc_binary_fn on_binary, void *user);
+/* The same to host (an IP address or a name; the string must outlive the connection attempt). */
+wsc_conn *wsc_connect_host(wsc *w, const char *host, int port, const char *subprotocol, wsc_binary_fn on_binary,
+                           void *user);
 
 /* Runs the event loop until pred(arg) is true or timeout_ms passes; returns pred's last value. */
 bool wsc_until(wsc *w, bool (*pred)(void *arg), void *arg, int timeout_ms);

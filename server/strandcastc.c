@@ -1,0 +1,383 @@
+/* strandcastc: a command-line client of strandcastd: sends control messages, decodes the strand
+ * frames with the C decoder, prints them and records the positions (SCFR, as strandbench reads). */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "codec/codec.h"
+#include "core/core.h"
+#include "proto/proto.h"
+#include "wsc/wsc.h"
+
+#define CLI_MAX_SEND 32
+#define CLI_CONNECT_MS 5000
+
+static const char *const USAGE =
+    "usage: strandcastc [--host H] [--port N] [--send JSON]... [--frames N] [--seconds S]\n"
+    "                   [--out FILE] [--json]\n"
+    "Connects to a running strandcastd (subprotocol " PROTO_SUBPROTOCOL "), shows its hello, sends each\n"
+    "--send message in order (replies and broadcasts are printed as they come; stats are not),\n"
+    "then decodes the strand frames with the C decoder and prints one line per frame. Frames are\n"
+    "counted, printed and recorded once every --send message with an \"id\" has its reply (give\n"
+    "one an id to see its effect, e.g. a subscribe, in every frame shown).\n"
+    "  --host H      address of the daemon (default 127.0.0.1)\n"
+    "  --port N      its port (default 7681)\n"
+    "  --send JSON   a control message, e.g. '{\"type\":\"subscribe\",\"stride\":4}' (up to 32)\n"
+    "  --frames N    stop after N decoded frames (default 10; 0 = until --seconds)\n"
+    "  --seconds S   stop after S seconds in any case (default 10)\n"
+    "  --out FILE    write the decoded positions as SCFR: \"SCFR\", u32 strands, u32 vertices,\n"
+    "                u32 frames, then the frames' float32 xyz, strand-major (strandbench codec\n"
+    "                --frames reads it); frames of another shape (a groom change) are not written\n"
+    "  --json        one JSON object per line: {\"cli\":\"hello\"|\"frame\"|\"summary\",...}, and the\n"
+    "                server's text messages as they are\n"
+    "Exit status: 0 when the frames asked for were decoded (or, with --frames 0, at least one),\n"
+    "1 when the connection fails or closes early, a frame does not decode or the file cannot be\n"
+    "written, 2 for bad flags.\n";
+
+typedef struct cli_desc {
+    const char *host, *out;
+    int port;
+    const char *send[CLI_MAX_SEND];
+    int nsend;
+    unsigned long frames;
+    double seconds;
+    bool json;
+} cli_desc;
+
+/* What the client has decoded and written so far. */
+typedef struct cli {
+    cli_desc d;
+    codec_decoder dec;
+    float *xyz;
+    size_t cap;
+    FILE *fp;
+    uint32_t rec_strands, rec_verts, rec_frames;
+    proto_id pending[CLI_MAX_SEND]; /* ids of --send messages not answered yet */
+    int npending;
+    unsigned long frames, keys, bad, other_shape, early;
+    unsigned long long bytes, vertices;
+    bool write_failed;
+    char error[CORE_ERR_MAX + 64];
+} cli;
+
+static int parse_args(int argc, char **argv, cli_desc *d)
+{
+    memset(d, 0, sizeof *d);
+    d->host = "127.0.0.1";
+    d->port = 7681;
+    d->frames = 10;
+    d->seconds = 10.0;
+    for (int i = 1; i < argc; i++) {
+        const char *f = argv[i];
+        if (strcmp(f, "--help") == 0 || strcmp(f, "-h") == 0) {
+            fputs(USAGE, stdout);
+            exit(0);
+        }
+        if (strcmp(f, "--json") == 0) {
+            d->json = true;
+            continue;
+        }
+        if (i + 1 >= argc) {
+            fprintf(stderr, "strandcastc: %s needs a value (see --help)\n", f);
+            return 2;
+        }
+        const char *v = argv[++i];
+        char *end;
+        errno = 0;
+        if (strcmp(f, "--host") == 0) {
+            d->host = v;
+        } else if (strcmp(f, "--out") == 0) {
+            d->out = v;
+        } else if (strcmp(f, "--send") == 0) {
+            if (d->nsend == CLI_MAX_SEND) {
+                fprintf(stderr, "strandcastc: at most %d --send messages\n", CLI_MAX_SEND);
+                return 2;
+            }
+            if (strlen(v) > PROTO_MAX_MESSAGE) {
+                fprintf(stderr, "strandcastc: a --send message is over %d bytes\n", PROTO_MAX_MESSAGE);
+                return 2;
+            }
+            d->send[d->nsend++] = v;
+        } else if (strcmp(f, "--port") == 0) {
+            long p = strtol(v, &end, 10);
+            if (errno || *end || end == v || p < 1 || p > 65535) {
+                fprintf(stderr, "strandcastc: --port wants 1..65535, not \"%s\"\n", v);
+                return 2;
+            }
+            d->port = (int)p;
+        } else if (strcmp(f, "--frames") == 0) {
+            unsigned long n = strtoul(v, &end, 10);
+            if (errno || *end || end == v || v[0] == '-' || n > 100000000ul) {
+                fprintf(stderr, "strandcastc: --frames wants 0..100000000, not \"%s\"\n", v);
+                return 2;
+            }
+            d->frames = n;
+        } else if (strcmp(f, "--seconds") == 0) {
+            double s = strtod(v, &end);
+            if (errno || *end || end == v || !(s > 0.0 && s <= 86400.0)) {
+                fprintf(stderr, "strandcastc: --seconds wants a number in (0, 86400], not \"%s\"\n", v);
+                return 2;
+            }
+            d->seconds = s;
+        } else {
+            fprintf(stderr, "strandcastc: unknown flag %s (see --help)\n", f);
+            return 2;
+        }
+    }
+    return 0;
+}
+
+/* Appends one decoded frame to the SCFR file; the first frame fixes the shape. */
+static void record(cli *c, const codec_frame_info *info)
+{
+    if (!c->fp || c->write_failed) return;
+    if (c->rec_frames == 0) {
+        c->rec_strands = info->nstrands_sent;
+        c->rec_verts = info->nverts;
+    } else if (info->nstrands_sent != c->rec_strands || info->nverts != c->rec_verts) {
+        if (c->other_shape++ == 0)
+            fprintf(stderr, "strandcastc: frame seq %llu has %u x %u vertices, the recording %u x %u: not written\n",
+                    (unsigned long long)info->seq, info->nstrands_sent, info->nverts, c->rec_strands, c->rec_verts);
+        return;
+    }
+    size_t n = 3u * (size_t)info->nstrands_sent * info->nverts;
+    if (fwrite(c->xyz, sizeof *c->xyz, n, c->fp) != n) {
+        c->write_failed = true;
+        snprintf(c->error, sizeof c->error, "writing %s: %s", c->d.out, strerror(errno));
+        return;
+    }
+    c->rec_frames++;
+}
+
+static void print_frame(const cli *c, const codec_frame_info *info, size_t len)
+{
+    size_t nv = (size_t)info->nstrands_sent * info->nverts;
+    float lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
+    for (size_t i = 0; i < nv; i++)
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fminf(lo[k], c->xyz[3 * i + (size_t)k]);
+            hi[k] = fmaxf(hi[k], c->xyz[3 * i + (size_t)k]);
+        }
+    if (c->d.json) {
+        printf("{\"cli\":\"frame\",\"frame\":%lu,\"seq\":%llu,\"keyframe\":%s,\"ref_seq\":%llu,\"bytes\":%zu,"
+               "\"sim_time\":%.6f,\"strands\":%u,\"strands_total\":%u,\"verts\":%u,\"stride\":%u,\"max_error_m\":%g,"
+               "\"bytes_per_vertex\":%.4f,\"bounds\":[%g,%g,%g,%g,%g,%g]}\n",
+               c->frames, (unsigned long long)info->seq, info->keyframe ? "true" : "false",
+               (unsigned long long)info->ref_seq, len, info->sim_time, info->nstrands_sent, info->nstrands_total,
+               info->nverts, info->stride, (double)info->max_error_m, (double)len / (double)nv, lo[0], lo[1], lo[2],
+               hi[0], hi[1], hi[2]);
+    } else {
+        printf("%6lu %10llu %-5s %10llu %9zu %10.4f %7u x %-4u %8.4f  [%.3f %.3f %.3f]..[%.3f %.3f %.3f]\n", c->frames,
+               (unsigned long long)info->seq, info->keyframe ? "key" : "delta", (unsigned long long)info->ref_seq, len,
+               info->sim_time, info->nstrands_sent, info->nverts, (double)len / (double)nv, lo[0], lo[1], lo[2], hi[0],
+               hi[1], hi[2]);
+    }
+}
+
+static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user)
+{
+    (void)conn;
+    cli *c = user;
+    if (c->d.frames && c->frames >= c->d.frames) return;
+    codec_frame_info info;
+    core_err err;
+    if (codec_peek_header(data, len, &info, &err) == CORE_OK) {
+        size_t need = 3u * (size_t)info.nstrands_sent * info.nverts;
+        if (need > c->cap) {
+            float *x = realloc(c->xyz, need * sizeof *x);
+            if (!x) {
+                core_fail(&err, CORE_ENOMEM, "out of memory for %zu positions", need);
+                goto bad;
+            }
+            c->xyz = x;
+            c->cap = need;
+        }
+        if (codec_decode(&c->dec, data, len, c->xyz, c->cap, &info, &err) == CORE_OK) {
+            if (c->npending) { /* decoded (the decoder keeps its keyframe), not shown */
+                c->early++;
+                return;
+            }
+            print_frame(c, &info, len);
+            record(c, &info);
+            c->frames++;
+            c->keys += info.keyframe;
+            c->bytes += len;
+            c->vertices += (size_t)info.nstrands_sent * info.nverts;
+            return;
+        }
+    }
+bad:
+    c->bad++;
+    snprintf(c->error, sizeof c->error, "frame %lu does not decode: %s", c->frames, err.msg);
+}
+
+/* Prints the server's text messages from *next on (stats are left out) and ticks off the
+ * --send messages they answer. */
+static void print_texts(cli *c, wsc_conn *conn, size_t *next)
+{
+    size_t n;
+    char *const *t = wsc_texts(conn, &n);
+    for (; *next < n; (*next)++) {
+        char type[32];
+        proto_id id;
+        proto_read_envelope(t[*next], strlen(t[*next]), type, sizeof type, &id);
+        if (strcmp(type, "stats") == 0 || strcmp(type, "hello") == 0) continue;
+        printf(c->d.json ? "%s\n" : "< %s\n", t[*next]);
+        for (int i = 0; i < c->npending && id.kind != PROTO_ID_NONE; i++)
+            if (proto_id_equal(&c->pending[i], &id)) {
+                c->pending[i] = c->pending[--c->npending];
+                break;
+            }
+    }
+}
+
+/* Prints s as a JSON string (quotes, backslashes and control characters escaped). */
+static void put_json_string(const char *s)
+{
+    putchar('"');
+    for (; *s; s++) {
+        unsigned char ch = (unsigned char)*s;
+        if (ch == '"' || ch == '\\') printf("\\%c", ch);
+        else if (ch < 0x20) printf("\\u%04x", ch);
+        else putchar(ch);
+    }
+    putchar('"');
+}
+
+static void print_hello(const cli *c, const proto_hello_info *h)
+{
+    if (c->d.json) {
+        printf("{\"cli\":\"hello\",\"server\":");
+        put_json_string(h->server);
+        printf(",\"version\":");
+        put_json_string(h->version);
+        printf(",\"source\":");
+        put_json_string(h->source);
+        printf(",\"protocol\":%g,\"client\":%g,\"strands\":%g,\"verts\":%g,\"stride\":%g,\"max_error\":%g,"
+               "\"rate\":%g,\"frame_rate\":%g}\n",
+               h->protocol, h->client, h->strands, h->verts, h->stride, h->max_error, h->rate, h->frame_rate);
+        return;
+    }
+    printf("strandcastc: ws://%s:%d/ %s: %s %s (protocol %g), client %g; groom %s: %g x %g; stream stride %g, "
+           "%g mm, %g of %g frames/s\n",
+           c->d.host, c->d.port, PROTO_SUBPROTOCOL, h->server, h->version, h->protocol, h->client, h->source,
+           h->strands, h->verts, h->stride, h->max_error * 1e3, h->frame_rate, h->rate);
+    printf("%6s %10s %-5s %10s %9s %10s %14s %8s  %s\n", "frame", "seq", "kind", "ref_seq", "bytes", "sim_time", "strands x verts",
+           "B/vertex", "bounds (m)");
+}
+
+typedef struct until_arg {
+    cli *c;
+    wsc_conn *conn;
+} until_arg;
+
+static bool finished(void *arg)
+{
+    until_arg *u = arg;
+    return !wsc_is_open(u->conn) || u->c->bad || u->c->write_failed ||
+           (u->c->d.frames && u->c->frames >= u->c->d.frames);
+}
+
+/* Rewrites the SCFR header with the frame count and closes the file. */
+static void close_recording(cli *c)
+{
+    if (!c->fp) return;
+    uint32_t h[3] = { c->rec_strands, c->rec_verts, c->rec_frames };
+    if (!c->write_failed && (fseek(c->fp, 4, SEEK_SET) != 0 || fwrite(h, sizeof h[0], 3, c->fp) != 3)) {
+        c->write_failed = true;
+        snprintf(c->error, sizeof c->error, "writing %s: %s", c->d.out, strerror(errno));
+    }
+    if (fclose(c->fp) != 0 && !c->write_failed) {
+        c->write_failed = true;
+        snprintf(c->error, sizeof c->error, "writing %s: %s", c->d.out, strerror(errno));
+    }
+    c->fp = NULL;
+}
+
+static int run(cli *c)
+{
+    if (c->d.out) {
+        c->fp = fopen(c->d.out, "wb");
+        static const char magic[16] = "SCFR";
+        if (!c->fp || fwrite(magic, 1, sizeof magic, c->fp) != sizeof magic) {
+            fprintf(stderr, "strandcastc: cannot write %s: %s\n", c->d.out, strerror(errno));
+            if (c->fp) fclose(c->fp);
+            return 1;
+        }
+    }
+    wsc *w = wsc_new();
+    wsc_conn *conn = w ? wsc_connect_host(w, c->d.host, c->d.port, PROTO_SUBPROTOCOL, on_frame, c) : NULL;
+    int rc = 1;
+    if (!conn || !wsc_wait_open(w, conn, CLI_CONNECT_MS)) {
+        fprintf(stderr, "strandcastc: cannot connect to ws://%s:%d/ with subprotocol %s\n", c->d.host, c->d.port,
+                PROTO_SUBPROTOCOL);
+        goto done;
+    }
+    const char *hello = wsc_next_of_type(w, conn, "hello", CLI_CONNECT_MS);
+    proto_hello_info h;
+    core_err err;
+    if (!hello || proto_read_hello(hello, strlen(hello), &h, &err) != CORE_OK) {
+        fprintf(stderr, "strandcastc: no hello from the server%s%s\n", hello ? ": " : "", hello ? err.msg : "");
+        goto done;
+    }
+    print_hello(c, &h);
+    if (h.protocol != PROTO_VERSION)
+        fprintf(stderr, "strandcastc: the server speaks protocol %g, this client %d\n", h.protocol, PROTO_VERSION);
+    for (int i = 0; i < c->d.nsend; i++) {
+        char type[32];
+        proto_id id;
+        if (proto_read_envelope(c->d.send[i], strlen(c->d.send[i]), type, sizeof type, &id) == CORE_OK &&
+            id.kind != PROTO_ID_NONE)
+            c->pending[c->npending++] = id;
+        wsc_send_text(conn, c->d.send[i]);
+        if (!c->d.json) printf("> %s\n", c->d.send[i]);
+    }
+    size_t next = 0;
+    unsigned long long t0 = core_now_ns(), limit = (unsigned long long)(c->d.seconds * 1e9);
+    until_arg u = { c, conn };
+    while (!finished(&u) && core_now_ns() - t0 < limit) {
+        wsc_until(w, finished, &u, 50);
+        print_texts(c, conn, &next);
+    }
+    print_texts(c, conn, &next);
+    double secs = (double)(core_now_ns() - t0) / 1e9;
+    bool enough = c->d.frames ? c->frames >= c->d.frames : c->frames > 0;
+    close_recording(c);
+    if (c->bad || c->write_failed) fprintf(stderr, "strandcastc: %s\n", c->error);
+    else if (!enough && !wsc_is_open(conn))
+        fprintf(stderr, "strandcastc: the server closed the connection (%d %s) after %lu frames\n", wsc_close_code(conn),
+                wsc_close_reason(conn), c->frames);
+    else if (!enough && c->npending)
+        fprintf(stderr, "strandcastc: %d --send message(s) with an id got no reply in %.1f s\n", c->npending, secs);
+    else if (!enough)
+        fprintf(stderr, "strandcastc: %lu of %lu frames in %.1f s\n", c->frames, c->d.frames, secs);
+    rc = enough && !c->bad && !c->write_failed ? 0 : 1;
+    double bpv = c->vertices ? (double)c->bytes / (double)c->vertices : 0.0;
+    if (c->d.json)
+        printf("{\"cli\":\"summary\",\"frames\":%lu,\"keyframes\":%lu,\"bad\":%lu,\"bytes\":%llu,\"bytes_per_vertex\":%.4f,"
+               "\"seconds\":%.3f,\"recorded\":%u,\"other_shape\":%lu,\"before_replies\":%lu,\"ok\":%s}\n",
+               c->frames, c->keys, c->bad, c->bytes, bpv, secs, c->rec_frames, c->other_shape, c->early,
+               rc ? "false" : "true");
+    else
+        printf("strandcastc: %lu frames (%lu keyframes) in %.2f s, %.4f bytes/vertex%s%s\n", c->frames, c->keys, secs,
+               bpv, c->d.out ? "; recorded to " : "", c->d.out ? c->d.out : "");
+done:
+    close_recording(c);
+    wsc_free(w);
+    return rc;
+}
+
+int main(int argc, char **argv)
+{
+    cli c;
+    memset(&c, 0, sizeof c);
+    int rc = parse_args(argc, argv, &c.d);
+    if (rc) return rc;
+    codec_decoder_init(&c.dec);
+    rc = run(&c);
+    codec_decoder_free(&c.dec);
+    free(c.xyz);
+    return rc;
+}
