@@ -118,6 +118,19 @@ bool app_tiers_due(app *a, bool tick, bool all)
     return any;
 }
 
+/* Tells the clients of tier i that its frames stopped (an error without id, field "stream"). */
+static void notify_failure(app *a, int i, uint64_t seq, const core_err *why)
+{
+    const app_tier *t = &a->tiers[i];
+    proto_error e;
+    proto_fail(&e, PROTO_ERR_FAILED, "stream",
+               "the frames of this stream (stride %d, max_error %g m) cannot be encoded from seq %llu on: %s; "
+               "none are sent until they can be (or subscribe with a larger max_error)",
+               t->stride, t->max_error, (unsigned long long)seq, why->msg);
+    for (size_t k = 0; k < a->nclients; k++)
+        if (a->clients[k].tier == i) app_send(a, a->clients[k].id, proto_build_error(NULL, &e), 0);
+}
+
 void app_publish(app *a)
 {
     if (!a->net) return;
@@ -131,8 +144,10 @@ void app_publish(app *a)
         if (!t->due || !t->ready) continue;
         core_err err;
         if (codec_encode(&t->enc, a->xyz, seq, ss.sim_time, t->force_key, &a->enc_buf, &err) != CORE_OK) {
-            if (!t->failing)
+            if (!t->failing) {
                 core_log(CORE_LOG_WARN, "app", "stream %d: frames not sent from %llu on: %s", i, (unsigned long long)seq, err.msg);
+                notify_failure(a, i, seq, &err);
+            }
             t->failing = true;
             t->force_key = true;
             continue;

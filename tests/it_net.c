@@ -107,8 +107,8 @@ static void write_file(const char *path, const void *data, size_t len)
     fclose(f);
 }
 
-/* A tiny valid Cem Yuksel .hair file: 16 strands of 8 points hanging from a ring. */
-static void write_hair(const char *path)
+/* A tiny valid Cem Yuksel .hair file: 16 strands of 8 points hanging from a ring, lifted by up m. */
+static void write_hair(const char *path, float up)
 {
     unsigned char buf[128 + 16 * 8 * 12];
     memset(buf, 0, sizeof buf);
@@ -123,7 +123,7 @@ static void write_hair(const char *path)
         for (int k = 0; k < 8; k++) {
             float a = 6.2831853f * (float)s / 16.0f;
             p[3 * (s * 8 + k) + 0] = 0.07f * cosf(a);
-            p[3 * (s * 8 + k) + 1] = 0.05f - 0.02f * (float)k;
+            p[3 * (s * 8 + k) + 1] = up + 0.05f - 0.02f * (float)k;
             p[3 * (s * 8 + k) + 2] = 0.07f * sinf(a);
         }
     write_file(path, buf, sizeof buf);
@@ -152,7 +152,9 @@ static int setup_with(void **state, const char *const *extra)
     }
     char hair[160];
     snprintf(hair, sizeof hair, "%s/tiny.hair", fx->assets);
-    write_hair(hair);
+    write_hair(hair, 0.0f);
+    snprintf(hair, sizeof hair, "%s/far.hair", fx->assets);
+    write_hair(hair, 2000.0f);
     char strands[16], verts[16];
     snprintf(strands, sizeof strands, "%d", NSTRANDS);
     snprintf(verts, sizeof verts, "%d", NVERTS);
@@ -337,7 +339,10 @@ static void test_hello_and_frames(void **state)
     assert_int_equal(cJSON_GetArraySize(get(g, "roots")), 3 * NSTRANDS);
     assert_int_equal(cJSON_GetArraySize(get(g, "rest_lengths")), NSTRANDS);
     assert_true(cJSON_GetArraySize(get(h, "colliders")) > 0);
-    assert_string_equal(cJSON_GetArrayItem(get(get(h, "grooms"), "files"), 0)->valuestring, "tiny.hair");
+    const cJSON *files = get(get(h, "grooms"), "files"); /* sorted */
+    assert_int_equal(cJSON_GetArraySize(files), 2);
+    assert_string_equal(cJSON_GetArrayItem(files, 0)->valuestring, "far.hair");
+    assert_string_equal(cJSON_GetArrayItem(files, 1)->valuestring, "tiny.hair");
     assert_string_equal(str(get(h, "stream"), "codec"), "strand");
 
     wait_frames(fx, v, 10);
@@ -932,6 +937,39 @@ static void test_stream_slots(void **state)
     assert_int_equal(v->bad, 0);
 }
 
+/* A groom 2 km up cannot be streamed at 0.01 mm (its lattice coordinates would pass 2^26): that
+ * stream's clients are told why, and a 1 mm stream goes on. */
+static void test_stream_failure_is_reported(void **state)
+{
+    fixture *fx = *state;
+    view *v1, *v2;
+    wsc_conn *c1 = connect_view(fx, &v1), *c2 = connect_view(fx, &v2);
+    cJSON_Delete(expect_msg(fx, c1, "hello"));
+    cJSON_Delete(expect_msg(fx, c2, "hello"));
+    wsc_send_text(c1, "{\"type\":\"subscribe\",\"max_error\":1e-3}");
+    cJSON_Delete(expect_msg(fx, c1, "subscribed"));
+    wsc_send_text(c2, "{\"type\":\"subscribe\",\"max_error\":1e-5}");
+    cJSON_Delete(expect_msg(fx, c2, "subscribed"));
+    wsc_send_text(c1, "{\"type\":\"set_groom\",\"file\":\"far.hair\"}");
+    cJSON_Delete(expect_msg(fx, c2, "groom"));
+    cJSON *e = expect_msg(fx, c2, "error");
+    assert_string_equal(str(e, "code"), "failed");
+    assert_string_equal(str(e, "field"), "stream");
+    assert_null(cJSON_GetObjectItemCaseSensitive(e, "id"));
+    if (!strstr(str(e, "message"), "max_error")) fail_msg("message: %s", str(e, "message"));
+    cJSON_Delete(e);
+    count_arg far = { v1, 16, 8 };
+    assert_true(wsc_until(fx->w, frame_shape, &far, WAIT_MS));
+    uint64_t n = v1->ok;
+    wait_frames(fx, v1, n + 5);
+    assert_true(v1->info.nstrands_total == 16 && fabs(mean_tip_y(v1) - 1999.9) < 1.0);
+    /* a coarser bound streams again */
+    wsc_send_text(c2, "{\"type\":\"subscribe\",\"max_error\":1e-3}");
+    cJSON_Delete(expect_msg(fx, c2, "subscribed"));
+    assert_true(wsc_until(fx->w, frame_shape, &(count_arg){ v2, 16, 8 }, WAIT_MS));
+    assert_int_equal(v1->bad + v2->bad, 0);
+}
+
 static void test_sigterm_closes_clients(void **state)
 {
     fixture *fx = *state;
@@ -1213,6 +1251,7 @@ int main(int argc, char **argv)
         cmocka_unit_test_prestate_setup_teardown(test_rate_streams, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_stream_slots, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_cli_client, setup, teardown, &cfg),
+        cmocka_unit_test_prestate_setup_teardown(test_stream_failure_is_reported, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_sigterm_closes_clients, setup, teardown, &cfg),
         cmocka_unit_test_prestate(test_flags, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_reader_that_never_reads_is_closed, setup, teardown, &cfg),
