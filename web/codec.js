@@ -47,9 +47,10 @@ function kernelInstance(memory) {
 // Kernel result codes (codec_kernel.c).
 const K_BAD_SYMBOL = -1, K_BAD_MODE = -2, K_OVERRUN = -3, K_BAD_ESCAPE = -4, K_BAD_VALUE = -5;
 const K_BITS_SHORT = -6, K_BAD_END = -7, K_BITS_LEFT = -8;
-// INFO entries (codec_kernel.c, kern.info): an escaped axis; every slot of an unused table.
-const INFO_SLOW = 1 << 13;
-const INFO_UNUSED = 0xffff;
+// INFO entries (codec_kernel.c, kern.info): an escaped axis; every slot of an unused table (an
+// escape, next table T_IDLE, classes no vertex symbol has).
+const INFO_SLOW = 1 << 9;
+const INFO_UNUSED = 0x9fff;
 // Where the kernel's state (struct kern) lies in its memory: above the module's own stack
 // (build.sh: 64 KiB, first).
 export const KERN_BASE = 65536;
@@ -74,14 +75,14 @@ export function kernelLayout(nq, frameCap, kernSize) {
 }
 
 // Per vertex symbol: its kernel INFO entry (codec_kernel.c) in a vertex table (1..8): the
-// classes c0 | c1 << 3 | c2 << 6, the next vertex's body table << 9, INFO_SLOW when an axis
-// is escaped. In the root table the next table is T_FIRST instead.
+// classes c0 | c1 << 3 | c2 << 6, INFO_SLOW when an axis is escaped, the next vertex's body
+// table << 12. In the root table the next table is T_FIRST instead.
 const SYM_INFO = new Uint16Array(NSYM);
 for (let s = 0; s < NSYM; s++) {
   const c0 = s % NCLASS, c1 = Math.floor(s / NCLASS) % NCLASS, c2 = Math.floor(s / (NCLASS * NCLASS));
   const esc = c0 === ESCAPE || c1 === ESCAPE || c2 === ESCAPE;
-  SYM_INFO[s] = c0 | (c1 << 3) | (c2 << 6) | ((T_BODY + Math.min(Math.max(c0, c1, c2), NBODY - 1)) << 9) |
-    (esc ? INFO_SLOW : 0);
+  SYM_INFO[s] = c0 | (c1 << 3) | (c2 << 6) | (esc ? INFO_SLOW : 0) |
+    ((T_BODY + Math.min(Math.max(c0, c1, c2), NBODY - 1)) << 12);
 }
 
 // The kernel's error codes, as messages.
@@ -411,7 +412,7 @@ function readTables(bytes, pos, end, i32, list, kernel) {
       if (gap >= NSYM - next) fail(`table ${t} names a symbol beyond ${NSYM - 1}`);
       const s = next + gap;
       if (f === 0 || f > SCALE - st) fail(`table ${t} frequency ${f} invalid (sum must be ${SCALE})`);
-      const v = t === T_MODE ? s : t === T_ROOT ? (SYM_INFO[s] & ~(15 << 9)) | (T_FIRST << 9) : SYM_INFO[s];
+      const v = t === T_MODE ? s : t === T_ROOT ? (SYM_INFO[s] & ~(15 << 12)) | (T_FIRST << 12) : SYM_INFO[s];
       i32[li++] = (t << 16) | v;
       i32[li++] = (f << SCALE_BITS) | st;
       st += f;

@@ -2,17 +2,19 @@
  * prediction and dequantization of one frame, for web/codec.js. Freestanding C (no libc), built by
  * web/wasm/build.sh into web/codec_kernel_wasm.js. A frame is decoded a group of 8 strands at a
  * time: the group's symbols (8 rANS lanes, vertex by vertex across the lanes) become residuals
- * (kern.r, vertex-major, lane-minor), then the group's strands are rebuilt: a delta frame's 8
- * strands at once with WebAssembly SIMD (2 x i32x4 per axis), a keyframe's one after another
- * (each predicts from the one before). All arithmetic wraps modulo 2^32 (-fwrapv), as the
+ * (kern.r, vertex-major: a delta's axis-major and lane-minor, a keyframe's lane-major with the
+ * x, y, z of a lane together), then the group's strands are rebuilt: a delta frame's 8 strands at
+ * once with WebAssembly SIMD (2 x i32x4 per axis), a keyframe's one after another (each predicts
+ * from the one before, x, y, z in one i32x4). All arithmetic wraps modulo 2^32 (-fwrapv), as the
  * format's reference decoders do. */
 #include <stdint.h>
 #include <wasm_simd128.h>
 
 #define NTAB 10          /* tables 0 mode, 1 root, 2 first segment, 3..8 body, T_IDLE */
 #define T_IDLE 9         /* the lanes past the last strand: keep their state, no raw bits */
-#define INFO_SLOW 8192   /* an escaped axis */
-#define INFO_UNUSED 0xffff
+#define INFO_SLOW 512    /* an escaped axis */
+#define INFO_NEXT 0xf000 /* the next vertex's table << 12 */
+#define INFO_UNUSED 0x9fff /* every slot of an unused table: INFO_SLOW, next table T_IDLE */
 #define MAX_NVERTS 4096
 #define QMAX 67108863    /* |lattice coordinate| <= 2^26 - 1 */
 
@@ -25,15 +27,17 @@ enum {
 typedef struct kern {
     int32_t fb[NTAB * 4096];      /* per table and slot: bits << 25 | freq << 12 | (slot - start) */
     uint16_t info[NTAB * 4096];   /* per table and slot: the symbol's INFO entry (codec.js) */
-    int32_t res[6 * 32];          /* residual of class c (0..5) from raw bits b at c << 5 | (b & 31) */
+    int32_t res[7 * 32];          /* residual of class c (0..5) from raw bits b at c << 5 | (b & 31); c = 6: 0 */
+    v128_t cls[512][3];           /* per classes c_x | c_y << 3 | c_z << 6 (each 0..5): see kern_init */
     int32_t state[10];            /* the 8 lanes' rANS states; after a frame: words read, raw bits used */
     int32_t motion[12];           /* rho_0..rho_8, t_0..t_2 (deltas) */
     int32_t list[2 * 9 * 344];    /* the tables as read: table << 16 | INFO, freq << 12 | start */
     int32_t mode[8];              /* the current group's modes (8 for lanes past the last strand) */
     int32_t root[24];             /* a delta group's roots, axis-major, lane-minor */
     int32_t zero[8];              /* zeros (the first keyframe strand's missing neighbour; read 4 at 0 and 3) */
+    uint32_t sym[8 * MAX_NVERTS]; /* a group's vertex symbols in coding order: raw bits << 25 | INFO */
     float dump[4 * MAX_NVERTS];   /* where the output of lanes past the last strand goes */
-    int32_t r[MAX_NVERTS * 24] __attribute__((aligned(16))); /* residuals [v][axis][lane] */
+    int32_t r[MAX_NVERTS * 32] __attribute__((aligned(16))); /* residuals: delta [v][axis][lane], key [v][lane][4] */
 } kern;
 
 /* Byte offset of a field of kern that codec.js fills or reads (0 list, 1 state, 2 motion), or
@@ -46,9 +50,9 @@ __attribute__((export_name("kern_offset"))) int kern_offset(int which)
     return which == 0 ? list : which == 1 ? state : which == 2 ? motion : size;
 }
 
-/* Fills the constant lookups of a fresh kern (zeroed memory): the residual table and T_IDLE,
- * whose every slot keeps the state (freq 4096, slot - start = slot), reads no raw bits, has
- * classes 0 and names T_IDLE next. */
+/* Fills the constant lookups of a fresh kern (zeroed memory): the residuals (res, and cls for a
+ * keyframe's three axes at once) and T_IDLE, whose every slot keeps the state (freq 4096,
+ * slot - start = slot), reads no raw bits, has classes 0 and names T_IDLE next. */
 __attribute__((export_name("kern_init"))) void kern_init(kern *k)
 {
     for (int c = 1; c < 6; c++) {
@@ -57,8 +61,20 @@ __attribute__((export_name("kern_init"))) void kern_init(kern *k)
             k->res[(c << 5) | b] = f & 1 ? -m : m;
         }
     }
+    /* for classes c (x, y, z; lane 3 unused) whose raw bits start at offsets o = (0, c_x, c_x + c_y):
+     * bits o..o+15 of a 32-bit window w are (w * 2^(16 - o)) >> 16 (mod 2^32); then the mask of c
+     * bits, and m's leading one 2^(c - 1) (0 for c = 0) */
+    for (int f = 0; f < 512; f++) {
+        int c[3] = { f & 7, (f >> 3) & 7, (f >> 6) & 7 };
+        if (c[0] > 5 || c[1] > 5 || c[2] > 5) continue;
+        int o[3] = { 0, c[0], c[0] + c[1] };
+        k->cls[f][0] = wasm_i32x4_make(65536 >> o[0], 65536 >> o[1], 65536 >> o[2], 0);
+        k->cls[f][1] = wasm_i32x4_make((1 << c[0]) - 1, (1 << c[1]) - 1, (1 << c[2]) - 1, 0);
+        k->cls[f][2] = wasm_i32x4_make(c[0] ? 1 << (c[0] - 1) : 0, c[1] ? 1 << (c[1] - 1) : 0,
+                                       c[2] ? 1 << (c[2] - 1) : 0, 0);
+    }
     for (int s = 0; s < 4096; s++) {
-        k->info[T_IDLE * 4096 + s] = T_IDLE << 9;
+        k->info[T_IDLE * 4096 + s] = T_IDLE << 12;
         k->fb[T_IDLE * 4096 + s] = (4096 << 12) | s;
     }
 }
@@ -101,10 +117,10 @@ typedef struct reader {
 } reader;
 
 /* The residuals of a vertex symbol with INFO entry f whose raw bits start at bp of bits, any
- * class (escapes included), to r[0], r[8], r[16]. Returns the bit position after them, or
+ * class (escapes included), to r[0], r[as], r[2 as]. Returns the bit position after them, or
  * K_BAD_SYMBOL (f from an unused table) or K_BAD_ESCAPE. */
 __attribute__((noinline)) static int64_t slow_symbol(const kern *k, uint32_t f, const uint8_t *bits, uint32_t bp,
-                                                     int32_t *r)
+                                                     int32_t *r, int as)
 {
     if (f == INFO_UNUSED) return K_BAD_SYMBOL;
     for (int ax = 0; ax < 3; ax++) {
@@ -126,69 +142,147 @@ __attribute__((noinline)) static int64_t slow_symbol(const kern *k, uint32_t f, 
             bp += e;
             v = neg ? -m : m;
         }
-        r[8 * ax] = v;
+        r[as * ax] = v;
     }
     return bp;
 }
 
-/* One rANS step of a lane in state *x with table t: returns the slot's table index and
- * advances the state and the word reader. */
-#define RANS_STEP(x, t, i, fb)                                                      \
-    do {                                                                            \
-        i = ((t) << 12) | ((x) & 4095);                                             \
-        fb = (uint32_t)k->fb[i];                                                    \
-        x = ((fb >> 12) & 8191) * ((x) >> 12) + (fb & 4095);                        \
-        uint32_t nr_ = (x) < 65536;                                                 \
-        x = ((x) << (nr_ << 4)) | (load16(rp) & (0u - nr_));                        \
-        rp += nr_ << 1;                                                             \
-    } while (0)
+/* slow_symbol for a keyframe's raw pass (to r[0..2]), without branches on the classes or the
+ * bits: the escapes of keyframes are common and unpredictable. */
+static inline __attribute__((always_inline)) int64_t key_slow_symbol(const kern *k, uint32_t f, const uint8_t *bits,
+                                                                     uint32_t bp, int32_t *r)
+{
+    if (f == INFO_UNUSED) return K_BAD_SYMBOL;
+    uint32_t bad = 0;
+    _Pragma("clang loop unroll(full)")
+    for (int ax = 0; ax < 3; ax++) {
+        uint32_t c = (f >> (3 * ax)) & 7;
+        uint64_t w = load64(bits + (bp >> 3)) >> (bp & 7);
+        /* an escape: e - 5 (5 bits), the sign, then the e bits of m below its leading one (e - 5
+         * above 24 is refused; e is taken modulo 32 only to keep the shifts defined), and the
+         * table lookup of any other class (res has a row of zeros for c = 6) */
+        uint32_t lo = (uint32_t)w & 31, e = (lo + 5) & 31, esc = c == 6;
+        uint32_t m = (1u << e) | ((uint32_t)(w >> 6) & ((1u << e) - 1));
+        uint32_t neg = 0u - ((uint32_t)(w >> 5) & 1);
+        int32_t ve = (int32_t)((m ^ neg) - neg), vc = k->res[(c << 5) | lo];
+        bad |= esc & (lo > 24);
+        r[ax] = esc ? ve : vc;
+        bp += esc ? 6 + e : c;
+    }
+    return bad ? (int64_t)K_BAD_ESCAPE : (int64_t)bp;
+}
 
-/* A vertex symbol of lane L at vertex v: residuals to r[v][axis][L], next table to t##L. */
-#define VERTEX_LANE(L)                                                              \
+/* The residuals of a vertex symbol with INFO entry f (bits 0..15) and nb raw bits (when no axis
+ * is escaped) at the readers' bp, to rr[0], rr[RAXIS], rr[2 RAXIS]; on an error returns its code. */
+#define RAW_SYMBOL(f, nb, rr)                                                       \
     do {                                                                            \
-        uint32_t i, fb;                                                             \
-        RANS_STEP(x##L, t##L, i, fb);                                               \
-        uint32_t f = k->info[i];                                                    \
-        t##L = (f >> 9) & 15;                                                       \
-        int32_t *rr = rv + (L);                                                     \
-        if (f & INFO_SLOW) {                                                        \
-            int64_t nb_ = slow_symbol(k, f, bits, bp, rr);                          \
+        if ((f) & INFO_SLOW) {                                                      \
+            int64_t nb_ = slow_symbol(k, f, bits, bp, rr, RAXIS);                   \
             if (nb_ < 0) return (int)nb_;                                           \
             bp = (uint32_t)nb_;                                                     \
         } else {                                                                    \
             uint32_t w = (uint32_t)(load64(bits + (bp >> 3)) >> (bp & 7));          \
-            uint32_t c0 = f & 7, c1 = (f >> 3) & 7, c2 = (f >> 6) & 7;              \
-            rr[0] = k->res[(c0 << 5) | (w & 31)];                                   \
+            uint32_t c0 = (f) & 7, c1 = ((f) >> 3) & 7, c2 = ((f) >> 6) & 7;        \
+            (rr)[0] = k->res[(c0 << 5) | (w & 31)];                                 \
             w >>= c0;                                                               \
-            rr[8] = k->res[(c1 << 5) | (w & 31)];                                   \
+            (rr)[RAXIS] = k->res[(c1 << 5) | (w & 31)];                             \
             w >>= c1;                                                               \
-            rr[16] = k->res[(c2 << 5) | (w & 31)];                                  \
-            bp += fb >> 25;                                                         \
+            (rr)[2 * RAXIS] = k->res[(c2 << 5) | (w & 31)];                         \
+            bp += nb;                                                               \
         }                                                                           \
     } while (0)
 
-#define MODE_LANE(L)                                                                \
+/* One rANS step of a lane whose state X is x | table << 44 (table: the one to read the symbol
+ * with): i = the slot's table index; X becomes the next x (table bits clear); the word reader
+ * advances. */
+#define RANS_STEP(X, i, fb)                                                         \
     do {                                                                            \
-        uint32_t i, fb;                                                             \
-        RANS_STEP(x##L, t##L, i, fb);                                               \
-        k->mode[L] = k->info[i];                                                    \
+        uint32_t x_ = (uint32_t)(X);                                                \
+        i = (uint32_t)((X) >> 32) | (x_ & 4095);                                    \
+        fb = (uint32_t)k->fb[i];                                                    \
+        x_ = ((fb >> 12) & 8191) * (x_ >> 12) + (fb & 4095);                        \
+        uint32_t nr_ = x_ < 65536, xw_ = (x_ << 16) | load16(rp);                   \
+        x_ = nr_ ? xw_ : x_;                                                        \
+        rp += nr_ << 1;                                                             \
+        X = x_;                                                                     \
     } while (0)
 
-/* Decodes the symbols of one group of n strands (lanes from n on idle): the modes to k->mode
- * (below nmodes; idle lanes 8), the residuals to k->r. The readers continue from rd and the lane
- * states in k->state and are left there. Returns K_OK or the K_* code of an error. */
-static int group_symbols(kern *k, reader *rd, int n, int nverts, int nmodes)
+/* A vertex symbol of lane L at the vertex whose residuals start at rv (RLANE, RAXIS: the strides
+ * of a lane and an axis there): residuals to rv[RLANE L + RAXIS axis], the next table into X##L. */
+#define VERTEX_LANE(L)                                                              \
+    do {                                                                            \
+        uint32_t i, fb;                                                             \
+        RANS_STEP(X##L, i, fb);                                                     \
+        uint32_t f = k->info[i];                                                    \
+        X##L |= (uint64_t)(f & INFO_NEXT) << 32;                                    \
+        RAW_SYMBOL(f, fb >> 25, rv + RLANE * (L));                                  \
+    } while (0)
+
+/* The rANS step of lane L's vertex symbol: its raw-bit count << 25 | INFO entry to sp[L], the
+ * next table into X##L. */
+#define RANS_LANE(L)                                                                \
+    do {                                                                            \
+        uint32_t i, fb;                                                             \
+        RANS_STEP(X##L, i, fb);                                                     \
+        uint32_t f = k->info[i];                                                    \
+        X##L |= (uint64_t)(f & INFO_NEXT) << 32;                                    \
+        sp[L] = (fb & 0xfe000000u) | f;                                             \
+    } while (0)
+
+/* The raw bits of lane L's symbol sp[L] (RANS_LANE) at a keyframe's vertex whose residuals start
+ * at rv: x, y, z to rv[4 L + 0..2] (and 0 to rv[4 L + 3] unless an axis is escaped); without an
+ * escape, the three axes at once (kern.cls). */
+#define KEY_RAW_LANE(L)                                                             \
+    do {                                                                            \
+        uint32_t e = sp[L];                                                         \
+        int32_t *rr = rv + 4 * (L);                                                 \
+        if (e & INFO_SLOW) {                                                        \
+            int64_t nb_ = key_slow_symbol(k, e & 0xffff, bits, bp, rr);             \
+            if (nb_ < 0) return (int)nb_;                                           \
+            bp = (uint32_t)nb_;                                                     \
+        } else {                                                                    \
+            uint32_t w_;                                                            \
+            __builtin_memcpy(&w_, bits + (bp >> 3), 4);                             \
+            const v128_t *cd = k->cls[e & 511];                                     \
+            v128_t b_ = wasm_i32x4_mul(wasm_i32x4_splat(w_ >> (bp & 7)), cd[0]);     \
+            b_ = wasm_v128_and(wasm_u32x4_shr(b_, 16), cd[1]);                      \
+            v128_t s_ = wasm_v128_and(b_, wasm_i32x4_splat(1));                     \
+            v128_t m_ = wasm_v128_or(wasm_u32x4_shr(b_, 1), cd[2]);                 \
+            wasm_v128_store(rr, wasm_i32x4_add(wasm_v128_xor(m_, wasm_i32x4_neg(s_)), s_)); \
+            bp += e >> 25;                                                          \
+        }                                                                           \
+    } while (0)
+
+/* The mode symbol of lane L to k->mode[L]; X##L then reads its next symbol with table t, or
+ * T_IDLE for a lane past the last strand. */
+#define MODE_LANE(L, t)                                                             \
+    do {                                                                            \
+        uint32_t i, fb;                                                             \
+        RANS_STEP(X##L, i, fb);                                                     \
+        k->mode[L] = k->info[i];                                                    \
+        X##L |= (uint64_t)(n > (L) ? (t) : T_IDLE) << 44;                           \
+    } while (0)
+
+/* The state of lane L from k->state, to read table t (T_IDLE for a lane past the last strand). */
+#define LANE_STATE(L, t) ((uint32_t)k->state[L] | (uint64_t)(n > (L) ? (t) : T_IDLE) << 44)
+
+/* Decodes the symbols of one group of n strands (lanes from n on idle) of a keyframe (key: a
+ * constant) or a delta: the modes to k->mode (below 3 or 4; idle lanes 8), the residuals to k->r
+ * (a keyframe's [v][lane][x, y, z, lane 3], a delta's [v][axis][lane]). A keyframe's vertex
+ * symbols take two passes, each with few live values: the rANS steps (to k->sym; a lane that
+ * meets an unused table goes on idle), then the raw bits with the escapes (common in keyframes)
+ * decoded without branches; a delta's take one pass. The readers continue from rd and the lane
+ * states in k->state and are left there. Returns K_OK or the K_* code of an error (that of the
+ * first bad symbol in coding order; rd->rp then is after the modes, rd->bp unchanged). */
+static inline __attribute__((always_inline)) int group_symbols(kern *k, reader *rd, int n, int nverts, const int key)
 {
+    const int RLANE = key ? 4 : 1, RAXIS = key ? 1 : 8, RVERT = key ? 32 : 24, nmodes = key ? 3 : 4;
     const uint8_t *rp = rd->rp, *bits = rd->bits;
     uint32_t bp = rd->bp;
-    uint32_t x0 = (uint32_t)k->state[0], x1 = (uint32_t)k->state[1], x2 = (uint32_t)k->state[2];
-    uint32_t x3 = (uint32_t)k->state[3], x4 = (uint32_t)k->state[4], x5 = (uint32_t)k->state[5];
-    uint32_t x6 = (uint32_t)k->state[6], x7 = (uint32_t)k->state[7];
-    uint32_t t0 = 0, t1 = n > 1 ? 0 : T_IDLE, t2 = n > 2 ? 0 : T_IDLE, t3 = n > 3 ? 0 : T_IDLE;
-    uint32_t t4 = n > 4 ? 0 : T_IDLE, t5 = n > 5 ? 0 : T_IDLE, t6 = n > 6 ? 0 : T_IDLE;
-    uint32_t t7 = n > 7 ? 0 : T_IDLE;
-    MODE_LANE(0); MODE_LANE(1); MODE_LANE(2); MODE_LANE(3);
-    MODE_LANE(4); MODE_LANE(5); MODE_LANE(6); MODE_LANE(7);
+    uint64_t X0 = LANE_STATE(0, 0), X1 = LANE_STATE(1, 0), X2 = LANE_STATE(2, 0), X3 = LANE_STATE(3, 0);
+    uint64_t X4 = LANE_STATE(4, 0), X5 = LANE_STATE(5, 0), X6 = LANE_STATE(6, 0), X7 = LANE_STATE(7, 0);
+    MODE_LANE(0, 1); MODE_LANE(1, 1); MODE_LANE(2, 1); MODE_LANE(3, 1);
+    MODE_LANE(4, 1); MODE_LANE(5, 1); MODE_LANE(6, 1); MODE_LANE(7, 1);
     rd->rp = rp;
     /* a mode out of range (or from an unused table) ends the frame before its vertices */
     for (int l = 0; l < n; l++) {
@@ -196,20 +290,40 @@ static int group_symbols(kern *k, reader *rd, int n, int nverts, int nmodes)
         if (f >= nmodes) return f == INFO_UNUSED ? K_BAD_SYMBOL : K_BAD_MODE;
     }
     for (int l = n; l < 8; l++) k->mode[l] = 8;
-    t0 = 1; t1 = n > 1 ? 1 : T_IDLE; t2 = n > 2 ? 1 : T_IDLE; t3 = n > 3 ? 1 : T_IDLE;
-    t4 = n > 4 ? 1 : T_IDLE; t5 = n > 5 ? 1 : T_IDLE; t6 = n > 6 ? 1 : T_IDLE;
-    t7 = n > 7 ? 1 : T_IDLE;
-    int32_t *rv = k->r, *rend = k->r + 24 * nverts;
-    for (; rv < rend; rv += 24) {
-        VERTEX_LANE(0); VERTEX_LANE(1); VERTEX_LANE(2); VERTEX_LANE(3);
-        VERTEX_LANE(4); VERTEX_LANE(5); VERTEX_LANE(6); VERTEX_LANE(7);
+    int32_t *rv = k->r, *rend = k->r + RVERT * nverts;
+    if (key) {
+        uint32_t *sp = k->sym, *send = k->sym + 8 * nverts;
+        for (; sp < send; sp += 8) {
+            RANS_LANE(0); RANS_LANE(1); RANS_LANE(2); RANS_LANE(3);
+            RANS_LANE(4); RANS_LANE(5); RANS_LANE(6); RANS_LANE(7);
+        }
+        for (sp = k->sym; sp < send; sp += 8, rv += RVERT) {
+            KEY_RAW_LANE(0); KEY_RAW_LANE(1); KEY_RAW_LANE(2); KEY_RAW_LANE(3);
+            KEY_RAW_LANE(4); KEY_RAW_LANE(5); KEY_RAW_LANE(6); KEY_RAW_LANE(7);
+        }
+    } else {
+        for (; rv < rend; rv += RVERT) {
+            VERTEX_LANE(0); VERTEX_LANE(1); VERTEX_LANE(2); VERTEX_LANE(3);
+            VERTEX_LANE(4); VERTEX_LANE(5); VERTEX_LANE(6); VERTEX_LANE(7);
+        }
     }
-    k->state[0] = (int32_t)x0; k->state[1] = (int32_t)x1; k->state[2] = (int32_t)x2;
-    k->state[3] = (int32_t)x3; k->state[4] = (int32_t)x4; k->state[5] = (int32_t)x5;
-    k->state[6] = (int32_t)x6; k->state[7] = (int32_t)x7;
+    k->state[0] = (int32_t)X0; k->state[1] = (int32_t)X1; k->state[2] = (int32_t)X2;
+    k->state[3] = (int32_t)X3; k->state[4] = (int32_t)X4; k->state[5] = (int32_t)X5;
+    k->state[6] = (int32_t)X6; k->state[7] = (int32_t)X7;
     rd->rp = rp;
     rd->bp = bp;
     return K_OK;
+}
+
+/* group_symbols of a keyframe's group and of a delta's, as functions of their own. */
+__attribute__((noinline)) static int key_symbols(kern *k, reader *rd, int n, int nverts)
+{
+    return group_symbols(k, rd, n, nverts, 1);
+}
+
+__attribute__((noinline)) static int delta_symbols(kern *k, reader *rd, int n, int nverts)
+{
+    return group_symbols(k, rd, n, nverts, 0);
 }
 
 /* Negative when q is outside [-QMAX, QMAX]. */
@@ -281,14 +395,15 @@ static inline void store_seg(int16_t *pd, v128_t s)
 }
 
 /* Vertices 2 on of a keyframe strand (see rebuild_key; kind as there, constant per call), the
- * x, y, z of a vertex in lanes 0..2 of one vector. Returns the OR of the range checks. */
+ * x, y, z of a vertex in lanes 0..2 of one vector (lane 3 is not used). Returns the unsigned
+ * maximum of |q| (per lane; |-2^31| counts as 2^31). */
 static inline __attribute__((always_inline)) v128_t key_body(const int32_t *r, const int32_t *pn, int32_t *pc,
                                                              float *po, int16_t *pd, int nverts, v128_t st, v128_t a,
                                                              v128_t b, v128_t n, const int kind)
 {
-    v128_t lim = wasm_i32x4_splat(QMAX), bad = wasm_i32x4_splat(0), e = b;
+    v128_t bad = wasm_i32x4_splat(0), e = b;
     for (int v = 2; v < nverts; v++) {
-        v128_t q, rv = wasm_i32x4_make(r[24 * v], r[24 * v + 8], r[24 * v + 16], 0);
+        v128_t q, rv = wasm_v128_load(r + 32 * v);
         if (kind == 1) {
             v128_t kn = n;
             n = wasm_v128_load(pn + 3 * v);
@@ -299,7 +414,7 @@ static inline __attribute__((always_inline)) v128_t key_body(const int32_t *r, c
             q = wasm_i32x4_sub(wasm_i32x4_add(a, a), b);
         }
         q = wasm_i32x4_add(q, rv);
-        bad = wasm_v128_or(bad, wasm_v128_or(wasm_i32x4_add(q, lim), wasm_i32x4_sub(lim, q)));
+        bad = wasm_u32x4_max(bad, wasm_i32x4_abs(q));
         int last = v == nverts - 1;
         store_xyz(pc + 3 * v, q, last);
         store_xyz(po + 3 * v, to_float(q, st), last);
@@ -311,9 +426,9 @@ static inline __attribute__((always_inline)) v128_t key_body(const int32_t *r, c
     return bad;
 }
 
-/* Rebuilds keyframe strand j (lane l of its group; mode < 3) from the residuals in k->r: the
- * lattice coordinates to pc (nverts vertices), float32(q * step) to po, its clamped segments to
- * pd (the group's in the layout of segments_idle, plus 2 l). The neighbour N is the
+/* Rebuilds keyframe strand j (lane l of its group; mode < 3) from the residuals in k->r (lane l's
+ * at 4 l of each vertex's 32): the lattice coordinates to pc (nverts vertices), float32(q * step)
+ * to po, its clamped segments to pd (the group's in the layout of segments_idle, plus 2 l). The neighbour N is the
  * previous strand (at pc - 3 nverts, already rebuilt), zeros for the first. Root N[0] + R;
  * vertex 1 P[0] + N[1] - N[0]; from vertex 2 mode 1 with a neighbour P[v-1] + N[v] - N[v-1],
  * mode 2 linear at vertex 2 and then smooth linear P[v-1] + half(P[v-1] - P[v-3]), else linear
@@ -322,13 +437,12 @@ static int32_t rebuild_key(const kern *k, int l, int mode, int j, int32_t *pc, f
                            double step)
 {
     const int32_t *pn = j > 0 ? pc - 3 * nverts : k->zero;
-    const int32_t *r = k->r + l;
-    v128_t st = wasm_f64x2_splat(step), lim = wasm_i32x4_splat(QMAX);
+    const int32_t *r = k->r + 4 * l;
+    v128_t st = wasm_f64x2_splat(step);
     v128_t k0 = wasm_v128_load(pn), n = wasm_v128_load(pn + 3);
-    v128_t b = wasm_i32x4_add(k0, wasm_i32x4_make(r[0], r[8], r[16], 0));
-    v128_t a = wasm_i32x4_add(wasm_i32x4_add(b, wasm_i32x4_sub(n, k0)), wasm_i32x4_make(r[24], r[32], r[40], 0));
-    v128_t bad = wasm_v128_or(wasm_v128_or(wasm_i32x4_add(b, lim), wasm_i32x4_sub(lim, b)),
-                              wasm_v128_or(wasm_i32x4_add(a, lim), wasm_i32x4_sub(lim, a)));
+    v128_t b = wasm_i32x4_add(k0, wasm_v128_load(r));
+    v128_t a = wasm_i32x4_add(wasm_i32x4_add(b, wasm_i32x4_sub(n, k0)), wasm_v128_load(r + 32));
+    v128_t bad = wasm_u32x4_max(wasm_i32x4_abs(b), wasm_i32x4_abs(a));
     int last = nverts == 2;
     store_xyz(pc, b, 0);
     store_xyz(po, to_float(b, st), 0);
@@ -338,10 +452,10 @@ static int32_t rebuild_key(const kern *k, int l, int mode, int j, int32_t *pc, f
     wasm_v128_store32_lane(pd + 16, wasm_i32x4_splat(0), 0);
     store_seg(pd + 32, wasm_i32x4_sub(a, b));
     /* kind: 1 neighbour, 2 linear, 3 linear once, then smooth linear */
-    if (mode == 1 && j > 0) bad = wasm_v128_or(bad, key_body(r, pn, pc, po, pd, nverts, st, a, b, n, 1));
-    else if (mode == 2) bad = wasm_v128_or(bad, key_body(r, pn, pc, po, pd, nverts, st, a, b, n, 3));
-    else bad = wasm_v128_or(bad, key_body(r, pn, pc, po, pd, nverts, st, a, b, n, 2));
-    return wasm_i32x4_bitmask(bad) & 7 ? -1 : 0;
+    if (mode == 1 && j > 0) bad = wasm_u32x4_max(bad, key_body(r, pn, pc, po, pd, nverts, st, a, b, n, 1));
+    else if (mode == 2) bad = wasm_u32x4_max(bad, key_body(r, pn, pc, po, pd, nverts, st, a, b, n, 3));
+    else bad = wasm_u32x4_max(bad, key_body(r, pn, pc, po, pd, nverts, st, a, b, n, 2));
+    return wasm_i32x4_bitmask(wasm_u32x4_gt(bad, wasm_i32x4_splat(QMAX))) & 7 ? -1 : 0;
 }
 
 /* Vertices 1 on of a delta group's 8 strands at once (the roots are in k->root), from the
@@ -500,11 +614,11 @@ __attribute__((export_name("kern_frame"))) int kern_frame(kern *k, int key, int 
                                                          const int16_t *dkey, int16_t *dcur, double step)
 {
     reader rd = { wpos, bits, 0 };
-    int nmodes = key ? 3 : 4, per = 3 * nverts;
+    int per = 3 * nverts;
     int32_t gn[3] = { 0, 0, 0 }, gkn[3] = { 0, 0, 0 };
     for (int g = 0; g < ns; g += 8) {
         int n = ns - g < 8 ? ns - g : 8;
-        int rc = group_symbols(k, &rd, n, nverts, nmodes);
+        int rc = key ? key_symbols(k, &rd, n, nverts) : delta_symbols(k, &rd, n, nverts);
         k->state[8] = (int32_t)(rd.rp - wpos);
         k->state[9] = (int32_t)rd.bp;
         if (rc < 0) return rc;
