@@ -303,6 +303,7 @@ void net_publish(net *n, uint32_t stream, net_buf *frame, uint64_t seq, bool key
         net_buf_unref(pend->buf);
         pend->buf = frame;
         pend->seq = seq;
+        pend->merged++;
         pthread_mutex_unlock(&n->lock);
         lws_cancel_service(n->ctx);
         return;
@@ -381,7 +382,7 @@ static void set_stream(net_session *s, uint32_t stream, double max_rate)
 static void apply_frame(net *n, net_event *e)
 {
     net_slot *sl = &n->slots[e->stream];
-    sl->count++;
+    sl->count += 1u + e->merged; /* the merged frames count as published, so as skipped by every client */
     if (e->key) {
         net_buf_unref(sl->key);
         net_buf_ref(e->buf);

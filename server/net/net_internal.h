@@ -27,6 +27,7 @@ typedef struct net_event {
     net_buf *buf;      /* TEXT, START (hello), FRAME */
     uint64_t seq;      /* FRAME */
     bool key;          /* FRAME */
+    uint32_t merged;   /* FRAME: older frames this one replaced in the inbox (never sent) */
 } net_event;
 
 /* A stream's newest frame and its retained keyframe (net thread only). */
