@@ -1164,6 +1164,34 @@ static void test_flags(void **state)
     const char *missing[] = { "--no-net", "--groom", "/nonexistent/x.tfx", NULL };
     assert_int_equal(run_capture(cfg->exe, missing, out, sizeof out), 1);
     assert_non_null(strstr(out, "x.tfx"));
+    /* a groom file over the vertex limit once resampled: refused at start-up as by set_groom */
+    char dir[64], big[96];
+    snprintf(dir, sizeof dir, "/tmp/strandcast-big-XXXXXX");
+    assert_non_null(mkdtemp(dir));
+    snprintf(big, sizeof big, "%s/big.hair", dir);
+    {
+        enum { HAIRS = 70000 };
+        static unsigned char buf[128 + HAIRS * 2 * 12];
+        memset(buf, 0, sizeof buf);
+        memcpy(buf, "HAIR", 4);
+        uint32_t hairs = HAIRS, points = 2 * HAIRS, flags = 2, segs = 1;
+        memcpy(buf + 4, &hairs, 4);
+        memcpy(buf + 8, &points, 4);
+        memcpy(buf + 12, &flags, 4);
+        memcpy(buf + 16, &segs, 4);
+        float *p = (float *)(buf + 128);
+        for (int i = 0; i < HAIRS; i++) {
+            p[6 * i + 0] = p[6 * i + 3] = 0.001f * (float)(i % 200);
+            p[6 * i + 2] = p[6 * i + 5] = 0.001f * (float)(i / 200);
+            p[6 * i + 4] = -0.1f;
+        }
+        write_file(big, buf, sizeof buf);
+    }
+    const char *too_big[] = { "--no-net", "--groom", big, "--verts", "32", NULL };
+    int rc = run_capture(cfg->exe, too_big, out, sizeof out);
+    unlink(big);
+    rmdir(dir);
+    if (rc != 1 || !strstr(out, "2240000")) fail_msg("a 70,000 x 32 groom file: exit %d, said: %s", rc, out);
     const char *run[] = { "--no-net", "--steps", "5", "--backend", "cpu", "--strands", "16", "--verts", "4",
                           "--threads", "1", NULL };
     assert_int_equal(run_capture(cfg->exe, run, out, sizeof out), 0);
