@@ -70,6 +70,7 @@ static void client_open(app *a, uint32_t id)
     uint32_t stream = c->tier >= 0 ? (uint32_t)c->tier : NET_MAX_STREAMS;
     if (a->net) net_start_client(a->net, id, hello, strlen(hello), stream, c->max_rate);
     proto_free(hello);
+    app_tier_tell_failure(a, c->tier, id);
     a->dirty = a->dirty || a->paused; /* a paused server still shows the newcomer a frame */
 }
 
@@ -242,6 +243,7 @@ static void subscribe(app *a, uint32_t client, const proto_msg *m)
     atomic_fetch_add(&a->accepted, 1);
     proto_stream s = stream_info(a, c);
     app_send(a, client, proto_build_subscribed(&m->id, &s), 0);
+    app_tier_tell_failure(a, tier, client); /* joined a stream whose frames are not being sent */
 }
 
 static void handle_msg(app *a, uint32_t client, const proto_msg *m)

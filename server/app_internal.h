@@ -66,7 +66,9 @@ typedef struct app_tier {
     uint32_t subscribers;
     bool force_key;
     bool ready;               /* encoder initialised for the current groom */
-    bool failing;             /* the last encode failed (logged once until one succeeds) */
+    bool failing;             /* the last encode failed (logged and told once until one succeeds) */
+    uint64_t fail_seq;        /* while failing: the first frame not sent, and why */
+    core_err fail_err;
     codec_encoder enc;
 } app_tier;
 
@@ -189,6 +191,10 @@ uint32_t app_stream_decimation(double rate, double max_rate);
  * max_error with the largest smaller decimation (a faster stream; the net rate cap thins it).
  * Returns the tier index, or -1 when no slot is free and no tier fits. */
 int app_tier_acquire(app *a, int32_t stride, double max_error, double max_rate);
+/* Tells client (or every subscriber of the tier, with NET_ALL) that the tier's frames are not
+ * being sent because they cannot be encoded: an error without id, code failed, field "stream".
+ * Does nothing while the tier encodes. Sim thread. */
+void app_tier_tell_failure(app *a, int tier, uint32_t client);
 /* Drops a subscriber; the last one frees the encoder and the net stream. */
 void app_tier_release(app *a, int tier);
 /* Re-initialises every tier's encoder for the current groom (after a groom change). */

@@ -82,8 +82,10 @@ void app_tiers_reset(app *a)
     for (int i = 0; i < NET_MAX_STREAMS; i++) {
         app_tier *t = &a->tiers[i];
         if (!t->used) continue;
-        /* no frame of the old groom may follow the groom message (posted after this) */
+        /* no frame of the old groom may follow the groom message (posted after this); a failure
+         * of the new groom's frames is told afresh */
         if (a->net) net_drop_stream(a->net, (uint32_t)i);
+        t->failing = false;
         codec_encoder_free(&t->enc);
         core_err err;
         if (tier_init(a, t, &err) != CORE_OK) core_log(CORE_LOG_ERROR, "app", "stream encoder: %s", err.msg);
@@ -118,17 +120,18 @@ bool app_tiers_due(app *a, bool tick, bool all)
     return any;
 }
 
-/* Tells the clients of tier i that its frames stopped (an error without id, field "stream"). */
-static void notify_failure(app *a, int i, uint64_t seq, const core_err *why)
+void app_tier_tell_failure(app *a, int tier, uint32_t client)
 {
-    const app_tier *t = &a->tiers[i];
+    if (tier < 0 || tier >= NET_MAX_STREAMS || !a->tiers[tier].failing) return;
+    const app_tier *t = &a->tiers[tier];
     proto_error e;
     proto_fail(&e, PROTO_ERR_FAILED, "stream",
                "the frames of this stream (stride %d, max_error %g m) cannot be encoded from seq %llu on: %s; "
                "none are sent until they can be (or subscribe with a larger max_error)",
-               t->stride, t->max_error, (unsigned long long)seq, why->msg);
+               t->stride, t->max_error, (unsigned long long)t->fail_seq, t->fail_err.msg);
     for (size_t k = 0; k < a->nclients; k++)
-        if (a->clients[k].tier == i) app_send(a, a->clients[k].id, proto_build_error(NULL, &e), 0);
+        if (a->clients[k].tier == tier && (client == NET_ALL || a->clients[k].id == client))
+            app_send(a, a->clients[k].id, proto_build_error(NULL, &e), 0);
 }
 
 void app_publish(app *a)
@@ -146,9 +149,11 @@ void app_publish(app *a)
         if (codec_encode(&t->enc, a->xyz, seq, ss.sim_time, t->force_key, &a->enc_buf, &err) != CORE_OK) {
             if (!t->failing) {
                 core_log(CORE_LOG_WARN, "app", "stream %d: frames not sent from %llu on: %s", i, (unsigned long long)seq, err.msg);
-                notify_failure(a, i, seq, &err);
+                t->failing = true;
+                t->fail_seq = seq;
+                t->fail_err = err;
+                app_tier_tell_failure(a, i, NET_ALL);
             }
-            t->failing = true;
             t->force_key = true;
             continue;
         }

@@ -963,11 +963,25 @@ static void test_stream_failure_is_reported(void **state)
     uint64_t n = v1->ok;
     wait_frames(fx, v1, n + 5);
     assert_true(v1->info.nstrands_total == 16 && fabs(mean_tip_y(v1) - 1999.9) < 1.0);
-    /* a coarser bound streams again */
+    /* a client joining the failing stream (c2 still on it) is told at once */
+    view *v3;
+    wsc_conn *c3 = connect_view(fx, &v3);
+    cJSON_Delete(expect_msg(fx, c3, "hello"));
+    wsc_send_text(c3, "{\"type\":\"subscribe\",\"max_error\":1e-5,\"id\":7}");
+    cJSON_Delete(expect_msg(fx, c3, "subscribed"));
+    e = expect_msg(fx, c3, "error");
+    assert_string_equal(str(e, "field"), "stream");
+    cJSON_Delete(e);
+    /* a coarser bound streams again; a groom the fine stream can carry brings its frames back */
     wsc_send_text(c2, "{\"type\":\"subscribe\",\"max_error\":1e-3}");
     cJSON_Delete(expect_msg(fx, c2, "subscribed"));
     assert_true(wsc_until(fx->w, frame_shape, &(count_arg){ v2, 16, 8 }, WAIT_MS));
-    assert_int_equal(v1->bad + v2->bad, 0);
+    uint64_t before = v3->ok;
+    wsc_send_text(c1, "{\"type\":\"set_groom\",\"file\":\"tiny.hair\"}");
+    cJSON_Delete(expect_msg(fx, c3, "groom"));
+    wait_frames(fx, v3, before + 3);
+    assert_true(fabs(v3->info.max_error_m - 1e-5) < 1e-9 && fabs(mean_tip_y(v3)) < 1.0);
+    assert_int_equal(v1->bad + v2->bad + v3->bad, 0);
 }
 
 static void test_sigterm_closes_clients(void **state)
