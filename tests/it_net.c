@@ -769,12 +769,20 @@ static void test_pause_step_subscribe_groom(void **state)
                  (unsigned long long)other);
     assert_int_equal(v2->info.nstrands_sent, NSTRANDS);
 
-    /* a keyframe on request */
-    uint64_t keys = v->keys;
+    /* a keyframe on request, while paused (so that no scheduled keyframe can stand in for it):
+     * exactly one frame follows, and it is a keyframe */
+    wsc_send_text(c, "{\"type\":\"pause\"}");
+    cJSON_Delete(expect_msg(fx, c, "state"));
+    wsc_run(fx->w, 300);
+    uint64_t keys = v->keys, frames = v->ok;
     wsc_send_text(c, "{\"type\":\"keyframe\",\"id\":2}");
     cJSON *ok2 = expect_msg(fx, c, "ok");
     wsc_run(fx->w, 300);
-    assert_true(v->keys > keys);
+    if (v->ok != frames + 1 || v->keys != keys + 1)
+        fail_msg("after a keyframe request while paused: %llu frames, %llu keyframes (want 1, 1)",
+                 (unsigned long long)(v->ok - frames), (unsigned long long)(v->keys - keys));
+    wsc_send_text(c, "{\"type\":\"resume\"}");
+    cJSON_Delete(expect_msg(fx, c, "state"));
 
     /* a procedural groom change reaches every client, then frames of the new shape */
     wsc_send_text(c, "{\"type\":\"set_groom\",\"style\":\"wavy\",\"strands\":128,\"verts\":12,\"id\":3}");
