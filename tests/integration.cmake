@@ -8,7 +8,8 @@ add_dependencies(it_net strandcastd strandcastc)
 foreach(t hello_and_frames params_broadcast_and_physics motion_moves_roots bad_inputs_keep_stream
           subprotocol_refused http_static_and_metrics pause_step_subscribe_groom slow_client_skips rate_streams
           stream_slots cli_client stream_failure_is_reported
-          sigterm_closes_clients reader_that_never_reads_is_closed flags
+          sigterm_closes_clients sigint_closes_clients listen_ipv6 default_address
+          reader_that_never_reads_is_closed flags
           ping_drops_silent_client)
   add_test(NAME integration_${t} COMMAND it_net $<TARGET_FILE:strandcastd> test_${t})
   set_tests_properties(integration_${t} PROPERTIES TIMEOUT 120 LABELS integration)

@@ -187,6 +187,12 @@ static int setup_ping(void **state)
     return setup_with(state, extra);
 }
 
+static int setup_ipv6(void **state)
+{
+    static const char *const extra[] = { "--listen", "::1", NULL };
+    return setup_with(state, extra);
+}
+
 static int teardown(void **state)
 {
     fixture *fx = *state;
@@ -992,19 +998,54 @@ static void test_stream_failure_is_reported(void **state)
     assert_int_equal(v1->bad + v2->bad + v3->bad, 0);
 }
 
-static void test_sigterm_closes_clients(void **state)
+/* --listen ::1: the daemon serves the IPv6 loopback only (the URL it prints is [::1]:port). */
+static void test_listen_ipv6(void **state)
 {
     fixture *fx = *state;
+    view v = { 0 };
+    codec_decoder_init(&v.dec);
+    wsc_conn *c6 = wsc_connect_host(fx->w, "::1", fx->d.port, SUBPROTOCOL, on_frame, &v);
+    assert_true(wsc_wait_open(fx->w, c6, WAIT_MS));
+    cJSON_Delete(expect_msg(fx, c6, "hello"));
+    wait_frames(fx, &v, 3);
+    wsc_conn *c4 = wsc_connect(fx->w, fx->d.port, SUBPROTOCOL, NULL, NULL);
+    assert_false(wsc_wait_open(fx->w, c4, 2000)); /* nothing on 127.0.0.1 */
+    codec_decoder_free(&v.dec);
+    free(v.xyz);
+}
+
+/* Without --listen and --port the daemon serves 127.0.0.1:7681 and prints that URL. */
+static void test_default_address(void **state)
+{
+    const config *cfg = *state;
+    daemon_proc d;
+    char *argv[] = { (char *)cfg->exe, "--backend", "cpu", "--strands", "64", "--verts", "4", "--threads", "1", NULL };
+    assert_int_equal(daemon_start(&d, cfg->exe, argv, 20000), 0);
+    assert_int_equal(d.port, 7681); /* the documented default */
+    http_reply r;
+    assert_int_equal(http_get(d.port, "/metrics", &r), 0);
+    assert_int_equal(r.status, 200);
+    http_reply_free(&r);
+    assert_int_equal(daemon_stop(&d, SIGTERM, 15000), 0);
+}
+
+/* SIGTERM or SIGINT: every client is closed with 1001 and the daemon exits 0. */
+static void signal_closes_clients(fixture *fx, int sig)
+{
     view *v;
     wsc_conn *a = connect_view(fx, &v), *b = connect_view(fx, NULL);
     wait_frames(fx, v, 5);
-    kill(fx->d.pid, SIGTERM);
+    kill(fx->d.pid, sig);
     assert_int_equal(wsc_wait_closed(fx->w, a, WAIT_MS), 1001);
     assert_int_equal(wsc_wait_closed(fx->w, b, WAIT_MS), 1001);
     assert_string_equal(wsc_close_reason(a), "server shutting down");
     /* exit status 0: a clean shutdown (the sanitizer build also fails on any leak) */
     assert_int_equal(daemon_stop(&fx->d, 0, 15000), 0);
 }
+
+static void test_sigterm_closes_clients(void **state) { signal_closes_clients(*state, SIGTERM); }
+
+static void test_sigint_closes_clients(void **state) { signal_closes_clients(*state, SIGINT); }
 
 static void test_reader_that_never_reads_is_closed(void **state)
 {
@@ -1303,6 +1344,9 @@ int main(int argc, char **argv)
         cmocka_unit_test_prestate_setup_teardown(test_cli_client, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_stream_failure_is_reported, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_sigterm_closes_clients, setup, teardown, &cfg),
+        cmocka_unit_test_prestate_setup_teardown(test_sigint_closes_clients, setup, teardown, &cfg),
+        cmocka_unit_test_prestate_setup_teardown(test_listen_ipv6, setup_ipv6, teardown, &cfg),
+        cmocka_unit_test_prestate(test_default_address, &cfg),
         cmocka_unit_test_prestate(test_flags, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_reader_that_never_reads_is_closed, setup, teardown, &cfg),
         cmocka_unit_test_prestate_setup_teardown(test_ping_drops_silent_client, setup_ping, teardown, &cfg),

@@ -52,7 +52,8 @@ int daemon_start(daemon_proc *d, const char *exe, char *const argv[], int timeou
         len += (size_t)n;
         buf[len] = '\0';
         const char *u = strstr(buf, "http://");
-        const char *colon = u ? strchr(u + 7, ':') : NULL;
+        const char *host_end = u && u[7] == '[' ? strchr(u + 7, ']') : u ? u + 7 : NULL; /* [v6]:port */
+        const char *colon = host_end ? strchr(host_end, ':') : NULL;
         if (colon && strchr(colon, '/')) {
             d->port = atoi(colon + 1);
             return d->port > 0 ? 0 : -1;
