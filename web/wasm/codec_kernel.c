@@ -207,14 +207,22 @@ static inline __attribute__((always_inline)) int64_t key_slow_symbol(const kern 
         X = x_;                                                                     \
     } while (0)
 
+/* The rANS step of lane L's vertex symbol: its INFO entry to f and its table slot to fb, the
+ * next table into X##L. */
+#define LANE_SYMBOL(L, f, fb)                                                       \
+    do {                                                                            \
+        uint32_t i;                                                                 \
+        RANS_STEP(X##L, i, fb);                                                     \
+        f = k->info[i];                                                             \
+        X##L |= (uint64_t)(f & INFO_NEXT) << 32;                                    \
+    } while (0)
+
 /* A vertex symbol of lane L at the vertex whose residuals start at rv (RLANE, RAXIS: the strides
  * of a lane and an axis there): residuals to rv[RLANE L + RAXIS axis], the next table into X##L. */
 #define VERTEX_LANE(L)                                                              \
     do {                                                                            \
-        uint32_t i, fb;                                                             \
-        RANS_STEP(X##L, i, fb);                                                     \
-        uint32_t f = k->info[i];                                                    \
-        X##L |= (uint64_t)(f & INFO_NEXT) << 32;                                    \
+        uint32_t f, fb;                                                             \
+        LANE_SYMBOL(L, f, fb);                                                      \
         RAW_SYMBOL(f, fb >> 25, rv + RLANE * (L));                                  \
     } while (0)
 
@@ -222,10 +230,8 @@ static inline __attribute__((always_inline)) int64_t key_slow_symbol(const kern 
  * next table into X##L. */
 #define RANS_LANE(L)                                                                \
     do {                                                                            \
-        uint32_t i, fb;                                                             \
-        RANS_STEP(X##L, i, fb);                                                     \
-        uint32_t f = k->info[i];                                                    \
-        X##L |= (uint64_t)(f & INFO_NEXT) << 32;                                    \
+        uint32_t f, fb;                                                             \
+        LANE_SYMBOL(L, f, fb);                                                      \
         sp[L] = (fb & 0xfe000000u) | f;                                             \
     } while (0)
 
