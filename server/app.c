@@ -27,13 +27,7 @@ static core_status load_initial_groom(app *a, core_err *err)
         return app_groom_load_style(a, a->d.groom, a->d.strands, a->d.verts, a->d.seed, &a->groom, err);
     const char *base = strrchr(a->d.groom, '/');
     core_status st = app_groom_load_path(a, a->d.groom, base ? base + 1 : a->d.groom, a->d.verts, &a->groom, err);
-    if (st != CORE_OK) return st;
-    uint64_t nv = (uint64_t)a->groom.g.nstrands * a->groom.g.nverts;
-    if (nv > PROTO_MAX_VERTICES) {
-        st = core_fail(err, CORE_EINVAL, "%s: %u strands x %u vertices = %llu, over the %u a groom may have (a smaller --verts fits it)",
-                       a->d.groom, a->groom.g.nstrands, a->groom.g.nverts, (unsigned long long)nv, PROTO_MAX_VERTICES);
-        app_groom_free(&a->groom);
-    }
+    if (st == CORE_OK && (st = app_groom_check_size(&a->groom, err)) != CORE_OK) app_groom_free(&a->groom);
     return st;
 }
 

@@ -131,9 +131,11 @@ static void motion(app *a, uint32_t client, const proto_msg *m)
     if (stopped) broadcast_state(a);
 }
 
-/* After sim_reset or a new sim: the sim's own counters restart at 0 (the daemon's totals go on). */
-static void sim_restarted(app *a)
+/* Puts the simulation back to its rest pose; its own counters restart at 0, so the baseline the
+ * daemon's NaN total counts from does too (the daemon's totals go on). */
+static void reset_sim(app *a)
 {
+    sim_reset(&a->sim);
     pthread_mutex_lock(&a->stats_mu);
     a->stats.nan_resets = 0;
     pthread_mutex_unlock(&a->stats_mu);
@@ -163,8 +165,7 @@ static bool swap_groom(app *a, app_groom *g, uint32_t client, const proto_msg *m
     a->groom = *g;
     memset(g, 0, sizeof *g);
     sim_set_motion(&a->sim, app_anim_head(a->preset, a->anim_time, a->base_head));
-    sim_reset(&a->sim);
-    sim_restarted(a);
+    reset_sim(a);
     app_tiers_reset(a);
     a->dirty = true;
     return true;
@@ -200,9 +201,9 @@ static void set_groom(app *a, uint32_t client, const proto_msg *m)
         reply_fail(a, client, &m->id, PROTO_ERR_FAILED, m->u.set_groom.is_file ? "file" : "style", err.msg);
         return;
     }
-    if ((uint64_t)g.g.nstrands * g.g.nverts > PROTO_MAX_VERTICES) {
+    if (app_groom_check_size(&g, &err) != CORE_OK) {
         app_groom_free(&g);
-        reply_fail(a, client, &m->id, PROTO_ERR_TOO_LARGE, "file", "the groom has more vertices than the limit");
+        reply_fail(a, client, &m->id, PROTO_ERR_TOO_LARGE, "file", err.msg);
         return;
     }
     if (!swap_groom(a, &g, client, m)) {
@@ -261,8 +262,7 @@ static void handle_msg(app *a, uint32_t client, const proto_msg *m)
         a->anim_time = 0.0;
         break;
     case PROTO_RESET:
-        sim_reset(&a->sim);
-        sim_restarted(a);
+        reset_sim(a);
         for (int i = 0; i < NET_MAX_STREAMS; i++) a->tiers[i].force_key = true;
         a->dirty = true;
         break;

@@ -45,6 +45,14 @@ core_status app_groom_load_path(app *a, const char *path, const char *label, uin
     return finish(out, err);
 }
 
+core_status app_groom_check_size(const app_groom *g, core_err *err)
+{
+    uint64_t nv = (uint64_t)g->g.nstrands * g->g.nverts;
+    if (nv <= PROTO_MAX_VERTICES) return CORE_OK;
+    return core_fail(err, CORE_EINVAL, "%s: %u strands x %u vertices = %llu, over the %u a groom may have (a smaller verts count fits it)",
+                     g->source, g->g.nstrands, g->g.nverts, (unsigned long long)nv, PROTO_MAX_VERTICES);
+}
+
 void app_groom_free(app_groom *g)
 {
     core_groom_free(&g->g);

@@ -175,6 +175,9 @@ core_status app_groom_load_style(app *a, const char *style, uint32_t strands, ui
 core_status app_groom_load_path(app *a, const char *path, const char *label, uint32_t verts, app_groom *out,
                                 core_err *err);
 void app_groom_free(app_groom *g);
+/* CORE_EINVAL (the counts in err) when g has more vertices than a groom may have
+ * (PROTO_MAX_VERTICES: what set_groom and the hello's limits allow). Pure. */
+core_status app_groom_check_size(const app_groom *g, core_err *err);
 /* Lists the .tfx/.hair files under d.assets_dir into a->files (sorted). */
 void app_list_assets(app *a);
 void app_free_assets(app *a);

@@ -22,12 +22,14 @@ void app_reply_error(app *a, uint32_t client, const proto_id *id, const proto_er
     app_send(a, client, proto_build_error(id, e), 0);
 }
 
-static void post(app *a, const app_cmd *c, const proto_id *id)
+/* Queues c, or answers busy when the mailbox is full; true when queued. */
+static bool post(app *a, const app_cmd *c, const proto_id *id)
 {
-    if (app_mailbox_post(&a->mb, c) == CORE_OK) return;
+    if (app_mailbox_post(&a->mb, c) == CORE_OK) return true;
     proto_error e;
     proto_fail(&e, PROTO_ERR_BUSY, "", "the server's command queue is full; retry later");
     app_reply_error(a, c->client, id, &e);
+    return false;
 }
 
 /* Opens and closes must not be lost (a client would get no hello, or keep its stream alive):
@@ -74,11 +76,7 @@ void app_on_text(void *user, uint32_t client, const char *text, size_t len)
         app_reply_error(a, client, &c.msg.id, &e);
         return;
     }
-    if (app_mailbox_post(&a->mb, &c) != CORE_OK) {
-        atomic_fetch_sub(&a->grooms_pending, 1);
-        proto_fail(&e, PROTO_ERR_BUSY, "", "the server's command queue is full; retry later");
-        app_reply_error(a, client, &c.msg.id, &e);
-    }
+    if (!post(a, &c, &c.msg.id)) atomic_fetch_sub(&a->grooms_pending, 1);
 }
 
 size_t app_metrics(void *user, char *buf, size_t cap)

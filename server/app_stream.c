@@ -28,6 +28,12 @@ uint32_t app_stream_decimation(double rate, double max_rate)
     return k >= (double)APP_MAX_DECIMATION ? APP_MAX_DECIMATION : (uint32_t)k;
 }
 
+/* The settings every new client starts on: every strand, the server's bound, every round. */
+static bool default_settings(const app *a, int32_t stride, double max_error, uint32_t decimation)
+{
+    return stride == 1 && max_error == a->d.max_error && decimation == 1;
+}
+
 int app_tier_acquire(app *a, int32_t stride, double max_error, double max_rate)
 {
     uint32_t decimation = app_stream_decimation(a->d.rate, max_rate);
@@ -40,7 +46,7 @@ int app_tier_acquire(app *a, int32_t stride, double max_error, double max_rate)
             nfree++;
             continue;
         }
-        have_default = have_default || (t->stride == 1 && t->max_error == a->d.max_error && t->decimation == 1);
+        have_default = have_default || default_settings(a, t->stride, t->max_error, t->decimation);
         if (t->stride != stride || t->max_error != max_error || t->decimation > decimation) continue;
         if (t->decimation == decimation) {
             t->subscribers++;
@@ -49,8 +55,8 @@ int app_tier_acquire(app *a, int32_t stride, double max_error, double max_rate)
         if (faster < 0 || t->decimation > a->tiers[faster].decimation) faster = i;
     }
     /* the last free slot is kept for the default stream, which every new client starts on */
-    bool is_default = stride == 1 && max_error == a->d.max_error && decimation == 1;
-    if (free_slot >= 0 && nfree == 1 && !have_default && !is_default) free_slot = -1;
+    if (free_slot >= 0 && nfree == 1 && !have_default && !default_settings(a, stride, max_error, decimation))
+        free_slot = -1;
     if (free_slot < 0) {
         if (faster >= 0) a->tiers[faster].subscribers++;
         return faster;

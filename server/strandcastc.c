@@ -129,6 +129,14 @@ static int parse_args(int argc, char **argv, cli_desc *d)
     return 0;
 }
 
+/* Marks the recording failed with errno's reason (the first failure is kept). */
+static void write_failed(cli *c)
+{
+    if (c->write_failed) return;
+    c->write_failed = true;
+    snprintf(c->error, sizeof c->error, "writing %s: %s", c->d.out, strerror(errno));
+}
+
 /* Appends one decoded frame to the SCFR file; the first frame fixes the shape. */
 static void record(cli *c, const codec_frame_info *info)
 {
@@ -144,8 +152,7 @@ static void record(cli *c, const codec_frame_info *info)
     }
     size_t n = 3u * (size_t)info->nstrands_sent * info->nverts;
     if (fwrite(c->xyz, sizeof *c->xyz, n, c->fp) != n) {
-        c->write_failed = true;
-        snprintf(c->error, sizeof c->error, "writing %s: %s", c->d.out, strerror(errno));
+        write_failed(c);
         return;
     }
     c->rec_frames++;
@@ -285,14 +292,8 @@ static void close_recording(cli *c)
 {
     if (!c->fp) return;
     uint32_t h[3] = { c->rec_strands, c->rec_verts, c->rec_frames };
-    if (!c->write_failed && (fseek(c->fp, 4, SEEK_SET) != 0 || fwrite(h, sizeof h[0], 3, c->fp) != 3)) {
-        c->write_failed = true;
-        snprintf(c->error, sizeof c->error, "writing %s: %s", c->d.out, strerror(errno));
-    }
-    if (fclose(c->fp) != 0 && !c->write_failed) {
-        c->write_failed = true;
-        snprintf(c->error, sizeof c->error, "writing %s: %s", c->d.out, strerror(errno));
-    }
+    if (!c->write_failed && (fseek(c->fp, 4, SEEK_SET) != 0 || fwrite(h, sizeof h[0], 3, c->fp) != 3)) write_failed(c);
+    if (fclose(c->fp) != 0) write_failed(c);
     c->fp = NULL;
 }
 

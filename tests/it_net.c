@@ -107,26 +107,29 @@ static void write_file(const char *path, const void *data, size_t len)
     fclose(f);
 }
 
-/* A tiny valid Cem Yuksel .hair file: 16 strands of 8 points hanging from a ring, lifted by up m. */
-static void write_hair(const char *path, float up)
+/* A valid Cem Yuksel .hair file: hairs strands of pts points (2 cm apart) hanging from a ring,
+ * lifted by up m. */
+static void write_hair(const char *path, uint32_t hairs, uint32_t pts, float up)
 {
-    unsigned char buf[128 + 16 * 8 * 12];
-    memset(buf, 0, sizeof buf);
+    size_t len = 128 + (size_t)hairs * pts * 12;
+    unsigned char *buf = calloc(1, len);
+    assert_non_null(buf);
     memcpy(buf, "HAIR", 4);
-    uint32_t hairs = 16, points = 16 * 8, flags = 2, segs = 7;
+    uint32_t points = hairs * pts, flags = 2, segs = pts - 1;
     memcpy(buf + 4, &hairs, 4);
     memcpy(buf + 8, &points, 4);
     memcpy(buf + 12, &flags, 4);
     memcpy(buf + 16, &segs, 4);
     float *p = (float *)(buf + 128);
-    for (int s = 0; s < 16; s++)
-        for (int k = 0; k < 8; k++) {
-            float a = 6.2831853f * (float)s / 16.0f;
-            p[3 * (s * 8 + k) + 0] = 0.07f * cosf(a);
-            p[3 * (s * 8 + k) + 1] = up + 0.05f - 0.02f * (float)k;
-            p[3 * (s * 8 + k) + 2] = 0.07f * sinf(a);
+    for (uint32_t s = 0; s < hairs; s++)
+        for (uint32_t k = 0; k < pts; k++) {
+            float a = 6.2831853f * (float)s / (float)hairs;
+            p[3 * (s * pts + k) + 0] = 0.07f * cosf(a);
+            p[3 * (s * pts + k) + 1] = up + 0.05f - 0.02f * (float)k;
+            p[3 * (s * pts + k) + 2] = 0.07f * sinf(a);
         }
-    write_file(path, buf, sizeof buf);
+    write_file(path, buf, len);
+    free(buf);
 }
 
 /* Starts the daemon with the common flags plus extra (NULL-terminated, may be NULL). */
@@ -152,9 +155,9 @@ static int setup_with(void **state, const char *const *extra)
     }
     char hair[160];
     snprintf(hair, sizeof hair, "%s/tiny.hair", fx->assets);
-    write_hair(hair, 0.0f);
+    write_hair(hair, 16, 8, 0.0f);
     snprintf(hair, sizeof hair, "%s/far.hair", fx->assets);
-    write_hair(hair, 2000.0f);
+    write_hair(hair, 16, 8, 2000.0f);
     char strands[16], verts[16];
     snprintf(strands, sizeof strands, "%d", NSTRANDS);
     snprintf(verts, sizeof verts, "%d", NVERTS);
@@ -1232,24 +1235,7 @@ static void test_flags(void **state)
     snprintf(dir, sizeof dir, "/tmp/strandcast-big-XXXXXX");
     assert_non_null(mkdtemp(dir));
     snprintf(big, sizeof big, "%s/big.hair", dir);
-    {
-        enum { HAIRS = 70000 };
-        static unsigned char buf[128 + HAIRS * 2 * 12];
-        memset(buf, 0, sizeof buf);
-        memcpy(buf, "HAIR", 4);
-        uint32_t hairs = HAIRS, points = 2 * HAIRS, flags = 2, segs = 1;
-        memcpy(buf + 4, &hairs, 4);
-        memcpy(buf + 8, &points, 4);
-        memcpy(buf + 12, &flags, 4);
-        memcpy(buf + 16, &segs, 4);
-        float *p = (float *)(buf + 128);
-        for (int i = 0; i < HAIRS; i++) {
-            p[6 * i + 0] = p[6 * i + 3] = 0.001f * (float)(i % 200);
-            p[6 * i + 2] = p[6 * i + 5] = 0.001f * (float)(i / 200);
-            p[6 * i + 4] = -0.1f;
-        }
-        write_file(big, buf, sizeof buf);
-    }
+    write_hair(big, 70000, 2, 0.0f);
     const char *too_big[] = { "--no-net", "--groom", big, "--verts", "32", NULL };
     int rc = run_capture(cfg->exe, too_big, out, sizeof out);
     unlink(big);
