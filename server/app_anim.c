@@ -1,7 +1,7 @@
 /* app: preset head animations (nod, shake, circle, headbang, sway) as pure functions of time. */
 #include <math.h>
 
-#include "app_internal.h"
+#include "app_anim.h"
 
 const char *const app_preset_names[APP_PRESET_COUNT] = { "none", "nod", "shake", "circle", "headbang", "sway" };
 

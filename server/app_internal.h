@@ -6,6 +6,7 @@
 #include <stdatomic.h>
 
 #include "app.h"
+#include "app_anim.h"
 #include "codec/codec.h"
 #include "core/groom_types.h"
 #include "core/math3.h"
@@ -44,13 +45,6 @@ bool app_mailbox_take(app_mailbox *m, app_cmd *out);
 void app_mailbox_wait(app_mailbox *m, unsigned long long deadline_ns);
 /* Wakes app_mailbox_wait. Any thread. */
 void app_mailbox_wake(app_mailbox *m);
-
-/* ---- preset animations ---- */
-typedef enum app_preset { APP_PRESET_NONE, APP_PRESET_NOD, APP_PRESET_SHAKE, APP_PRESET_CIRCLE,
-                          APP_PRESET_HEADBANG, APP_PRESET_SWAY, APP_PRESET_COUNT } app_preset;
-extern const char *const app_preset_names[APP_PRESET_COUNT];
-/* The head transform of preset p at animation time t (s) applied on top of base. Pure. */
-core_xform app_anim_head(app_preset p, double t, core_xform base);
 
 /* ---- streams: one codec encoder per distinct (stride, max_error, decimation), each a net
  * stream ---- */
