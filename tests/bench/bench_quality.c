@@ -46,9 +46,10 @@ static void usage(void)
            "  --groom NAME          only this groom: straight, wavy, curly (procedural) or ratboy (file)\n"
            "  --param NAME          only this parameter of the table (every value of it)\n"
            "  --preset NAME         this motion preset for every scenario instead of the cycle\n"
-           "  --strands N --verts N procedural groom size (default %ux%u for speed; the daemon's\n"
-           "                        default is 4096x32); --verts also resamples the file groom\n"
-           "                        (default: the file's vertex count)\n"
+           "  --strands N           procedural strands (default %u for speed; the daemon's default\n"
+           "                        groom is 4096x32)\n"
+           "  --verts N             vertices per strand of every groom, the file groom resampled to it\n"
+           "                        (default %u for speed; Ratboy's file has 32)\n"
            "  --groom-file PATH     the ratboy groom (default %s;\n"
            "                        skipped with a note when absent)\n"
            "  --seconds-motion S    preset duration, simulated seconds (default 2)\n"
@@ -359,7 +360,7 @@ static int parse_args(int argc, char **argv, bq_opts *o)
 int bench_quality_main(int argc, char **argv)
 {
     bq_opts o = { .backend = SIM_BACKEND_CPU, .groom_file = BQ_DEFAULT_GROOM_FILE, .preset = -1,
-                  .strands = BQ_DEFAULT_STRANDS, .verts = 0, .seconds_motion = 2.0, .seconds_rest = 3.0 };
+                  .strands = BQ_DEFAULT_STRANDS, .verts = BQ_DEFAULT_VERTS, .seconds_motion = 2.0, .seconds_rest = 3.0 };
     int rc = parse_args(argc, argv, &o);
     if (rc >= 0) return rc;
     rc = 0;
@@ -376,7 +377,7 @@ int bench_quality_main(int argc, char **argv)
         core_err err;
         core_status st;
         if (k < 3) {
-            groom_desc gd = { .style = (groom_style)k, .nstrands = o.strands, .nverts = o.verts ? o.verts : BQ_DEFAULT_VERTS };
+            groom_desc gd = { .style = (groom_style)k, .nstrands = o.strands, .nverts = o.verts };
             st = groom_procedural(&gd, &g, &err);
         } else {
             FILE *f = fopen(o.groom_file, "rb");
