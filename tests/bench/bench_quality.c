@@ -9,7 +9,7 @@
 #include "groom/groom.h"
 #include "support/quality.h"
 
-#define BQ_DEFAULT_STRANDS 1024u
+#define BQ_DEFAULT_STRANDS 512u
 #define BQ_DEFAULT_VERTS 16u
 #define BQ_DEFAULT_GROOM_FILE "../shared/assets/ratboy/Ratboy_mohawk.tfx"
 #define BQ_MAX_GROOMS 4
@@ -31,12 +31,15 @@ static void usage(void)
     printf("usage: strandbench quality [--backend cpu|vulkan] [--groom straight|wavy|curly|ratboy]\n"
            "                           [--param NAME] [--preset NAME] [--strands N] [--verts N]\n"
            "                           [--groom-file PATH] [--seconds-motion S] [--seconds-rest S]\n"
-           "                           [--threads N] [--nn] [--json]\n"
+           "                           [--threads N] [--full] [--nn] [--json]\n"
            "Runs the solver the way a technical artist looks at it and measures what they judge.\n"
            "A scenario is one groom, one parameter of the solver's table set to one value (the others\n"
-           "at their defaults) and one head-motion preset. The grid: every groom x every table\n"
-           "parameter at its min, default and max (bools 0 and 1) x one preset per scenario, cycling\n"
-           "none, nod, shake, circle, headbang, sway. Each scenario starts from the authored rest pose\n"
+           "at their defaults) and one head-motion preset. The default grid, per groom: the baselines\n"
+           "(param \"defaults\": every parameter at its default, under each preset), then every table\n"
+           "parameter at its min and max (bools: the value that is not the default), one preset per\n"
+           "scenario cycling none, nod, shake, circle, headbang, sway. With --param NAME or --full the\n"
+           "parameters run at min, default and max (bools 0 and 1) and there are no baselines.\n"
+           "Each scenario starts from the authored rest pose\n"
            "(what a user sees first), plays the preset for --seconds-motion, then the head eases back\n"
            "to the base pose over %.2f s (smoothstep, so the stop is no jump) and holds it; the rest\n"
            "period lasts --seconds-rest from the end of the motion (the ease included). Every frame\n"
@@ -55,7 +58,8 @@ static void usage(void)
            "  --seconds-motion S    preset duration, simulated seconds (default 2)\n"
            "  --seconds-rest S      rest period after the motion, simulated seconds (default 3)\n"
            "  --threads N           CPU solver threads (default: all cores)\n"
-           "  --nn                  measure nn_gain for every scenario, not only the SPH parameters'\n"
+           "  --full                every parameter at min, default and max instead of baselines + min, max\n"
+           "  --nn                  measure nn_gain for every scenario, not only baselines and SPH parameters\n"
            "  --json                one JSON object per line per scenario, then one per groom summary\n"
            "Metrics (\"non-root\": roots follow the head and are not judged):\n"
            "  rest_p999_mm        p99.9 over non-root vertices of the per-frame displacement |x(t)-x(t-dt)|\n"
@@ -70,7 +74,7 @@ static void usage(void)
            "                      (head at the base pose) / the groom's mean strand length\n"
            "  tips_above_roots    at the end: fraction of strands whose tip is higher (y) than its root;\n"
            "                      tips_above_roots_authored: the same on the authored groom\n"
-           "  nn_gain             SPH parameters' scenarios (%s, ...) or all with --nn:\n"
+           "  nn_gain             baselines, SPH parameters' scenarios (%s, ...), all with --nn:\n"
            "                      mean distance of each vertex to the nearest vertex of another strand\n"
            "                      at the end, with the scenario's parameters / with \"sph\" off, minus 1\n"
            "                      (volume the hair-hair interaction gives); null when not measured\n"
@@ -89,7 +93,7 @@ typedef struct bq_opts {
     uint32_t strands, verts;
     double seconds_motion, seconds_rest;
     int threads;
-    bool nn, json;
+    bool nn, json, full;
 } bq_opts;
 
 /* The worst figures of one groom and the scenario that gave each. */
@@ -149,10 +153,11 @@ static void print_row(const bq_ctx *c, const core_param_info *t, double value, a
 {
     const core_groom *g = c->g;
     if (c->o->json) {
-        printf("{\"bench\":\"quality\",\"backend\":\"%s\",\"groom\":\"%s\",\"param\":\"%s\",\"value\":%.6g,"
-               "\"preset\":\"%s\",\"strands\":%u,\"verts\":%u,\"seconds_motion\":%g,\"seconds_rest\":%g,"
+        printf("{\"bench\":\"quality\",\"backend\":\"%s\",\"groom\":\"%s\",\"param\":\"%s\"",
+               c->o->backend == SIM_BACKEND_VULKAN ? "vulkan" : "cpu", c->gname, t ? t->name : "defaults");
+        json_num("value", "%.6g", t ? value : NAN);
+        printf(",\"preset\":\"%s\",\"strands\":%u,\"verts\":%u,\"seconds_motion\":%g,\"seconds_rest\":%g,"
                "\"settled\":%s",
-               c->o->backend == SIM_BACKEND_VULKAN ? "vulkan" : "cpu", c->gname, t->name, value,
                app_preset_names[preset], g->nstrands, g->nverts, c->o->seconds_motion, c->o->seconds_rest,
                r->settled ? "true" : "false");
         json_num("settle_s", "%.4f", r->settle_s);
@@ -169,7 +174,8 @@ static void print_row(const bq_ctx *c, const core_param_info *t, double value, a
                (unsigned long long)r->nan_resets);
     } else {
         char pv[64], settle[16], nn[16];
-        snprintf(pv, sizeof pv, "%s=%.4g", t->name, value);
+        if (t) snprintf(pv, sizeof pv, "%s=%.4g", t->name, value);
+        else snprintf(pv, sizeof pv, "defaults");
         snprintf(settle, sizeof settle, "%s%.2f", r->settled ? "" : ">", r->settle_s);
         if (isnan(nn_gain)) snprintf(nn, sizeof nn, "-");
         else snprintf(nn, sizeof nn, "%+.3f", nn_gain);
@@ -206,23 +212,24 @@ static int run_scenario(bq_ctx *c, const core_param_info *t, double value, app_p
                        .seconds_rest = c->o->seconds_rest, .backend = c->o->backend, .threads = c->o->threads };
     memset(&sc.params, 0, sizeof sc.params);
     sim_params_default(&sc.params);
-    bq_param_set(&sc.params, t, value);
+    if (t) bq_param_set(&sc.params, t, value);
     const core_param_info *tsph = bq_param_find("sph");
-    sc.want_nn = tsph && (c->o->nn || is_sph_param(t->name));
+    sc.want_nn = tsph && (c->o->nn || !t || is_sph_param(t->name));
     bq_result r;
     core_err err;
     double nn_gain = NAN, off = NAN;
     core_status st = bq_run(&sc, &r, &err);
     if (st == CORE_OK && sc.want_nn) st = twin_nn(c, &sc, tsph, &off, &err);
     if (st != CORE_OK) {
-        fprintf(stderr, "strandbench quality: %s %s=%g %s: %s\n", c->gname, t->name, value, app_preset_names[preset],
-                err.msg);
+        fprintf(stderr, "strandbench quality: %s %s=%g %s: %s\n", c->gname, t ? t->name : "defaults", value,
+                app_preset_names[preset], err.msg);
         return 1;
     }
     if (sc.want_nn && off > 0.0) nn_gain = r.nn_mean_m / off - 1.0;
     print_row(c, t, value, preset, &r, nn_gain);
     char at[96];
-    snprintf(at, sizeof at, "%s=%g %s", t->name, value, app_preset_names[preset]);
+    if (t) snprintf(at, sizeof at, "%s=%g %s", t->name, value, app_preset_names[preset]);
+    else snprintf(at, sizeof at, "defaults %s", app_preset_names[preset]);
     note_worst(&c->worst, at, &r);
     return 0;
 }
@@ -261,6 +268,10 @@ static int run_groom(const bq_opts *o, const core_groom *g, const char *gname)
     size_t n;
     const core_param_info *table = sim_param_table(&n);
     int rc = 0, k = 0, matched = 0;
+    /* baselines: every parameter at its default, under each preset (or the one asked for) */
+    bool baselines = !o->param && !o->full;
+    for (int p = 0; baselines && p < APP_PRESET_COUNT; p++)
+        if (o->preset < 0 || o->preset == p) rc |= run_scenario(c, NULL, 0.0, (app_preset)p);
     for (size_t i = 0; i < n; i++) {
         const core_param_info *t = &table[i];
         if (o->param && strcmp(o->param, t->name) != 0) continue;
@@ -274,6 +285,7 @@ static int run_groom(const bq_opts *o, const core_groom *g, const char *gname)
         }
         for (int j = 0; j < nvals; j++) {
             if (j > 0 && vals[j] == vals[j - 1]) continue; /* a default at a bound */
+            if (baselines && vals[j] == t->def) continue;  /* a baseline row already */
             app_preset preset = o->preset >= 0 ? (app_preset)o->preset : (app_preset)(k % APP_PRESET_COUNT);
             k++;
             rc |= run_scenario(c, t, vals[j], preset);
@@ -313,6 +325,8 @@ static int parse_args(int argc, char **argv, bq_opts *o)
             o->json = true;
         } else if (strcmp(a, "--nn") == 0) {
             o->nn = true;
+        } else if (strcmp(a, "--full") == 0) {
+            o->full = true;
         } else if (v && strcmp(a, "--backend") == 0) {
             if (strcmp(v, "cpu") == 0) o->backend = SIM_BACKEND_CPU;
             else if (strcmp(v, "vulkan") == 0) o->backend = SIM_BACKEND_VULKAN;

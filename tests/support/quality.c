@@ -103,23 +103,44 @@ double quality_collider_depth(const core_collider *c, core_xform h, core_vec3 p)
     return -INFINITY;
 }
 
-/* How deep p is inside the character (every collision shape of g under h), metres; the
- * deepest of the shapes. A groom's further collision shapes (a mesh SDF) add their term here. */
-static double vertex_depth(const core_groom *g, core_xform h, core_vec3 p)
+/* The character of a groom placed in world space once per frame. */
+typedef struct world_shapes {
+    core_collider colliders[CORE_MAX_COLLIDERS]; /* moved by the head transform */
+    uint32_t ncolliders;
+} world_shapes;
+
+static void place_shapes(const core_groom *g, core_xform h, world_shapes *w)
+{
+    w->ncolliders = g->ncolliders < CORE_MAX_COLLIDERS ? g->ncolliders : CORE_MAX_COLLIDERS;
+    for (uint32_t k = 0; k < w->ncolliders; k++) {
+        core_collider c = g->colliders[k];
+        c.a = core_xform_point(h, c.a);
+        c.b = core_xform_point(h, c.b);
+        c.rot = core_q_norm(core_q_mul(h.rot, c.rot));
+        w->colliders[k] = c;
+    }
+}
+
+/* How deep p is inside the character, metres: the deepest of its collision shapes. A groom's
+ * further collision shapes (a mesh SDF) add their term here (and their placement above). */
+static double vertex_depth(const world_shapes *w, core_vec3 p)
 {
     double d = -INFINITY;
-    for (uint32_t k = 0; k < g->ncolliders; k++) d = worse(d, quality_collider_depth(&g->colliders[k], h, p));
+    for (uint32_t k = 0; k < w->ncolliders; k++)
+        d = worse(d, quality_collider_depth(&w->colliders[k], core_xform_identity(), p));
     return d;
 }
 
 double quality_penetration_max(const core_groom *g, core_xform h, const float *x)
 {
+    world_shapes w;
+    place_shapes(g, h, &w);
     double worst = 0.0;
     for (uint32_t s = 0; s < g->nstrands; s++)
         for (uint32_t v = 1; v < g->nverts; v++) {
             const float *p = x + 3 * ((size_t)s * g->nverts + v);
             if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2])) return NAN;
-            worst = worse(worst, vertex_depth(g, h, core_v3(p[0], p[1], p[2])));
+            worst = worse(worst, vertex_depth(&w, core_v3(p[0], p[1], p[2])));
         }
     return worst;
 }
