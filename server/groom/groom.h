@@ -88,12 +88,22 @@ core_status groom_resample_polyline(const float *in, uint32_t n_in, float *out, 
  * origin), a neck capsule and two shoulder capsules. Pure. */
 void groom_default_colliders(core_groom *g);
 
-/* Replaces g's colliders by one head sphere fitted under the roots (for file grooms):
- * c = centroid of the roots, n = mean root direction (first segments, normalised; +y when
- * they cancel), R = the largest distance of a root from the axis through c along n, clamped
- * to [0.04, 0.25] m; the centre is c - n * R and the radius the smallest root distance from
- * it minus 1 mm, so every root is outside. Leaves g without colliders when the radius would
- * be under 5 mm. Needs g->nverts >= 2. Pure. */
+/* Replaces g's colliders by one head ellipsoid (CORE_COLLIDER_ELLIPSOID, axis-aligned in the
+ * head frame) fitted to the roots alone (vertex 0 of each strand, taken to lie on the scalp;
+ * the strands' directions are not used, so hanging hair fits as well as hair growing out).
+ * The fit: an algebraic sphere fit in the space scaled by the default head proportions
+ * (GROOM_HEAD_RX : RY : RZ) as the start, then a least-squares fit of centre and semi-axes to
+ * the roots' radial residuals, regularised toward those proportions and (weakly) toward the
+ * size the roots' x/z spread implies, semi-axes kept in [0.05, 0.2] m. When the roots do not
+ * determine it (fewer than 4, collinear, coplanar) or the centre comes out above the roots'
+ * centroid (by more than 1 cm), the prior is used instead: the default head scaled to the
+ * roots' x/z spread, centred over them, its top at the highest root. Finally the ellipsoid is
+ * shrunk about its centre so that every root lies outside it by 1 mm (in the sense of
+ * groom_collider_push_out: outside the ellipsoid whose semi-axes are 1 mm longer); roots never
+ * start inside. Non-finite roots are ignored. Leaves g without colliders when no root is
+ * finite or a semi-axis would be under 5 mm; never emits a non-finite collider. Needs
+ * g->nverts >= 2. Pure (allocates a scratch copy of the roots; on allocation failure g is
+ * left without colliders). Any thread. */
 void groom_fit_colliders(core_groom *g);
 
 #endif
