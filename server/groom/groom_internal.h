@@ -6,6 +6,7 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "../core/core.h"
 #include "../core/groom_types.h"
 #include "../core/math3.h"
 
@@ -38,6 +39,15 @@ static inline float groom_rd_f32(const unsigned char *b, size_t off)
  * prefixed by `what`), and resamples them into out[3 * n_out]. */
 core_status groom_take_strand(const unsigned char *data, size_t off, size_t stride, uint32_t n_in, float *tmp,
                               float *out, uint32_t n_out, uint32_t strand, const char *what, core_err *err);
+
+/* 1 when path ends in ext (case-insensitive) after at least one other character. Pure. */
+int groom_has_ext(const char *path, const char *ext);
+
+/* Reads the whole file at path into a malloc'd buffer (*data, *size; the caller frees it);
+ * refuses files over max_bytes (CORE_EINVAL). what names the file in messages ("groom file").
+ * Blocking I/O, any thread. */
+core_status groom_read_all(const char *path, size_t max_bytes, const char *what, unsigned char **data, size_t *size,
+                           core_err *err);
 
 /* splitmix64 generator: the state is the caller's. */
 typedef struct groom_rng { uint64_t s; } groom_rng;
