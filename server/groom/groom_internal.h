@@ -49,6 +49,14 @@ int groom_has_ext(const char *path, const char *ext);
 core_status groom_read_all(const char *path, size_t max_bytes, const char *what, unsigned char **data, size_t *size,
                            core_err *err);
 
+/* Winding number of the closed mesh m around every sample of the grid g (dims, origin and
+ * cell used; g->d untouched), written to wind[dims[0]*dims[1]*dims[2]] (x fastest): counted
+ * along +x grid lines from the crossings of each line with the triangles in front of the
+ * sample, with a consistent tie-break (a symbolic perturbation of the line) so that a line
+ * through an edge or vertex counts it exactly once. Nonzero = inside. m must have passed
+ * groom_mesh_check. Pure, any thread. */
+void groom_sdf_winding(const core_mesh *m, const core_sdf *g, int16_t *wind);
+
 /* splitmix64 generator: the state is the caller's. */
 typedef struct groom_rng { uint64_t s; } groom_rng;
 
