@@ -143,7 +143,7 @@ vec3 chain_predict(uint i)
     float dt = F.dt_k, dt2 = dt * dt;
     vec3 acc = F.accel.xyz;
     if ((F.flags & FLAG_SPH) != 0u) acc += ldA(i);
-    return ldX(i) + ldV(i) * dt + acc * dt2;
+    return ldX(i) + ldV(i) * F.drag_keep * dt + acc * dt2;
 }
 
 // Level l >= 1 of strand s from its prediction: global shape (11), local shape (12),

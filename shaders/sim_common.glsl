@@ -51,6 +51,8 @@ layout(std430, set = 0, binding = 0) restrict readonly buffer FrameBuf {
     uint ncolliders;   // 0 when collisions are off
     uint flags;        // FLAG_*
     uint cap;          // SPH neighbours kept
+    float drag_keep;   // exp(-air_drag dt_k)
+    float pad0, pad1, pad2;
     Xf head[MAX_SUBSTEPS];
     Collider col[MAX_SUBSTEPS * MAX_COLLIDERS];
     vec2 stiff[];      // (s_g, s_l) per level

@@ -18,6 +18,7 @@ typedef struct sim_params {
     float gravity;            /* m/s^2 along -y (world) */
     float wind_x, wind_y, wind_z; /* wind acceleration, m/s^2 (world) */
     float damping;            /* internal damping: velocity relative to the parent vertex decays at this rate, 1/s */
+    float air_drag;           /* every vertex's velocity decays at this rate, 1/s */
     float dftl_correction;    /* s_d: DFTL velocity correction (eq. 14), [0,1] */
     float global_stiffness;   /* pull toward the rest pose in the root frame, 1/s^2 */
     float local_stiffness;    /* pull toward the rest shape in the parent's frame, 1/s^2 */

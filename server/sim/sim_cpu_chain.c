@@ -109,7 +109,7 @@ static inline __attribute__((always_inline)) void level_constraints(const chain_
                                                                     const bool use_a)
 {
     const sim_cpu *c = ctx->c;
-    const float dt = ctx->dt, dt2 = dt * dt;
+    const float dt = ctx->dt, dt2 = dt * dt, dk = c->step.drag_keep;
     const float gx = c->step.accel[0], gy = c->step.accel[1], gz = c->step.accel[2];
     const float hqx = ctx->head.rot.x, hqy = ctx->head.rot.y, hqz = ctx->head.rot.z, hqw = ctx->head.rot.w;
     const float htx = ctx->head.pos.x, hty = ctx->head.pos.y, htz = ctx->head.pos.z;
@@ -122,9 +122,9 @@ static inline __attribute__((always_inline)) void level_constraints(const chain_
         float ax = gx, ay = gy, az = gz;
         if (use_a) ax += AX[s], ay += AY[s], az += AZ[s];
         const float xo = X[s], yo = Y[s], zo = Z[s];
-        const float predx = xo + VX[s] * dt + ax * dt2;
-        const float predy = yo + VY[s] * dt + ay * dt2;
-        const float predz = zo + VZ[s] * dt + az * dt2;
+        const float predx = xo + VX[s] * dk * dt + ax * dt2;
+        const float predy = yo + VY[s] * dk * dt + ay * dt2;
+        const float predz = zo + VZ[s] * dk * dt + az * dt2;
         float sx = predx, sy = predy, sz = predz;
         /* global shape: toward the rest position in the root (head) frame */
         float gpx, gpy, gpz;

@@ -13,13 +13,14 @@
     { #field, CORE_PARAM_BOOL, offsetof(sim_params, field), 0, 1, d, "", help }
 
 static const core_param_info table[] = {
-    F(dt, 0.001, 0.05, 1.0 / 60.0, "s", "Simulated time per step (the paper uses 0.016 s)."),
+    F(dt, 0.008, 0.05, 1.0 / 60.0, "s", "Simulated time per step (the paper uses 0.016 s). Below about 1/120 s the serial local-shape chain can flutter, so the range stops there."),
     I(substeps, 1, SIM_MAX_SUBSTEPS, 4, "", "Solver substeps per step; roots and colliders are interpolated across them. Stiffness and damping are per unit of time, so they mean the same at any substep count."),
     F(gravity, 0.0, 50.0, 9.81, "m/s^2", "Gravity along -y."),
     F(wind_x, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, x component."),
     F(wind_y, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, y component."),
     F(wind_z, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, z component."),
     F(damping, 0.0, 200.0, 30.0, "1/s", "Internal damping: the velocity of each vertex relative to the vertex before it decays at this rate (half-life ln 2 / damping). Stills jitter and whipping tips; the hair still follows the head."),
+    F(air_drag, 0.0, 20.0, 3.0, "1/s", "Air drag: every vertex's velocity (relative to still air) decays at this rate, so hair that swings freely comes to rest; the head's motion is not damped."),
     F(dftl_correction, 0.0, 1.0, 0.9, "", "s_d: DFTL velocity correction (paper eq. 14, about 0.9): the share of the next vertex's local-shape and inextensibility correction taken off a vertex's velocity, which hides the serial solver's mass bias."),
     F(global_stiffness, 0.0, 1.0e6, 1.0e5, "1/s^2", "Pull toward the rest pose in the head frame, as a spring per unit mass: a vertex settles g / k from its target. The paper's s_g < 0.1 at 0.016 s is k < 390."),
     F(local_stiffness, 0.0, 1.0e8, 1.0e6, "1/s^2", "Pull toward the rest shape in the frame of the vertex before, as a spring per unit mass (bending). The paper's s_l < 0.3 at 0.016 s is k < 1,170."),

@@ -64,6 +64,7 @@ void sim_step_plan(const sim_params *p, const sim_groom_info *g, core_xform prev
     out->accel[0] = p->wind_x, out->accel[1] = p->wind_y - p->gravity, out->accel[2] = p->wind_z;
     out->dftl = p->dftl_correction;
     out->keep = expf(-p->damping * out->h);
+    out->drag_keep = expf(-p->air_drag * out->h);
     out->shape = p->shape;
     out->sph = sim_step_sph_on(p);
     out->collisions = p->collisions;

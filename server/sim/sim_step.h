@@ -37,6 +37,7 @@ typedef struct sim_step_desc {
                                  taken off the parent's velocity (eq. 14) */
     float keep;               /* exp(-damping h): share of a vertex's velocity relative to its parent
                                  kept per substep */
+    float drag_keep;          /* exp(-air_drag h): share of a vertex's velocity kept per substep */
     bool shape, sph, collisions;
     float sph_h;              /* smoothing length */
     float kp;                 /* repulsion * h * SIM_SPH_ACCEL_SCALE */

@@ -5,8 +5,8 @@
 #include "sim_vk_internal.h"
 
 _Static_assert(offsetof(sim_vk_frame, substeps) == 64, "frame layout must match sim_common.glsl");
-_Static_assert(offsetof(sim_vk_frame, head) == 80, "frame layout must match sim_common.glsl");
-_Static_assert(offsetof(sim_vk_frame, col) == 80 + 32 * SIM_MAX_SUBSTEPS, "frame layout must match sim_common.glsl");
+_Static_assert(offsetof(sim_vk_frame, head) == 96, "frame layout must match sim_common.glsl");
+_Static_assert(offsetof(sim_vk_frame, col) == 96 + 32 * SIM_MAX_SUBSTEPS, "frame layout must match sim_common.glsl");
 _Static_assert(sizeof(sim_vk_gcollider) == 160, "collider layout must match sim_common.glsl");
 _Static_assert(sizeof(sim_vk_frame) % 8 == 0, "stiffness pairs follow the frame");
 
@@ -54,6 +54,7 @@ void sim_vk_frame_fill(const sim_vk_frame_in *in, void *out)
     f->flags = (d->shape ? SIM_VK_FLAG_SHAPE : 0u) | (d->sph ? SIM_VK_FLAG_SPH : 0u) |
                (d->collisions ? SIM_VK_FLAG_COLLISIONS : 0u);
     f->cap = (uint32_t)p->neighbor_cap;
+    f->drag_keep = d->drag_keep;
     for (int k = 0; k < d->substeps; k++) {
         put4(f->head[k].pos, d->head[k].pos.x, d->head[k].pos.y, d->head[k].pos.z, 0.0f);
         put4(f->head[k].rot, d->head[k].rot.x, d->head[k].rot.y, d->head[k].rot.z, d->head[k].rot.w);

@@ -201,6 +201,7 @@ typedef struct sim_vk_frame {
     float h2, inv_h2, inv_h, kp;
     float mu_dt, inv_step_dt, inv_rho0, grow;
     uint32_t substeps, ncolliders, flags, cap;
+    float drag_keep, pad[3];
     sim_vk_gxf head[SIM_MAX_SUBSTEPS];
     sim_vk_gcollider col[SIM_MAX_SUBSTEPS * SIM_MAX_COLLIDERS];
     /* followed by nverts pairs (s_g, s_l) */
