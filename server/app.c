@@ -40,8 +40,7 @@ static core_status setup(app *a, core_err *err)
     for (int i = 0; i < 3; i++) a->styles[i] = groom_style_name((groom_style)i);
     a->parser = (proto_parser){ a->ptable, a->nparams, app_preset_names, APP_PRESET_COUNT, a->styles, 3 };
     sim_params_default(&a->params);
-    a->anim_speed = 1.0;
-    a->base_head = core_xform_identity();
+    app_anim_init(&a->anim);
     pthread_mutex_init(&a->stats_mu, NULL);
     core_status st = app_mailbox_init(&a->mb, err);
     if (st != CORE_OK) return st;
@@ -52,7 +51,7 @@ static core_status setup(app *a, core_err *err)
     size_t n = (size_t)a->groom.g.nstrands * a->groom.g.nverts * 3;
     a->xyz = malloc(n * sizeof *a->xyz);
     if (!a->xyz) return core_fail(err, CORE_ENOMEM, "out of memory for %zu positions", n / 3);
-    sim_set_motion(&a->sim, a->base_head);
+    sim_set_motion(&a->sim, app_anim_pose(&a->anim));
     if ((st = sim_read_positions(&a->sim, a->xyz, err)) != CORE_OK) return st;
     core_log(CORE_LOG_INFO, "app", "groom %s: %u strands x %u vertices, %u colliders; backend %s", a->groom.source,
              a->groom.g.nstrands, a->groom.g.nverts, a->groom.g.ncolliders, a->sim.vt->name);

@@ -1,7 +1,8 @@
-/* app: preset head animations (nod, shake, circle, headbang, sway) as pure functions of time. */
+/* app: preset head animations (nod, shake, circle, headbang, sway) as pure functions of time,
+ * and the blend that makes a change of preset continuous. */
 #include <math.h>
 
-#include "app_anim.h"
+#include "app_internal.h"
 
 const char *const app_preset_names[APP_PRESET_COUNT] = { "none", "nod", "shake", "circle", "headbang", "sway" };
 
@@ -37,4 +38,59 @@ core_xform app_anim_head(app_preset p, double t, core_xform base)
     r.rot = core_q_norm(core_q_mul(base.rot, off.rot));
     r.pos = core_v3_add(core_q_rotate(base.rot, off.pos), base.pos);
     return r;
+}
+
+core_xform app_anim_blend(core_xform from, core_xform to, double w)
+{
+    float t = (float)(w < 0.0 ? 0.0 : w > 1.0 ? 1.0 : w);
+    if (t <= 0.0f) return from;
+    if (t >= 1.0f) return to;
+    return core_xform_lerp(from, to, t);
+}
+
+double app_anim_blend_weight(double since)
+{
+    double u = since / APP_ANIM_BLEND_S;
+    if (!(u > 0.0)) return 0.0;
+    if (u >= 1.0) return 1.0;
+    return u * u * (3.0 - 2.0 * u);
+}
+
+void app_anim_init(app_anim *s)
+{
+    s->base = core_xform_identity();
+    s->preset = APP_PRESET_NONE;
+    s->speed = 1.0;
+    s->time = 0.0;
+    s->from = s->base;
+    s->since = APP_ANIM_BLEND_S;
+}
+
+core_xform app_anim_pose(const app_anim *s)
+{
+    core_xform to = app_anim_head(s->preset, s->time, s->base);
+    return app_anim_blend(s->from, to, app_anim_blend_weight(s->since));
+}
+
+void app_anim_start(app_anim *s, app_preset p, double speed)
+{
+    s->from = app_anim_pose(s);
+    s->since = 0.0;
+    s->preset = p;
+    s->speed = speed;
+    s->time = 0.0;
+}
+
+bool app_anim_motion(app_anim *s, core_xform base)
+{
+    bool stopped = s->preset != APP_PRESET_NONE;
+    if (stopped) app_anim_start(s, APP_PRESET_NONE, s->speed);
+    s->base = base;
+    return stopped;
+}
+
+void app_anim_advance(app_anim *s, double dt)
+{
+    s->time += dt * s->speed;
+    if (s->since < APP_ANIM_BLEND_S) s->since += dt;
 }

@@ -57,9 +57,9 @@ static void client_open(app *a, uint32_t id)
     const char *styles[3] = { a->styles[0], a->styles[1], a->styles[2] };
     proto_hello h = {
         .server = "strandcastd", .version = STRANDCAST_VERSION, .client = id, .groom = &a->groom.json,
-        .head = app_anim_head(a->preset, a->anim_time, a->base_head), .params = a->ptable, .nparams = a->nparams,
+        .head = app_anim_pose(&a->anim), .params = a->ptable, .nparams = a->nparams,
         .values = &a->params, .presets = app_preset_names, .npresets = APP_PRESET_COUNT,
-        .animation = { app_preset_names[a->preset], a->anim_speed }, .styles = styles, .nstyles = 3,
+        .animation = { app_preset_names[a->anim.preset], a->anim.speed }, .styles = styles, .nstyles = 3,
         .files = (const char *const *)a->files, .nfiles = a->nfiles, .stream = stream_info(a, c), .state = app_state(a),
     };
     char *hello = proto_build_hello(&h);
@@ -122,10 +122,8 @@ static void motion(app *a, uint32_t client, const proto_msg *m)
         c->has_t = true;
         c->last_t = m->u.motion.t;
     }
-    a->base_head.pos = m->u.motion.position;
-    a->base_head.rot = m->u.motion.orientation;
-    bool stopped = a->preset != APP_PRESET_NONE;
-    a->preset = APP_PRESET_NONE;
+    core_xform base = { m->u.motion.position, m->u.motion.orientation };
+    bool stopped = app_anim_motion(&a->anim, base);
     if (m->id.kind != PROTO_ID_NONE) reply_ok(a, client, m);
     else atomic_fetch_add(&a->accepted, 1);
     if (stopped) broadcast_state(a);
@@ -164,7 +162,7 @@ static bool swap_groom(app *a, app_groom *g, uint32_t client, const proto_msg *m
     app_groom_free(&a->groom);
     a->groom = *g;
     memset(g, 0, sizeof *g);
-    sim_set_motion(&a->sim, app_anim_head(a->preset, a->anim_time, a->base_head));
+    sim_set_motion(&a->sim, app_anim_pose(&a->anim));
     reset_sim(a);
     app_tiers_reset(a);
     a->dirty = true;
@@ -257,9 +255,7 @@ static void handle_msg(app *a, uint32_t client, const proto_msg *m)
     case PROTO_SET_PARAMS: set_params(a, client, m); return;
     case PROTO_MOTION: motion(a, client, m); return;
     case PROTO_ANIMATE:
-        a->preset = (app_preset)m->u.animate.preset;
-        a->anim_speed = m->u.animate.speed;
-        a->anim_time = 0.0;
+        app_anim_start(&a->anim, (app_preset)m->u.animate.preset, m->u.animate.speed);
         break;
     case PROTO_RESET:
         reset_sim(a);
@@ -313,6 +309,6 @@ proto_state app_state(const app *a)
 {
     sim_stats ss;
     sim_get_stats((sim *)&a->sim, &ss);
-    proto_state s = { a->paused, ss.sim_time, ss.steps, { app_preset_names[a->preset], a->anim_speed } };
+    proto_state s = { a->paused, ss.sim_time, ss.steps, { app_preset_names[a->anim.preset], a->anim.speed } };
     return s;
 }

@@ -16,8 +16,8 @@ static void take_commands(app *a)
 
 static core_status step_once(app *a)
 {
-    a->anim_time += a->params.dt * a->anim_speed;
-    sim_set_motion(&a->sim, app_anim_head(a->preset, a->anim_time, a->base_head));
+    app_anim_advance(&a->anim, a->params.dt);
+    sim_set_motion(&a->sim, app_anim_pose(&a->anim));
     unsigned long long t0 = core_now_ns();
     core_status st = sim_step(&a->sim, &a->fatal_err);
     double ms = (double)(core_now_ns() - t0) / 1e6;

@@ -10,7 +10,7 @@ foreach(comp ${STRANDCAST_SHADER_COMPS})
   set(spv ${STRANDCAST_SHADER_GEN}/shaders/${name}.spv)
   set(csrc ${STRANDCAST_SHADER_GEN}/shaders/${name}.spv.c)
   add_custom_command(OUTPUT ${spv}
-    COMMAND ${GLSLC} --target-env=vulkan1.1 -O -Werror -MD -MF ${spv}.d -o ${spv} ${comp}
+    COMMAND ${GLSLC} --target-env=vulkan1.1 -O -Werror -I ${PROJECT_SOURCE_DIR}/server/sim -MD -MF ${spv}.d -o ${spv} ${comp}
     DEPENDS ${comp}
     DEPFILE ${spv}.d
     COMMENT "glslc ${name}.comp"

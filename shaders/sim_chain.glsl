@@ -2,7 +2,7 @@
 // A workgroup is a chunk of CHUNK consecutive strands, as the C backend's, so that collider
 // culling (per chunk and level) picks the same colliders in the same order.
 
-const uint CHUNK = 64u;
+const uint CHUNK = uint(SIM_CHUNK);
 
 // The chunk's bounding box per level as order-preserving uint keys (atomic min/max): three
 // buffers in turn, so that one barrier per level separates writing, reading and resetting.
@@ -114,6 +114,7 @@ struct Chain {
     vec3 o;    // previous level's position at the substep start
     vec3 pr;   // previous level's rest position
     vec4 q;    // previous level's frame
+    vec3 pv;   // final velocity of the last finalised level (the root's, then level l - 2's)
     bool bad;  // a non-finite value was seen
 };
 
@@ -124,8 +125,10 @@ Chain chain_root(bool live, uint s, uint k)
     Chain ch;
     ch.pr = live ? ldRest(s) : vec3(0.0);
     ch.p = xf_point(hd, ch.pr);
+    ch.pv = vec3(0.0);
     if (live) {
-        stV(s, (ch.p - ldX(s)) * F.inv_dt_k);
+        ch.pv = (ch.p - ldX(s)) * F.inv_dt_k;
+        stV(s, ch.pv);
         stX(s, ch.p);
     }
     ch.o = ch.p;
@@ -140,12 +143,12 @@ vec3 chain_predict(uint i)
     float dt = F.dt_k, dt2 = dt * dt;
     vec3 acc = F.accel.xyz;
     if ((F.flags & FLAG_SPH) != 0u) acc += ldA(i);
-    return ldX(i) + ldV(i) * dt + acc * dt2;
+    return ldX(i) + ldV(i) * F.drag_keep * dt + acc * dt2;
 }
 
 // Level l >= 1 of strand s from its prediction: global shape (11), local shape (12),
 // follow the leader (13), collisions; finalises level l - 1 >= 1 with the DFTL velocity
-// correction (14) and moves the chain state on to level l. Every invocation of the workgroup
+// correction (14) and internal damping, and moves the chain state on to level l. Every invocation of the workgroup
 // calls it with the same box buffers b, next (see chunk_colliders); inactive ones (past the
 // last strand) write nothing.
 void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred, inout Chain ch)
@@ -157,6 +160,9 @@ void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred
     vec3 xo = live ? ldX(i) : vec3(0.0);
     vec3 xs = pred;
     xs += sgl.x * ((qrot(hd.rot, rl) + hd.pos.xyz) - xs);
+    // the DFTL correction carries the local-shape and inextensibility corrections (not the
+    // global pull, whose reaction is the head's) to the parent
+    vec3 xg = xs;
     vec3 r = rl - ch.pr;
     vec3 tgt = ch.p + qrot(ch.q, r);
     xs += sgl.y * (tgt - xs);
@@ -164,7 +170,7 @@ void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred
     vec3 dd = ch.p - xs;
     float len = v3len(dd);
     xs = len > 1e-12 ? ch.p - dd * (L / max(len, 1e-12)) : tgt;
-    vec3 delta = xs - pred;
+    vec3 delta = xs - xg;
     if (F.ncolliders > 0u) {
         uint hit[MAX_COLLIDERS];
         uint nhit = chunk_colliders(live, xs, ch.p, k, b, next, hit);
@@ -180,7 +186,9 @@ void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred
     }
     if (live && l > 1u) {
         uint j = i - NS;
-        stV(j, (ch.p - ch.o) * F.inv_dt_k - F.damping * delta * F.inv_dt_k);
+        vec3 v = (ch.p - ch.o) * F.inv_dt_k - F.dftl * delta * F.inv_dt_k;
+        ch.pv = ch.pv + F.accel.w * (v - ch.pv); // internal damping toward the parent's velocity
+        stV(j, ch.pv);
         stX(j, ch.p);
     }
     // carry the frame: rotate the rest direction onto the solved one
@@ -203,7 +211,8 @@ void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred
 void chain_finish(uint s, uint k, Chain ch)
 {
     uint i = (NV - 1u) * NS + s;
-    stV(i, (ch.p - ch.o) * F.inv_dt_k);
+    vec3 v = (ch.p - ch.o) * F.inv_dt_k;
+    stV(i, ch.pv + F.accel.w * (v - ch.pv));
     stX(i, ch.p);
     if (!ch.bad) return;
     Xf hd = F.head[k];

@@ -17,10 +17,11 @@ void main()
         ch = chain_root(live, s, k);
     } else if (live) {
         uint j = (l - 1u) * NS + s; // level l - 1 is written by this pass: its x is still old
-        vec4 pb = STRAND.d[2u * s];
+        vec4 pb = STRAND.d[3u * s];
         ch.p = pb.xyz;
         ch.bad = pb.w != 0.0;
-        ch.q = STRAND.d[2u * s + 1u];
+        ch.q = STRAND.d[3u * s + 1u];
+        ch.pv = STRAND.d[3u * s + 2u].xyz;
         ch.o = ldX(j);
         ch.pr = ldRest(j);
     } else {
@@ -35,7 +36,8 @@ void main()
     if (l == NV - 1u) {
         chain_finish(s, k, ch);
     } else {
-        STRAND.d[2u * s] = vec4(ch.p, ch.bad ? 1.0 : 0.0);
-        STRAND.d[2u * s + 1u] = ch.q;
+        STRAND.d[3u * s] = vec4(ch.p, ch.bad ? 1.0 : 0.0);
+        STRAND.d[3u * s + 1u] = ch.q;
+        STRAND.d[3u * s + 2u] = vec4(ch.pv, 0.0);
     }
 }

@@ -2,14 +2,13 @@
 // Layouts mirror server/sim/vk/sim_vk_internal.h and sim_vk_frame.h; the math mirrors
 // server/core/math3.h and the C backend (server/sim/sim_cpu*.c) operation for operation.
 
-const uint MAX_SUBSTEPS = 16u;
-const uint MAX_COLLIDERS = 32u;
-const uint MAX_NEIGHBORS = 64u;
+#include "sim_limits.h"
 
-// Collision / rest-length alternations per vertex, then final passes over the colliders
-// (sim_cpu_chain.c COLLISION_ITERATIONS, CREVICE_PASSES).
-const uint COLLISION_ITERATIONS = 1u;
-const uint CREVICE_PASSES = 2u;
+const uint MAX_SUBSTEPS = uint(SIM_MAX_SUBSTEPS);
+const uint MAX_COLLIDERS = uint(SIM_MAX_COLLIDERS);
+const uint MAX_NEIGHBORS = uint(SIM_MAX_NEIGHBOR_CAP);
+const uint COLLISION_ITERATIONS = uint(SIM_COLLISION_ITERATIONS);
+const uint CREVICE_PASSES = uint(SIM_CREVICE_PASSES);
 
 const uint FLAG_SHAPE = 1u;
 const uint FLAG_SPH = 2u;
@@ -32,17 +31,18 @@ struct Collider {
     vec4 nrm[3]; // ellipsoid: rows of unit-sphere coordinates -> world offset
 };
 
-// Per-step parameters (host-computed, so the derived values have the C backend's bits).
+// Per-step parameters: the host's sim_step_desc (server/sim/sim_step.h), so the derived values
+// have the C backend's bits.
 layout(std430, set = 0, binding = 0) restrict readonly buffer FrameBuf {
-    vec4 accel;        // gravity + wind (xyz)
+    vec4 accel;        // xyz: gravity + wind; w: keep = exp(-damping dt_k) (sim_step.h)
     float dt_k;        // substep length
     float inv_dt_k;    // 1 / dt_k
-    float damping;     // s_d
+    float dftl;        // s_d
     float h;           // SPH smoothing length
     float h2;          // h * h
     float inv_h2;      // 1 / h2
     float inv_h;       // 1 / h
-    float kp;          // repulsion * h * 3600
+    float kp;          // repulsion * h * SIM_SPH_ACCEL_SCALE
     float mu_dt;       // viscosity * step dt
     float inv_step_dt; // 1 / step dt
     float inv_rho0;    // 1 / (rest_density * rest-pose mean density)
@@ -51,6 +51,8 @@ layout(std430, set = 0, binding = 0) restrict readonly buffer FrameBuf {
     uint ncolliders;   // 0 when collisions are off
     uint flags;        // FLAG_*
     uint cap;          // SPH neighbours kept
+    float drag_keep;   // exp(-air_drag dt_k)
+    float pad0, pad1, pad2;
     Xf head[MAX_SUBSTEPS];
     Collider col[MAX_SUBSTEPS * MAX_COLLIDERS];
     vec2 stiff[];      // (s_g, s_l) per level
@@ -61,7 +63,8 @@ layout(std430, set = 0, binding = 1) restrict buffer XBuf { float d[]; } X;
 layout(std430, set = 0, binding = 2) restrict buffer VBuf { float d[]; } V;
 layout(std430, set = 0, binding = 3) restrict buffer ABuf { float d[]; } A;
 layout(std430, set = 0, binding = 4) restrict readonly buffer RestBuf { float d[]; } REST;
-// Per strand: [2s] = last solved position (xyz), [2s + 1] = frame quaternion.
+// Per strand: [3s] = last solved position (xyz, w: non-finite seen), [3s + 1] = frame
+// quaternion, [3s + 2] = final velocity of the last finalised level (xyz).
 layout(std430, set = 0, binding = 5) restrict buffer StrandBuf { vec4 d[]; } STRAND;
 
 layout(std430, set = 0, binding = 18) restrict buffer StatsBuf {

@@ -396,6 +396,11 @@ static void test_params_broadcast_and_physics(void **state)
     double me = num(h1, "client");
     assert_true(num(h2, "client") != me);
 
+    /* shape off: the default groom's stiff shape springs hold it against gravity */
+    wsc_send_text(c1, "{\"type\":\"set_params\",\"id\":\"s0\",\"values\":{\"shape\":false}}");
+    cJSON_Delete(expect_msg(fx, c1, "ok"));
+    cJSON_Delete(expect_msg(fx, c2, "params"));
+    cJSON_Delete(expect_msg(fx, c1, "params"));
     wsc_send_text(c1, "{\"type\":\"pause\",\"id\":1}");
     cJSON *ok = expect_msg(fx, c1, "ok");
     assert_true(num(ok, "id") == 1);

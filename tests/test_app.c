@@ -1,5 +1,5 @@
 /* Tests for the app's pure pieces: the command mailbox (order, coalescing, bound), the preset
- * head animations, and the stream tiers (rate decimation, sharing, the full-table fallback,
+ * head animations and the blend between them, and the stream tiers (rate decimation, sharing, the full-table fallback,
  * the publish schedule). The pipeline itself is exercised end to end by tests/it_net.c. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -8,6 +8,7 @@
 #include <cmocka.h>
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "app_internal.h"
@@ -116,6 +117,107 @@ static void test_presets(void **state)
     assert_string_equal(app_preset_names[APP_PRESET_NONE], "none");
 }
 
+static float angle_between(core_quat a, core_quat b)
+{
+    float d = fabsf(a.x * b.x + a.y * b.y + a.z * b.z + a.w * b.w);
+    return 2.0f * acosf(fminf(d, 1.0f));
+}
+
+static void test_blend_pure(void **state)
+{
+    (void)state;
+    core_xform a = { { 0.1f, 0.2f, 0.3f }, core_q_axis_angle(core_v3(0, 1, 0), 0.5f) };
+    core_xform b = { { -0.1f, 0.0f, 0.3f }, core_q_axis_angle(core_v3(1, 0, 0), -0.4f) };
+    core_xform x = app_anim_blend(a, b, 0.0);
+    assert_memory_equal(&x, &a, sizeof a);
+    x = app_anim_blend(a, b, 1.0);
+    assert_memory_equal(&x, &b, sizeof b);
+    x = app_anim_blend(a, b, 0.5);
+    assert_true(dist(x.pos, core_v3(0.0f, 0.1f, 0.3f)) < 1e-6f);
+    assert_true(fabsf(angle_between(x.rot, a.rot) - angle_between(x.rot, b.rot)) < 1e-3f);
+    /* the shorter arc: -q is the same rotation */
+    core_xform nb = { b.pos, { -b.rot.x, -b.rot.y, -b.rot.z, -b.rot.w } };
+    core_xform y = app_anim_blend(a, nb, 0.5);
+    assert_true(fabsf(x.rot.x * y.rot.x + x.rot.y * y.rot.y + x.rot.z * y.rot.z + x.rot.w * y.rot.w) > 1.0f - 1e-6f);
+    assert_true(app_anim_blend_weight(-1.0) == 0.0 && app_anim_blend_weight(0.0) == 0.0);
+    assert_true(app_anim_blend_weight(APP_ANIM_BLEND_S) == 1.0 && app_anim_blend_weight(10.0) == 1.0);
+    assert_true(fabs(app_anim_blend_weight(0.5 * APP_ANIM_BLEND_S) - 0.5) < 1e-12);
+    for (double t = 0.0; t < APP_ANIM_BLEND_S; t += 0.001) /* increasing, zero slope at the ends */
+        assert_true(app_anim_blend_weight(t + 0.001) >= app_anim_blend_weight(t));
+    assert_true(app_anim_blend_weight(0.001) < 1e-4 && 1.0 - app_anim_blend_weight(APP_ANIM_BLEND_S - 0.001) < 1e-4);
+}
+
+/* Runs s for `steps` steps of dt as the sim thread does (advance, then the pose), checking that
+ * the crown never moves 3 cm in a step (test_presets' smoothness bound); returns the last pose. */
+static core_xform run_steps(app_anim *s, int steps, double dt, core_xform prev)
+{
+    const core_vec3 crown = { 0.05f, 0.1f, 0.08f };
+    for (int i = 0; i < steps; i++) {
+        app_anim_advance(s, dt);
+        core_xform x = app_anim_pose(s);
+        if (!(dist(core_xform_point(x, crown), core_xform_point(prev, crown)) < 0.03f))
+            fail_msg("%s: the crown moves %g m in a step", app_preset_names[s->preset],
+                     dist(core_xform_point(x, crown), core_xform_point(prev, crown)));
+        prev = x;
+    }
+    return prev;
+}
+
+/* A change of preset at step boundary: the head moves < 2 mm and < 0.02 rad over the step that
+ * follows it (where snapping to the new preset, as before, moves it by centimetres or tenths of
+ * a radian), and once APP_ANIM_BLEND_S has passed it is exactly the new preset's pose. */
+static void check_switch(app_anim *s, app_preset to, double dt, bool by_motion)
+{
+    core_xform before = app_anim_pose(s);
+    core_xform snapped = app_anim_head(to, dt * s->speed, s->base); /* the old code's next pose */
+    if (by_motion) assert_true(app_anim_motion(s, s->base));
+    else app_anim_start(s, to, s->speed);
+    core_xform now = app_anim_pose(s);
+    assert_memory_equal(&now, &before, sizeof now); /* continuous at the change itself */
+    app_anim_advance(s, dt);
+    core_xform after = app_anim_pose(s);
+    float dp = dist(after.pos, before.pos), da = angle_between(after.rot, before.rot);
+    float old_dp = dist(snapped.pos, before.pos), old_da = angle_between(snapped.rot, before.rot);
+    printf("-> %s: step after the change moves %.3f mm, %.4f rad (snapping: %.1f mm, %.3f rad)\n",
+           app_preset_names[to], 1e3 * dp, da, 1e3 * old_dp, old_da);
+    assert_true(dp < 0.002f && da < 0.02f);
+    assert_false(old_dp < 0.002f && old_da < 0.02f); /* the check catches the old snap */
+    int blend_steps = (int)ceil(APP_ANIM_BLEND_S / dt);
+    after = run_steps(s, blend_steps, dt, after);
+    core_xform want = app_anim_head(to, s->time, s->base);
+    assert_memory_equal(&after, &want, sizeof want);
+}
+
+static void test_preset_switch_blends(void **state)
+{
+    (void)state;
+    const double dt = 1.0 / 60.0;
+    app_anim s;
+    app_anim_init(&s);
+    core_xform base = { { 0.1f, 1.6f, -0.2f }, core_q_norm((core_quat){ 0.0f, 0.3f, 0.0f, 0.95f }) };
+    assert_false(app_anim_motion(&s, base)); /* no preset: the head follows the client at once */
+    core_xform x = app_anim_pose(&s);
+    assert_memory_equal(&x, &base, sizeof base);
+
+    app_anim_start(&s, APP_PRESET_SHAKE, 1.0);
+    x = run_steps(&s, 25, dt, x);        /* t = 0.4167 s: shake at its 0.6 rad extreme */
+    check_switch(&s, APP_PRESET_HEADBANG, dt, false);
+    app_anim_start(&s, APP_PRESET_NOD, 1.0);
+    x = run_steps(&s, 30, dt, app_anim_pose(&s)); /* t = 0.5 s: nod at its 0.3 rad extreme */
+    check_switch(&s, APP_PRESET_NONE, dt, false);
+    check_switch(&s, APP_PRESET_CIRCLE, dt, false);
+    /* a motion while a preset runs stops it, blending too */
+    app_anim_start(&s, APP_PRESET_NOD, 1.0);
+    x = run_steps(&s, 30, dt, app_anim_pose(&s));
+    check_switch(&s, APP_PRESET_NONE, dt, true);
+    /* a change in the middle of a blend starts from the blended pose */
+    app_anim_start(&s, APP_PRESET_SHAKE, 2.0);
+    x = run_steps(&s, 13, dt, app_anim_pose(&s));
+    app_anim_start(&s, APP_PRESET_HEADBANG, 2.0);
+    x = run_steps(&s, 6, dt, x);
+    check_switch(&s, APP_PRESET_SWAY, dt, false);
+}
+
 static void test_stream_decimation(void **state)
 {
     (void)state;
@@ -220,6 +322,8 @@ int main(void)
         cmocka_unit_test(test_mailbox_order_and_coalescing),
         cmocka_unit_test(test_mailbox_bound_and_wait),
         cmocka_unit_test(test_presets),
+        cmocka_unit_test(test_blend_pure),
+        cmocka_unit_test(test_preset_switch_blends),
         cmocka_unit_test(test_stream_decimation),
         cmocka_unit_test(test_tiers_share_and_fall_back),
         cmocka_unit_test(test_tiers_due_schedule),

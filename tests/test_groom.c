@@ -12,6 +12,8 @@
 #include <unistd.h>
 
 #include "groom/groom.h"
+#include "sim/sim.h"
+#include "support/sim_check.h"
 
 /* ---- helpers ------------------------------------------------------------------------- */
 
@@ -652,11 +654,25 @@ static void write_file(const char *path, const unsigned char *b, size_t size)
     assert_int_equal(fclose(f), 0);
 }
 
+/* One fitted head ellipsoid, finite, semi-axes in [5 mm, 0.2 m], every finite root outside it
+ * by the 1 mm margin (outside the ellipsoid with 1 mm longer semi-axes). */
 static void assert_roots_outside_fit(const core_groom *g)
 {
     assert_int_equal(g->ncolliders, 1);
-    assert_int_equal(g->colliders[0].kind, CORE_COLLIDER_SPHERE);
-    for (uint32_t s = 0; s < g->nstrands; s++) assert_false(inside(&g->colliders[0], vtx(g, s, 0)));
+    const core_collider *c = &g->colliders[0];
+    assert_int_equal(c->kind, CORE_COLLIDER_ELLIPSOID);
+    const float r[3] = { c->radii.x, c->radii.y, c->radii.z }, a[3] = { c->a.x, c->a.y, c->a.z };
+    for (int k = 0; k < 3; k++) {
+        assert_true(isfinite(a[k]));
+        if (!(r[k] >= 0.005f && r[k] <= 0.2f)) fail_msg("semi-axis %d = %g", k, (double)r[k]);
+    }
+    assert_true(c->rot.x == 0.0f && c->rot.y == 0.0f && c->rot.z == 0.0f && c->rot.w == 1.0f);
+    core_collider grown = *c;
+    grown.radii = core_v3(c->radii.x + 0.001f, c->radii.y + 0.001f, c->radii.z + 0.001f);
+    for (uint32_t s = 0; s < g->nstrands; s++) {
+        core_vec3 p = vtx(g, s, 0);
+        if (isfinite(p.x) && isfinite(p.y) && isfinite(p.z)) assert_false(inside(&grown, p));
+    }
 }
 
 static void test_load_file(void **state)
@@ -702,6 +718,198 @@ static void test_load_file(void **state)
     assert_int_equal(rmdir(dir), 0);
 }
 
+/* The fitting fixture's head: an ellipsoid not at the origin. */
+static const core_vec3 fix_c = { 0.0f, 1.6f, 0.0f }, fix_r = { 0.08f, 0.10f, 0.095f };
+
+static core_vec3 fix_project_out(core_vec3 p, core_vec3 c, core_vec3 r, float margin)
+{
+    core_vec3 l = core_v3_sub(p, c);
+    float x = l.x / (r.x + margin), y = l.y / (r.y + margin), z = l.z / (r.z + margin), f = x * x + y * y + z * z;
+    if (f >= 1.0f) return p;
+    return core_v3_add(c, core_v3_scale(l, 1.0f / sqrtf(f)));
+}
+
+typedef enum fix_hair { FIX_HANGING, FIX_OUTWARD } fix_hair;
+
+/* ns strands x nv vertices, length 0.4 m, roots on the ellipsoid (c, r) at unit directions
+ * spread over the part with direction y >= ymin (golden-spiral order, deterministic).
+ * FIX_HANGING: the first segment points down as far as the scalp allows (-y along the
+ * surface, to the back at the crown), then every segment goes -y, draped 1 mm outside the
+ * ellipsoid. FIX_OUTWARD: the first three segments go along the surface normal, then -y. */
+static void fix_groom(core_groom *g, uint32_t ns, uint32_t nv, core_vec3 c, core_vec3 r, float ymin, fix_hair hair)
+{
+    core_err e;
+    assert_int_equal(core_groom_alloc(g, ns, nv, &e), CORE_OK);
+    float seg = 0.4f / (float)(nv - 1);
+    for (uint32_t s = 0; s < ns; s++) {
+        float u = ((float)s + 0.5f) / (float)ns, y = ymin + (1.0f - ymin) * u, ring = sqrtf(fmaxf(0.0f, 1.0f - y * y));
+        float phi = 2.399963f * (float)s;
+        core_vec3 d = core_v3(ring * cosf(phi), y, ring * sinf(phi));
+        core_vec3 root = core_v3_add(c, core_v3(d.x * r.x, d.y * r.y, d.z * r.z));
+        core_vec3 n = core_v3_norm(core_v3(d.x / r.x, d.y / r.y, d.z / r.z));
+        core_vec3 down = core_v3(0.0f, -1.0f, 0.0f), first;
+        if (hair == FIX_HANGING) {
+            first = core_v3_sub(down, core_v3_scale(n, core_v3_dot(down, n)));
+            first = core_v3_len(first) > 1e-3f ? core_v3_norm(first) : core_v3(0.0f, 0.0f, -1.0f);
+            first = core_v3_norm(core_v3_add(first, core_v3_scale(n, 0.02f))); /* just off the scalp */
+        } else {
+            first = n;
+        }
+        float *p = g->pos + (size_t)s * nv * 3;
+        p[0] = root.x, p[1] = root.y, p[2] = root.z;
+        core_vec3 prev = root;
+        for (uint32_t v = 1; v < nv; v++) {
+            core_vec3 dir = v == 1 || (hair == FIX_OUTWARD && v <= 3) ? first : down;
+            core_vec3 q = core_v3_add(prev, core_v3_scale(dir, seg));
+            if (v > 1) {
+                q = fix_project_out(q, c, r, 0.001f);
+                q = core_v3_add(prev, core_v3_scale(core_v3_norm(core_v3_sub(q, prev)), seg));
+            }
+            p[3 * v] = q.x, p[3 * v + 1] = q.y, p[3 * v + 2] = q.z;
+            prev = q;
+        }
+    }
+}
+
+/* The fit is within tol_c (m) of centre c and rel_r of radii r; reports the figures. */
+static void assert_fit_near(const core_groom *g, core_vec3 c, core_vec3 r, float tol_c, float rel_r, const char *what)
+{
+    assert_roots_outside_fit(g);
+    const core_collider *h = &g->colliders[0];
+    float dc = core_v3_len(core_v3_sub(h->a, c));
+    float er[3] = { h->radii.x / r.x - 1.0f, h->radii.y / r.y - 1.0f, h->radii.z / r.z - 1.0f };
+    printf("%s: centre (%.4f %.4f %.4f) off by %.1f mm, radii (%.4f %.4f %.4f) off by %+.1f%% %+.1f%% %+.1f%%\n", what,
+           (double)h->a.x, (double)h->a.y, (double)h->a.z, 1e3 * (double)dc, (double)h->radii.x, (double)h->radii.y,
+           (double)h->radii.z, 100.0 * er[0], 100.0 * er[1], 100.0 * er[2]);
+    assert_true(dc < tol_c);
+    for (int k = 0; k < 3; k++) assert_true(fabsf(er[k]) < rel_r);
+}
+
+/* Hanging long hair: the old fit (first-segment direction) put its sphere above the head; the
+ * roots alone give the head back. Then 2 s of the C solver leave < 1% of strands inside it. */
+static void test_fit_hanging(void **state)
+{
+    (void)state;
+    core_groom g;
+    fix_groom(&g, 600, 16, fix_c, fix_r, 0.0f, FIX_HANGING);
+    double mean_dy = 0.0; /* the fixture's hair does start downward */
+    for (uint32_t s = 0; s < g.nstrands; s++) mean_dy += vtx(&g, s, 1).y - vtx(&g, s, 0).y;
+    assert_true(mean_dy < 0.0);
+    groom_fit_colliders(&g);
+    assert_fit_near(&g, fix_c, fix_r, 0.015f, 0.15f, "hanging hair fit");
+
+    sim_params p;
+    sim_params_default(&p);
+    sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = 2 };
+    sim sm;
+    core_err e;
+    if (sim_create(&sm, &d, &g, &p, &e) != CORE_OK) fail_msg("sim_create: %s", e.msg);
+    int steps = (int)lround(2.0 / p.dt);
+    for (int i = 0; i < steps; i++) {
+        sim_set_motion(&sm, core_xform_identity());
+        if (sim_step(&sm, &e) != CORE_OK) fail_msg("sim_step: %s", e.msg);
+    }
+    float *x = malloc(sizeof(float) * 3 * g.nstrands * g.nverts);
+    assert_non_null(x);
+    assert_int_equal(sim_read_positions(&sm, x, &e), CORE_OK);
+    /* a strand is in when a vertex is deeper than 0.1 mm: the solver leaves colliding vertices
+     * on the surface, where float rounding puts some a few nm inside */
+    core_collider shrunk = g.colliders[0];
+    shrunk.radii = core_v3(shrunk.radii.x - 1e-4f, shrunk.radii.y - 1e-4f, shrunk.radii.z - 1e-4f);
+    uint32_t in = 0, touching = 0;
+    for (uint32_t s = 0; s < g.nstrands; s++) {
+        int any = 0, touch = 0;
+        for (uint32_t v = 1; v < g.nverts; v++) {
+            const float *q = x + ((size_t)s * g.nverts + v) * 3;
+            any |= inside(&shrunk, core_v3(q[0], q[1], q[2]));
+            touch |= inside(&g.colliders[0], core_v3(q[0], q[1], q[2]));
+        }
+        in += (uint32_t)any;
+        touching += (uint32_t)touch;
+    }
+    double deepest = simcheck_deepest_penetration(&g, core_xform_identity(), x);
+    printf("after %d steps: %u of %u strands (%.2f%%) have a vertex over 0.1 mm inside the fitted head "
+           "(%u on or inside its surface), deepest %.3g of its radius\n",
+           steps, in, g.nstrands, 100.0 * in / g.nstrands, touching, deepest);
+    assert_true(in * 100u < g.nstrands);
+    free(x);
+    sim_destroy(&sm);
+    core_groom_free(&g);
+}
+
+static void test_fit_outward(void **state)
+{
+    (void)state;
+    core_groom g;
+    fix_groom(&g, 600, 16, fix_c, fix_r, 0.0f, FIX_OUTWARD);
+    groom_fit_colliders(&g);
+    assert_fit_near(&g, fix_c, fix_r, 0.015f, 0.15f, "outward hair fit");
+    core_groom_free(&g);
+}
+
+/* Roots on a sphere patch only at the top (directions within ~50 degrees of +y). */
+static void test_fit_top_patch(void **state)
+{
+    (void)state;
+    core_groom g;
+    const core_vec3 c = { 0.02f, 1.5f, -0.01f }, r = { 0.09f, 0.09f, 0.09f };
+    fix_groom(&g, 300, 8, c, r, 0.64f, FIX_HANGING);
+    groom_fit_colliders(&g);
+    assert_fit_near(&g, c, r, 0.015f, 0.15f, "top patch fit");
+    core_groom_free(&g);
+}
+
+/* Degenerate root sets: a sane collider (finite, plausible, every root outside) or none. */
+static void check_degenerate(const float *roots, uint32_t n, const char *what)
+{
+    core_groom g;
+    core_err e;
+    assert_int_equal(core_groom_alloc(&g, n, 2, &e), CORE_OK);
+    for (uint32_t s = 0; s < n; s++) {
+        float *p = g.pos + (size_t)s * 6;
+        memcpy(p, roots + 3 * s, sizeof(float) * 3);
+        p[3] = roots[3 * s], p[4] = roots[3 * s + 1] - 0.01f, p[5] = roots[3 * s + 2];
+    }
+    groom_fit_colliders(&g);
+    printf("%s: %u collider(s)\n", what, g.ncolliders);
+    if (g.ncolliders) {
+        assert_roots_outside_fit(&g);
+        const core_collider *c = &g.colliders[0];
+        printf("  centre (%.4f %.4f %.4f) radii (%.4f %.4f %.4f)\n", (double)c->a.x, (double)c->a.y, (double)c->a.z,
+               (double)c->radii.x, (double)c->radii.y, (double)c->radii.z);
+    }
+    core_groom_free(&g);
+}
+
+static void test_fit_degenerate(void **state)
+{
+    (void)state;
+    float one[3] = { 0.1f, 1.7f, 0.0f };
+    check_degenerate(one, 1, "one strand");
+    float same[12] = { 0.1f, 1.7f, 0, 0.1f, 1.7f, 0, 0.1f, 1.7f, 0, 0.1f, 1.7f, 0 };
+    check_degenerate(same, 4, "four identical roots");
+    float line[30];
+    for (int i = 0; i < 10; i++) line[3 * i] = 0.02f * (float)i, line[3 * i + 1] = 1.7f + 0.01f * (float)i, line[3 * i + 2] = 0.0f;
+    check_degenerate(line, 10, "collinear roots");
+    float plane[75];
+    for (int i = 0; i < 25; i++) plane[3 * i] = 0.03f * (float)(i % 5), plane[3 * i + 1] = 1.7f, plane[3 * i + 2] = 0.03f * (float)(i / 5);
+    check_degenerate(plane, 25, "coplanar roots");
+    float wide[75];
+    for (int i = 0; i < 25; i++) wide[3 * i] = 3.0f * (float)(i % 5), wide[3 * i + 1] = 1.7f, wide[3 * i + 2] = 2.0f * (float)(i / 5);
+    check_degenerate(wide, 25, "coplanar roots metres apart");
+    float mixed[15] = { 0.0f, 1.7f, 0.0f, NAN, 1.0f, 0.0f, 0.05f, 1.68f, 0.0f, INFINITY, 0.0f, 0.0f, 0.0f, 1.68f, 0.05f };
+    check_degenerate(mixed, 5, "non-finite roots among finite ones");
+    float bad[6] = { NAN, NAN, NAN, INFINITY, -INFINITY, 0.0f };
+    core_groom g;
+    core_err e;
+    assert_int_equal(core_groom_alloc(&g, 2, 2, &e), CORE_OK);
+    memcpy(g.pos, bad, sizeof bad);
+    memcpy(g.pos + 6, bad, sizeof bad);
+    groom_fit_colliders(&g);
+    assert_int_equal(g.ncolliders, 0); /* no finite root: no collider */
+    core_groom_free(&g);
+}
+
 static void test_fit_colliders(void **state)
 {
     (void)state;
@@ -710,9 +918,9 @@ static void test_fit_colliders(void **state)
     groom_desc desc = { .nstrands = 800, .nverts = 8, .seed = 9 };
     assert_int_equal(groom_procedural(&desc, &g, &e), CORE_OK);
     groom_fit_colliders(&g);
-    assert_roots_outside_fit(&g);
-    assert_true(g.colliders[0].radius > 0.03f);
-    assert_true(g.colliders[0].a.y < 0.05f); /* under the scalp */
+    /* the procedural roots lie 1 mm outside the default head, which the fit finds again */
+    assert_fit_near(&g, core_v3(0.0f, 0.0f, 0.0f), core_v3(GROOM_HEAD_RX, GROOM_HEAD_RY, GROOM_HEAD_RZ), 0.015f, 0.15f,
+                    "procedural groom fit");
     core_groom_free(&g);
 }
 
@@ -742,6 +950,20 @@ static void test_ratboy(void **state)
         assert_float_equal(hi[c], want_hi[c], 0.003f);
     }
     assert_roots_outside_fit(&g);
+    /* the head sits under the mohawk: centre below the roots' centroid, between their x and z */
+    const core_collider *h = &g.colliders[0];
+    core_vec3 m = core_v3(0, 0, 0), rlo = vtx(&g, 0, 0), rhi = rlo;
+    for (uint32_t s = 0; s < g.nstrands; s++) {
+        core_vec3 r = vtx(&g, s, 0);
+        m = core_v3_add(m, core_v3_scale(r, 1.0f / (float)g.nstrands));
+        rlo = core_v3(fminf(rlo.x, r.x), fminf(rlo.y, r.y), fminf(rlo.z, r.z));
+        rhi = core_v3(fmaxf(rhi.x, r.x), fmaxf(rhi.y, r.y), fmaxf(rhi.z, r.z));
+    }
+    printf("ratboy roots (%.3f..%.3f, %.3f..%.3f, %.3f..%.3f), fitted head centre (%.4f %.4f %.4f) radii (%.4f %.4f %.4f)\n",
+           (double)rlo.x, (double)rhi.x, (double)rlo.y, (double)rhi.y, (double)rlo.z, (double)rhi.z, (double)h->a.x,
+           (double)h->a.y, (double)h->a.z, (double)h->radii.x, (double)h->radii.y, (double)h->radii.z);
+    assert_true(h->a.y < m.y);
+    assert_true(h->a.x >= rlo.x && h->a.x <= rhi.x && h->a.z >= rlo.z && h->a.z <= rhi.z);
     core_groom_free(&g);
 }
 
@@ -765,6 +987,10 @@ int main(void)
         cmocka_unit_test(test_truncation_and_flips),
         cmocka_unit_test(test_load_file),
         cmocka_unit_test(test_fit_colliders),
+        cmocka_unit_test(test_fit_hanging),
+        cmocka_unit_test(test_fit_outward),
+        cmocka_unit_test(test_fit_top_patch),
+        cmocka_unit_test(test_fit_degenerate),
         cmocka_unit_test(test_ratboy),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -296,7 +296,7 @@ static void test_param_validation(void **state)
     assert_int_equal(sim_params_validate(&p, &err), CORE_EINVAL);
     assert_non_null(strstr(err.msg, "damping"));
     sim_params_default(&p);
-    p.local_stiffness = 0.5f;
+    p.local_stiffness = 2.0e8f;
     assert_int_equal(sim_params_validate(&p, &err), CORE_EINVAL);
     assert_non_null(strstr(err.msg, "local_stiffness"));
     sim_params_default(&p);

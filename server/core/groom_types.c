@@ -1,4 +1,4 @@
-/* core: allocation helpers for core_groom. */
+/* core: allocation, release and deep copies of core_groom. */
 #include "groom_types.h"
 
 #include <stdlib.h>
@@ -23,6 +23,10 @@ core_status core_groom_alloc(core_groom *g, uint32_t nstrands, uint32_t nverts, 
 void core_groom_free(core_groom *g)
 {
     free(g->pos);
+    if (g->mesh) core_mesh_free(g->mesh);
+    if (g->sdf) core_sdf_free(g->sdf);
+    free(g->mesh);
+    free(g->sdf);
     memset(g, 0, sizeof *g);
 }
 
@@ -33,5 +37,16 @@ core_status core_groom_copy(core_groom *dst, const core_groom *src, core_err *er
     memcpy(dst->pos, src->pos, (size_t)src->nstrands * src->nverts * 3 * sizeof(float));
     dst->ncolliders = src->ncolliders;
     memcpy(dst->colliders, src->colliders, sizeof src->colliders);
-    return CORE_OK;
+    if (src->mesh) {
+        dst->mesh = malloc(sizeof *dst->mesh);
+        st = dst->mesh ? core_mesh_copy(dst->mesh, src->mesh, err)
+                       : core_fail(err, CORE_ENOMEM, "out of memory copying the groom's mesh");
+    }
+    if (st == CORE_OK && src->sdf) {
+        dst->sdf = malloc(sizeof *dst->sdf);
+        st = dst->sdf ? core_sdf_copy(dst->sdf, src->sdf, err)
+                      : core_fail(err, CORE_ENOMEM, "out of memory copying the groom's distance grid");
+    }
+    if (st != CORE_OK) core_groom_free(dst);
+    return st;
 }

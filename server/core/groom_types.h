@@ -6,6 +6,7 @@
 
 #include "core.h"
 #include "math3.h"
+#include "sdf.h"
 
 typedef enum core_collider_kind {
     CORE_COLLIDER_SPHERE = 0,   /* center a, radius */
@@ -27,23 +28,30 @@ typedef struct core_collider {
 /* Guide strands in the head's local frame (metres, y up), each with the same number of
  * vertices, arc-length uniform; vertex 0 is the root.
  * pos is strand-major: vertex v of strand s is pos[3 * (s * nverts + v) + {0,1,2}].
- * The groom owns pos; release it with core_groom_free. */
+ * mesh and sdf are the optional character collision shape (head frame; NULL = none): the
+ * closed triangle mesh and its signed distance grid.
+ * The groom owns pos, mesh and sdf; release them with core_groom_free. A groom may be moved
+ * by struct assignment only when the source is then zeroed, never copied (core_groom_copy). */
 typedef struct core_groom {
     uint32_t nstrands;
     uint32_t nverts;
     float *pos;
     uint32_t ncolliders;
     core_collider colliders[CORE_MAX_COLLIDERS];
+    core_mesh *mesh; /* owned, NULL = none */
+    core_sdf *sdf;   /* owned, NULL = none */
 } core_groom;
 
-/* Allocates a zeroed groom of nstrands x nverts (nverts >= 2). Caller owns the result and
+/* Allocates a zeroed groom of nstrands x nverts (nverts >= 2; no mesh, no sdf). Caller owns the result and
  * frees it with core_groom_free. Any thread. */
 core_status core_groom_alloc(core_groom *g, uint32_t nstrands, uint32_t nverts, core_err *err);
 
-/* Frees g->pos and zeroes the struct; safe on a zeroed or already freed groom. */
+/* Frees g->pos, g->mesh and g->sdf and zeroes the struct; safe on a zeroed or already freed
+ * groom. Any thread. */
 void core_groom_free(core_groom *g);
 
-/* Deep copy of src into dst (dst must be zeroed or freed). */
+/* Deep copy of src into dst, mesh and sdf included (dst must be zeroed or freed; on failure
+ * it is left zeroed). The caller owns dst. Any thread. */
 core_status core_groom_copy(core_groom *dst, const core_groom *src, core_err *err);
 
 #endif

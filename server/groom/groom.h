@@ -1,4 +1,5 @@
-/* groom: procedural grooms, .tfx / .hair loaders, resampling and character colliders. */
+/* groom: procedural grooms, .tfx / .hair loaders, resampling, character colliders, collision
+ * meshes (.obj / .tfxmesh) and their signed distance fields. */
 #ifndef GROOM_GROOM_H
 #define GROOM_GROOM_H
 
@@ -7,6 +8,7 @@
 
 #include "../core/core.h"
 #include "../core/groom_types.h"
+#include "../core/sdf.h"
 
 /* Limits shared by the procedural generator and the loaders. */
 #define GROOM_MAX_STRANDS (1u << 22)      /* strands per groom */
@@ -88,12 +90,84 @@ core_status groom_resample_polyline(const float *in, uint32_t n_in, float *out, 
  * origin), a neck capsule and two shoulder capsules. Pure. */
 void groom_default_colliders(core_groom *g);
 
-/* Replaces g's colliders by one head sphere fitted under the roots (for file grooms):
- * c = centroid of the roots, n = mean root direction (first segments, normalised; +y when
- * they cancel), R = the largest distance of a root from the axis through c along n, clamped
- * to [0.04, 0.25] m; the centre is c - n * R and the radius the smallest root distance from
- * it minus 1 mm, so every root is outside. Leaves g without colliders when the radius would
- * be under 5 mm. Needs g->nverts >= 2. Pure. */
+/* Replaces g's colliders by one head ellipsoid (CORE_COLLIDER_ELLIPSOID, axis-aligned in the
+ * head frame) fitted to the roots alone (vertex 0 of each strand, taken to lie on the scalp;
+ * the strands' directions are not used, so hanging hair fits as well as hair growing out).
+ * The fit: an algebraic sphere fit in the space scaled by the default head proportions
+ * (GROOM_HEAD_RX : RY : RZ) as the start, then a least-squares fit of centre and semi-axes to
+ * the roots' radial residuals, regularised toward those proportions and (weakly) toward the
+ * size the roots' x/z spread implies, semi-axes kept in [0.05, 0.2] m. When the roots do not
+ * determine it (fewer than 4, collinear, coplanar) or the centre comes out above the roots'
+ * centroid (by more than 1 cm), the prior is used instead: the default head scaled to the
+ * roots' x/z spread, centred over them, its top at the highest root. Finally the ellipsoid is
+ * shrunk about its centre so that every root lies outside it by 1 mm (in the sense of
+ * groom_collider_push_out: outside the ellipsoid whose semi-axes are 1 mm longer); roots never
+ * start inside. Non-finite roots are ignored. Leaves g without colliders when no root is
+ * finite or a semi-axis would be under 5 mm; never emits a non-finite collider. Needs
+ * g->nverts >= 2. Pure (allocates a scratch copy of the roots; on allocation failure g is
+ * left without colliders). Any thread. */
 void groom_fit_colliders(core_groom *g);
+
+/* ---- collision meshes and signed distance fields ------------------------------------- */
+
+#define GROOM_MESH_MAX_VERTS (1u << 20)       /* vertices per collision mesh */
+#define GROOM_MESH_MAX_TRIS (1u << 21)        /* triangles per collision mesh (after fan triangulation) */
+#define GROOM_MESH_MAX_FILE_BYTES (256u << 20) /* groom_mesh_load_file refuses larger files */
+#define GROOM_MESH_MAX_LINE 4096u              /* bytes per text line, newline excluded */
+#define GROOM_MESH_MAX_COORD 100.0f            /* |coordinate| limit, metres */
+
+/* Checks that m is a valid collision mesh: 1..GROOM_MESH_MAX_VERTS vertices, finite
+ * coordinates within GROOM_MESH_MAX_COORD, 1..GROOM_MESH_MAX_TRIS triangles with indices in
+ * range and no repeated index, closed and manifold with a consistent orientation (every
+ * undirected edge used by exactly two triangles, once in each direction) and a positive
+ * enclosed volume (counter-clockwise seen from outside). CORE_EFORMAT with a message naming the
+ * triangles, vertices or edge at fault; CORE_ENOMEM. Pure, any thread. */
+core_status groom_mesh_check(const core_mesh *m, core_err *err);
+
+/* Loads a Wavefront .obj image of size bytes (not NUL-terminated; never read outside
+ * data[0, size)). Reads `v x y z [...]` and `f` lines (3 or more vertices, fan-triangulated;
+ * `i`, `i/t`, `i//n`, `i/t/n` forms; negative indices count back from the last vertex read);
+ * comments (#) and every other line type are ignored. A face may only use vertices defined
+ * above it. The result must pass groom_mesh_check. A malformed image is refused with
+ * CORE_EFORMAT and a message naming the line (or triangles/edge). out is overwritten; the
+ * caller owns it (core_mesh_free). Pure, any thread. */
+core_status groom_mesh_load_obj(const void *data, size_t size, core_mesh *out, core_err *err);
+
+/* Loads a TressFX .tfxmesh image (text, layout in shared/assets/README.md) of size bytes:
+ * `#` comments and blank lines skipped, an optional `numOfBones N` section (N lines, ignored),
+ * `numOfVertices N` with N lines `i x y z ...` (i = 0..N-1 in order; only x y z are used),
+ * `numOfTriangles N` with N lines `i v0 v1 v2`; nothing but comments may follow. Bounds,
+ * validation, errors and ownership as groom_mesh_load_obj. Pure, any thread. */
+core_status groom_mesh_load_tfxmesh(const void *data, size_t size, core_mesh *out, core_err *err);
+
+/* Reads the file at path (at most GROOM_MESH_MAX_FILE_BYTES) and loads it by extension (.obj or
+ * .tfxmesh, case-insensitive). CORE_EIO when it cannot be read, CORE_EINVAL for an unknown
+ * extension or a file too large, the loader's error (prefixed by the path) otherwise. out is
+ * overwritten; the caller owns it. Blocking file I/O, any thread. */
+core_status groom_mesh_load_file(const char *path, core_mesh *out, core_err *err);
+
+#define GROOM_SDF_DEFAULT_CELL 0.002f         /* metres */
+#define GROOM_SDF_DEFAULT_MAX_CELLS (16u << 20) /* samples */
+
+/* Signed distance field settings; zero means default for every field. */
+typedef struct groom_sdf_desc {
+    float cell;         /* sample spacing, m; 0 = GROOM_SDF_DEFAULT_CELL; else finite, > 0 */
+    core_vec3 lo, hi;   /* region, mesh frame; both all-zero = the mesh bounds grown by 4 cells,
+                           else lo < hi on every axis and the region is grown by 2 cells */
+    uint32_t max_cells; /* 0 = GROOM_SDF_DEFAULT_MAX_CELLS (at least 8 are used); when the region
+                           needs more samples the cell grows until it fits */
+} groom_sdf_desc;
+
+/* Builds the signed distance grid of the closed mesh m (checked with groom_mesh_check) over
+ * the region of d (NULL = defaults): out->cell >= d->cell, out->origin = region low corner,
+ * dims cover the region. Samples within 3 cells of the surface hold the exact distance to the
+ * nearest triangle (float precision); farther ones the distance to a surface point found by
+ * propagating nearest points through the grid (never below the true distance to the surface
+ * parts within 3 cells of the grid; typically exact to a fraction of a cell). The sign is
+ * exact everywhere (inside = winding number of the mesh around the sample is nonzero, counted
+ * along +x grid lines with exact, consistently tie-broken crossing tests). Transient memory
+ * about 18 bytes per sample. out is overwritten; the caller owns it (core_sdf_free).
+ * CORE_EINVAL for a bad desc, the check's error for a bad mesh, CORE_ENOMEM. Pure, any thread. */
+core_status groom_sdf_build(const core_mesh *m, const groom_sdf_desc *d, core_sdf *out, core_err *err);
 
 #endif

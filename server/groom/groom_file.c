@@ -1,5 +1,7 @@
-/* groom: reads a groom file from disk and dispatches to the loader for its extension. */
+/* groom: reads a groom file from disk and dispatches to the loader for its extension; the
+ * file reader shared with the mesh loader. */
 #include "groom.h"
+#include "groom_internal.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -7,27 +9,27 @@
 #include <string.h>
 #include <strings.h>
 
-static int has_ext(const char *path, const char *ext)
+int groom_has_ext(const char *path, const char *ext)
 {
     size_t n = strlen(path), e = strlen(ext);
     return n > e && strcasecmp(path + n - e, ext) == 0;
 }
 
-/* Reads the whole file into a malloc'd buffer (caller frees). */
-static core_status read_all(const char *path, unsigned char **data, size_t *size, core_err *err)
+core_status groom_read_all(const char *path, size_t max_bytes, const char *what, unsigned char **data, size_t *size,
+                           core_err *err)
 {
     FILE *f = fopen(path, "rb");
-    if (!f) return core_fail(err, CORE_EIO, "cannot open groom file '%s': %s", path, strerror(errno));
+    if (!f) return core_fail(err, CORE_EIO, "cannot open %s '%s': %s", what, path, strerror(errno));
     size_t cap = 1 << 16, n = 0;
     unsigned char *buf = malloc(cap);
     core_status st = buf ? CORE_OK : core_fail(err, CORE_ENOMEM, "out of memory reading '%s'", path);
     while (st == CORE_OK) {
-        if (n > GROOM_MAX_FILE_BYTES) {
-            st = core_fail(err, CORE_EINVAL, "groom file '%s' is larger than %u bytes", path, GROOM_MAX_FILE_BYTES);
+        if (n > max_bytes) {
+            st = core_fail(err, CORE_EINVAL, "%s '%s' is larger than %zu bytes", what, path, max_bytes);
             break;
         }
         if (n == cap) { /* grow, at most to one byte past the cap so oversize files are seen */
-            size_t ncap = cap * 2 > (size_t)GROOM_MAX_FILE_BYTES + 1 ? (size_t)GROOM_MAX_FILE_BYTES + 1 : cap * 2;
+            size_t ncap = cap * 2 > max_bytes + 1 ? max_bytes + 1 : cap * 2;
             unsigned char *nb = realloc(buf, ncap);
             if (!nb) {
                 st = core_fail(err, CORE_ENOMEM, "out of memory reading '%s' (%zu bytes so far)", path, n);
@@ -39,7 +41,7 @@ static core_status read_all(const char *path, unsigned char **data, size_t *size
         size_t got = fread(buf + n, 1, cap - n, f);
         n += got;
         if (got == 0) {
-            if (ferror(f)) st = core_fail(err, CORE_EIO, "error reading groom file '%s'", path);
+            if (ferror(f)) st = core_fail(err, CORE_EIO, "error reading %s '%s'", what, path);
             break;
         }
     }
@@ -57,12 +59,12 @@ core_status groom_load_file(const char *path, uint32_t nverts, core_groom *out, 
 {
     memset(out, 0, sizeof *out);
     if (!path) return core_fail(err, CORE_EINVAL, "no groom file path");
-    int tfx = has_ext(path, ".tfx"), hair = has_ext(path, ".hair");
+    int tfx = groom_has_ext(path, ".tfx"), hair = groom_has_ext(path, ".hair");
     if (!tfx && !hair)
         return core_fail(err, CORE_EINVAL, "groom file '%s' has an unknown extension (expected .tfx or .hair)", path);
     unsigned char *data = NULL;
     size_t size = 0;
-    core_status st = read_all(path, &data, &size, err);
+    core_status st = groom_read_all(path, GROOM_MAX_FILE_BYTES, "groom file", &data, &size, err);
     if (st != CORE_OK) return st;
     core_err e;
     st = tfx ? groom_load_tfx(data, size, nverts, out, &e) : groom_load_hair(data, size, nverts, out, &e);

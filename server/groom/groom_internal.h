@@ -6,6 +6,7 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "../core/core.h"
 #include "../core/groom_types.h"
 #include "../core/math3.h"
 
@@ -38,6 +39,23 @@ static inline float groom_rd_f32(const unsigned char *b, size_t off)
  * prefixed by `what`), and resamples them into out[3 * n_out]. */
 core_status groom_take_strand(const unsigned char *data, size_t off, size_t stride, uint32_t n_in, float *tmp,
                               float *out, uint32_t n_out, uint32_t strand, const char *what, core_err *err);
+
+/* 1 when path ends in ext (case-insensitive) after at least one other character. Pure. */
+int groom_has_ext(const char *path, const char *ext);
+
+/* Reads the whole file at path into a malloc'd buffer (*data, *size; the caller frees it);
+ * refuses files over max_bytes (CORE_EINVAL). what names the file in messages ("groom file").
+ * Blocking I/O, any thread. */
+core_status groom_read_all(const char *path, size_t max_bytes, const char *what, unsigned char **data, size_t *size,
+                           core_err *err);
+
+/* Winding number of the closed mesh m around every sample of the grid g (dims, origin and
+ * cell used; g->d untouched), written to wind[dims[0]*dims[1]*dims[2]] (x fastest): counted
+ * along +x grid lines from the crossings of each line with the triangles in front of the
+ * sample, with a consistent tie-break (a symbolic perturbation of the line) so that a line
+ * through an edge or vertex counts it exactly once. Nonzero = inside. m must have passed
+ * groom_mesh_check. Pure, any thread. */
+void groom_sdf_winding(const core_mesh *m, const core_sdf *g, int16_t *wind);
 
 /* splitmix64 generator: the state is the caller's. */
 typedef struct groom_rng { uint64_t s; } groom_rng;

@@ -8,9 +8,7 @@
 #include "../core/core.h"
 #include "../core/groom_types.h"
 #include "../core/param.h"
-
-/* The largest neighbor_cap the parameter table accepts (backends size buffers by it). */
-#define SIM_MAX_NEIGHBOR_CAP 64
+#include "sim_limits.h"
 
 /* Physical and numerical parameters. Ranges and defaults are in sim_param_table();
  * sim_params_default() fills the defaults. Applied by a backend at a step boundary. */
@@ -19,10 +17,12 @@ typedef struct sim_params {
     int32_t substeps;         /* solver substeps per step */
     float gravity;            /* m/s^2 along -y (world) */
     float wind_x, wind_y, wind_z; /* wind acceleration, m/s^2 (world) */
-    float damping;            /* s_d: DFTL velocity correction, [0,1] */
-    float global_stiffness;   /* s_g: pull toward rest pose in the root frame */
-    float local_stiffness;    /* s_l: pull toward rest shape in the parent's frame */
-    float stiffness_tip;      /* s_g and s_l at the tip as a fraction of their root value */
+    float damping;            /* internal damping: velocity relative to the parent vertex decays at this rate, 1/s */
+    float air_drag;           /* every vertex's velocity decays at this rate, 1/s */
+    float dftl_correction;    /* s_d: DFTL velocity correction (eq. 14), [0,1] */
+    float global_stiffness;   /* pull toward the rest pose in the root frame, 1/s^2 */
+    float local_stiffness;    /* pull toward the rest shape in the parent's frame, 1/s^2 */
+    float stiffness_tip;      /* both stiffnesses at the tip as a fraction of their root value */
     float repulsion;          /* SPH pressure coefficient k */
     float viscosity;          /* SPH viscosity (friction between strands), 1/s */
     float sph_radius;         /* SPH smoothing length h, m */

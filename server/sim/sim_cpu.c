@@ -9,12 +9,7 @@
 
 static void update_stiffness(sim_cpu *c)
 {
-    for (uint32_t l = 0; l < c->nv; l++) {
-        float t = (float)l / (float)(c->nv - 1);
-        float fade = 1.0f + (c->params.stiffness_tip - 1.0f) * t;
-        c->sg[l] = c->params.shape ? c->params.global_stiffness * fade : 0.0f;
-        c->sl[l] = c->params.shape ? c->params.local_stiffness * fade : 0.0f;
-    }
+    for (uint32_t l = 0; l < c->nv; l++) sim_step_stiffness(&c->params, l, c->nv, &c->sg[l], &c->sl[l]);
 }
 
 static void cpu_reset(void *self)
@@ -69,16 +64,9 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
                               core_err *err)
 {
     *out = NULL;
-    if (!g || !g->pos || g->nstrands == 0 || g->nverts < 2)
-        return core_fail(err, CORE_EINVAL, "groom must have at least 1 strand of 2 vertices");
-    if (g->ncolliders > CORE_MAX_COLLIDERS)
-        return core_fail(err, CORE_EINVAL, "groom has %u colliders, more than %d", g->ncolliders, CORE_MAX_COLLIDERS);
-    size_t n, bytes;
-    if (!core_mul_size(g->nstrands, g->nverts, &n) || n > UINT32_MAX / 2 || !core_mul_size(n, sizeof(float), &bytes))
-        return core_fail(err, CORE_ENOMEM, "groom of %u x %u vertices is too large", g->nstrands, g->nverts);
-    for (size_t i = 0; i < 3 * n; i++)
-        if (!isfinite(g->pos[i]))
-            return core_fail(err, CORE_EINVAL, "groom vertex %zu is not finite", i / 3);
+    core_status gst = sim_groom_check(g, err);
+    if (gst != CORE_OK) return gst;
+    const size_t n = (size_t)g->nstrands * g->nverts, bytes = n * sizeof(float);
     sim_cpu *c = calloc(1, sizeof *c);
     if (!c) return core_fail(err, CORE_ENOMEM, "out of memory");
     c->ns = g->nstrands;
@@ -105,11 +93,7 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
         for (uint32_t l = 0; l < c->nv; l++)
             for (int k = 0; k < 3; k++)
                 c->rest[k][(size_t)l * c->ns + s] = g->pos[3 * ((size_t)c->perm[s] * c->nv + l) + k];
-    for (size_t i = c->ns; i < n; i++) {
-        float dx = c->rest[0][i] - c->rest[0][i - c->ns], dy = c->rest[1][i] - c->rest[1][i - c->ns],
-              dz = c->rest[2][i] - c->rest[2][i - c->ns];
-        c->max_segment = fmaxf(c->max_segment, sqrtf(dx * dx + dy * dy + dz * dz));
-    }
+    c->max_segment = sim_groom_max_segment(g);
     c->sph.scalar = desc && desc->scalar_only;
     core_status st = sim_pool_init(&c->pool, desc ? desc->threads : 0, err);
     if (st != CORE_OK) {
@@ -135,7 +119,9 @@ static core_status cpu_step(void *self, core_err *err)
     sim_cpu *c = self;
     unsigned long long t0 = core_now_ns(), t1 = t0;
     const float dt = c->params.dt;
-    bool sph = c->params.sph && c->params.repulsion + c->params.viscosity > 0.0f;
+    const sim_groom_info gi = { c->ncolliders, c->colliders, c->rho_rest_valid ? c->rho_rest : 1.0f };
+    sim_step_plan(&c->params, &gi, c->prev_head, c->head, &c->step);
+    const bool sph = c->step.sph;
     if (sph) {
         if (!c->rho_rest_valid) {
             double mean;
@@ -143,17 +129,14 @@ static core_status cpu_step(void *self, core_err *err)
             if (st != CORE_OK) return st;
             c->rho_rest = (float)mean;
             c->rho_rest_valid = true;
+            c->step.inv_rho0 = 1.0f / (c->params.rest_density * c->rho_rest);
         }
         bool rebuild = c->stats.steps % (uint64_t)c->params.neighbor_rebuild == 0;
         core_status st = sim_cpu_sph_pass(c, c->x, c->v, dt, rebuild, NULL, err);
         if (st != CORE_OK) return st;
         t1 = core_now_ns();
     }
-    const int K = c->params.substeps;
-    for (int k = 0; k < K; k++) {
-        core_xform h = core_xform_lerp(c->prev_head, c->head, (float)(k + 1) / (float)K);
-        sim_cpu_chain_pass(c, h, dt / (float)K, sph);
-    }
+    for (int k = 0; k < c->step.substeps; k++) sim_cpu_chain_pass(c, k);
     c->prev_head = c->head;
     unsigned long long t2 = core_now_ns();
     uint64_t nan = 0;

@@ -8,11 +8,7 @@
 #include "sim_cpu_internal.h"
 
 /* Strands processed together by one worker; the per-strand temporaries stay in L1. */
-#define CHUNK 64
-/* Collision / rest-length alternations per vertex. */
-#define COLLISION_ITERATIONS 1
-/* Final alternating passes over overlapping colliders (concave crevices converge slowly). */
-#define CREVICE_PASSES 2
+#define CHUNK SIM_CHUNK
 
 /* Plain compares (not fmaxf/fminf, whose NaN rules block vectorization). */
 #define MAXF(a, b) ((a) > (b) ? (a) : (b))
@@ -31,50 +27,15 @@
 
 typedef struct chain_ctx {
     sim_cpu *c;
-    core_xform head;
-    float dt;
-    bool use_a;
-    sim_cpu_wcollider wc[CORE_MAX_COLLIDERS];
+    core_xform head;             /* this substep's head */
+    float dt;                    /* substep length */
+    bool use_a;                  /* add the SPH accelerations */
+    const sim_wcollider *wc;     /* this substep's colliders */
     uint32_t nwc;
 } chain_ctx;
 
-void sim_cpu_world_colliders(const sim_cpu *c, core_xform head, sim_cpu_wcollider *out)
-{
-    for (uint32_t k = 0; k < c->ncolliders; k++) {
-        const core_collider *in = &c->colliders[k];
-        out[k].kind = in->kind;
-        out[k].a = core_xform_point(head, in->a);
-        out[k].b = core_xform_point(head, in->b);
-        out[k].radius = in->radius;
-        out[k].radii = in->radii;
-        out[k].rot = core_q_norm(core_q_mul(head.rot, in->rot));
-        core_vec3 ax[3] = { core_q_rotate(out[k].rot, core_v3(1, 0, 0)), core_q_rotate(out[k].rot, core_v3(0, 1, 0)),
-                            core_q_rotate(out[k].rot, core_v3(0, 0, 1)) }; /* columns of R */
-        const float rad[3] = { in->radii.x, in->radii.y, in->radii.z };
-        for (int i = 0; i < 3; i++) {
-            const float col[3] = { ax[i].x, ax[i].y, ax[i].z };
-            for (int j = 0; j < 3; j++) {
-                out[k].to_unit[3 * i + j] = rad[i] > 0.0f ? col[j] / rad[i] : 0.0f; /* row i = axis i / r_i */
-                out[k].from_unit[3 * j + i] = col[j] * rad[i];                    /* column i = axis i * r_i */
-            }
-        }
-        const bool capsule = in->kind == CORE_COLLIDER_CAPSULE;
-        out[k].axis[0] = capsule ? out[k].b.x - out[k].a.x : 0.0f;
-        out[k].axis[1] = capsule ? out[k].b.y - out[k].a.y : 0.0f;
-        out[k].axis[2] = capsule ? out[k].b.z - out[k].a.z : 0.0f;
-        const float ee = out[k].axis[0] * out[k].axis[0] + out[k].axis[1] * out[k].axis[1] + out[k].axis[2] * out[k].axis[2];
-        out[k].inv_axis2 = ee > 0.0f ? 1.0f / ee : 0.0f;
-        float r = in->radius;
-        if (in->kind == CORE_COLLIDER_ELLIPSOID) r = MAXF(in->radii.x, MAXF(in->radii.y, in->radii.z));
-        core_vec3 b = in->kind == CORE_COLLIDER_CAPSULE ? out[k].b : out[k].a;
-        out[k].lo[0] = MINF(out[k].a.x, b.x) - r, out[k].hi[0] = MAXF(out[k].a.x, b.x) + r;
-        out[k].lo[1] = MINF(out[k].a.y, b.y) - r, out[k].hi[1] = MAXF(out[k].a.y, b.y) + r;
-        out[k].lo[2] = MINF(out[k].a.z, b.z) - r, out[k].hi[2] = MAXF(out[k].a.z, b.z) + r;
-    }
-}
-
 /* Pushes the points (x,y,z)[0..n) out of one collider (onto its surface). */
-static void collide(const sim_cpu_wcollider *w, float *restrict x, float *restrict y, float *restrict z, size_t n)
+static void collide(const sim_wcollider *w, float *restrict x, float *restrict y, float *restrict z, size_t n)
 {
     switch (w->kind) {
     case CORE_COLLIDER_SPHERE:
@@ -148,8 +109,8 @@ static inline __attribute__((always_inline)) void level_constraints(const chain_
                                                                     const bool use_a)
 {
     const sim_cpu *c = ctx->c;
-    const float dt = ctx->dt, dt2 = dt * dt;
-    const float gx = c->params.wind_x, gy = c->params.wind_y - c->params.gravity, gz = c->params.wind_z;
+    const float dt = ctx->dt, dt2 = dt * dt, dk = c->step.drag_keep;
+    const float gx = c->step.accel[0], gy = c->step.accel[1], gz = c->step.accel[2];
     const float hqx = ctx->head.rot.x, hqy = ctx->head.rot.y, hqz = ctx->head.rot.z, hqw = ctx->head.rot.w;
     const float htx = ctx->head.pos.x, hty = ctx->head.pos.y, htz = ctx->head.pos.z;
     const float sg = c->sg[l], sl = c->sl[l];
@@ -161,14 +122,18 @@ static inline __attribute__((always_inline)) void level_constraints(const chain_
         float ax = gx, ay = gy, az = gz;
         if (use_a) ax += AX[s], ay += AY[s], az += AZ[s];
         const float xo = X[s], yo = Y[s], zo = Z[s];
-        const float predx = xo + VX[s] * dt + ax * dt2;
-        const float predy = yo + VY[s] * dt + ay * dt2;
-        const float predz = zo + VZ[s] * dt + az * dt2;
+        const float predx = xo + VX[s] * dk * dt + ax * dt2;
+        const float predy = yo + VY[s] * dk * dt + ay * dt2;
+        const float predz = zo + VZ[s] * dk * dt + az * dt2;
         float sx = predx, sy = predy, sz = predz;
         /* global shape: toward the rest position in the root (head) frame */
         float gpx, gpy, gpz;
         QROT(hqx, hqy, hqz, hqw, RX[s], RY[s], RZ[s], gpx, gpy, gpz);
         sx += sg * (gpx + htx - sx), sy += sg * (gpy + hty - sy), sz += sg * (gpz + htz - sz);
+        /* the DFTL correction (eq. 14) carries the local-shape and inextensibility corrections to
+         * the parent; the global pull holds the vertex to the head, so its reaction is not the
+         * parent's */
+        const float gx0 = sx, gy0 = sy, gz0 = sz;
         /* local shape: toward the rest segment carried by the parent's frame */
         const float rx = RX[s] - t->prx[s], ry = RY[s] - t->pry[s], rz = RZ[s] - t->prz[s];
         float rrx, rry, rrz;
@@ -185,7 +150,7 @@ static inline __attribute__((always_inline)) void level_constraints(const chain_
         sy = ok ? t->py[s] - ddy * k : ty;
         sz = ok ? t->pz[s] - ddz * k : tz;
         t->cx[s] = sx, t->cy[s] = sy, t->cz[s] = sz;
-        t->dx[s] = sx - predx, t->dy[s] = sy - predy, t->dz[s] = sz - predz;
+        t->dx[s] = sx - gx0, t->dy[s] = sy - gy0, t->dz[s] = sz - gz0;
         t->cox[s] = xo, t->coy[s] = yo, t->coz[s] = zo;
     }
 }
@@ -208,28 +173,36 @@ static void level_refollow(const chain_ctx *ctx, chunk_tmp *restrict t, size_t o
     }
 }
 
-/* Writes the previous level with the DFTL velocity correction (eq. 14). restrict parameters
- * (not locals) so the compiler can vectorize without alias checks. */
-static void finalize_kernel(size_t n, float inv_dt, float damp, float *restrict X, float *restrict Y,
+/* Writes a level: its velocity with the DFTL correction (eq. 14: sd times the correction d of
+ * the level after it; sd = 0 for the tip), then internal damping: the share keep of its velocity
+ * relative to its parent's final velocity PV is kept. restrict parameters (not locals) so the
+ * compiler can vectorize without alias checks. */
+static void finalize_kernel(size_t n, float inv_dt, float sd, float keep, const float *restrict PVX,
+                            const float *restrict PVY, const float *restrict PVZ, float *restrict X, float *restrict Y,
                             float *restrict Z, float *restrict VX, float *restrict VY, float *restrict VZ,
                             const float *restrict px, const float *restrict py, const float *restrict pz,
                             const float *restrict ox, const float *restrict oy, const float *restrict oz,
                             const float *restrict dx, const float *restrict dy, const float *restrict dz)
 {
     for (size_t s = 0; s < n; s++) {
-        VX[s] = (px[s] - ox[s]) * inv_dt - damp * dx[s] * inv_dt;
-        VY[s] = (py[s] - oy[s]) * inv_dt - damp * dy[s] * inv_dt;
-        VZ[s] = (pz[s] - oz[s]) * inv_dt - damp * dz[s] * inv_dt;
+        const float vx = (px[s] - ox[s]) * inv_dt - sd * dx[s] * inv_dt;
+        const float vy = (py[s] - oy[s]) * inv_dt - sd * dy[s] * inv_dt;
+        const float vz = (pz[s] - oz[s]) * inv_dt - sd * dz[s] * inv_dt;
+        VX[s] = PVX[s] + keep * (vx - PVX[s]);
+        VY[s] = PVY[s] + keep * (vy - PVY[s]);
+        VZ[s] = PVZ[s] + keep * (vz - PVZ[s]);
         X[s] = px[s], Y[s] = py[s], Z[s] = pz[s];
     }
 }
 
-static void level_finalize_prev(const chain_ctx *ctx, const chunk_tmp *t, size_t op, size_t s0, size_t cnt)
+/* Finalises level op (>= 1) of the chunk from the chain temporaries (the "previous" slots). */
+static void level_finalize_prev(const chain_ctx *ctx, const chunk_tmp *t, size_t op, size_t s0, size_t cnt, float sd)
 {
     sim_cpu *c = ctx->c;
-    const size_t i = s0 + op;
-    finalize_kernel(cnt, 1.0f / ctx->dt, c->params.damping, c->x[0] + i, c->x[1] + i, c->x[2] + i, c->v[0] + i,
-                    c->v[1] + i, c->v[2] + i, t->px, t->py, t->pz, t->ox, t->oy, t->oz, t->dx, t->dy, t->dz);
+    const size_t i = s0 + op, pi = i - c->ns;
+    finalize_kernel(cnt, 1.0f / ctx->dt, sd, c->step.keep, c->v[0] + pi, c->v[1] + pi, c->v[2] + pi, c->x[0] + i,
+                    c->x[1] + i, c->x[2] + i, c->v[0] + i, c->v[1] + i, c->v[2] + i, t->px, t->py, t->pz, t->ox,
+                    t->oy, t->oz, t->dx, t->dy, t->dz);
 }
 
 /* Carries each frame along the chain (rotate the rest direction onto the current one) and
@@ -306,7 +279,7 @@ static void level_bounds(const chunk_tmp *t, size_t cnt, float lo[3], float hi[3
 }
 
 /* Number of the points (x,y,z)[0..n) strictly inside one collider (no change to them). */
-static size_t count_inside(const sim_cpu_wcollider *w, const float *restrict x, const float *restrict y,
+static size_t count_inside(const sim_wcollider *w, const float *restrict x, const float *restrict y,
                            const float *restrict z, size_t n)
 {
     size_t inside = 0;
@@ -332,7 +305,7 @@ static size_t count_inside(const sim_cpu_wcollider *w, const float *restrict x, 
     return inside;
 }
 
-static bool box_overlaps(const float lo[3], const float hi[3], const sim_cpu_wcollider *w)
+static bool box_overlaps(const float lo[3], const float hi[3], const sim_wcollider *w)
 {
     return lo[0] <= w->hi[0] && hi[0] >= w->lo[0] && lo[1] <= w->hi[1] && hi[1] >= w->lo[1] && lo[2] <= w->hi[2] &&
            hi[2] >= w->lo[2];
@@ -353,17 +326,17 @@ static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s
     for (int d = 0; d < 3; d++) lo[d] -= grow, hi[d] += grow;
     const bool finite = lo[0] == lo[0] && lo[1] == lo[1] && lo[2] == lo[2] && hi[0] == hi[0] && hi[1] == hi[1] &&
                         hi[2] == hi[2];
-    const sim_cpu_wcollider *hit[CORE_MAX_COLLIDERS];
+    const sim_wcollider *hit[CORE_MAX_COLLIDERS];
     bool taken[CORE_MAX_COLLIDERS] = { false };
     uint32_t nhit = 0;
     for (uint32_t k = 0; k < ctx->nwc; k++)
         if (!finite || box_overlaps(lo, hi, &ctx->wc[k])) taken[k] = true, hit[nhit++] = &ctx->wc[k];
     while (nhit > 0) {
-        for (int it = 0; it < COLLISION_ITERATIONS; it++) {
+        for (int it = 0; it < SIM_COLLISION_ITERATIONS; it++) {
             for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
             level_refollow(ctx, t, o, s0, cnt);
         }
-        const int passes = nhit > 1 ? CREVICE_PASSES : 1; /* settle points in a crevice between colliders */
+        const int passes = nhit > 1 ? SIM_CREVICE_PASSES : 1; /* settle points in a crevice between colliders */
         for (int pass = 0; pass < passes; pass++)
             for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
         float flo[3], fhi[3];
@@ -405,13 +378,16 @@ static void chain_chunk(const chain_ctx *ctx, chunk_tmp *restrict t, size_t s0, 
         else
             level_constraints(ctx, t, o, s0, cnt, l, false);
         if (ctx->nwc > 0) collide_level(ctx, t, o, s0, cnt);
-        if (l > 1) level_finalize_prev(ctx, t, o - ns, s0, cnt);
+        if (l > 1) level_finalize_prev(ctx, t, o - ns, s0, cnt, c->step.dftl);
         level_advance(ctx, t, o, s0, cnt);
     }
     const size_t ol = (size_t)(c->nv - 1) * ns;
-    for (size_t s = 0; s < cnt; s++) {
-        const size_t i = ol + s;
-        VX[i] = (t->px[s] - t->ox[s]) * inv_dt, VY[i] = (t->py[s] - t->oy[s]) * inv_dt, VZ[i] = (t->pz[s] - t->oz[s]) * inv_dt;
+    const float kp = c->step.keep;
+    for (size_t s = 0; s < cnt; s++) { /* the tip: no level after it, so no DFTL correction */
+        const size_t i = ol + s, pi = i - ns;
+        VX[i] = VX[pi] + kp * ((t->px[s] - t->ox[s]) * inv_dt - VX[pi]);
+        VY[i] = VY[pi] + kp * ((t->py[s] - t->oy[s]) * inv_dt - VY[pi]);
+        VZ[i] = VZ[pi] + kp * ((t->pz[s] - t->oz[s]) * inv_dt - VZ[pi]);
         X[i] = t->px[s], Y[i] = t->py[s], Z[i] = t->pz[s];
     }
     for (size_t s = 0; s < cnt; s++) {
@@ -434,17 +410,15 @@ static void chain_task(void *vctx, size_t task, size_t ntasks, int worker)
     chain_chunk(ctx, &t, s, cnt, &c->nan_per_thread[worker]);
 }
 
-void sim_cpu_chain_pass(sim_cpu *c, core_xform head, float dt, bool use_sph_accel)
+void sim_cpu_chain_pass(sim_cpu *c, int k)
 {
     chain_ctx ctx;
     memset(&ctx, 0, sizeof ctx);
     ctx.c = c;
-    ctx.head = head;
-    ctx.dt = dt;
-    ctx.use_a = use_sph_accel;
-    if (c->params.collisions) {
-        ctx.nwc = c->ncolliders;
-        sim_cpu_world_colliders(c, head, ctx.wc);
-    }
+    ctx.head = c->step.head[k];
+    ctx.dt = c->step.h;
+    ctx.use_a = c->step.sph;
+    ctx.wc = c->step.col[k];
+    ctx.nwc = c->step.ncolliders;
     sim_pool_run_tasks(&c->pool, chain_task, &ctx, (c->ns + CHUNK - 1) / CHUNK);
 }

@@ -8,20 +8,7 @@
 
 #include "sim.h"
 #include "sim_pool.h"
-
-/* A collider transformed to world space for one substep. */
-typedef struct sim_cpu_wcollider {
-    core_collider_kind kind;
-    core_vec3 a, b;      /* world centre / segment ends */
-    float radius;
-    core_vec3 radii;
-    core_quat rot;       /* world orientation (ellipsoid) */
-    float lo[3], hi[3];  /* world bounding box, for culling */
-    float axis[3];       /* capsule: b - a (zero for a sphere, which is a capsule of length 0) */
-    float inv_axis2;     /* 1 / |axis|^2, 0 for a sphere */
-    float to_unit[9];    /* ellipsoid: world offset -> unit-sphere coords (diag(1/r) R^T), row-major */
-    float from_unit[9];  /* ellipsoid: unit-sphere coords -> world offset (R diag(r)), row-major */
-} sim_cpu_wcollider;
+#include "sim_step.h"
 
 /* Scratch of the SPH stage (grid, sorted copies, neighbour lists); grown on demand. */
 typedef struct sim_cpu_sph {
@@ -53,13 +40,14 @@ typedef struct sim_cpu {
     sim_pool pool;
     /* level-major SoA: index = level * ns + strand */
     float *x[3], *v[3], *a[3], *rest[3];
-    float *sg, *sl;          /* per-level shape stiffness */
+    float *sg, *sl;          /* per-level shape projections (sim_step_stiffness) */
     float max_segment;       /* longest rest segment */
     uint32_t *perm;          /* internal strand -> groom strand (roots in Morton order, so
                                 neighbouring strands are near each other) */
     uint32_t ncolliders;
     core_collider colliders[CORE_MAX_COLLIDERS];
     core_xform head, prev_head;
+    sim_step_desc step;      /* the step being taken (sim_step_plan) */
     sim_cpu_sph sph;
     float rho_rest;          /* mean rest-pose SPH density (for the current h, cap) */
     bool rho_rest_valid;
@@ -74,11 +62,8 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
                              double *out_mean_rho, core_err *err);
 void sim_cpu_sph_free(sim_cpu_sph *s);
 
-/* One substep of predict + DFTL/shape/collision chain + velocity update, with the head at
- * `head` (interpolated) and step length dt. Sim thread; uses the pool. */
-void sim_cpu_chain_pass(sim_cpu *c, core_xform head, float dt, bool use_sph_accel);
-
-/* Transforms the head-frame colliders by head into out (count = c->ncolliders). Pure. */
-void sim_cpu_world_colliders(const sim_cpu *c, core_xform head, sim_cpu_wcollider *out);
+/* Substep k of c->step: predict + DFTL/shape/collision chain + velocity update. Sim thread;
+ * uses the pool. */
+void sim_cpu_chain_pass(sim_cpu *c, int k);
 
 #endif

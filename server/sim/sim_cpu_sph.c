@@ -9,7 +9,6 @@
 #include "sim_cpu_internal.h"
 
 /* Reference frame time of the pressure scale: accelerations are h / (1/60 s)^2 per unit. */
-#define SPH_ACCEL_SCALE 3600.0f
 /* Candidates within h kept per particle before the nearest neighbour_cap are selected. */
 #define SPH_MAX_CANDIDATES 1024
 /* Elements of padding after the sorted SoA arrays and scan buffers (two AVX2 vectors). */
@@ -450,7 +449,7 @@ static void pressure_job(void *vctx, int tid, int nt)
     sim_cpu_sph *s = &c->sph;
     size_t b, e;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
-    const float inv_rho0 = 1.0f / (c->params.rest_density * c->rho_rest);
+    const float inv_rho0 = c->step.inv_rho0;
     for (size_t i = b; i < e; i++) s->sv[4 * i + 3] = MAX0(s->sp[4 * i + 3] * inv_rho0 - 1.0f);
 }
 
@@ -676,8 +675,7 @@ static void force_job(void *vctx, int tid, int nt)
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     const float h = c->params.sph_radius;
-    const force_consts fc = { 1.0f / h, c->params.repulsion * h * SPH_ACCEL_SCALE, c->params.viscosity * ctx->dt,
-                              1.0f / ctx->dt, c->params.neighbor_cap };
+    const force_consts fc = { 1.0f / h, c->step.kp, c->step.mu_dt, 1.0f / ctx->dt, c->params.neighbor_cap };
     size_t b, e, i;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     i = b;

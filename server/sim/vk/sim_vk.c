@@ -8,7 +8,6 @@
 
 static const char *const stage_names[SIM_VK_NSTAGES] = { "sph_grid", "sph_sort", "sph_density", "sph_force", "chain" };
 
-static bool sph_on(const sim_params *p) { return p->sph && p->repulsion + p->viscosity > 0.0f; }
 
 /* Marks the instance unusable after a failed submit or wait; later calls return the error. */
 static core_status fail_sticky(sim_vk *s, core_status st, const core_err *why)
@@ -95,7 +94,7 @@ static core_status make_buffers(sim_vk *s, core_err *err)
         { &s->v, p3, SIM_VK_B_V, xfer, "velocities" },
         { &s->a, p3, SIM_VK_B_A, xfer, "sph accelerations" },
         { &s->rest_buf, p3, SIM_VK_B_REST, xfer, "rest positions" },
-        { &s->strand, (size_t)s->ns * 8 * sizeof(float), SIM_VK_B_STRAND, 0, "chain state" },
+        { &s->strand, (size_t)s->ns * 12 * sizeof(float), SIM_VK_B_STRAND, 0, "chain state" },
         { &s->grid, 128, SIM_VK_B_GRID, xfer, "sph grid" },
         { &s->count, cells * sizeof(uint32_t), SIM_VK_B_COUNT, xfer, "sph cell counts" },
         { &s->start, (cells + 1) * sizeof(uint32_t), SIM_VK_B_START, 0, "sph cell starts" },
@@ -249,10 +248,10 @@ static core_status reset_state(sim_vk *s, core_err *err)
 /* One-time (per h and cap) mean density of the rest pose, as the C backend computes it. */
 static core_status compute_rho_rest(sim_vk *s, int slot, core_err *err)
 {
-    sim_vk_frame_in in = {
-        .params = &s->params, .sph = true, .rho_rest = 1.0f, .prev_head = s->prev_head, .head = s->head,
-        .ncolliders = s->ncolliders, .colliders = s->colliders, .nv = s->nv, .max_segment = s->max_segment,
-    };
+    const sim_groom_info gi = { s->ncolliders, s->colliders, 1.0f };
+    sim_step_plan(&s->params, &gi, s->prev_head, s->head, &s->step);
+    s->step.sph = true;
+    const sim_vk_frame_in in = { &s->params, &s->step, s->nv, s->max_segment };
     sim_vk_frame_fill(&in, s->slots[slot].frame.map);
     core_status st = sim_vk_once_begin(&s->ctx, &s->once, err);
     if (st != CORE_OK) return fail_sticky(s, st, err);
@@ -280,16 +279,14 @@ static core_status vk_step(void *self, core_err *err)
     sim_vk_slot *sl = &s->slots[f];
     st = collect(s, f, err);
     if (st != CORE_OK) return st;
-    const bool sph = sph_on(&s->params);
+    const bool sph = sim_step_sph_on(&s->params);
     if (sph && !s->rho_rest_valid) {
         st = compute_rho_rest(s, f, err);
         if (st != CORE_OK) return st;
     }
-    sim_vk_frame_in in = {
-        .params = &s->params, .sph = sph, .rho_rest = s->rho_rest_valid ? s->rho_rest : 1.0f,
-        .prev_head = s->prev_head, .head = s->head, .ncolliders = s->ncolliders, .colliders = s->colliders,
-        .nv = s->nv, .max_segment = s->max_segment,
-    };
+    const sim_groom_info gi = { s->ncolliders, s->colliders, s->rho_rest_valid ? s->rho_rest : 1.0f };
+    sim_step_plan(&s->params, &gi, s->prev_head, s->head, &s->step);
+    const sim_vk_frame_in in = { &s->params, &s->step, s->nv, s->max_segment };
     sim_vk_frame_fill(&in, sl->frame.map);
 
     VkCommandBuffer cmd = sl->cmd;
@@ -397,10 +394,10 @@ static core_status vk_set_params(void *self, const sim_params *p, core_err *err)
     sim_vk *s = self;
     core_status st = check_broken(s, err);
     if (st != CORE_OK) return st;
-    if (p->substeps < 1 || p->substeps > SIM_VK_MAX_SUBSTEPS || p->neighbor_cap < 1 ||
-        p->neighbor_cap > SIM_VK_MAX_NEIGHBORS)
+    if (p->substeps < 1 || p->substeps > SIM_MAX_SUBSTEPS || p->neighbor_cap < 1 ||
+        p->neighbor_cap > SIM_MAX_NEIGHBOR_CAP)
         return core_fail(err, CORE_EINVAL, "vulkan: substeps must be in [1, %d] and neighbor_cap in [1, %d]",
-                         SIM_VK_MAX_SUBSTEPS, SIM_VK_MAX_NEIGHBORS);
+                         SIM_MAX_SUBSTEPS, SIM_MAX_NEIGHBOR_CAP);
     if ((uint32_t)p->neighbor_cap > s->nbr_cap) {
         st = collect_all(s, err);
         if (st == CORE_OK) st = make_nbr(s, (uint32_t)p->neighbor_cap, err);
@@ -431,36 +428,22 @@ static sim_vk_chain_cfg choose_chain(const sim_vk_ctx *c, sim_vk_chain want, uin
     /* LEVEL measured 2.4-2.9x faster than GROUP on lavapipe (BENCHMARKS.md) */
     sim_vk_chain_cfg cfg = { want == SIM_VK_CHAIN_DEFAULT ? SIM_VK_CHAIN_LEVEL : want };
     /* pred[3 * CHUNK * nv] floats + the three chunk boxes (18 + 3 uints), rounded up */
-    uint64_t need = 12ull * SIM_VK_CHUNK * nv + 128;
+    uint64_t need = 12ull * SIM_CHUNK * nv + 128;
     if (cfg.strategy == SIM_VK_CHAIN_GROUP && need > c->props.limits.maxComputeSharedMemorySize)
         cfg.strategy = SIM_VK_CHAIN_LEVEL;
     return cfg;
-}
-
-static core_status validate_groom(const core_groom *g, core_err *err)
-{
-    if (!g || !g->pos || g->nstrands == 0 || g->nverts < 2)
-        return core_fail(err, CORE_EINVAL, "groom must have at least 1 strand of 2 vertices");
-    if (g->ncolliders > CORE_MAX_COLLIDERS)
-        return core_fail(err, CORE_EINVAL, "groom has %u colliders, more than %d", g->ncolliders, CORE_MAX_COLLIDERS);
-    size_t n;
-    if (!core_mul_size(g->nstrands, g->nverts, &n) || n > UINT32_MAX / 4)
-        return core_fail(err, CORE_ENOMEM, "groom of %u x %u vertices is too large", g->nstrands, g->nverts);
-    for (size_t i = 0; i < 3 * n; i++)
-        if (!isfinite(g->pos[i])) return core_fail(err, CORE_EINVAL, "groom vertex %zu is not finite", i / 3);
-    return CORE_OK;
 }
 
 static core_status create_impl(const sim_desc *desc, const sim_vk_options *opt, const core_groom *g,
                                const sim_params *params, sim_vk **out, core_err *err)
 {
     *out = NULL;
-    core_status st = validate_groom(g, err);
+    core_status st = sim_groom_check(g, err);
     if (st != CORE_OK) return st;
-    if (params->substeps < 1 || params->substeps > SIM_VK_MAX_SUBSTEPS || params->neighbor_cap < 1 ||
-        params->neighbor_cap > SIM_VK_MAX_NEIGHBORS)
+    if (params->substeps < 1 || params->substeps > SIM_MAX_SUBSTEPS || params->neighbor_cap < 1 ||
+        params->neighbor_cap > SIM_MAX_NEIGHBOR_CAP)
         return core_fail(err, CORE_EINVAL, "vulkan: substeps must be in [1, %d] and neighbor_cap in [1, %d]",
-                         SIM_VK_MAX_SUBSTEPS, SIM_VK_MAX_NEIGHBORS);
+                         SIM_MAX_SUBSTEPS, SIM_MAX_NEIGHBOR_CAP);
     sim_vk *s = calloc(1, sizeof *s);
     if (!s) return core_fail(err, CORE_ENOMEM, "out of memory");
     s->ns = g->nstrands;
@@ -485,11 +468,7 @@ static core_status create_impl(const sim_desc *desc, const sim_vk_options *opt, 
         return st;
     }
     to_level_major(s, g->pos, s->rest);
-    for (size_t i = s->ns; i < s->n; i++) { /* as the C backend: over the internal order */
-        float dx = s->rest[3 * i] - s->rest[3 * (i - s->ns)], dy = s->rest[3 * i + 1] - s->rest[3 * (i - s->ns) + 1],
-              dz = s->rest[3 * i + 2] - s->rest[3 * (i - s->ns) + 2];
-        s->max_segment = fmaxf(s->max_segment, sqrtf(dx * dx + dy * dy + dz * dz));
-    }
+    s->max_segment = sim_groom_max_segment(g);
 #ifdef STRANDCAST_VK_DEBUG
     const bool validation = true;
 #else

@@ -9,14 +9,13 @@
 #include "../../core/core.h"
 #include "../../core/groom_types.h"
 #include "../sim.h"
+#include "../sim_step.h"
 #include "sim_vk.h"
 
 /* Steps that may be in flight at once (each has its own command buffer, fence, frame
  * parameters and timestamp queries). */
 #define SIM_VK_FRAMES 2
 /* Sizes shared with shaders/sim_common.glsl. */
-#define SIM_VK_MAX_SUBSTEPS 16
-#define SIM_VK_MAX_NEIGHBORS 64
 #define SIM_VK_WG 64         /* workgroup size of the particle-parallel passes */
 #define SIM_VK_SCAN_BLOCK 512 /* cells per scan workgroup (256 threads x 2) */
 
@@ -163,7 +162,6 @@ typedef struct sim_vk_pipes {
 } sim_vk_pipes;
 
 /* Strands per chain workgroup: the C backend's chunk (collider culling is per chunk). */
-#define SIM_VK_CHUNK 64
 
 /* Chain-pass strategy (see sim_vk.h). */
 typedef struct sim_vk_chain_cfg {
@@ -180,7 +178,6 @@ void sim_vk_pipes_destroy(sim_vk_ctx *c, sim_vk_pipes *p);
 
 /* ---- per-step parameters (sim_vk_frame.c), layout of shaders/sim_common.glsl ------- */
 
-#define SIM_VK_MAX_COLLIDERS CORE_MAX_COLLIDERS
 #define SIM_VK_FLAG_SHAPE 1u
 #define SIM_VK_FLAG_SPH 2u
 #define SIM_VK_FLAG_COLLISIONS 4u
@@ -199,13 +196,14 @@ typedef struct sim_vk_gcollider {
 } sim_vk_gcollider;
 
 typedef struct sim_vk_frame {
-    float accel[4];
-    float dt_k, inv_dt_k, damping, h;
+    float accel[4];    /* xyz: gravity + wind; w: keep (internal damping per substep) */
+    float dt_k, inv_dt_k, dftl, h;
     float h2, inv_h2, inv_h, kp;
     float mu_dt, inv_step_dt, inv_rho0, grow;
     uint32_t substeps, ncolliders, flags, cap;
-    sim_vk_gxf head[SIM_VK_MAX_SUBSTEPS];
-    sim_vk_gcollider col[SIM_VK_MAX_SUBSTEPS * SIM_VK_MAX_COLLIDERS];
+    float drag_keep, pad[3];
+    sim_vk_gxf head[SIM_MAX_SUBSTEPS];
+    sim_vk_gcollider col[SIM_MAX_SUBSTEPS * SIM_MAX_COLLIDERS];
     /* followed by nverts pairs (s_g, s_l) */
 } sim_vk_frame;
 
@@ -215,22 +213,14 @@ size_t sim_vk_frame_size(uint32_t nv);
 /* What a frame is computed from. */
 typedef struct sim_vk_frame_in {
     const sim_params *params;
-    bool sph;              /* SPH on and with an effect (repulsion + viscosity > 0) */
-    float rho_rest;        /* mean rest-pose density (any positive value before it is known) */
-    core_xform prev_head, head;
-    uint32_t ncolliders;
-    const core_collider *colliders;
+    const sim_step_desc *step; /* sim_step_plan of this step */
     uint32_t nv;
     float max_segment;     /* longest rest segment (collider culling margin) */
 } sim_vk_frame_in;
 
-/* Fills out (sim_vk_frame_size(in->nv) bytes) with the step's parameters: substep head
- * transforms and world colliders as the C backend computes them, derived constants,
- * per-level stiffness. Pure. */
+/* Fills out (sim_vk_frame_size(in->nv) bytes) with the step description in the layout of
+ * sim_common.glsl, plus the per-level stiffness. Pure. */
 void sim_vk_frame_fill(const sim_vk_frame_in *in, void *out);
-
-/* The C backend's world collider for one substep head (sim_cpu_world_colliders). Pure. */
-void sim_vk_world_collider(const core_collider *in, core_xform head, sim_vk_gcollider *out);
 
 /* ---- the backend instance (sim_vk.c) and its command recording (sim_vk_record.c) ---- */
 
@@ -257,6 +247,7 @@ typedef struct sim_vk {
     sim_vk_ctx ctx;
     sim_vk_pipes pipes;
     sim_vk_chain_cfg chain;
+    sim_step_desc step;   /* the step being recorded (sim_step_plan) */
     uint32_t ns, nv;
     size_t n;
     sim_params params;

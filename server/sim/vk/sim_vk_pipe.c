@@ -38,7 +38,7 @@ static pipe_src source_of(sim_vk_pipe_id id, sim_vk_chain strategy)
 static uint32_t wg_of(sim_vk_pipe_id id)
 {
     switch (id) {
-    case SIM_VK_P_CHAIN: return SIM_VK_CHUNK;
+    case SIM_VK_P_CHAIN: return SIM_CHUNK;
     case SIM_VK_P_SCAN_BLOCKS:
     case SIM_VK_P_SCAN_SUMS:
     case SIM_VK_P_SCAN_ADD: return SIM_VK_SCAN_BLOCK / 2;

@@ -86,7 +86,7 @@ void sim_vk_record_chain(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set)
 {
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s->pipes.layout, 0, 1, &set, 0, NULL);
     bind(s, cmd, SIM_VK_P_CHAIN);
-    const uint32_t K = (uint32_t)s->params.substeps, chunks = groups(s->ns, SIM_VK_CHUNK);
+    const uint32_t K = (uint32_t)s->params.substeps, chunks = groups(s->ns, SIM_CHUNK);
     for (uint32_t k = 0; k < K; k++) {
         if (s->chain.strategy == SIM_VK_CHAIN_GROUP) {
             push(s, cmd, k, 0, 0, 0);

@@ -1,0 +1,106 @@
+/* sim: the per-step description both backends consume (sim_step.h). */
+#include <math.h>
+#include <string.h>
+
+#include "sim_step.h"
+
+_Static_assert(SIM_MAX_COLLIDERS == CORE_MAX_COLLIDERS, "one collider limit");
+
+#define MAXF(a, b) ((a) > (b) ? (a) : (b))
+#define MINF(a, b) ((a) < (b) ? (a) : (b))
+
+bool sim_step_sph_on(const sim_params *p) { return p->sph && p->repulsion + p->viscosity > 0.0f; }
+
+void sim_world_collider(const core_collider *in, core_xform head, sim_wcollider *out)
+{
+    memset(out, 0, sizeof *out);
+    out->kind = in->kind;
+    out->a = core_xform_point(head, in->a);
+    out->b = core_xform_point(head, in->b);
+    out->radius = in->radius;
+    core_quat rot = core_q_norm(core_q_mul(head.rot, in->rot));
+    core_vec3 ax[3] = { core_q_rotate(rot, core_v3(1, 0, 0)), core_q_rotate(rot, core_v3(0, 1, 0)),
+                        core_q_rotate(rot, core_v3(0, 0, 1)) }; /* columns of R */
+    const float rad[3] = { in->radii.x, in->radii.y, in->radii.z };
+    for (int i = 0; i < 3; i++) {
+        const float col[3] = { ax[i].x, ax[i].y, ax[i].z };
+        for (int j = 0; j < 3; j++) {
+            out->to_unit[3 * i + j] = rad[i] > 0.0f ? col[j] / rad[i] : 0.0f; /* row i = axis i / r_i */
+            out->from_unit[3 * j + i] = col[j] * rad[i];                    /* column i = axis i * r_i */
+        }
+    }
+    const bool capsule = in->kind == CORE_COLLIDER_CAPSULE;
+    out->axis[0] = capsule ? out->b.x - out->a.x : 0.0f;
+    out->axis[1] = capsule ? out->b.y - out->a.y : 0.0f;
+    out->axis[2] = capsule ? out->b.z - out->a.z : 0.0f;
+    const float ee = out->axis[0] * out->axis[0] + out->axis[1] * out->axis[1] + out->axis[2] * out->axis[2];
+    out->inv_axis2 = ee > 0.0f ? 1.0f / ee : 0.0f;
+    float r = in->radius;
+    if (in->kind == CORE_COLLIDER_ELLIPSOID) r = MAXF(in->radii.x, MAXF(in->radii.y, in->radii.z));
+    core_vec3 e = capsule ? out->b : out->a;
+    out->lo[0] = MINF(out->a.x, e.x) - r, out->hi[0] = MAXF(out->a.x, e.x) + r;
+    out->lo[1] = MINF(out->a.y, e.y) - r, out->hi[1] = MAXF(out->a.y, e.y) + r;
+    out->lo[2] = MINF(out->a.z, e.z) - r, out->hi[2] = MAXF(out->a.z, e.z) + r;
+}
+
+void sim_step_stiffness(const sim_params *p, uint32_t l, uint32_t nv, float *sg, float *sl)
+{
+    const float h = p->dt / (float)p->substeps, h2 = h * h;
+    const float t = nv > 1 ? (float)l / (float)(nv - 1) : 0.0f;
+    const float fade = 1.0f + (p->stiffness_tip - 1.0f) * t;
+    const float wg = p->global_stiffness * fade * h2, wl = p->local_stiffness * fade * h2;
+    *sg = p->shape ? wg / (1.0f + wg) : 0.0f;
+    *sl = p->shape ? wl / (1.0f + wl) : 0.0f;
+}
+
+void sim_step_plan(const sim_params *p, const sim_groom_info *g, core_xform prev_head, core_xform head,
+                   sim_step_desc *out)
+{
+    const int K = p->substeps < 1 ? 1 : p->substeps > SIM_MAX_SUBSTEPS ? SIM_MAX_SUBSTEPS : p->substeps;
+    out->dt = p->dt;
+    out->substeps = K;
+    out->h = p->dt / (float)K;
+    out->inv_h = 1.0f / out->h;
+    out->accel[0] = p->wind_x, out->accel[1] = p->wind_y - p->gravity, out->accel[2] = p->wind_z;
+    out->dftl = p->dftl_correction;
+    out->keep = expf(-p->damping * out->h);
+    out->drag_keep = expf(-p->air_drag * out->h);
+    out->shape = p->shape;
+    out->sph = sim_step_sph_on(p);
+    out->collisions = p->collisions;
+    out->sph_h = p->sph_radius;
+    out->kp = p->repulsion * p->sph_radius * (float)SIM_SPH_ACCEL_SCALE;
+    out->mu_dt = p->viscosity * p->dt;
+    out->inv_rho0 = 1.0f / (p->rest_density * g->rho_rest);
+    out->ncolliders = p->collisions ? g->ncolliders : 0;
+    for (int k = 0; k < K; k++) {
+        out->head[k] = core_xform_lerp(prev_head, head, (float)(k + 1) / (float)K);
+        for (uint32_t c = 0; c < out->ncolliders; c++) sim_world_collider(&g->colliders[c], out->head[k], &out->col[k][c]);
+    }
+}
+
+core_status sim_groom_check(const core_groom *g, core_err *err)
+{
+    if (!g || !g->pos || g->nstrands == 0 || g->nverts < 2)
+        return core_fail(err, CORE_EINVAL, "groom must have at least 1 strand of 2 vertices");
+    if (g->ncolliders > SIM_MAX_COLLIDERS)
+        return core_fail(err, CORE_EINVAL, "groom has %u colliders, more than %d", g->ncolliders, SIM_MAX_COLLIDERS);
+    size_t n, bytes;
+    if (!core_mul_size(g->nstrands, g->nverts, &n) || n > UINT32_MAX / 4 || !core_mul_size(n, 3 * sizeof(float), &bytes))
+        return core_fail(err, CORE_ENOMEM, "groom of %u x %u vertices is too large", g->nstrands, g->nverts);
+    for (size_t i = 0; i < 3 * n; i++)
+        if (!isfinite(g->pos[i])) return core_fail(err, CORE_EINVAL, "groom vertex %zu is not finite", i / 3);
+    return CORE_OK;
+}
+
+float sim_groom_max_segment(const core_groom *g)
+{
+    float m = 0.0f;
+    for (uint32_t s = 0; s < g->nstrands; s++)
+        for (uint32_t l = 1; l < g->nverts; l++) {
+            const float *a = g->pos + 3 * ((size_t)s * g->nverts + l - 1), *b = a + 3;
+            const float dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+            m = fmaxf(m, sqrtf(dx * dx + dy * dy + dz * dz));
+        }
+    return m;
+}

@@ -1,0 +1,75 @@
+/* sim: the host-side description of one step (colliders in world space, substep heads,
+ * per-level stiffness, scales) that every backend consumes, so a physics change is made once. */
+#ifndef SIM_SIM_STEP_H
+#define SIM_SIM_STEP_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "sim.h"
+#include "sim_limits.h"
+
+/* A collider moved to world space for one substep. */
+typedef struct sim_wcollider {
+    core_collider_kind kind;
+    core_vec3 a, b;      /* world centre / segment ends */
+    float radius;
+    float lo[3], hi[3];  /* world bounding box, for culling */
+    float axis[3];       /* capsule: b - a (zero for a sphere, which is a capsule of length 0) */
+    float inv_axis2;     /* 1 / |axis|^2, 0 for a sphere */
+    float to_unit[9];    /* ellipsoid: world offset -> unit-sphere coords (diag(1/r) R^T), row-major */
+    float from_unit[9];  /* ellipsoid: unit-sphere coords -> world offset (R diag(r)), row-major */
+} sim_wcollider;
+
+/* What a groom contributes to every step. */
+typedef struct sim_groom_info {
+    uint32_t ncolliders;
+    const core_collider *colliders; /* head frame */
+    float rho_rest;                 /* mean rest-pose SPH density (any positive value before it is known) */
+} sim_groom_info;
+
+/* One step of params.dt in `substeps` substeps of length h. */
+typedef struct sim_step_desc {
+    float dt, h, inv_h;       /* step, substep, 1 / substep */
+    int substeps;
+    float accel[3];           /* gravity + wind, m/s^2 */
+    float dftl;               /* s_d: share of the child's local-shape and inextensibility correction
+                                 taken off the parent's velocity (eq. 14) */
+    float keep;               /* exp(-damping h): share of a vertex's velocity relative to its parent
+                                 kept per substep */
+    float drag_keep;          /* exp(-air_drag h): share of a vertex's velocity kept per substep */
+    bool shape, sph, collisions;
+    float sph_h;              /* smoothing length */
+    float kp;                 /* repulsion * h * SIM_SPH_ACCEL_SCALE */
+    float mu_dt;              /* viscosity * dt */
+    float inv_rho0;           /* 1 / (rest_density * rest-pose mean density) */
+    uint32_t ncolliders;      /* 0 when collisions are off */
+    core_xform head[SIM_MAX_SUBSTEPS];                     /* head at the end of substep k */
+    sim_wcollider col[SIM_MAX_SUBSTEPS][SIM_MAX_COLLIDERS]; /* colliders under head[k] */
+} sim_step_desc;
+
+/* True when the SPH stage has an effect (sph on, repulsion + viscosity > 0). Pure. */
+bool sim_step_sph_on(const sim_params *p);
+
+/* Fills out for one step of p (validated) from head transform prev_head to head (roots and
+ * colliders interpolated across the substeps). Pure; any thread. */
+void sim_step_plan(const sim_params *p, const sim_groom_info *g, core_xform prev_head, core_xform head,
+                   sim_step_desc *out);
+
+/* The shape projections of level l of nv: *sg, *sl are the fractions of the way to the global
+ * and local targets a substep moves a vertex, from the stiffnesses k (1/s^2) faded linearly to
+ * stiffness_tip at the tip: k h^2 / (1 + k h^2), so that a vertex held against an acceleration
+ * g settles g / k from its target whatever dt and substeps are (0 with shape off). Pure. */
+void sim_step_stiffness(const sim_params *p, uint32_t l, uint32_t nv, float *sg, float *sl);
+
+/* One collider moved by head into world space. Pure. */
+void sim_world_collider(const core_collider *in, core_xform head, sim_wcollider *out);
+
+/* Checks what every backend needs of a groom (strands of >= 2 finite vertices, at most
+ * SIM_MAX_COLLIDERS colliders, a size the backends can index). Pure. */
+core_status sim_groom_check(const core_groom *g, core_err *err);
+
+/* The longest rest segment of g (a collider-culling margin). Pure. */
+float sim_groom_max_segment(const core_groom *g);
+
+#endif

@@ -1,0 +1,263 @@
+/* tests: how the hair behaves as a technical artist judges it (C backend): it comes to rest
+ * after motion at every parameter's extremes, damping is monotonic, stiffness and damping mean
+ * the same at any dt and substep count, and Ratboy's mohawk keeps its style. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "groom/groom.h"
+#include "sim/sim.h"
+#include "support/sim_check.h"
+
+/* Rest bound: the 99.9th percentile of per-frame vertex displacement, metres. */
+#define REST_P999 1e-5
+
+static int cmp_float(const void *a, const void *b)
+{
+    const float x = *(const float *)a, y = *(const float *)b;
+    return x < y ? -1 : x > y;
+}
+
+typedef struct run {
+    core_groom groom;
+    sim s;
+    float *x, *prev, *scratch;
+    size_t n;
+} run;
+
+static void run_open(run *r, const sim_params *p)
+{
+    core_err err;
+    sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = 2 };
+    if (sim_create(&r->s, &d, &r->groom, p, &err) != CORE_OK) fail_msg("sim_create: %s", err.msg);
+    r->n = (size_t)r->groom.nstrands * r->groom.nverts;
+    r->x = malloc(12 * r->n);
+    r->prev = malloc(12 * r->n);
+    r->scratch = malloc(4 * r->n);
+    assert_true(r->x && r->prev && r->scratch);
+    assert_int_equal(sim_read_positions(&r->s, r->prev, &err), CORE_OK);
+}
+
+static void run_close(run *r)
+{
+    sim_destroy(&r->s);
+    core_groom_free(&r->groom);
+    free(r->x);
+    free(r->prev);
+    free(r->scratch);
+}
+
+/* One step under head h; returns the 99.9th percentile of the non-root vertices' displacement. */
+static double run_step(run *r, core_xform h)
+{
+    core_err err;
+    sim_set_motion(&r->s, h);
+    if (sim_step(&r->s, &err) != CORE_OK) fail_msg("sim_step: %s", err.msg);
+    assert_int_equal(sim_read_positions(&r->s, r->x, &err), CORE_OK);
+    size_t m = 0;
+    for (size_t i = 0; i < r->n; i++) {
+        if (i % r->groom.nverts == 0) continue;
+        const double d = simcheck_dist3(r->x + 3 * i, r->prev + 3 * i);
+        r->scratch[m++] = isfinite(d) ? (float)d : INFINITY;
+    }
+    memcpy(r->prev, r->x, 12 * r->n);
+    qsort(r->scratch, m, sizeof(float), cmp_float);
+    return r->scratch[(size_t)(0.999 * (double)(m - 1))];
+}
+
+/* The head: the violent test script for `moving` s, then a 0.25 s blend back to the identity. */
+static core_xform head_at(double t, double moving)
+{
+    if (t <= moving) return simcheck_head_motion(t, 1.0);
+    const double w = fmin((t - moving) / 0.25, 1.0);
+    core_xform from = simcheck_head_motion(moving, 1.0), h;
+    h.pos = core_v3_scale(from.pos, (float)(1.0 - w));
+    h.rot = core_q_norm(core_q_nlerp(from.rot, core_q_identity(), (float)w));
+    return h;
+}
+
+/* Moves the head for `moving` s, holds it still for `still` s; returns the last frame's p99.9
+ * displacement and, in *settle, the time after the stop when it last exceeded REST_P999. */
+static double motion_then_rest(run *r, float dt, double moving, double still, double *settle)
+{
+    const int steps = (int)lround((moving + still) / dt);
+    double last = 0.0, above = 0.0;
+    for (int k = 1; k <= steps; k++) {
+        const double t = k * (double)dt;
+        last = run_step(r, head_at(t, moving));
+        if (!(last <= REST_P999 * (dt * 60.0))) above = t - moving; /* bound per 1/60 s of motion */
+    }
+    if (settle) *settle = above;
+    return last / (dt * 60.0);
+}
+
+/* Every parameter at its minimum and maximum (the others at default) comes to rest within 3 s
+ * of violent motion stopping, on a procedural groom with its colliders and SPH on (shape off is
+ * the one known exception, see below). */
+static void test_rest_at_extremes(void **state)
+{
+    (void)state;
+    size_t count;
+    const core_param_info *t = sim_param_table(&count);
+    int failures = 0;
+    for (size_t i = 0; i < count; i++) {
+        for (int end = 0; end < 2; end++) {
+            sim_params p;
+            sim_params_default(&p);
+            char *f = (char *)&p + t[i].offset;
+            const double v = end ? t[i].max : t[i].min;
+            if (t[i].type == CORE_PARAM_FLOAT) *(float *)f = (float)v;
+            else if (t[i].type == CORE_PARAM_INT) *(int32_t *)f = (int32_t)v;
+            else *(bool *)f = v != 0.0;
+            run r = { 0 };
+            simcheck_groom(&r.groom, GROOM_WAVY, 96, 16, 11);
+            run_open(&r, &p);
+            double settle;
+            const double rest = motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+            printf("%-18s = %-10g rest p99.9 %.2e mm/frame, settled after %.2f s\n", t[i].name, v, rest * 1e3, settle);
+            /* known gap (issue 13): with shape off, hair lying on the colliders slides on them
+             * for want of contact friction; it is measured and printed, not yet held to the bound */
+            const bool known_gap = strcmp(t[i].name, "shape") == 0 && v == 0.0;
+            if (!(rest <= REST_P999) && !known_gap) failures++;
+            run_close(&r);
+        }
+    }
+    assert_int_equal(failures, 0);
+}
+
+/* More damping never decays slower: the time to rest after the same motion does not grow. */
+static void test_damping_monotonic(void **state)
+{
+    (void)state;
+    const float values[] = { 0.0f, 5.0f, 30.0f, 100.0f, 200.0f };
+    double prev = INFINITY;
+    for (size_t i = 0; i < sizeof values / sizeof values[0]; i++) {
+        sim_params p;
+        sim_params_default(&p);
+        p.damping = values[i];
+        p.sph = false;
+        run r = { 0 };
+        simcheck_groom(&r.groom, GROOM_STRAIGHT, 96, 16, 5);
+        run_open(&r, &p);
+        double settle;
+        const double rest = motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+        printf("damping %5.1f /s: settled after %.3f s (rest p99.9 %.2e mm)\n", values[i], settle, rest * 1e3);
+        assert_true(rest <= REST_P999);
+        assert_true(settle <= prev + 1.0 / 60.0);
+        prev = settle;
+        run_close(&r);
+    }
+}
+
+/* Strands sticking out sideways from a row of roots (a cantilever that gravity bends). */
+static void cantilever_groom(core_groom *g)
+{
+    core_err err;
+    const uint32_t ns = 64, nv = 16;
+    assert_int_equal(core_groom_alloc(g, ns, nv, &err), CORE_OK);
+    for (uint32_t s = 0; s < ns; s++)
+        for (uint32_t v = 0; v < nv; v++) {
+            float *o = g->pos + 3 * ((size_t)s * nv + v);
+            o[0] = 0.1f * (float)v / (float)(nv - 1);
+            o[1] = 0.002f * (float)v * (float)v / (float)((nv - 1) * (nv - 1)); /* a slight upward curve */
+            o[2] = 0.004f * (float)s;
+        }
+}
+
+/* Mean tip drop after settling, and the time until the hair is at rest after release. */
+static void sag_and_decay(float dt, int substeps, double *sag, double *decay)
+{
+    sim_params p;
+    sim_params_default(&p);
+    p.dt = dt;
+    p.substeps = substeps;
+    p.sph = false;
+    p.global_stiffness = 2000.0f;
+    p.local_stiffness = 20000.0f;
+    run r = { 0 };
+    cantilever_groom(&r.groom);
+    run_open(&r, &p);
+    double settle;
+    const double rest = motion_then_rest(&r, dt, 0.0, 3.0, &settle);
+    assert_true(rest <= REST_P999);
+    double drop = 0.0;
+    for (uint32_t s = 0; s < r.groom.nstrands; s++) {
+        const size_t tip = ((size_t)s + 1) * r.groom.nverts - 1;
+        drop += r.groom.pos[3 * tip + 1] - r.x[3 * tip + 1];
+    }
+    *sag = drop / r.groom.nstrands;
+    *decay = settle;
+    run_close(&r);
+}
+
+/* Stiffness and damping are per unit of time: settled sag and decay time agree within 10% at
+ * (1/60 s, 4 substeps), (1/60 s, 8) and (1/30 s, 8). */
+static void test_dt_independence(void **state)
+{
+    (void)state;
+    const struct { float dt; int k; } cases[] = { { 1.0f / 60.0f, 4 }, { 1.0f / 60.0f, 8 }, { 1.0f / 30.0f, 8 } };
+    double sag[3], decay[3];
+    for (int i = 0; i < 3; i++) {
+        sag_and_decay(cases[i].dt, cases[i].k, &sag[i], &decay[i]);
+        printf("dt %.4f s, %d substeps: tip sag %.3f mm, at rest after %.3f s\n", cases[i].dt, cases[i].k, sag[i] * 1e3,
+               decay[i]);
+    }
+    assert_true(sag[0] > 1e-3); /* the cantilever does bend */
+    for (int i = 1; i < 3; i++) {
+        assert_true(fabs(sag[i] / sag[0] - 1.0) <= 0.10);
+        assert_true(fabs(decay[i] - decay[0]) <= 0.10 * decay[0] + 1.0 / 30.0); /* one frame of 1/30 s */
+    }
+}
+
+/* Ratboy's mohawk at the defaults, with its fitted head, keeps its style through motion:
+ * mean distance from the authored shape <= 10% of the strand length, tips above roots within 5
+ * points of the authored groom's. Skipped when the asset is absent. */
+static void test_ratboy_style(void **state)
+{
+    (void)state;
+    const char *assets = getenv("STRANDCAST_ASSETS");
+    char path[1024];
+    snprintf(path, sizeof path, "%s/ratboy/Ratboy_mohawk.tfx", assets ? assets : "../shared/assets");
+    FILE *fp = fopen(path, "rb");
+    if (!fp) skip();
+    fclose(fp);
+    run r = { 0 };
+    core_err err;
+    if (groom_load_file(path, 0, &r.groom, &err) != CORE_OK) fail_msg("%s: %s", path, err.msg);
+    sim_params p;
+    sim_params_default(&p);
+    run_open(&r, &p);
+    double settle;
+    const double rest = motion_then_rest(&r, p.dt, 2.0, 3.0, &settle);
+    const double dev = simcheck_mean_distance(r.x, r.groom.pos, r.n) / simcheck_mean_strand_length(&r.groom);
+    uint32_t above = 0, above0 = 0;
+    for (uint32_t s = 0; s < r.groom.nstrands; s++) {
+        const size_t root = (size_t)s * r.groom.nverts, tip = root + r.groom.nverts - 1;
+        above += r.x[3 * tip + 1] > r.x[3 * root + 1];
+        above0 += r.groom.pos[3 * tip + 1] > r.groom.pos[3 * root + 1];
+    }
+    const double share = (double)above / r.groom.nstrands, share0 = (double)above0 / r.groom.nstrands;
+    printf("Ratboy: rest p99.9 %.2e mm, shape deviation %.4f of strand length, tips above roots %.3f (authored %.3f)\n",
+           rest * 1e3, dev, share, share0);
+    assert_true(rest <= REST_P999);
+    assert_true(dev <= 0.10);
+    assert_true(fabs(share - share0) <= 0.05);
+    run_close(&r);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_rest_at_extremes),
+        cmocka_unit_test(test_damping_monotonic),
+        cmocka_unit_test(test_dt_independence),
+        cmocka_unit_test(test_ratboy_style),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
