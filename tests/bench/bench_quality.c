@@ -380,13 +380,17 @@ int bench_quality_main(int argc, char **argv)
     rc = 0;
     static const char *const names[BQ_MAX_GROOMS] = { "straight", "wavy", "curly", "ratboy" };
     bool any = false;
+    for (int k = 0; k < BQ_MAX_GROOMS; k++) any |= !o.groom || strcmp(o.groom, names[k]) == 0;
+    if (!any) {
+        fprintf(stderr, "strandbench quality: unknown groom '%s' (straight, wavy, curly, ratboy)\n", o.groom);
+        return 2;
+    }
     unsigned long long t0 = core_now_ns();
     if (!o.json)
         printf("%-8s %-24s %-8s %7s %10s %9s %8s %8s %10s %7s %8s\n", "groom", "param=value", "preset", "settle",
                "rest_p999", "seg_err", "pen_mm", "shape", "tips_up/au", "nn_gain", "steps/s");
     for (int k = 0; k < BQ_MAX_GROOMS; k++) {
         if (o.groom && strcmp(o.groom, names[k]) != 0) continue;
-        any = true;
         core_groom g;
         core_err err;
         core_status st;
@@ -410,10 +414,6 @@ int bench_quality_main(int argc, char **argv)
         }
         rc |= run_groom(&o, &g, names[k]);
         core_groom_free(&g);
-    }
-    if (!any) {
-        fprintf(stderr, "strandbench quality: unknown groom '%s' (straight, wavy, curly, ratboy)\n", o.groom);
-        return 2;
     }
     if (!o.json) printf("# total %.1f s wall\n", (double)(core_now_ns() - t0) * 1e-9);
     return rc;
