@@ -837,6 +837,9 @@ static void test_slow_client_skips(void **state)
     wsc_conn *s = connect_view(fx, &slow);
     wsc_small_rcvbuf(s, 4096);
     wait_frames(fx, slow, 2);
+    /* the head moves, so that frames stay large (hair at rest sends nearly empty deltas) */
+    wsc_send_text(s, "{\"type\":\"animate\",\"preset\":\"shake\",\"speed\":2}");
+    cJSON_Delete(expect_msg(fx, s, "state"));
     /* the slow client stops reading for 2 s while the server keeps streaming */
     wsc_read_enable(s, false);
     uint64_t f0 = fast->ok;
