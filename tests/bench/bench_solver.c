@@ -10,6 +10,7 @@
 #include "bench.h"
 #include "groom/groom.h"
 #include "sim/sim.h"
+#include "sim/sim_step.h"
 #include "sim/vk/sim_vk.h"
 
 #define MAX_CASES 64
@@ -39,7 +40,7 @@ static void usage(void)
          "with the ratio; Vulkan rows carry the per-stage GPU time of the last step (timestamps).\n"
          "--device N picks the Vulkan device (0 = automatic, N >= 1 = vulkaninfo's GPU<N-1>);\n"
          "--vk-chain picks the Vulkan chain strategy (default: the faster one as measured).\n"
-         "The SPH smoothing length is 3 mm x sqrt(4096 / strands) (it follows the strand spacing).\n"
+         "The SPH smoothing length is automatic (sph_radius 0: 1.75 x the groom's mean root spacing).\n"
          "--substeps N sets the solver substeps (default 1, the paper's; the daemon's default is 4).\n"
          "--animate runs each case once per head-motion preset (none, nod, shake, circle, headbang,\n"
          "sway: the daemon's presets, from the start of the preset) instead of the default slow turn,\n"
@@ -82,13 +83,10 @@ static int measure(const core_groom *g, int feat, sim_backend_kind backend, cons
     p.substeps = o->substeps;
     p.shape = feat >= SIM_FEAT_SHAPE;
     p.sph = feat >= SIM_FEAT_SPH;
-    /* the smoothing length follows the strand spacing: the default (3 mm) suits 4,096 strands on
-     * the head; denser grooms get a proportionally smaller h, as the paper tunes h per scene */
-    p.sph_radius = p.sph_radius * sqrtf(4096.0f / (float)g->nstrands);
-    if (p.sph_radius < 0.001f) p.sph_radius = 0.001f;
-    if (p.sph_radius > 0.02f) p.sph_radius = 0.02f;
+    /* the default smoothing length is automatic: it follows the groom's root spacing */
+    p.sph_radius = 0.0f;
     r->substeps = p.substeps;
-    r->sph_radius = p.sph_radius;
+    r->sph_radius = sim_sph_auto_radius(g);
     sim_desc d = { .backend = backend, .threads = o->threads, .device = o->device };
     sim_vk_options vo = { .chain = o->chain };
     sim s;
