@@ -22,10 +22,10 @@ typedef struct test_params {
 } test_params;
 
 static const core_param_info table[] = {
-    { "gravity", CORE_PARAM_FLOAT, offsetof(test_params, gravity), 0.0, 50.0, 9.81, "m/s^2", "Gravity." },
-    { "substeps", CORE_PARAM_INT, offsetof(test_params, substeps), 1, 16, 1, "", "Substeps." },
-    { "sph", CORE_PARAM_BOOL, offsetof(test_params, sph), 0, 1, 1, "", "SPH on." },
-    { "stiffness", CORE_PARAM_FLOAT, offsetof(test_params, stiffness), 0.0, 0.3, 0.2, "", "Stiffness \"quoted\"." },
+    { "gravity", CORE_PARAM_FLOAT, offsetof(test_params, gravity), 0.0, 50.0, 9.81, "m/s^2", "Gravity.", CORE_PARAM_LINEAR },
+    { "substeps", CORE_PARAM_INT, offsetof(test_params, substeps), 1, 16, 1, "", "Substeps.", CORE_PARAM_LINEAR },
+    { "sph", CORE_PARAM_BOOL, offsetof(test_params, sph), 0, 1, 1, "", "SPH on.", CORE_PARAM_LINEAR },
+    { "stiffness", CORE_PARAM_FLOAT, offsetof(test_params, stiffness), 0.0, 0.3, 0.2, "", "Stiffness \"quoted\".", CORE_PARAM_LOG },
 };
 static const char *const presets[] = { "none", "nod", "shake", "circle" };
 static const char *const styles[] = { "straight", "wavy", "curly" };
@@ -495,6 +495,9 @@ static void test_build_hello_and_groom(void **state)
     assert_true(num_of(s0, "max") == 50.0 && num_of(s0, "default") == 9.81);
     assert_string_equal(str_of(s0, "unit"), "m/s^2");
     assert_string_equal(str_of(cJSON_GetArrayItem(schema, 3), "help"), "Stiffness \"quoted\".");
+    /* the scale hint: "log" for a CORE_PARAM_LOG entry, absent (linear) for the others */
+    assert_string_equal(str_of(cJSON_GetArrayItem(schema, 3), "scale"), "log");
+    for (int i = 0; i < 3; i++) assert_null(cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(schema, i), "scale"));
     assert_true(cJSON_IsBool(cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(schema, 2), "default")));
     assert_true(num_of(cJSON_GetObjectItemCaseSensitive(params, "values"), "substeps") == 2.0);
     assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(j, "presets")), 4);

@@ -119,6 +119,8 @@ static cJSON *param_schema(const core_param_info *table, size_t n)
                       : cJSON_AddNumberToObject(e, "default", t->def) != NULL) &&
              cJSON_AddStringToObject(e, "unit", t->unit ? t->unit : "") &&
              cJSON_AddStringToObject(e, "help", t->help ? t->help : "");
+        /* the slider hint: only "log" is sent, an absent "scale" means linear */
+        if (ok && t->scale == CORE_PARAM_LOG) ok = cJSON_AddStringToObject(e, "scale", "log") != NULL;
     }
     if (!ok) {
         cJSON_Delete(arr);

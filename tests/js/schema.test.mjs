@@ -158,6 +158,18 @@ test('every server message validates against its schema', async () => {
       seen.add(m.type);
     }
     for (const t of ['hello', 'params', 'ok', 'error', 'state', 'groom', 'subscribed', 'stats']) assert.ok(seen.has(t), `no ${t} seen`);
+    // the stiffnesses span many decades: their schema entries ask for log sliders, the rest not
+    const hello = a.texts.find((m) => m.type === 'hello');
+    const logs = hello.params.schema.filter((e) => e.scale !== undefined).map((e) => `${e.name}:${e.scale}`);
+    assert.deepEqual(logs, ['global_stiffness:log', 'local_stiffness:log']);
+    const withEntry = (patch) => {
+      const h = structuredClone(hello);
+      Object.assign(h.params.schema.find((e) => e.name === 'local_stiffness'), patch);
+      return h;
+    };
+    check(get('server.hello'), withEntry({ scale: 'linear' }), false);
+    check(get('server.hello'), withEntry({ type: 'int' }), false);
+    check(get('server.hello'), withEntry({ min: -1 }), false);
     const codes = new Set(a.texts.filter((m) => m.type === 'error').map((m) => m.code));
     for (const c of ['unknown_type', 'unknown_param', 'bad_state', 'not_found', 'not_finite', 'bad_json']) assert.ok(codes.has(c), `no ${c}`);
     a.ws.close();
