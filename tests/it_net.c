@@ -835,7 +835,7 @@ static void test_pause_step_subscribe_groom(void **state)
 
 #define RATBOY_VERTS 12909u
 #define RATBOY_TRIS 25814u
-#define MESH_WAIT_MS 40000 /* the SDF of the Ratboy body takes seconds (minutes under ASan) */
+#define MESH_WAIT_MS 240000 /* the SDF of the Ratboy body takes seconds (minutes under ASan) */
 
 /* The shared asset folder (STRANDCAST_ASSETS, else next to the source tree), or NULL when the
  * Ratboy files are not there. */
