@@ -233,6 +233,14 @@ async function main() {
   });
   check(gl.webgl2 && !gl.lost, `WebGL2 context alive (${gl.renderer})`);
 
+  if (daemonExtra.includes('--collider')) { // e.g. -- --groom Ratboy_mohawk.tfx --collider Ratboy_body.tfxmesh
+    await page.waitForFunction(() => window.strandcast.colliderMesh, null, { timeout: 120000, polling: 200 });
+    const ntris = await page.evaluate(() => window.strandcast.colliderMesh.ntris);
+    check(ntris > 0, `the collision mesh from /collider.bin is drawn (${ntris} triangles)`);
+    await page.screenshot({ path: path.join(outDir, 'e2e-collider.png'), timeout: 180000 });
+    console.log(`e2e: screenshot ${path.join(outDir, 'e2e-collider.png')}`);
+  }
+
   const still = await capture(page);
   const ps = pixelStats(still.rgba);
   check(ps.hairShare >= 0.02, `canvas shows hair: ${(100 * ps.hairShare).toFixed(1)}% hair-coloured pixels (need 2%)`);
