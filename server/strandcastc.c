@@ -56,6 +56,7 @@ typedef struct cli {
     uint32_t rec_strands, rec_verts, rec_frames;
     proto_id pending[CLI_MAX_SEND]; /* ids of --send messages not answered yet */
     int npending;
+    bool sent;           /* the hello is shown and the --send messages are out: frames count */
     unsigned long frames, keys, bad, other_shape, early;
     unsigned long long bytes, vertices;
     bool write_failed;
@@ -202,7 +203,7 @@ static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user
             c->cap = need;
         }
         if (codec_decode(&c->dec, data, len, c->xyz, c->cap, &info, &err) == CORE_OK) {
-            if (c->npending) { /* decoded (the decoder keeps its keyframe), not shown */
+            if (!c->sent || c->npending) { /* decoded (the decoder keeps its keyframe), not shown */
                 c->early++;
                 return;
             }
@@ -335,6 +336,7 @@ static int run(cli *c)
         wsc_send_text(conn, c->d.send[i]);
         if (!c->d.json) printf("> %s\n", c->d.send[i]);
     }
+    c->sent = true; /* frames that came with the hello are not shown before it */
     size_t next = 0;
     unsigned long long t0 = core_now_ns(), limit = (unsigned long long)(c->d.seconds * 1e9);
     until_arg u = { c, conn };
