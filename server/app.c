@@ -20,15 +20,40 @@ static void defaults(app_desc *d)
     if (d->keyframe_interval <= 0) d->keyframe_interval = APP_DEFAULT_KEY_INTERVAL;
 }
 
+/* The --collider mesh into the loaded groom (its SDF covers what that groom's hair reaches). */
+static core_status load_initial_collider(app *a, core_err *err)
+{
+    if (!a->d.collider) return CORE_OK;
+    core_mesh m;
+    unsigned long long t0 = core_now_ns();
+    core_status st = app_collider_load(a->d.collider, &m, err);
+    if (st != CORE_OK) return st;
+    double load_ms = (double)(core_now_ns() - t0) / 1e6;
+    const char *base = strrchr(a->d.collider, '/');
+    if ((st = app_groom_set_collider(&a->groom, &m, base ? base + 1 : a->d.collider, err)) != CORE_OK) return st;
+    a->groom.mesh_ms = load_ms;
+    const core_sdf *s = a->groom.g.sdf;
+    core_log(CORE_LOG_INFO, "app", "collider %s: %u vertices, %u triangles (%.0f ms); grid %ux%ux%u of %.4g m (%.0f ms)",
+             a->groom.collider, a->groom.g.mesh->nverts, a->groom.g.mesh->ntris, load_ms, s ? s->dims[0] : 0,
+             s ? s->dims[1] : 0, s ? s->dims[2] : 0, s ? s->cell : 0.0f, a->groom.sdf_ms);
+    return CORE_OK;
+}
+
 static core_status load_initial_groom(app *a, core_err *err)
 {
     groom_style style;
-    if (groom_style_parse(a->d.groom, &style, NULL) == CORE_OK)
-        return app_groom_load_style(a, a->d.groom, a->d.strands, a->d.verts, a->d.seed, &a->groom, err);
-    const char *base = strrchr(a->d.groom, '/');
-    core_status st = app_groom_load_path(a, a->d.groom, base ? base + 1 : a->d.groom, a->d.verts, &a->groom, err);
-    if (st == CORE_OK && (st = app_groom_check_size(&a->groom, err)) != CORE_OK) app_groom_free(&a->groom);
-    return st;
+    core_status st;
+    unsigned long long t0 = core_now_ns();
+    if (groom_style_parse(a->d.groom, &style, NULL) == CORE_OK) {
+        st = app_groom_load_style(a, a->d.groom, a->d.strands, a->d.verts, a->d.seed, &a->groom, err);
+    } else {
+        const char *base = strrchr(a->d.groom, '/');
+        st = app_groom_load_path(a, a->d.groom, base ? base + 1 : a->d.groom, a->d.verts, &a->groom, err);
+        if (st == CORE_OK && (st = app_groom_check_size(&a->groom, err)) != CORE_OK) app_groom_free(&a->groom);
+    }
+    if (st != CORE_OK) return st;
+    core_log(CORE_LOG_INFO, "app", "groom %s loaded in %.0f ms", a->groom.source, (double)(core_now_ns() - t0) / 1e6);
+    return load_initial_collider(a, err);
 }
 
 static core_status setup(app *a, core_err *err)
@@ -59,10 +84,12 @@ static core_status setup(app *a, core_err *err)
     net_desc nd = {
         .listen = a->d.listen, .port = a->d.port, .web_dir = a->d.web_dir, .subprotocol = PROTO_SUBPROTOCOL,
         .max_message = PROTO_MAX_MESSAGE, .sndbuf = a->d.client_buffer,
-        .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout,
+        .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout, .blobs = { APP_MESH_PATH },
         .cb = { a, app_on_open, app_on_text, app_on_close, app_metrics },
     };
-    return net_create(&a->net, &nd, err);
+    if ((st = net_create(&a->net, &nd, err)) != CORE_OK) return st;
+    app_publish_mesh(a);
+    return CORE_OK;
 }
 
 static void teardown(app *a)
@@ -137,6 +164,7 @@ core_status app_run(const app_desc *desc, core_err *err)
         pthread_join(sim_thread, NULL);
         if (a->fatal != CORE_OK) st = core_fail(err, a->fatal, "simulation stopped: %s", a->fatal_err.msg);
     }
+    app_regroom_join(a); /* a groom load still running (the sim thread has stopped) */
     if (net_started) {
         net_stop(a->net);
         pthread_join(net_thread, NULL);

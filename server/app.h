@@ -19,6 +19,7 @@
 /* Everything strandcastd's flags set; zero means default for every field. */
 typedef struct app_desc {
     const char *groom;         /* "straight" | "wavy" | "curly" or a .tfx/.hair path; NULL = straight */
+    const char *collider;      /* .obj/.tfxmesh collision mesh path; NULL = none */
     uint32_t strands;          /* procedural strand count; 0 = 4096 */
     uint32_t verts;            /* vertices per strand; 0 = 32 (procedural) or the file's own */
     uint64_t seed;             /* procedural seed; 0 = the groom module's default */

@@ -12,14 +12,14 @@ static app_client *find_client(app *a, uint32_t id)
     return NULL;
 }
 
-static void reply_fail(app *a, uint32_t client, const proto_id *id, proto_code code, const char *field, const char *msg)
+void app_reply_fail(app *a, uint32_t client, const proto_id *id, proto_code code, const char *field, const char *msg)
 {
     proto_error e;
     proto_fail(&e, code, field, "%s", msg);
     app_reply_error(a, client, id, &e);
 }
 
-static void reply_ok(app *a, uint32_t client, const proto_msg *m)
+void app_reply_ok(app *a, uint32_t client, const proto_msg *m)
 {
     atomic_fetch_add(&a->accepted, 1);
     app_send(a, client, proto_build_ok(&m->id, m->type), 0);
@@ -60,7 +60,8 @@ static void client_open(app *a, uint32_t id)
         .head = app_anim_pose(&a->anim), .params = a->ptable, .nparams = a->nparams,
         .values = &a->params, .presets = app_preset_names, .npresets = APP_PRESET_COUNT,
         .animation = { app_preset_names[a->anim.preset], a->anim.speed }, .styles = styles, .nstyles = 3,
-        .files = (const char *const *)a->files, .nfiles = a->nfiles, .stream = stream_info(a, c), .state = app_state(a),
+        .files = (const char *const *)a->files, .nfiles = a->nfiles,
+        .meshes = (const char *const *)a->meshes, .nmeshes = a->nmeshes, .stream = stream_info(a, c), .state = app_state(a),
     };
     char *hello = proto_build_hello(&h);
     if (!hello) {
@@ -99,11 +100,11 @@ static void set_params(app *a, uint32_t client, const proto_msg *m)
     }
     core_err err;
     if (sim_set_params(&a->sim, &p, &err) != CORE_OK) {
-        reply_fail(a, client, &m->id, PROTO_ERR_OUT_OF_RANGE, "values", err.msg);
+        app_reply_fail(a, client, &m->id, PROTO_ERR_OUT_OF_RANGE, "values", err.msg);
         return;
     }
     a->params = p;
-    reply_ok(a, client, m);
+    app_reply_ok(a, client, m);
     app_send(a, NET_ALL, proto_build_params(NULL, a->ptable, a->nparams, &a->params, changed, client), 0);
 }
 
@@ -124,94 +125,17 @@ static void motion(app *a, uint32_t client, const proto_msg *m)
     }
     core_xform base = { m->u.motion.position, m->u.motion.orientation };
     bool stopped = app_anim_motion(&a->anim, base);
-    if (m->id.kind != PROTO_ID_NONE) reply_ok(a, client, m);
+    if (m->id.kind != PROTO_ID_NONE) app_reply_ok(a, client, m);
     else atomic_fetch_add(&a->accepted, 1);
     if (stopped) broadcast_state(a);
 }
 
-/* Puts the simulation back to its rest pose; its own counters restart at 0, so the baseline the
- * daemon's NaN total counts from does too (the daemon's totals go on). */
-static void reset_sim(app *a)
+void app_reset_sim(app *a)
 {
     sim_reset(&a->sim);
     pthread_mutex_lock(&a->stats_mu);
     a->stats.nan_resets = 0;
     pthread_mutex_unlock(&a->stats_mu);
-}
-
-static bool swap_groom(app *a, app_groom *g, uint32_t client, const proto_msg *m)
-{
-    core_err err;
-    sim fresh;
-    sim_desc sd = { .backend = a->d.backend, .threads = a->d.threads, .device = a->d.device };
-    if (sim_create(&fresh, &sd, &g->g, &a->params, &err) != CORE_OK) {
-        reply_fail(a, client, &m->id, PROTO_ERR_FAILED, "", err.msg);
-        return false;
-    }
-    size_t n = (size_t)g->g.nstrands * g->g.nverts * 3;
-    float *xyz = malloc(n * sizeof *xyz);
-    if (!xyz) {
-        sim_destroy(&fresh);
-        reply_fail(a, client, &m->id, PROTO_ERR_FAILED, "", "out of memory");
-        return false;
-    }
-    sim_destroy(&a->sim);
-    a->sim = fresh;
-    free(a->xyz);
-    a->xyz = xyz;
-    app_groom_free(&a->groom);
-    a->groom = *g;
-    memset(g, 0, sizeof *g);
-    sim_set_motion(&a->sim, app_anim_pose(&a->anim));
-    reset_sim(a);
-    app_tiers_reset(a);
-    a->dirty = true;
-    return true;
-}
-
-static void set_groom(app *a, uint32_t client, const proto_msg *m)
-{
-    app_groom g;
-    core_err err;
-    core_status st;
-    uint32_t verts = m->u.set_groom.verts;
-    if (m->u.set_groom.is_file) {
-        size_t i = 0;
-        while (i < a->nfiles && strcmp(a->files[i], m->u.set_groom.file) != 0) i++;
-        if (i == a->nfiles) {
-            reply_fail(a, client, &m->id, PROTO_ERR_NOT_FOUND, "file", "no such groom file in the asset folder (see hello.grooms.files)");
-            return;
-        }
-        char path[2048];
-        snprintf(path, sizeof path, "%s/%s", a->d.assets_dir, a->files[i]);
-        st = app_groom_load_path(a, path, a->files[i], verts, &g, &err);
-    } else {
-        uint32_t strands = m->u.set_groom.strands ? m->u.set_groom.strands : a->groom.g.nstrands;
-        if (!verts) verts = a->groom.g.nverts;
-        if ((uint64_t)strands * verts > PROTO_MAX_VERTICES) {
-            reply_fail(a, client, &m->id, PROTO_ERR_TOO_LARGE, "strands", "strands x verts is over the vertex limit");
-            return;
-        }
-        uint64_t seed = m->u.set_groom.has_seed ? m->u.set_groom.seed : a->d.seed;
-        st = app_groom_load_style(a, a->styles[m->u.set_groom.style], strands, verts, seed, &g, &err);
-    }
-    if (st != CORE_OK) {
-        reply_fail(a, client, &m->id, PROTO_ERR_FAILED, m->u.set_groom.is_file ? "file" : "style", err.msg);
-        return;
-    }
-    if (app_groom_check_size(&g, &err) != CORE_OK) {
-        app_groom_free(&g);
-        reply_fail(a, client, &m->id, PROTO_ERR_TOO_LARGE, "file", err.msg);
-        return;
-    }
-    if (!swap_groom(a, &g, client, m)) {
-        app_groom_free(&g);
-        return;
-    }
-    core_log(CORE_LOG_INFO, "app", "client %u: groom %s, %u strands x %u vertices", client, a->groom.source,
-             a->groom.g.nstrands, a->groom.g.nverts);
-    reply_ok(a, client, m);
-    app_send(a, NET_ALL, proto_build_groom(&a->groom.json), 0);
 }
 
 static void subscribe(app *a, uint32_t client, const proto_msg *m)
@@ -223,13 +147,13 @@ static void subscribe(app *a, uint32_t client, const proto_msg *m)
     double max_rate = m->u.subscribe.has_max_rate ? m->u.subscribe.max_rate : c->max_rate;
     int tier = app_tier_acquire(a, stride, max_error, max_rate);
     if (tier < 0) {
-        reply_fail(a, client, &m->id, PROTO_ERR_BUSY, "",
+        app_reply_fail(a, client, &m->id, PROTO_ERR_BUSY, "",
                    "every stream slot is taken by other stride/max_error/rate settings; pick settings another client uses");
         return;
     }
     if (!a->tiers[tier].ready) {
         app_tier_release(a, tier);
-        reply_fail(a, client, &m->id, PROTO_ERR_FAILED, "", "the stream's encoder could not be set up (see the server log)");
+        app_reply_fail(a, client, &m->id, PROTO_ERR_FAILED, "", "the stream's encoder could not be set up (see the server log)");
         return;
     }
     app_tier_release(a, c->tier);
@@ -258,7 +182,7 @@ static void handle_msg(app *a, uint32_t client, const proto_msg *m)
         app_anim_start(&a->anim, (app_preset)m->u.animate.preset, m->u.animate.speed);
         break;
     case PROTO_RESET:
-        reset_sim(a);
+        app_reset_sim(a);
         for (int i = 0; i < NET_MAX_STREAMS; i++) a->tiers[i].force_key = true;
         a->dirty = true;
         break;
@@ -272,27 +196,24 @@ static void handle_msg(app *a, uint32_t client, const proto_msg *m)
         break;
     case PROTO_STEP:
         if (!a->paused) {
-            reply_fail(a, client, &m->id, PROTO_ERR_BAD_STATE, "", "step works while paused; send pause first");
+            app_reply_fail(a, client, &m->id, PROTO_ERR_BAD_STATE, "", "step works while paused; send pause first");
             return;
         }
         a->step_budget += m->u.step.count;
         if (a->step_budget > PROTO_MAX_STEP) a->step_budget = PROTO_MAX_STEP;
-        reply_ok(a, client, m);
+        app_reply_ok(a, client, m);
         return; /* the state follows when the steps are done */
-    case PROTO_SET_GROOM:
-        set_groom(a, client, m);
-        atomic_fetch_sub(&a->grooms_pending, 1); /* after its replies and groom broadcast */
-        return;
+    case PROTO_SET_GROOM: app_set_groom(a, client, m); return; /* it drops grooms_pending */
     case PROTO_SUBSCRIBE: subscribe(a, client, m); return;
     case PROTO_KEYFRAME: {
         app_client *c = find_client(a, client);
         if (c && c->tier >= 0) a->tiers[c->tier].force_key = true;
         a->dirty = a->dirty || a->paused;
-        reply_ok(a, client, m);
+        app_reply_ok(a, client, m);
         return;
     }
     }
-    reply_ok(a, client, m);
+    app_reply_ok(a, client, m);
     broadcast_state(a);
 }
 

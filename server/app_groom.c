@@ -1,4 +1,4 @@
-/* app: loads the live groom (procedural style or file), renders its JSON, lists asset files. */
+/* app: loads the live groom (procedural style or file), renders its JSON, lists asset files (grooms, meshes). */
 #include <dirent.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -9,10 +9,17 @@
 #include "app_internal.h"
 #include "groom/groom.h"
 
+core_status app_groom_render(app_groom *g, core_err *err)
+{
+    proto_mesh_ref mr = { g->collider, APP_MESH_PATH, g->mesh_etag, g->mesh_bin ? net_buf_len(g->mesh_bin) : 0 };
+    proto_groom pg = { g->source, &g->g, g->seed, g->g.mesh && g->mesh_bin ? &mr : NULL };
+    proto_groom_json_free(&g->json);
+    return proto_groom_json_build(&g->json, &pg, err);
+}
+
 static core_status finish(app_groom *out, core_err *err)
 {
-    proto_groom pg = { out->source, &out->g, out->seed };
-    core_status st = proto_groom_json_build(&out->json, &pg, err);
+    core_status st = app_groom_render(out, err);
     if (st != CORE_OK) app_groom_free(out);
     return st;
 }
@@ -56,15 +63,19 @@ core_status app_groom_check_size(const app_groom *g, core_err *err)
 void app_groom_free(app_groom *g)
 {
     core_groom_free(&g->g);
+    net_buf_unref(g->mesh_bin);
     proto_groom_json_free(&g->json);
     memset(g, 0, sizeof *g);
 }
 
-static bool groom_ext(const char *name)
+static bool has_ext(const char *name, const char *ext)
 {
-    size_t n = strlen(name);
-    return (n > 4 && strcasecmp(name + n - 4, ".tfx") == 0) || (n > 5 && strcasecmp(name + n - 5, ".hair") == 0);
+    size_t n = strlen(name), e = strlen(ext);
+    return n > e && strcasecmp(name + n - e, ext) == 0;
 }
+
+static bool groom_ext(const char *name) { return has_ext(name, ".tfx") || has_ext(name, ".hair"); }
+static bool mesh_ext(const char *name) { return has_ext(name, ".obj") || has_ext(name, ".tfxmesh"); }
 
 /* Adds files under dir/rel (depth-limited); names are relative to the asset folder. */
 static void scan(app *a, const char *root, const char *rel, int depth)
@@ -74,7 +85,7 @@ static void scan(app *a, const char *root, const char *rel, int depth)
     DIR *dir = opendir(path);
     if (!dir) return;
     struct dirent *de;
-    while ((de = readdir(dir)) && a->nfiles < APP_MAX_FILES) {
+    while ((de = readdir(dir))) {
         if (de->d_name[0] == '.') continue;
         char child[PROTO_MAX_NAME + 2];
         int w = snprintf(child, sizeof child, "%s%s%s", rel, *rel ? "/" : "", de->d_name);
@@ -85,15 +96,19 @@ static void scan(app *a, const char *root, const char *rel, int depth)
         if (stat(full, &sb) != 0) continue;
         if (S_ISDIR(sb.st_mode) && depth > 0) {
             scan(a, root, child, depth - 1);
-        } else if (S_ISREG(sb.st_mode) && groom_ext(de->d_name)) {
+        } else if (S_ISREG(sb.st_mode) && (groom_ext(de->d_name) || mesh_ext(de->d_name))) {
+            bool groom = groom_ext(de->d_name);
+            char **list = groom ? a->files : a->meshes;
+            size_t *n = groom ? &a->nfiles : &a->nmeshes;
+            if (*n >= APP_MAX_FILES) continue;
             /* only names set_groom can ask for (proto's file-name rules) */
             proto_error pe;
             proto_msg m;
             char probe[PROTO_MAX_NAME + 64];
-            snprintf(probe, sizeof probe, "{\"type\":\"set_groom\",\"file\":\"%s\"}", child);
+            snprintf(probe, sizeof probe, "{\"type\":\"set_groom\",\"style\":\"straight\",\"collider\":\"%s\"}", child);
             if (proto_parse(&a->parser, probe, strlen(probe), &m, &pe) != CORE_OK) continue;
             char *copy = strdup(child);
-            if (copy) a->files[a->nfiles++] = copy;
+            if (copy) list[(*n)++] = copy;
         }
     }
     closedir(dir);
@@ -103,14 +118,16 @@ static int cmp_names(const void *x, const void *y) { return strcmp(*(char *const
 
 void app_list_assets(app *a)
 {
-    a->nfiles = 0;
+    a->nfiles = a->nmeshes = 0;
     if (!a->d.assets_dir) return;
     scan(a, a->d.assets_dir, "", 3);
     qsort(a->files, a->nfiles, sizeof a->files[0], cmp_names);
+    qsort(a->meshes, a->nmeshes, sizeof a->meshes[0], cmp_names);
 }
 
 void app_free_assets(app *a)
 {
     for (size_t i = 0; i < a->nfiles; i++) free(a->files[i]);
-    a->nfiles = 0;
+    for (size_t i = 0; i < a->nmeshes; i++) free(a->meshes[i]);
+    a->nfiles = a->nmeshes = 0;
 }

@@ -111,13 +111,48 @@ typedef struct app_client {
     double last_t;            /* newest motion timestamp from this client */
 } app_client;
 
-/* The live groom and its pre-rendered JSON. */
+#define APP_MESH_PATH "/collider.bin" /* where clients GET the collision mesh binary */
+
+/* The live groom, its collision mesh binary and its pre-rendered JSON. */
 typedef struct app_groom {
-    core_groom g;
+    core_groom g;             /* g.mesh / g.sdf: the collision mesh and its distance grid, if any */
     char source[PROTO_MAX_NAME + 16];
     uint64_t seed;
+    char collider[PROTO_MAX_NAME + 1]; /* the mesh's name ("" = none) */
+    net_buf *mesh_bin;        /* proto_mesh_bin_write of g.mesh (NULL = none) */
+    char mesh_etag[17];
+    double mesh_ms, sdf_ms;   /* time to load the mesh and build its grid */
     proto_groom_json json;
 } app_groom;
+
+/* One set_groom's loads (groom, collision mesh, SDF) on a loader thread: the sim thread
+ * fills the job and starts it, the loader fills the result and sets done, the sim thread
+ * collects it at a step boundary (app_regroom_poll). One at a time (grooms_pending). */
+typedef struct app_loader {
+    pthread_t thread;
+    bool running;             /* sim thread: started and not yet collected */
+    atomic_bool done;         /* loader: the result is ready */
+    struct app *a;
+    uint32_t client;
+    proto_msg msg;
+    /* the job (resolved on the sim thread) */
+    char groom_path[2048];    /* a groom file, or "" for the procedural style */
+    const char *label;        /* the groom file's name (a->files, immutable) */
+    const char *style;
+    uint32_t strands, verts;
+    uint64_t seed;
+    char mesh_path[2048];     /* a collision mesh file, or "" */
+    bool has_keep;            /* keep: a copy of the live groom's mesh */
+    core_mesh keep;
+    char mesh_label[PROTO_MAX_NAME + 1];
+    /* the result */
+    app_groom g;
+    core_status st;
+    proto_code code;
+    const char *field;
+    core_err err;
+    double groom_ms, total_ms;
+} app_loader;
 
 /* Numbers the sim thread publishes for /metrics and stats (guarded by stats_mu). */
 typedef struct app_stats {
@@ -150,6 +185,8 @@ typedef struct app {
     const char *styles[3];
     char *files[APP_MAX_FILES];
     size_t nfiles;
+    char *meshes[APP_MAX_FILES];  /* .obj/.tfxmesh files set_groom's collider may name */
+    size_t nmeshes;
 
     /* sim thread state */
     bool paused;
@@ -180,6 +217,7 @@ typedef struct app {
     app_stats stats;
     atomic_uint_fast64_t accepted, rejected;
     atomic_uint grooms_pending;   /* set_groom commands queued or being carried out (at most 1) */
+    app_loader loader;            /* the set_groom being loaded (sim thread, loader thread) */
 } app;
 
 /* Net-thread callbacks (net_callbacks.user = app). */
@@ -202,10 +240,33 @@ core_status app_groom_load_style(app *a, const char *style, uint32_t strands, ui
 core_status app_groom_load_path(app *a, const char *path, const char *label, uint32_t verts, app_groom *out,
                                 core_err *err);
 void app_groom_free(app_groom *g);
+/* (Re-)renders g's JSON after a change of its mesh. */
+core_status app_groom_render(app_groom *g, core_err *err);
+
+/* Collision meshes (app_collider.c). */
+#define APP_COLLIDER_REACH_PAD 0.02f  /* m beyond the longest strand around the roots */
+#define APP_COLLIDER_MESH_PAD 0.01f   /* m around the mesh bounds */
+#define APP_COLLIDER_MAX_CELLS (8u << 20) /* SDF samples at most (the cell grows to fit) */
+/* The box (head frame) where the SDF of mesh m is built for groom g: the roots' bounding box
+ * grown by the longest strand (rest arc length) + APP_COLLIDER_REACH_PAD, intersected with
+ * m's bounds grown by APP_COLLIDER_MESH_PAD. False (lo, hi unset) when they do not overlap or
+ * g has no finite root. Pure. */
+bool app_collider_region(const core_groom *g, const core_mesh *m, core_vec3 *lo, core_vec3 *hi);
+/* Loads the collision mesh file at path (.obj/.tfxmesh, groom_mesh_load_file's checks and
+ * limits) into *out (the caller owns it: core_mesh_free). Blocking I/O, any thread. */
+core_status app_collider_load(const char *path, core_mesh *out, core_err *err);
+/* Gives g the mesh (taking it over; *mesh is zeroed, also on failure), named label: its SDF
+ * over app_collider_region (2 mm cells, at most APP_COLLIDER_MAX_CELLS samples; none when
+ * the hair cannot reach the mesh), its binary and the re-rendered JSON. mesh NULL removes
+ * g's mesh. Any thread (g is the caller's). */
+core_status app_groom_set_collider(app_groom *g, core_mesh *mesh, const char *label, core_err *err);
+/* Hands the live groom's mesh binary to net (or none). */
+void app_publish_mesh(app *a);
 /* CORE_EINVAL (the counts in err) when g has more vertices than a groom may have
  * (PROTO_MAX_VERTICES: what set_groom and the hello's limits allow). Pure. */
 core_status app_groom_check_size(const app_groom *g, core_err *err);
-/* Lists the .tfx/.hair files under d.assets_dir into a->files (sorted). */
+/* Lists the .tfx/.hair files under d.assets_dir into a->files and the .obj/.tfxmesh files
+ * into a->meshes (sorted). */
 void app_list_assets(app *a);
 void app_free_assets(app *a);
 
@@ -247,6 +308,21 @@ uint32_t app_tier_strands(const app *a, int32_t stride);
 void app_handle(app *a, app_cmd *c);
 /* The sim thread's body (pthread start routine; arg = app). */
 void *app_sim_main(void *arg);
+/* Replies (sim thread): an error with code, field and message; ok (counted as accepted). */
+void app_reply_fail(app *a, uint32_t client, const proto_id *id, proto_code code, const char *field, const char *msg);
+void app_reply_ok(app *a, uint32_t client, const proto_msg *m);
+/* Puts the simulation back to its rest pose; its own counters restart at 0, so the baseline the
+ * daemon's NaN total counts from does too (the daemon's totals go on). Sim thread. */
+void app_reset_sim(app *a);
+/* set_groom (app_regroom.c): checks the names (errors are replied at once) and starts the
+ * loads on the loader thread; the swap, the replies and the groom broadcast follow in
+ * app_regroom_poll. Drops grooms_pending when the request ends, before its replies. Sim thread. */
+void app_set_groom(app *a, uint32_t client, const proto_msg *m);
+/* Collects a finished load: swaps the groom in and replies, or replies the error. Sim thread,
+ * at a step boundary. */
+void app_regroom_poll(app *a);
+/* Waits for a running load and drops its result (shutdown, after the sim thread ended). */
+void app_regroom_join(app *a);
 /* Current state/animation for state messages and hello. */
 proto_state app_state(const app *a);
 

@@ -12,6 +12,7 @@ static void take_commands(app *a)
 {
     app_cmd c;
     while (app_mailbox_take(&a->mb, &c)) app_handle(a, &c);
+    app_regroom_poll(a); /* a set_groom whose loads finished */
 }
 
 static core_status step_once(app *a)

@@ -19,6 +19,8 @@ static void usage(FILE *f)
             "Simulates strand hair in real time and streams it to WebSocket clients; serves the viewer page.\n\n"
             "Scene\n"
             "  --groom STYLE|FILE     straight | wavy | curly (procedural), or a .tfx / .hair file (default straight)\n"
+            "  --collider FILE        character collision mesh, .obj or .tfxmesh, in the groom's frame (default none);\n"
+            "                         the hair collides with it as well as with the head ellipsoid and capsules\n"
             "  --strands N            procedural strand count, 1..%d (default %u)\n"
             "  --verts N              vertices per strand, 2..%d (default %u; a file keeps its own unless given)\n"
             "  --seed N               procedural groom seed (default: the groom module's fixed seed)\n"
@@ -30,7 +32,8 @@ static void usage(FILE *f)
             "  --listen ADDR          IP address to bind (default 127.0.0.1; localhost; ::1; 0.0.0.0 = every interface)\n"
             "  --port N               TCP port (default 7681; 0 = a free port, printed at start-up)\n"
             "  --web DIR              folder served at / (default %s/web)\n"
-            "  --assets DIR           folder whose .tfx/.hair files clients may pick with set_groom\n"
+            "  --assets DIR           folder whose .tfx/.hair grooms and .obj/.tfxmesh colliders clients may pick\n"
+            "                         with set_groom\n"
             "                         (default %s/../shared/assets when present)\n"
             "  --rate HZ              frames per second streamed, 1..1000 (default %.0f; at most one per step)\n"
             "  --max-error M          default stream position error bound in metres, %g..%g (default %g)\n"
@@ -120,7 +123,7 @@ static int parse_args(int argc, char **argv, app_desc *d, bool *verts_given)
             d->no_net = true;
             continue;
         }
-        static const char *const with_value[] = { "--groom", "--strands", "--verts", "--seed", "--backend", "--device",
+        static const char *const with_value[] = { "--groom", "--collider", "--strands", "--verts", "--seed", "--backend", "--device",
                                                   "--threads", "--listen", "--port", "--web", "--assets", "--rate",
                                                   "--max-error", "--keyframe-interval", "--client-buffer", "--ping-interval",
                                                   "--ping-timeout", "--steps" };
@@ -137,6 +140,9 @@ static int parse_args(int argc, char **argv, app_desc *d, bool *verts_given)
         if (strcmp(flag, "--groom") == 0) {
             if (!*value) return bad(flag, value, "expected a style or a file");
             d->groom = value;
+        } else if (strcmp(flag, "--collider") == 0) {
+            if (!*value) return bad(flag, value, "expected an .obj or .tfxmesh file");
+            d->collider = value;
         } else if (strcmp(flag, "--strands") == 0) {
             if (!(rc = parse_u64(flag, value, 1, PROTO_MAX_STRANDS, &u))) d->strands = (uint32_t)u;
         } else if (strcmp(flag, "--verts") == 0) {

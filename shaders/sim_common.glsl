@@ -52,7 +52,7 @@ layout(std430, set = 0, binding = 0) restrict readonly buffer FrameBuf {
     float h2;          // h * h
     float inv_h2;      // 1 / h2
     float inv_h;       // 1 / h
-    float kp;          // repulsion * h * SIM_SPH_ACCEL_SCALE
+    float kp;          // repulsion * rest_density * h * hold (sim_step.h)
     float mu_dt;       // viscosity * step dt
     float inv_step_dt; // 1 / step dt
     float inv_rho0;    // 1 / (rest_density * rest-pose mean density)

@@ -35,7 +35,8 @@ void main()
     if (W > 0.0) {
         float kr = F.kp / RHO.d[i];
         acc = ap * kr;
-        float blend = (1.0 - exp(-F.mu_dt * W / (1.0 + W))) * F.inv_step_dt;
+        // viscosity: mu (W / rho_i) (vbar - v_i), integrated exactly over the step (sim_cpu_sph.c)
+        float blend = (1.0 - exp(-F.mu_dt * W / RHO.d[i])) * F.inv_step_dt;
         acc += blend * (vb / W - vi);
     }
     stA(ORDER.d[i], acc);

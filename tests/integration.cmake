@@ -14,6 +14,11 @@ foreach(t hello_and_frames params_broadcast_and_physics motion_moves_roots bad_i
   add_test(NAME integration_${t} COMMAND it_net $<TARGET_FILE:strandcastd> test_${t})
   set_tests_properties(integration_${t} PROPERTIES TIMEOUT 120 LABELS integration)
 endforeach()
+# the Ratboy groom and body from the shared assets (skipped without them): two SDF builds of the
+# body, seconds each (minutes under the sanitizers)
+add_test(NAME integration_collider_mesh COMMAND it_net $<TARGET_FILE:strandcastd> test_collider_mesh)
+set_tests_properties(integration_collider_mesh PROPERTIES TIMEOUT 900 LABELS integration
+                     ENVIRONMENT "STRANDCAST_ASSETS=${PROJECT_SOURCE_DIR}/../shared/assets")
 
 # The JSON Schemas in proto/schema against sample messages and the real server (Node + ajv + ws).
 find_program(NODE_EXECUTABLE node)

@@ -22,10 +22,10 @@ typedef struct test_params {
 } test_params;
 
 static const core_param_info table[] = {
-    { "gravity", CORE_PARAM_FLOAT, offsetof(test_params, gravity), 0.0, 50.0, 9.81, "m/s^2", "Gravity." },
-    { "substeps", CORE_PARAM_INT, offsetof(test_params, substeps), 1, 16, 1, "", "Substeps." },
-    { "sph", CORE_PARAM_BOOL, offsetof(test_params, sph), 0, 1, 1, "", "SPH on." },
-    { "stiffness", CORE_PARAM_FLOAT, offsetof(test_params, stiffness), 0.0, 0.3, 0.2, "", "Stiffness \"quoted\"." },
+    { "gravity", CORE_PARAM_FLOAT, offsetof(test_params, gravity), 0.0, 50.0, 9.81, "m/s^2", "Gravity.", CORE_PARAM_LINEAR },
+    { "substeps", CORE_PARAM_INT, offsetof(test_params, substeps), 1, 16, 1, "", "Substeps.", CORE_PARAM_LINEAR },
+    { "sph", CORE_PARAM_BOOL, offsetof(test_params, sph), 0, 1, 1, "", "SPH on.", CORE_PARAM_LINEAR },
+    { "stiffness", CORE_PARAM_FLOAT, offsetof(test_params, stiffness), 0.0, 0.3, 0.2, "", "Stiffness \"quoted\".", CORE_PARAM_LOG },
 };
 static const char *const presets[] = { "none", "nod", "shake", "circle" };
 static const char *const styles[] = { "straight", "wavy", "curly" };
@@ -226,6 +226,30 @@ static void test_set_groom(void **state)
     /* the seed a hello shows (the default one, over 2^32) can be sent back */
     expect_ok("{\"type\":\"set_groom\",\"style\":\"wavy\",\"seed\":104373592858645}", PROTO_SET_GROOM);
     assert_true(msg.u.set_groom.seed == 104373592858645ull);
+    assert_int_equal(msg.u.set_groom.collider_mode, PROTO_COLLIDER_KEEP);
+
+    /* collider: a mesh file name (the file rules), null (none), absent (keep) */
+    expect_ok("{\"type\":\"set_groom\",\"file\":\"a.tfx\",\"collider\":\"ratboy/Ratboy_body.tfxmesh\"}", PROTO_SET_GROOM);
+    assert_int_equal(msg.u.set_groom.collider_mode, PROTO_COLLIDER_FILE);
+    assert_string_equal(msg.u.set_groom.collider, "ratboy/Ratboy_body.tfxmesh");
+    expect_ok("{\"type\":\"set_groom\",\"style\":\"wavy\",\"collider\":null}", PROTO_SET_GROOM);
+    assert_int_equal(msg.u.set_groom.collider_mode, PROTO_COLLIDER_NONE);
+    static const char *const bad_names[] = { "\"../x.obj\"", "\"a/../../x.obj\"", "\"/etc/passwd\"", "\"a//b.obj\"",
+                                             "\"./a.obj\"", "\"\"", "\"a b.obj\"", "\"caf\\u00e9.obj\"", "7", "true",
+                                             "[\"a.obj\"]", "\"a.obj\\u0000../../etc/passwd\"", "\"\\u0000\"" };
+    for (size_t i = 0; i < sizeof bad_names / sizeof bad_names[0]; i++) {
+        char text[160];
+        snprintf(text, sizeof text, "{\"type\":\"set_groom\",\"style\":\"wavy\",\"collider\":%s}", bad_names[i]);
+        expect_err(text, PROTO_ERR_BAD_FIELD, "collider");
+    }
+    snprintf(big, sizeof big, "{\"type\":\"set_groom\",\"style\":\"wavy\",\"collider\":\"%0300d\"}", 0);
+    expect_err(big, PROTO_ERR_TOO_LARGE, "collider");
+    /* a NUL cuts no name short anywhere: the groom file, a nested member, an id */
+    expect_err("{\"type\":\"set_groom\",\"file\":\"a.tfx\\u0000/../b\"}", PROTO_ERR_BAD_FIELD, "file");
+    expect_err("{\"type\":\"set_params\",\"values\":{\"gra\\u0000vity\":1}}", PROTO_ERR_UNKNOWN_PARAM, "values.gra");
+    expect_err("{\"id\":\"x\\u0000\",\"type\":\"reset\"}", PROTO_ERR_BAD_FIELD, "id");
+    expect_ok("{\"id\":\"x\\\\u0000\",\"type\":\"reset\"}", PROTO_RESET); /* an escaped backslash, then "u0000" */
+    assert_string_equal(msg.id.str, "x\\u0000");
 }
 
 static void test_subscribe(void **state)
@@ -439,7 +463,7 @@ static void test_build_hello_and_groom(void **state)
     (void)state;
     core_groom g = { 0 };
     make_groom(&g);
-    proto_groom pg = { "procedural:straight", &g, 7 };
+    proto_groom pg = { "procedural:straight", &g, 7, NULL };
     proto_groom_json gj;
     core_err cerr;
     assert_int_equal(proto_groom_json_build(&gj, &pg, &cerr), CORE_OK);
@@ -495,6 +519,9 @@ static void test_build_hello_and_groom(void **state)
     assert_true(num_of(s0, "max") == 50.0 && num_of(s0, "default") == 9.81);
     assert_string_equal(str_of(s0, "unit"), "m/s^2");
     assert_string_equal(str_of(cJSON_GetArrayItem(schema, 3), "help"), "Stiffness \"quoted\".");
+    /* the scale hint: "log" for a CORE_PARAM_LOG entry, absent (linear) for the others */
+    assert_string_equal(str_of(cJSON_GetArrayItem(schema, 3), "scale"), "log");
+    for (int i = 0; i < 3; i++) assert_null(cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(schema, i), "scale"));
     assert_true(cJSON_IsBool(cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(schema, 2), "default")));
     assert_true(num_of(cJSON_GetObjectItemCaseSensitive(params, "values"), "substeps") == 2.0);
     assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(j, "presets")), 4);
@@ -514,8 +541,74 @@ static void test_build_hello_and_groom(void **state)
     assert_string_equal(str_of(j, "type"), "groom");
     assert_true(num_of(cJSON_GetObjectItemCaseSensitive(j, "groom"), "strands") == 3);
     assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(j, "colliders")), 3);
+    assert_true(cJSON_IsNull(cJSON_GetObjectItemCaseSensitive(j, "collider_mesh")));
     cJSON_Delete(j);
     proto_groom_json_free(&gj);
+
+    /* with a collision mesh (a tetrahedron) and its grid: described in hello and groom */
+    g.mesh = calloc(1, sizeof *g.mesh);
+    assert_int_equal(core_mesh_alloc(g.mesh, 4, 4, &cerr), CORE_OK);
+    static const float tp[12] = { 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1 };
+    static const uint32_t tt[12] = { 0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3 };
+    memcpy(g.mesh->pos, tp, sizeof tp);
+    memcpy(g.mesh->tri, tt, sizeof tt);
+    g.sdf = calloc(1, sizeof *g.sdf);
+    uint32_t dims[3] = { 2, 3, 4 };
+    assert_int_equal(core_sdf_alloc(g.sdf, dims, core_v3(-0.5f, 0, 0), 0.25f, &cerr), CORE_OK);
+    proto_mesh_ref mr = { "ratboy/tet.obj", "/collider.bin", "0123456789abcdef", 160 };
+    pg.mesh = &mr;
+    assert_int_equal(proto_groom_json_build(&gj, &pg, &cerr), CORE_OK);
+    h.groom = &gj;
+    static const char *const meshes[] = { "ratboy/tet.obj" };
+    h.meshes = meshes;
+    h.nmeshes = 1;
+    j = json(proto_build_hello(&h));
+    const cJSON *cm = cJSON_GetObjectItemCaseSensitive(j, "collider_mesh");
+    assert_string_equal(str_of(cm, "source"), "ratboy/tet.obj");
+    assert_true(num_of(cm, "verts") == 4 && num_of(cm, "triangles") == 4 && num_of(cm, "bytes") == 160);
+    assert_string_equal(str_of(cm, "url"), "/collider.bin");
+    assert_string_equal(str_of(cm, "etag"), "0123456789abcdef");
+    const cJSON *mb = cJSON_GetObjectItemCaseSensitive(cm, "bounds");
+    assert_true(cJSON_GetArrayItem(mb, 0)->valuedouble == 0 && cJSON_GetArrayItem(mb, 5)->valuedouble == 1);
+    const cJSON *sd = cJSON_GetObjectItemCaseSensitive(cm, "sdf");
+    assert_true(num_of(sd, "cell") == 0.25);
+    assert_true(cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(sd, "dims"), 2)->valuedouble == 4);
+    assert_true(cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(sd, "origin"), 0)->valuedouble == -0.5);
+    grooms = cJSON_GetObjectItemCaseSensitive(j, "grooms");
+    assert_string_equal(cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(grooms, "colliders"), 0)->valuestring, meshes[0]);
+    cJSON_Delete(j);
+    j = json(proto_build_groom(&gj));
+    assert_true(num_of(cJSON_GetObjectItemCaseSensitive(j, "collider_mesh"), "triangles") == 4);
+    cJSON_Delete(j);
+    proto_groom_json_free(&gj);
+
+    /* the binary: 16-byte header, float32 positions, uint32 indices, little-endian */
+    size_t n = proto_mesh_bin_size(g.mesh);
+    assert_int_equal(n, 16 + 48 + 48);
+    unsigned char bin[112];
+    proto_mesh_bin_write(g.mesh, bin);
+    assert_memory_equal(bin, "SCMH\1\0\0\0\4\0\0\0\4\0\0\0", 16);
+    float f;
+    memcpy(&f, bin + 16 + 4 * 3, 4);
+    assert_true(f == 1.0f);
+    assert_int_equal(bin[16 + 48 + 4], 2); /* tri[1] */
+    uint32_t nv, nt;
+    assert_int_equal(proto_mesh_bin_read(bin, n, &nv, &nt, &cerr), CORE_OK);
+    assert_true(nv == 4 && nt == 4);
+    char tag[17], tag2[17];
+    proto_mesh_bin_etag(bin, n, tag);
+    assert_int_equal(strlen(tag), 16);
+    assert_int_equal(proto_mesh_bin_read(bin, n - 1, &nv, &nt, &cerr), CORE_EFORMAT); /* short */
+    bin[16 + 48] = 4;                                                                    /* index out of range */
+    assert_int_equal(proto_mesh_bin_read(bin, n, &nv, &nt, &cerr), CORE_EFORMAT);
+    assert_non_null(strstr(cerr.msg, "vertex 4"));
+    proto_mesh_bin_etag(bin, n, tag2);
+    assert_string_not_equal(tag, tag2); /* the tag follows the bytes */
+    bin[16 + 48] = 0;
+    memset(bin + 16, 0xff, 4); /* a NaN position */
+    assert_int_equal(proto_mesh_bin_read(bin, n, &nv, &nt, &cerr), CORE_EFORMAT);
+    bin[4] = 2; /* version */
+    assert_int_equal(proto_mesh_bin_read(bin, n, &nv, &nt, &cerr), CORE_EFORMAT);
     core_groom_free(&g);
 }
 

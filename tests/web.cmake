@@ -5,7 +5,7 @@ if(NOT STRANDCAST_NODE)
 endif()
 
 # the viewer's own modules (web/codec.js has its own test, registered by codec.cmake)
-set(STRANDCAST_WEB_JS_TESTS backoff camera catmull frames geometry interp motion net overlay panel_model pick
+set(STRANDCAST_WEB_JS_TESTS backoff camera catmull collider_mesh frames geometry interp motion net overlay panel_model pick
     pixels rigid stats view_settings)
 foreach(name ${STRANDCAST_WEB_JS_TESTS})
   add_test(NAME web_js_${name} COMMAND ${STRANDCAST_NODE} --test ${CMAKE_CURRENT_SOURCE_DIR}/js/${name}.test.mjs)

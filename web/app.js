@@ -10,6 +10,7 @@ import { defaultUrl } from './net.js';
 import { Banner, statsText } from './overlay.js';
 import { Panel } from './panel.js';
 import { pickColliders } from './pick.js';
+import { ColliderMeshLoader, httpBase } from './collider_mesh.js';
 import { Renderer } from './renderer.js';
 import { StreamClient } from './stream_client.js';
 import { Ema, LatencyEstimator, RateMeter } from './stats.js';
@@ -85,6 +86,12 @@ export class App {
     this.panel.buildView(VIEW_SPECS, this.settings);
 
     this.url = url || defaultUrl(location);
+    this.colliderMesh = null;   // the parsed collision mesh drawn now (head frame), or null
+    this.meshLoader = new ColliderMeshLoader(httpBase(this.url), (m) => {
+      this.colliderMesh = m;
+      if (!this.contextLost) this.renderer.head.setMesh(m);
+      this.dirty = true;
+    }, (message) => this.panel.showStatus(`collision mesh not drawn: ${message}`, true));
     this.stream = new StreamClient({
       onHello: (h) => this._onHello(h),
       onMessage: (m) => this._onMessage(m),
@@ -112,6 +119,7 @@ export class App {
       this.layoutPerGuide = 0;
       this.dirty = true;
       if (this.groom) this._applyGroom(this.groom, this.colliders);
+      this.renderer.head.setMesh(this.colliderMesh);
       this.banner.hide();
     });
 
@@ -178,6 +186,7 @@ export class App {
     }
     const first = !this.groom;
     this._applyGroom(h.groom, h.colliders);
+    this.meshLoader.update(h.collider_mesh);
     if (first && finiteArray(h.groom.bounds, 6)) this.camera.frame(h.groom.bounds);
     this.panel.showStatus(`connected to ${h.server || 'server'} ${h.version || ''} as client ${h.client ?? '?'}`, false);
   }
@@ -190,7 +199,10 @@ export class App {
         if (typeof m.paused === 'boolean') this.paused = m.paused;
         this.latency.reset();
         break;
-      case 'groom': this._applyGroom(m.groom, m.colliders); break;
+      case 'groom':
+        this._applyGroom(m.groom, m.colliders);
+        this.meshLoader.update(m.collider_mesh);
+        break;
       case 'stats': this.serverStats = m; break;
       case 'error': {
         const field = typeof m.field === 'string' ? m.field : '';

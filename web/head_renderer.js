@@ -1,5 +1,5 @@
-// Draws the character's colliders (the head and any spheres/capsules from the hello message),
-// moved by the head transform, shaded with the hair's shadow.
+// Draws the character's colliders (the head and any spheres/capsules from the hello message,
+// and the collision mesh), moved by the head transform, shaded with the hair's shadow.
 import { createProgram } from './gl_util.js';
 import { colliderParts, unitCylinder, unitSphere } from './geometry.js';
 import { mat3NormalFromMat4, mat4FromTRS, mat4Multiply } from './mat4.js';
@@ -7,7 +7,7 @@ import { DEPTH_FS, HEAD_FS, HEAD_VS } from './shaders.js';
 
 const UNIT_SCALE = [1, 1, 1];
 
-function upload(gl, mesh) {
+function upload(gl, mesh, indexType) {
   const vao = gl.createVertexArray();
   gl.bindVertexArray(vao);
   const pb = gl.createBuffer();
@@ -24,7 +24,7 @@ function upload(gl, mesh) {
   gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, ib);
   gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, mesh.indices, gl.STATIC_DRAW);
   gl.bindVertexArray(null);
-  return { vao, count: mesh.indices.length };
+  return { vao, count: mesh.indices.length, type: indexType || gl.UNSIGNED_SHORT, buffers: [pb, nb, ib] };
 }
 
 export class HeadRenderer {
@@ -35,6 +35,21 @@ export class HeadRenderer {
     this.meshes = { sphere: upload(gl, unitSphere()), cylinder: upload(gl, unitCylinder()) };
     this.parts = [];
     this.head = new Float32Array(16);
+    this.mesh = null; // the collision mesh's part (identity placement under the head)
+  }
+
+  // Replaces the collision mesh ({ positions, normals, indices: Uint32Array } in the head
+  // frame, or null for none).
+  setMesh(m) {
+    const gl = this.gl;
+    if (this.mesh) {
+      gl.deleteVertexArray(this.mesh.mesh.vao);
+      for (const b of this.mesh.mesh.buffers) gl.deleteBuffer(b);
+      this.mesh = null;
+    }
+    if (!m) return;
+    const local = mat4FromTRS(new Float32Array(16), [0, 0, 0], [0, 0, 0, 1], UNIT_SCALE);
+    this.mesh = { mesh: upload(gl, m, gl.UNSIGNED_INT), local, model: new Float32Array(16), normal: new Float32Array(9) };
   }
 
   // Replaces the colliders (array from the hello/groom message); unknown kinds are skipped.
@@ -55,8 +70,9 @@ export class HeadRenderer {
   // Places every part under the head transform (position, orientation [x, y, z, w]).
   place(position, orientation) {
     mat4FromTRS(this.head, position, orientation, UNIT_SCALE);
-    for (let i = 0; i < this.parts.length; i++) {
-      const p = this.parts[i];
+    for (let i = 0; i <= this.parts.length; i++) {
+      const p = i < this.parts.length ? this.parts[i] : this.mesh;
+      if (!p) continue;
       mat4Multiply(p.model, this.head, p.local);
       mat3NormalFromMat4(p.normal, p.model);
     }
@@ -64,12 +80,13 @@ export class HeadRenderer {
 
   _draw(prog) {
     const gl = this.gl, u = prog.u;
-    for (let i = 0; i < this.parts.length; i++) {
-      const p = this.parts[i];
+    for (let i = 0; i <= this.parts.length; i++) {
+      const p = i < this.parts.length ? this.parts[i] : this.mesh;
+      if (!p) continue;
       gl.uniformMatrix4fv(u.uModel, false, p.model);
       gl.uniformMatrix3fv(u.uNormalMat, false, p.normal);
       gl.bindVertexArray(p.mesh.vao);
-      gl.drawElements(gl.TRIANGLES, p.mesh.count, gl.UNSIGNED_SHORT, 0);
+      gl.drawElements(gl.TRIANGLES, p.mesh.count, p.mesh.type, 0);
     }
     gl.bindVertexArray(null);
   }

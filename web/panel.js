@@ -1,6 +1,6 @@
 // The control panel: server parameters (built from the hello schema), motion and presets,
 // groom choice and the viewer's own settings; it follows changes made by other clients.
-import { buildControls, coerceValue, describe, formatValue } from './panel_model.js';
+import { buildControls, coerceValue, describe, formatNumber, formatValue, fromSlider, sliderPositions, toSlider } from './panel_model.js';
 
 const SEND_INTERVAL_MS = 60;
 
@@ -37,8 +37,14 @@ function controlRow(c, value, onChange, dataAttr) {
     set = (v) => { box.checked = !!v; out.textContent = formatValue(c, !!v); };
     return { row, set, dragging: () => false };
   }
-  const range = el('input', { type: 'range', min: c.min, max: c.max, step: c.step, [dataAttr]: c.name });
-  const num = el('input', { type: 'number', min: c.min, max: c.max, step: c.step, class: 'num' });
+  // a log control's slider runs over positions (panel_model.js fromSlider/toSlider); its
+  // number box takes any value in range
+  const log = c.scale === 'log';
+  const range = log
+    ? el('input', { type: 'range', min: 0, max: sliderPositions(c), step: 1, [dataAttr]: c.name, 'data-scale': 'log' })
+    : el('input', { type: 'range', min: c.min, max: c.max, step: c.step, [dataAttr]: c.name });
+  const num = el('input', { type: 'number', min: c.min, max: c.max, step: log ? 'any' : c.step, class: 'num' });
+  const fromRange = () => coerceValue(c, log ? fromSlider(c, range.value) : range.value);
   const unit = el('span', { class: 'unit', text: c.unit || '' });
   let dragging = false;
   range.addEventListener('pointerdown', () => { dragging = true; });
@@ -46,20 +52,20 @@ function controlRow(c, value, onChange, dataAttr) {
   range.addEventListener('pointerup', release);
   range.addEventListener('pointercancel', release);
   // the number box shows the exact value (a server value may lie between slider steps)
-  const text = (v) => (c.kind === 'int' ? String(v) : String(Number(Number(v).toPrecision(6))));
+  const text = (v) => (c.kind === 'int' ? String(v) : log ? formatNumber(Number(v)) : String(Number(Number(v).toPrecision(6))));
   const show = (v) => {
-    range.value = String(v);
+    range.value = String(log ? toSlider(c, v) : v);
     num.value = text(v);
   };
   range.addEventListener('input', () => {
-    const v = coerceValue(c, range.value);
+    const v = fromRange();
     if (v === null) return;
     num.value = text(v);
     onChange(v, false);
   });
   range.addEventListener('change', () => {
     dragging = false;
-    const v = coerceValue(c, range.value);
+    const v = fromRange();
     if (v !== null) onChange(v, true);
   });
   num.addEventListener('change', () => {

@@ -12,13 +12,65 @@ export function niceStep(min, max, divisions = 1000) {
   return e < 0 ? nice / Math.pow(10, -e) : nice * Math.pow(10, e);
 }
 
+// Log sliders (the schema's "scale": "log", proto/PROTOCOL.md "Parameter scale"): integer
+// positions 0..N, LOG_STEPS per decade, anchored at max: v(p) = max * 10^((p - N) / LOG_STEPS),
+// rounded to LOG_DIGITS significant digits. min = 0: position 0 is exactly 0 and 1..N span the
+// LOG_DECADES below max (N = 1 + LOG_DECADES * LOG_STEPS). min > 0: N = round(LOG_STEPS *
+// log10(max / min)) and position 0 is exactly min. Powers of ten below a power-of-ten max land
+// on positions.
+export const LOG_STEPS = 100;
+export const LOG_DECADES = 6;
+const LOG_DIGITS = 3;
+
+// The scale a schema entry asks for: 'log' only for a float with min >= 0, max > 0 and (for
+// min > 0) max >= 10 min; anything else (absent, unknown strings, log on an unfit range) is
+// 'linear'. Pure.
+function scaleOf(e, kind, min, max) {
+  return e.scale === 'log' && kind === 'float' && min >= 0 && max > 0 && (min === 0 || max >= 10 * min) ? 'log' : 'linear';
+}
+
+// The top slider position N of log control c.
+export function sliderPositions(c) {
+  return c.min > 0 ? Math.round(LOG_STEPS * Math.log10(c.max / c.min)) : 1 + LOG_DECADES * LOG_STEPS;
+}
+
+// The value at slider position p (rounded and clamped to 0..N) of log control c, in [min, max]. Pure.
+export function fromSlider(c, p) {
+  const n = sliderPositions(c);
+  const q = Math.min(n, Math.max(0, Math.round(Number(p) || 0)));
+  if (q === n) return c.max;
+  if (q === 0) return c.min;
+  const v = Number((c.max * Math.pow(10, (q - n) / LOG_STEPS)).toPrecision(LOG_DIGITS));
+  return Math.min(c.max, Math.max(c.min, v));
+}
+
+// The slider position nearest value v of log control c (the inverse of fromSlider on the values
+// it returns); v <= min is position 0, and with min = 0 any 0 < v below the slider's first
+// decade is position 1. Pure.
+export function toSlider(c, v) {
+  const x = Number(v);
+  if (!Number.isFinite(x) || x <= c.min) return 0;
+  const n = sliderPositions(c);
+  return Math.min(n, Math.max(1, n + Math.round(LOG_STEPS * Math.log10(x / c.max))));
+}
+
+// A number for people: up to `digits` significant digits, powers of ten from 1e5 up written
+// as 1e5, 2.5e7. Pure.
+export function formatNumber(v, digits = 6) {
+  if (typeof v !== 'number' || !Number.isFinite(v)) return '—';
+  if (Math.abs(v) < 1e5) return String(Number(v.toPrecision(digits)));
+  const [m, e] = v.toExponential(digits - 1).split('e');
+  return `${Number(m)}e${Number(e)}`;
+}
+
 function decimalsOf(step) {
   if (!(step > 0) || step >= 1) return 0;
   return Math.min(8, Math.ceil(-Math.log10(step) - 1e-9));
 }
 
 // Builds control specs from a schema array (hello.params.schema). Each valid entry becomes
-// { name, label, kind: 'float'|'int'|'bool', min, max, step, decimals, unit, help, def };
+// { name, label, kind: 'float'|'int'|'bool', scale: 'linear'|'log', min, max, step, decimals,
+// unit, help, def } (step and decimals are for linear sliders and number boxes);
 // invalid entries are left out and described in problems (strings). Pure.
 export function buildControls(schema) {
   const controls = [], problems = [];
@@ -38,6 +90,7 @@ export function buildControls(schema) {
       name,
       label: name.replace(/_/g, ' '),
       kind,
+      scale: 'linear',
       unit: typeof e.unit === 'string' ? e.unit : '',
       help: typeof e.help === 'string' ? e.help : '',
       min: 0, max: 1, step: 1, decimals: 0, def: 0,
@@ -51,6 +104,7 @@ export function buildControls(schema) {
         return;
       }
       c.min = min; c.max = max;
+      c.scale = scaleOf(e, kind, min, max);
       c.step = kind === 'int' ? 1 : niceStep(min, max);
       c.decimals = kind === 'int' ? 0 : decimalsOf(c.step);
       const d = Number(e.default);
@@ -77,11 +131,12 @@ export function coerceValue(c, raw) {
   return c.kind === 'int' ? Math.round(clamped) : clamped;
 }
 
-// Text shown beside a control: the value with the step's decimals and the unit.
+// Text shown beside a control: the value with the step's decimals (log controls: three
+// significant digits, 1e5 and up as powers of ten) and the unit.
 export function formatValue(c, v) {
   if (c.kind === 'bool') return v ? 'on' : 'off';
   if (typeof v !== 'number' || !Number.isFinite(v)) return '—';
-  const s = v.toFixed(c.kind === 'int' ? 0 : c.decimals);
+  const s = c.scale === 'log' ? formatNumber(v, LOG_DIGITS) : v.toFixed(c.kind === 'int' ? 0 : c.decimals);
   return c.unit ? `${s} ${c.unit}` : s;
 }
 
@@ -89,5 +144,7 @@ export function formatValue(c, v) {
 export function describe(c) {
   if (c.kind === 'bool') return `${c.help}${c.help ? ' ' : ''}(default ${c.def ? 'on' : 'off'})`;
   const u = c.unit ? ` ${c.unit}` : '';
-  return `${c.help}${c.help ? ' ' : ''}Range ${c.min}–${c.max}${u}, default ${c.def}${u}.`;
+  const f = (v) => formatNumber(v);
+  const scale = c.scale === 'log' ? ' Logarithmic slider.' : '';
+  return `${c.help}${c.help ? ' ' : ''}Range ${f(c.min)}–${f(c.max)}${u}, default ${f(c.def)}${u}.${scale}`;
 }

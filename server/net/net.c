@@ -1,4 +1,4 @@
-/* net: the lws context (one vhost: files, /metrics, WebSocket), its loop, and the ordered inbox. */
+/* net: the lws context (one vhost: files, /metrics, blobs, WebSocket), its loop, and the ordered inbox. */
 #include <arpa/inet.h>
 #include <errno.h>
 #include <netinet/in.h>
@@ -74,8 +74,18 @@ static void setup_mounts(net *n)
     metrics->mountpoint_len = 8;
     metrics->origin = "http";
     metrics->origin_protocol = LWSMPRO_CALLBACK;
+    struct lws_http_mount *last = metrics;
+    for (int i = 0; i < n->nblobs; i++) { /* the blob paths: the same callback as /metrics */
+        struct lws_http_mount *b = &n->mounts[2 + i];
+        b->mountpoint = n->blobs[i].path;
+        b->mountpoint_len = (unsigned char)strlen(n->blobs[i].path);
+        b->origin = "http";
+        b->origin_protocol = LWSMPRO_CALLBACK;
+        last->mount_next = b;
+        last = b;
+    }
     if (n->web_dir) {
-        metrics->mount_next = files;
+        last->mount_next = files;
         files->mountpoint = "/";
         files->mountpoint_len = 1;
         files->origin = n->web_dir;
@@ -131,6 +141,10 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     n->desc.subprotocol = n->subprotocol;
     pthread_mutex_init(&n->lock, NULL);
     n->next_client = 1;
+    if ((st = net_blobs_init(n, err)) != CORE_OK) {
+        net_destroy(n);
+        return st;
+    }
 
     lws_set_log_level(LLL_ERR | LLL_WARN, lws_log_to_core);
     n->retry.secs_since_valid_ping = (uint16_t)n->desc.ping_s;
@@ -221,6 +235,7 @@ void net_destroy(net *n)
         net_buf_unref(n->slots[i].latest);
         net_buf_unref(n->slots[i].key);
     }
+    net_blobs_free(n);
     pthread_mutex_destroy(&n->lock);
     free(n->listen);
     free(n->web_dir);

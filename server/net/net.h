@@ -22,6 +22,9 @@
 #define NET_MAX_HANGUP_S 65535     /* lws keeps both times as uint16 seconds */
 #define NET_DEFAULT_SNDBUF (256 * 1024)
 #define NET_INBOX_MAX 8192         /* pending posts from other threads before posting fails */
+#define NET_MAX_BLOBS 4            /* byte blobs served over HTTP from memory (net_set_blob) */
+#define NET_MAX_BLOB_PATH 64       /* longest blob path, bytes */
+#define NET_MAX_ETAG 64            /* longest blob version tag, bytes */
 
 typedef struct net net;
 
@@ -61,6 +64,11 @@ typedef struct net_desc {
     int hangup_s;              /* seconds without a pong before the client is dropped; > ping_s,
                                 * max 65535; default ping_s + 10 (at most 65535) */
     int sndbuf;                /* kernel send buffer per client (SO_SNDBUF), bytes; default 256 KiB */
+    /* Paths ("/collider.bin": '/' then letters, digits, '.', '_', '-'; under NET_MAX_BLOB_PATH
+     * bytes; NULL ends the list early) served from memory: GET gives the bytes net_set_blob
+     * last handed over (application/octet-stream, ETag, Cache-Control: no-cache; 304 for a
+     * matching If-None-Match), or 404 while there are none. */
+    const char *blobs[NET_MAX_BLOBS];
     net_callbacks cb;
 } net_desc;
 
@@ -105,6 +113,13 @@ core_status net_subscribe(net *n, uint32_t client, uint32_t stream, double max_r
  * newest frame of its stream it has not seen (preceded by the keyframe when it lacks it);
  * older frames are skipped. Any thread. */
 void net_publish(net *n, uint32_t stream, net_buf *frame, uint64_t seq, bool key);
+
+/* Serves body at path (one of desc.blobs) from now on, taking over the caller's reference
+ * (NULL = 404 from now on), with etag (a version tag of the bytes, at most NET_MAX_ETAG bytes
+ * of letters, digits, '.', '_', '-'; sent quoted). A request already being answered finishes
+ * with the bytes it started with. CORE_EINVAL (the reference is dropped) for an unknown path
+ * or a bad tag. Any thread; net knows nothing of what the bytes mean. */
+core_status net_set_blob(net *n, const char *path, net_buf *body, const char *etag);
 
 /* Forgets a stream's retained frames (after its last subscriber left). Any thread. */
 void net_drop_stream(net *n, uint32_t stream);

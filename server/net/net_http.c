@@ -1,4 +1,4 @@
-/* net: the HTTP side: subprotocol check on upgrade (400 with a reason) and /metrics. */
+/* net: the HTTP side: subprotocol check on upgrade (400 with a reason), /metrics, blob routing. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -64,8 +64,10 @@ static void metrics_body(net *n, net_http *h)
 
 static int metrics_headers(net *n, struct lws *wsi, net_http *h)
 {
-    char uri[64] = "";
-    if (lws_hdr_copy(wsi, uri, sizeof uri, WSI_TOKEN_GET_URI) <= 0 || strcmp(uri, "/metrics") != 0)
+    char uri[NET_MAX_BLOB_PATH + 8] = "";
+    if (lws_hdr_copy(wsi, uri, sizeof uri, WSI_TOKEN_GET_URI) > 0 && strcmp(uri, "/metrics") != 0)
+        return net_blob_headers(n, wsi, h, uri);
+    if (strcmp(uri, "/metrics") != 0)
         return lws_return_http_status(wsi, HTTP_STATUS_NOT_FOUND, "not found") || lws_http_transaction_completed(wsi) ? -1 : 0;
     metrics_body(n, h);
     if (!h->body) return lws_return_http_status(wsi, HTTP_STATUS_INTERNAL_SERVER_ERROR, "out of memory") ? -1 : 0;
@@ -101,12 +103,14 @@ int net_http_callback(struct lws *wsi, enum lws_callback_reasons reason, void *u
     case LWS_CALLBACK_HTTP:
         /* the /metrics callback mount, or any URL when no web folder is mounted */
         return metrics_headers(n, wsi, h);
-    case LWS_CALLBACK_HTTP_WRITEABLE: return metrics_write(wsi, h);
+    case LWS_CALLBACK_HTTP_WRITEABLE: return h && h->blob ? net_blob_write(wsi, h) : metrics_write(wsi, h);
     case LWS_CALLBACK_HTTP_DROP_PROTOCOL:
     case LWS_CALLBACK_CLOSED_HTTP:
         if (h) {
             free(h->body);
             h->body = NULL;
+            net_buf_unref(h->blob);
+            h->blob = NULL;
         }
         return 0;
     case LWS_CALLBACK_FILTER_HTTP_CONNECTION: atomic_fetch_add(&n->http_requests, 1); return 0;

@@ -63,11 +63,20 @@ typedef struct net_session {
     size_t rx_len, rx_cap;
 } net_session;
 
-/* HTTP per-request data (the /metrics body). */
+/* HTTP per-request data (the /metrics body, or a blob being sent). */
 typedef struct net_http {
     char *body;
     size_t len;
+    net_buf *blob;        /* a reference held until the last chunk is written */
+    size_t off;           /* blob bytes written */
 } net_http;
+
+/* A blob served from memory (guarded by net.lock). */
+typedef struct net_blob {
+    char path[NET_MAX_BLOB_PATH];
+    char etag[NET_MAX_ETAG + 3]; /* quoted */
+    net_buf *body;
+} net_blob;
 
 struct net {
     struct lws_context *ctx;
@@ -76,7 +85,9 @@ struct net {
     char *listen, *web_dir, *subprotocol;
     lws_retry_bo_t retry;
     struct lws_protocols protocols[3];
-    struct lws_http_mount mounts[2];
+    struct lws_http_mount mounts[2 + NET_MAX_BLOBS];
+    net_blob blobs[NET_MAX_BLOBS];     /* guarded by lock */
+    int nblobs;
     struct lws_protocol_vhost_options mimes[12];
     int port;
     atomic_bool stop;
@@ -100,6 +111,15 @@ struct net {
 /* lws protocol callbacks. */
 int net_ws_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in, size_t len);
 int net_http_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in, size_t len);
+
+/* Checks desc.blobs and copies them into n->blobs. CORE_EINVAL for a bad path. */
+core_status net_blobs_init(net *n, core_err *err);
+/* Releases every blob body. */
+void net_blobs_free(net *n);
+/* HTTP for a blob path: headers (200 or 304) or 404; the body follows in net_blob_write. */
+int net_blob_headers(net *n, struct lws *wsi, net_http *h, const char *uri);
+/* Writes the next chunk of the blob body (on HTTP_WRITEABLE). */
+int net_blob_write(struct lws *wsi, net_http *h);
 
 /* Applies every queued post (net thread), then asks for WRITEABLE where there is work. */
 void net_drain(net *n);

@@ -80,6 +80,10 @@ typedef struct proto_param_value {
     double value;   /* validated: finite, in range, integral for int, 0/1 for bool */
 } proto_param_value;
 
+/* set_groom's "collider": absent = keep the current collision mesh, null = none, a name = that
+ * mesh file. */
+typedef enum proto_collider_mode { PROTO_COLLIDER_KEEP = 0, PROTO_COLLIDER_NONE, PROTO_COLLIDER_FILE } proto_collider_mode;
+
 /* One parsed client message. */
 typedef struct proto_msg {
     proto_type type;
@@ -109,6 +113,8 @@ typedef struct proto_msg {
             uint32_t strands, verts; /* 0 = keep the current count */
             bool has_seed;
             uint64_t seed; /* 0..2^53-1 (exact in JSON); 0 = the groom module's default */
+            proto_collider_mode collider_mode; /* the collision mesh of the new groom */
+            char collider[PROTO_MAX_NAME + 1]; /* PROTO_COLLIDER_FILE: a name under the asset folder */
         } set_groom;
         struct {
             bool has_stride, has_max_error, has_max_rate;
@@ -159,24 +165,34 @@ char *proto_build_ok(const proto_id *id, proto_type request);
 char *proto_build_params(const proto_id *id, const core_param_info *table, size_t n, const void *values,
                          const bool *changed, int64_t by);
 
+/* Where a client fetches the groom's collision mesh (the binary of proto_mesh_bin_write). */
+typedef struct proto_mesh_ref {
+    const char *source;           /* "ratboy/Ratboy_body.tfxmesh" (a name under the asset folder or the --collider file's name) */
+    const char *url;              /* "/collider.bin" */
+    const char *etag;             /* the binary's version: proto_mesh_bin_etag */
+    uint64_t bytes;               /* the binary's size */
+} proto_mesh_ref;
+
 /* Everything about the groom a client needs to draw it and decode frames. */
 typedef struct proto_groom {
     const char *source;           /* "procedural:straight", "file:ratboy/Ratboy_mohawk.tfx" */
-    const core_groom *groom;      /* rest pose, head frame */
+    const core_groom *groom;      /* rest pose, head frame; its mesh and sdf (when set) are described too */
     uint64_t seed;
+    const proto_mesh_ref *mesh;   /* required when groom->mesh is set, ignored otherwise */
 } proto_groom;
 
-/* Pre-rendered JSON of a groom ("groom" and "colliders" values); built once per groom and
- * embedded in every hello and groom message. Free with proto_groom_json_free. */
+/* Pre-rendered JSON of a groom ("groom", "colliders" and "collider_mesh" values); built once
+ * per groom and embedded in every hello and groom message. Free with proto_groom_json_free. */
 typedef struct proto_groom_json {
     char *groom;
     char *colliders;
+    char *mesh;                   /* "null" when the groom has no collision mesh */
 } proto_groom_json;
 
 core_status proto_groom_json_build(proto_groom_json *out, const proto_groom *g, core_err *err);
 void proto_groom_json_free(proto_groom_json *j);
 
-/* {"type":"groom","groom":{..},"colliders":[..]} */
+/* {"type":"groom","groom":{..},"colliders":[..],"collider_mesh":{..}|null} */
 char *proto_build_groom(const proto_groom_json *g);
 
 typedef struct proto_anim {
@@ -225,12 +241,31 @@ typedef struct proto_hello {
     size_t nstyles;
     const char *const *files; /* groom files set_groom may name */
     size_t nfiles;
+    const char *const *meshes; /* collision mesh files set_groom's collider may name */
+    size_t nmeshes;
     proto_stream stream;
     proto_state state;
 } proto_hello;
 
 /* The first message of every connection; see proto/PROTOCOL.md. */
 char *proto_build_hello(const proto_hello *h);
+
+/* ---- the collision mesh binary (GET /collider.bin; layout in proto/PROTOCOL.md) ---- */
+#define PROTO_MESH_MAGIC "SCMH"
+#define PROTO_MESH_VERSION 1u
+#define PROTO_MESH_HEADER 16u /* magic, version, nverts, ntris (uint32 LE each) */
+
+/* Bytes of m's binary: PROTO_MESH_HEADER + 12 nverts + 12 ntris. Pure. */
+size_t proto_mesh_bin_size(const core_mesh *m);
+/* Writes m's binary (proto_mesh_bin_size bytes) to out. Pure, any thread. */
+void proto_mesh_bin_write(const core_mesh *m, unsigned char *out);
+/* The binary's version tag: 16 lowercase hex digits of its 64-bit FNV-1a hash, into out
+ * (17 bytes with the NUL). Pure. */
+void proto_mesh_bin_etag(const unsigned char *bin, size_t len, char out[17]);
+/* Checks a binary of len bytes (magic, version, exact size, finite positions, indices in
+ * range) and gives its counts; the positions start at bin + PROTO_MESH_HEADER, the indices
+ * 12 nverts bytes later. CORE_EFORMAT with the reason in err. Pure, any thread. */
+core_status proto_mesh_bin_read(const unsigned char *bin, size_t len, uint32_t *nverts, uint32_t *ntris, core_err *err);
 
 typedef struct proto_stats {
     double steps_per_s;

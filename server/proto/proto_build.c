@@ -119,6 +119,8 @@ static cJSON *param_schema(const core_param_info *table, size_t n)
                       : cJSON_AddNumberToObject(e, "default", t->def) != NULL) &&
              cJSON_AddStringToObject(e, "unit", t->unit ? t->unit : "") &&
              cJSON_AddStringToObject(e, "help", t->help ? t->help : "");
+        /* the slider hint: only "log" is sent, an absent "scale" means linear */
+        if (ok && t->scale == CORE_PARAM_LOG) ok = cJSON_AddStringToObject(e, "scale", "log") != NULL;
     }
     if (!ok) {
         cJSON_Delete(arr);
@@ -193,7 +195,8 @@ char *proto_build_subscribed(const proto_id *id, const proto_stream *s)
 char *proto_build_groom(const proto_groom_json *g)
 {
     cJSON *o = new_message("groom", NULL);
-    bool ok = o && add_item(o, "groom", cJSON_CreateRaw(g->groom)) && add_item(o, "colliders", cJSON_CreateRaw(g->colliders));
+    bool ok = o && add_item(o, "groom", cJSON_CreateRaw(g->groom)) && add_item(o, "colliders", cJSON_CreateRaw(g->colliders)) &&
+              add_item(o, "collider_mesh", cJSON_CreateRaw(g->mesh ? g->mesh : "null"));
     return finish(o, ok);
 }
 
@@ -235,14 +238,17 @@ char *proto_build_hello(const proto_hello *h)
               cJSON_AddNumberToObject(o, "client", h->client) &&
               add_item(o, "capabilities", string_array(caps, sizeof caps / sizeof caps[0])) &&
               add_item(o, "groom", cJSON_CreateRaw(h->groom->groom)) &&
-              add_item(o, "colliders", cJSON_CreateRaw(h->groom->colliders)) && add_item(o, "head", head_object(h->head));
+              add_item(o, "colliders", cJSON_CreateRaw(h->groom->colliders)) &&
+              add_item(o, "collider_mesh", cJSON_CreateRaw(h->groom->mesh ? h->groom->mesh : "null")) &&
+              add_item(o, "head", head_object(h->head));
     cJSON *params = ok ? cJSON_CreateObject() : NULL;
     ok = ok && add_item(o, "params", params) && add_item(params, "schema", param_schema(h->params, h->nparams)) &&
          add_item(params, "values", param_values(h->params, h->nparams, h->values, NULL)) &&
          add_item(o, "presets", string_array(h->presets, h->npresets)) && add_item(o, "animation", anim_object(&h->animation));
     cJSON *grooms = ok ? cJSON_CreateObject() : NULL;
     ok = ok && add_item(o, "grooms", grooms) && add_item(grooms, "styles", string_array(h->styles, h->nstyles)) &&
-         add_item(grooms, "files", string_array(h->files, h->nfiles)) && add_item(o, "stream", stream_object(&h->stream));
+         add_item(grooms, "files", string_array(h->files, h->nfiles)) &&
+         add_item(grooms, "colliders", string_array(h->meshes, h->nmeshes)) && add_item(o, "stream", stream_object(&h->stream));
     cJSON *state = ok ? cJSON_CreateObject() : NULL;
     ok = ok && add_item(o, "state", state) && add_state_fields(state, &h->state) && add_item(o, "limits", limits_object());
     return finish(o, ok);

@@ -1,4 +1,4 @@
-/* proto: pre-renders a groom's JSON (counts, roots, rest lengths, bounds, colliders) once per groom. */
+/* proto: pre-renders a groom's JSON (counts, roots, rest lengths, bounds, colliders, collision mesh) once per groom. */
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
@@ -117,12 +117,58 @@ static char *colliders_text(const core_groom *g, core_err *err, core_status *st)
     return t;
 }
 
+/* {"source":..,"verts":..,"triangles":..,"bounds":[..],"url":..,"etag":..,"bytes":..,
+ * "sdf":{"cell":..,"dims":[..],"origin":[..]}|null}, or null without a mesh. */
+static char *mesh_text(const proto_groom *pg, core_err *err, core_status *st)
+{
+    const core_mesh *m = pg->groom->mesh;
+    proto_sb sb = { 0 };
+    if (!m || !pg->mesh) {
+        put_str(&sb, "null");
+    } else {
+        float b[6] = { FLT_MAX, FLT_MAX, FLT_MAX, -FLT_MAX, -FLT_MAX, -FLT_MAX };
+        for (size_t i = 0; i < m->nverts; i++)
+            for (int k = 0; k < 3; k++) {
+                b[k] = fminf(b[k], m->pos[3 * i + k]);
+                b[3 + k] = fmaxf(b[3 + k], m->pos[3 * i + k]);
+            }
+        if (!m->nverts) memset(b, 0, sizeof b);
+        char buf[160];
+        put_str(&sb, "{\"source\":");
+        put_json_string(&sb, pg->mesh->source ? pg->mesh->source : "");
+        snprintf(buf, sizeof buf, ",\"verts\":%u,\"triangles\":%u,\"bounds\":", m->nverts, m->ntris);
+        put_str(&sb, buf);
+        proto_sb_floats(&sb, b, 6, 1);
+        put_str(&sb, ",\"url\":");
+        put_json_string(&sb, pg->mesh->url ? pg->mesh->url : "");
+        put_str(&sb, ",\"etag\":");
+        put_json_string(&sb, pg->mesh->etag ? pg->mesh->etag : "");
+        snprintf(buf, sizeof buf, ",\"bytes\":%llu,\"sdf\":", (unsigned long long)pg->mesh->bytes);
+        put_str(&sb, buf);
+        const core_sdf *s = pg->groom->sdf;
+        if (s) {
+            snprintf(buf, sizeof buf, "{\"cell\":%.9g,\"dims\":[%u,%u,%u],\"origin\":", proto_json_float(s->cell), s->dims[0],
+                     s->dims[1], s->dims[2]);
+            put_str(&sb, buf);
+            put_vec(&sb, s->origin);
+            put_str(&sb, "}");
+        } else {
+            put_str(&sb, "null");
+        }
+        put_str(&sb, "}");
+    }
+    char *t = proto_sb_take(&sb);
+    if (!t) *st = core_fail(err, CORE_ENOMEM, "out of memory rendering the collision mesh");
+    return t;
+}
+
 core_status proto_groom_json_build(proto_groom_json *out, const proto_groom *g, core_err *err)
 {
     core_status st = CORE_OK;
     memset(out, 0, sizeof *out);
     out->groom = groom_text(g, err, &st);
     if (st == CORE_OK) out->colliders = colliders_text(g->groom, err, &st);
+    if (st == CORE_OK) out->mesh = mesh_text(g, err, &st);
     if (st != CORE_OK) proto_groom_json_free(out);
     return st;
 }
@@ -131,5 +177,6 @@ void proto_groom_json_free(proto_groom_json *j)
 {
     cJSON_free(j->groom);
     cJSON_free(j->colliders);
+    cJSON_free(j->mesh);
     memset(j, 0, sizeof *j);
 }

@@ -3,6 +3,7 @@
 #define PROTO_PROTO_JSON_H
 
 #include <cjson/cJSON.h>
+#include <stdbool.h>
 #include <stddef.h>
 
 /* The shortest decimal that reads back as f, as a double (so 9.81f prints as 9.81). Pure. */
@@ -24,5 +25,10 @@ void proto_sb_put(proto_sb *sb, const char *s, size_t n);
 void proto_sb_floats(proto_sb *sb, const float *v, size_t n, size_t stride);
 /* Returns the NUL-terminated text (caller frees with cJSON_free) or NULL after a failure. */
 char *proto_sb_take(proto_sb *sb);
+
+/* True when a string in the JSON text t[0, len) (already parsed as valid) holds a NUL
+ * character (the escape \u0000 or a raw 0 byte); member receives the top-level member it is
+ * in ("" when it is in a key or outside any member), cut to cap - 1 bytes. Pure. */
+bool proto_json_nul_member(const char *t, size_t len, char *member, size_t cap);
 
 #endif

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "proto.h"
+#include "proto_json.h"
 
 #define MAX_FIELDS 16 /* top-level fields any client message may have */
 
@@ -60,7 +61,7 @@ static const char *const *allowed_fields(proto_type t)
     static const char *const motion[] = { "t", "position", "orientation", NULL };
     static const char *const animate[] = { "preset", "speed", NULL };
     static const char *const step[] = { "count", NULL };
-    static const char *const set_groom[] = { "style", "file", "strands", "verts", "seed", NULL };
+    static const char *const set_groom[] = { "style", "file", "strands", "verts", "seed", "collider", NULL };
     static const char *const subscribe[] = { "stride", "max_error", "max_rate", NULL };
     switch (t) {
     case PROTO_SET_PARAMS: return set_params;
@@ -285,25 +286,45 @@ static core_status parse_animate(const proto_parser *p, const cJSON *root, proto
     return st;
 }
 
-/* A groom file name relative to the asset folder: no absolute path, no "." or ".." parts. */
-static core_status check_file_name(const char *s, proto_error *e)
+/* A file name (groom or collision mesh, in field) relative to the asset folder: no absolute
+ * path, no "." or ".." parts. */
+static core_status check_file_name(const char *field, const char *s, proto_error *e)
 {
-    if (!*s) return proto_fail(e, PROTO_ERR_BAD_FIELD, "file", "\"file\" is empty");
+    if (!*s) return proto_fail(e, PROTO_ERR_BAD_FIELD, field, "\"%s\" is empty", field);
     const char *part = s;
     for (const char *c = s;; c++) {
         if (*c == '/' || *c == '\0') {
             size_t n = (size_t)(c - part);
             if (n == 0 || (n == 1 && part[0] == '.') || (n == 2 && part[0] == '.' && part[1] == '.'))
-                return proto_fail(e, PROTO_ERR_BAD_FIELD, "file",
-                                  "\"file\" must be a relative name inside the asset folder (no empty, \".\" or \"..\" parts)");
+                return proto_fail(e, PROTO_ERR_BAD_FIELD, field,
+                                  "\"%s\" must be a relative name inside the asset folder (no empty, \".\" or \"..\" parts)", field);
             if (*c == '\0') break;
             part = c + 1;
             continue;
         }
         bool ok = (*c >= 'a' && *c <= 'z') || (*c >= 'A' && *c <= 'Z') || (*c >= '0' && *c <= '9') || *c == '.' ||
                   *c == '_' || *c == '-';
-        if (!ok) return proto_fail(e, PROTO_ERR_BAD_FIELD, "file", "\"file\" may use only letters, digits, '.', '_', '-' and '/'");
+        if (!ok) return proto_fail(e, PROTO_ERR_BAD_FIELD, field, "\"%s\" may use only letters, digits, '.', '_', '-' and '/'", field);
     }
+    return CORE_OK;
+}
+
+/* set_groom's optional "collider": absent (keep), null (none) or a file name. */
+static core_status parse_collider(const cJSON *root, proto_msg *m, proto_error *e)
+{
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(root, "collider");
+    if (!v) return CORE_OK;
+    if (cJSON_IsNull(v)) {
+        m->u.set_groom.collider_mode = PROTO_COLLIDER_NONE;
+        return CORE_OK;
+    }
+    core_status st;
+    const char *name = NULL;
+    if (!cJSON_IsString(v)) return proto_fail(e, PROTO_ERR_BAD_FIELD, "collider", "\"collider\" must be a file name or null");
+    get_string(root, "collider", true, PROTO_MAX_NAME, &name, e, &st);
+    if (st != CORE_OK || (st = check_file_name("collider", name, e)) != CORE_OK) return st;
+    m->u.set_groom.collider_mode = PROTO_COLLIDER_FILE;
+    memcpy(m->u.set_groom.collider, name, strlen(name) + 1);
     return CORE_OK;
 }
 
@@ -321,7 +342,7 @@ static core_status parse_set_groom(const proto_parser *p, const cJSON *root, pro
     if (has_style) {
         if ((st = lookup_name("style", style, p->styles, p->nstyles, &m->u.set_groom.style, e)) != CORE_OK) return st;
     } else {
-        if ((st = check_file_name(file, e)) != CORE_OK) return st;
+        if ((st = check_file_name("file", file, e)) != CORE_OK) return st;
         m->u.set_groom.is_file = true;
         memcpy(m->u.set_groom.file, file, strlen(file) + 1);
     }
@@ -336,7 +357,8 @@ static core_status parse_set_groom(const proto_parser *p, const cJSON *root, pro
                           m->u.set_groom.strands, m->u.set_groom.verts, PROTO_MAX_VERTICES);
     if ((m->u.set_groom.has_seed = get_ranged(root, "seed", false, true, 0, 9007199254740991.0, &v, e, &st)))
         m->u.set_groom.seed = (uint64_t)v;
-    return st;
+    if (st != CORE_OK) return st;
+    return parse_collider(root, m, e);
 }
 
 static core_status parse_subscribe(const cJSON *root, proto_msg *m, proto_error *e)
@@ -396,8 +418,12 @@ core_status proto_parse(const proto_parser *p, const char *text, size_t len, pro
     }
     size_t at = (size_t)(end - text);
     while (at < len && (text[at] == ' ' || text[at] == '\t' || text[at] == '\r' || text[at] == '\n')) at++;
+    char member[PROTO_MAX_NAME + 1];
     core_status st = at < len ? proto_fail(e, PROTO_ERR_BAD_JSON, "", "trailing data after the JSON value at byte %zu", at)
                               : parse_root(p, root, out, e);
+    /* C strings end at a NUL: a name with \u0000 would be read cut short, so none is taken */
+    if (st == CORE_OK && proto_json_nul_member(text, len, member, sizeof member))
+        st = proto_fail(e, PROTO_ERR_BAD_FIELD, member, "strings may not contain NUL characters (\\u0000)");
     cJSON_Delete(root);
     return st;
 }

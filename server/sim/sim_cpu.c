@@ -102,6 +102,7 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
             return sst;
         }
     }
+    c->sph_auto_h = sim_sph_auto_radius(g);
     c->sph.scalar = desc && desc->scalar_only;
     core_status st = sim_pool_init(&c->pool, desc ? desc->threads : 0, err);
     if (st != CORE_OK) {
@@ -128,7 +129,7 @@ static core_status cpu_step(void *self, core_err *err)
     unsigned long long t0 = core_now_ns(), t1 = t0;
     const float dt = c->params.dt;
     const sim_groom_info gi = { c->ncolliders, c->colliders, c->sdf.d ? &c->sdf : NULL,
-                                c->rho_rest_valid ? c->rho_rest : 1.0f };
+                                c->rho_rest_valid ? c->rho_rest : 1.0f, c->sph_auto_h };
     sim_step_plan(&c->params, &gi, c->prev_head, c->head, &c->step);
     const bool sph = c->step.sph;
     if (sph) {

@@ -394,7 +394,7 @@ static void density_job(void *vctx, int tid, int nt)
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     sim_cpu_sph *s = &c->sph;
-    const float h = c->params.sph_radius, h2 = h * h, inv_h2 = 1.0f / h2;
+    const float h = c->step.sph_h, h2 = h * h, inv_h2 = 1.0f / h2;
     const int cap = c->params.neighbor_cap;
     size_t b, e;
     sim_pool_range(s->ncells, tid, nt, 1, &b, &e);
@@ -498,7 +498,9 @@ static void force_finish(sim_cpu *c, const force_consts *fc, size_t i, const flo
     if (W > 0.0f) {
         float kr = fc->kp / s->sp[4 * i + 3];
         ax = sum[0] * kr, ay = sum[1] * kr, az = sum[2] * kr;
-        float blend = (1.0f - sph_exp(-fc->mu_dt * W / (1.0f + W))) * fc->inv_dt;
+        /* viscosity (Mueller et al. 2003) as an acceleration: mu / rho_i sum_j w_ij (v_j - v_i) =
+         * mu (W / rho_i) (vbar - v_i), integrated exactly over the step (vbar held) */
+        float blend = (1.0f - sph_exp(-fc->mu_dt * W / s->sp[4 * i + 3])) * fc->inv_dt;
         ax += blend * (sum[4] / W - vi[0]);
         ay += blend * (sum[5] / W - vi[1]);
         az += blend * (sum[6] / W - vi[2]);
@@ -653,7 +655,7 @@ static void force_finish8(sim_cpu *c, const force_consts *fc, size_t i0, const _
                  vz = _mm256_i32gather_ps(s->sv + 4 * i0 + 2, row4, 4);
     const __m256 W = col[3], one = _mm256_set1_ps(1.0f);
     const __m256 kr = _mm256_div_ps(_mm256_set1_ps(fc->kp), rho);
-    const __m256 arg = _mm256_div_ps(_mm256_mul_ps(_mm256_set1_ps(-fc->mu_dt), W), _mm256_add_ps(one, W));
+    const __m256 arg = _mm256_div_ps(_mm256_mul_ps(_mm256_set1_ps(-fc->mu_dt), W), rho);
     const __m256 blend = _mm256_mul_ps(_mm256_sub_ps(one, sph_exp8(arg)), _mm256_set1_ps(fc->inv_dt));
     const __m256 ax = _mm256_add_ps(_mm256_mul_ps(col[0], kr), _mm256_mul_ps(blend, _mm256_sub_ps(_mm256_div_ps(col[4], W), vx)));
     const __m256 ay = _mm256_add_ps(_mm256_mul_ps(col[1], kr), _mm256_mul_ps(blend, _mm256_sub_ps(_mm256_div_ps(col[5], W), vy)));
@@ -674,7 +676,7 @@ static void force_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
-    const float h = c->params.sph_radius;
+    const float h = c->step.sph_h;
     const force_consts fc = { 1.0f / h, c->step.kp, c->step.mu_dt, 1.0f / ctx->dt, c->params.neighbor_cap };
     size_t b, e, i;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
@@ -719,7 +721,7 @@ static void density_reuse_job(void *vctx, int tid, int nt)
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     sim_cpu_sph *s = &c->sph;
-    const float inv_h2 = 1.0f / (c->params.sph_radius * c->params.sph_radius);
+    const float inv_h2 = 1.0f / (c->step.sph_h * c->step.sph_h);
     const int cap = c->params.neighbor_cap;
     size_t b, e;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
@@ -780,7 +782,7 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
     }
     /* cells of size 2h hashed into a power-of-two table of at least 2n buckets; the points
      * within h of a particle lie in the 2x2x2 cells on its side of its own cell */
-    s->cell_size = 2.0f * c->params.sph_radius;
+    s->cell_size = 2.0f * c->step.sph_h;
     s->inv_cell = 1.0f / s->cell_size;
     s->ncells = 4096;
     while (s->ncells < 2 * c->n) s->ncells *= 2;

@@ -18,8 +18,19 @@
 #define SIM_SDF_SKIN 0.00025
 /* Most samples of a groom's distance grid the solvers accept (64 MiB of floats). */
 #define SIM_SDF_MAX_SAMPLES 16777216
-/* SPH accelerations use dimensionless kernels; this scale (1/s^2 per unit of repulsion and of
- * smoothing length) turns the pressure term into an acceleration (sim_cpu_sph.c). */
+/* SPH accelerations use dimensionless kernels. The pressure term becomes an acceleration
+ * through the stiffness that holds a vertex (sim_step.c): this floor, (1/60 s)^-2, the spring
+ * a free vertex is held by over one reference frame, plus SIM_SPH_HOLD_GAIN x the shape
+ * constraints' tip stiffness (global_stiffness x stiffness_tip) when shape is on. A vertex in
+ * a crowd then settles about repulsion x h x (pressure term) from where the shape springs
+ * hold it, whatever their stiffness. */
 #define SIM_SPH_ACCEL_SCALE 3600.0
+#define SIM_SPH_HOLD_GAIN 4.0
+/* The automatic smoothing length (sph_radius = 0): this many mean root spacings (the mean
+ * distance from a root to the nearest other root), clamped to [SIM_SPH_MIN_H, SIM_SPH_MAX_H]
+ * metres. 1.75 spacings is 3 mm on the default 4,096-strand procedural groom. */
+#define SIM_SPH_AUTO_SPACINGS 1.75
+#define SIM_SPH_MIN_H 0.001
+#define SIM_SPH_MAX_H 0.05
 
 #endif

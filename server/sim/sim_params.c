@@ -6,11 +6,14 @@
 #include "sim.h"
 
 #define F(field, lo, hi, d, unit, help) \
-    { #field, CORE_PARAM_FLOAT, offsetof(sim_params, field), lo, hi, d, unit, help }
+    { #field, CORE_PARAM_FLOAT, offsetof(sim_params, field), lo, hi, d, unit, help, CORE_PARAM_LINEAR }
+/* a float whose useful values span many decades: sliders use the log mapping (core/param.h) */
+#define FLOG(field, lo, hi, d, unit, help) \
+    { #field, CORE_PARAM_FLOAT, offsetof(sim_params, field), lo, hi, d, unit, help, CORE_PARAM_LOG }
 #define I(field, lo, hi, d, unit, help) \
-    { #field, CORE_PARAM_INT, offsetof(sim_params, field), lo, hi, d, unit, help }
+    { #field, CORE_PARAM_INT, offsetof(sim_params, field), lo, hi, d, unit, help, CORE_PARAM_LINEAR }
 #define B(field, d, help) \
-    { #field, CORE_PARAM_BOOL, offsetof(sim_params, field), 0, 1, d, "", help }
+    { #field, CORE_PARAM_BOOL, offsetof(sim_params, field), 0, 1, d, "", help, CORE_PARAM_LINEAR }
 
 static const core_param_info table[] = {
     F(dt, 0.008, 0.05, 1.0 / 60.0, "s", "Simulated time per step (the paper uses 0.016 s). Below about 1/120 s the serial local-shape chain can flutter, so the range stops there."),
@@ -22,13 +25,13 @@ static const core_param_info table[] = {
     F(damping, 0.0, 200.0, 30.0, "1/s", "Internal damping: the velocity of each vertex relative to the vertex before it decays at this rate (half-life ln 2 / damping). Stills jitter and whipping tips; the hair still follows the head."),
     F(air_drag, 0.0, 20.0, 3.0, "1/s", "Air drag: every vertex's velocity (relative to still air) decays at this rate, so hair that swings freely comes to rest; the head's motion is not damped."),
     F(dftl_correction, 0.0, 1.0, 0.9, "", "s_d: DFTL velocity correction (paper eq. 14, about 0.9): the share of the next vertex's local-shape and inextensibility correction taken off a vertex's velocity, which hides the serial solver's mass bias."),
-    F(global_stiffness, 0.0, 1.0e6, 1.0e5, "1/s^2", "Pull toward the rest pose in the head frame, as a spring per unit mass: a vertex settles g / k from its target. The paper's s_g < 0.1 at 0.016 s is k < 390."),
-    F(local_stiffness, 0.0, 1.0e8, 1.0e6, "1/s^2", "Pull toward the rest shape in the frame of the vertex before, as a spring per unit mass (bending). The paper's s_l < 0.3 at 0.016 s is k < 1,170."),
+    FLOG(global_stiffness, 0.0, 1.0e6, 1.0e5, "1/s^2", "Pull toward the rest pose in the head frame, as a spring per unit mass: a vertex settles g / k from its target. The paper's s_g < 0.1 at 0.016 s is k < 390."),
+    FLOG(local_stiffness, 0.0, 1.0e8, 1.0e6, "1/s^2", "Pull toward the rest shape in the frame of the vertex before, as a spring per unit mass (bending). The paper's s_l < 0.3 at 0.016 s is k < 1,170."),
     F(stiffness_tip, 0.0, 1.0, 0.25, "", "Both stiffnesses at the tip as a fraction of their root value (linear fade along the strand)."),
-    F(repulsion, 0.0, 0.5, 0.1, "", "SPH pressure coefficient k: repulsion between strands that gives the hair volume."),
-    F(viscosity, 0.0, 200.0, 10.0, "1/s", "SPH viscosity: friction between neighbouring strands."),
-    F(sph_radius, 0.001, 0.05, 0.003, "m", "SPH smoothing length h (also the hash-grid cell size)."),
-    F(rest_density, 0.1, 10.0, 1.0, "", "SPH rest density as a multiple of the groom's mean rest-pose density."),
+    F(repulsion, 0.0, 0.5, 0.1, "", "SPH pressure coefficient: repulsion between strands that gives the hair volume. The pressure k (rho - rho0) acts through the stiffness that holds a vertex (the shape springs, or a 1/60 s frame's worth with shape off), so a vertex in a crowd settles about repulsion x h x (over-density) outward whatever the stiffness. Up: more volume."),
+    F(viscosity, 0.0, 100.0, 10.0, "1/s", "SPH viscosity (paper eq. 15, Mueller et al. 2003): the velocity of a vertex relative to its neighbours' kernel-weighted mean decays at this rate times its neighbour weight (about 1 in a crowd), integrated exactly over a step so any value is stable: friction between strands. Damps relative motion; no effect on the settled volume."),
+    F(sph_radius, 0.0, 0.05, 0.0, "m", "SPH smoothing length h (also the hash-grid cell size). 0 = automatic: 1.75 x the groom's mean root spacing (distance from a root to the nearest other root), 3 mm on the default 4,096-strand groom, so it follows the strand count. Values below 1 mm are taken as 1 mm. Up: more volume."),
+    F(rest_density, 0.1, 10.0, 1.0, "", "SPH rest density rho0 as a multiple of the groom's mean rest-pose density; vertices denser than this push apart. Up: less volume."),
     I(neighbor_cap, 1, SIM_MAX_NEIGHBOR_CAP, 24, "", "SPH neighbours kept per particle, nearest first."),
     I(neighbor_rebuild, 1, 8, 2, "steps", "SPH neighbour lists are rebuilt every this many steps; in between they are kept and only the distances are recomputed."),
     B(shape, 1, "Global and local shape constraints."),

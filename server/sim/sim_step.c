@@ -1,5 +1,6 @@
 /* sim: the per-step description both backends consume (sim_step.h). */
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "sim_step.h"
@@ -111,8 +112,13 @@ void sim_step_plan(const sim_params *p, const sim_groom_info *g, core_xform prev
     out->shape = p->shape;
     out->sph = sim_step_sph_on(p);
     out->collisions = p->collisions;
-    out->sph_h = p->sph_radius;
-    out->kp = p->repulsion * p->sph_radius * (float)SIM_SPH_ACCEL_SCALE;
+    out->sph_h = sim_sph_radius(p, g);
+    /* the pressure term through the stiffness holding a vertex (sim_limits.h); times
+     * rest_density, so that the pressure is k (rho - rho0) / mean rest density: a lower rest
+     * density adds a bounded pressure, not one that grows as 1 / rho0 */
+    const float hold = (float)SIM_SPH_ACCEL_SCALE +
+                       (p->shape ? (float)SIM_SPH_HOLD_GAIN * p->global_stiffness * p->stiffness_tip : 0.0f);
+    out->kp = p->repulsion * p->rest_density * out->sph_h * hold;
     out->mu_dt = p->viscosity * p->dt;
     out->inv_rho0 = 1.0f / (p->rest_density * g->rho_rest);
     out->ncolliders = p->collisions ? g->ncolliders : 0;
@@ -164,4 +170,43 @@ float sim_groom_max_segment(const core_groom *g)
             m = fmaxf(m, sqrtf(dx * dx + dy * dy + dz * dz));
         }
     return m;
+}
+
+static int cmp_root_x(const void *a, const void *b)
+{
+    const float x = ((const float *)a)[0], y = ((const float *)b)[0];
+    return x < y ? -1 : x > y;
+}
+
+float sim_sph_auto_radius(const core_groom *g)
+{
+    if (!g || g->nstrands < 2) return (float)SIM_SPH_MAX_H;
+    const uint32_t n = g->nstrands;
+    float *r = malloc((size_t)n * 3 * sizeof *r);
+    if (!r) return 0.003f;
+    for (uint32_t s = 0; s < n; s++) memcpy(r + 3 * (size_t)s, g->pos + 3 * (size_t)s * g->nverts, 3 * sizeof *r);
+    qsort(r, n, 3 * sizeof *r, cmp_root_x); /* sweep along x: stop where |dx| alone is farther */
+    double sum = 0.0;
+    for (uint32_t i = 0; i < n; i++) {
+        const float *a = r + 3 * (size_t)i;
+        float best2 = INFINITY;
+        for (int dir = -1; dir <= 1; dir += 2)
+            for (int64_t j = (int64_t)i + dir; j >= 0 && j < (int64_t)n; j += dir) {
+                const float *b = r + 3 * (size_t)j;
+                const float dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+                if (dx * dx >= best2) break;
+                const float d2 = dx * dx + dy * dy + dz * dz;
+                best2 = d2 > 0.0f && d2 < best2 ? d2 : best2; /* coincident roots do not count */
+            }
+        sum += isfinite(best2) ? sqrt((double)best2) : 0.0;
+    }
+    free(r);
+    const double h = SIM_SPH_AUTO_SPACINGS * sum / (double)n;
+    return (float)(h < SIM_SPH_MIN_H ? SIM_SPH_MIN_H : h > SIM_SPH_MAX_H ? SIM_SPH_MAX_H : h);
+}
+
+float sim_sph_radius(const sim_params *p, const sim_groom_info *g)
+{
+    if (p->sph_radius > 0.0f) return p->sph_radius > (float)SIM_SPH_MIN_H ? p->sph_radius : (float)SIM_SPH_MIN_H;
+    return g->sph_auto_h > 0.0f ? g->sph_auto_h : 0.003f;
 }

@@ -36,6 +36,7 @@ typedef struct sim_groom_info {
     const core_sdf *sdf;            /* distance grid in the head frame (dims, origin, cell; the
                                        samples only where a backend reads them), or NULL */
     float rho_rest;                 /* mean rest-pose SPH density (any positive value before it is known) */
+    float sph_auto_h;               /* the groom's automatic smoothing length (sim_sph_auto_radius) */
 } sim_groom_info;
 
 /* One step of params.dt in `substeps` substeps of length h. */
@@ -49,8 +50,9 @@ typedef struct sim_step_desc {
                                  kept per substep */
     float drag_keep;          /* exp(-air_drag h): share of a vertex's velocity kept per substep */
     bool shape, sph, collisions;
-    float sph_h;              /* smoothing length */
-    float kp;                 /* repulsion * h * SIM_SPH_ACCEL_SCALE */
+    float sph_h;              /* smoothing length (sim_sph_radius) */
+    float kp;                 /* repulsion * rest_density * h * hold, hold = SIM_SPH_ACCEL_SCALE
+                                 (+ SIM_SPH_HOLD_GAIN * global_stiffness * stiffness_tip with shape on) */
     float mu_dt;              /* viscosity * dt */
     float inv_rho0;           /* 1 / (rest_density * rest-pose mean density) */
     uint32_t ncolliders;      /* 0 when collisions are off */
@@ -62,6 +64,16 @@ typedef struct sim_step_desc {
     core_xform head[SIM_MAX_SUBSTEPS];                     /* head at the end of substep k */
     sim_wcollider col[SIM_MAX_SUBSTEPS][SIM_MAX_COLLIDERS]; /* colliders under head[k] */
 } sim_step_desc;
+
+/* The automatic SPH smoothing length of g: SIM_SPH_AUTO_SPACINGS x the mean distance from a
+ * root to the nearest other root, clamped to [SIM_SPH_MIN_H, SIM_SPH_MAX_H] (the largest for a
+ * single strand). Allocates scratch (freed before returning; 3 mm when it cannot). Pure; any
+ * thread; about n log n in the strand count. */
+float sim_sph_auto_radius(const core_groom *g);
+
+/* The smoothing length a step uses: p->sph_radius (at least SIM_SPH_MIN_H), or g's automatic
+ * one when p->sph_radius is 0. Pure. */
+float sim_sph_radius(const sim_params *p, const sim_groom_info *g);
 
 /* True when the SPH stage has an effect (sph on, repulsion + viscosity > 0). Pure. */
 bool sim_step_sph_on(const sim_params *p);

@@ -6,9 +6,11 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "app_anim.h"
 #include "bench.h"
 #include "groom/groom.h"
 #include "sim/sim.h"
+#include "sim/sim_step.h"
 #include "sim/vk/sim_vk.h"
 
 #define MAX_CASES 64
@@ -28,7 +30,8 @@ static const char *feature_names[] = { "dftl", "dftl+shape", "dftl+shape+sph" };
 static void usage(void)
 {
     puts("usage: strandbench [solver] [--backend cpu|vulkan|both] [--case SxV]... [--features dftl,dftl+shape,dftl+shape+sph]\n"
-         "                  [--groom FILE] [--steps N] [--threads N] [--device N] [--vk-chain level|group] [--json]\n"
+         "                  [--groom FILE] [--steps N] [--threads N] [--device N] [--vk-chain level|group]\n"
+         "                  [--substeps N] [--animate PRESET[,PRESET...]] [--json]\n"
          "Runs the solver on procedural grooms of each case (default: the paper's Table 2 sizes and\n"
          "Table 1 scenes) with each feature set, one step = one 1/60 s frame with one substep (the\n"
          "paper's Algorithm 1 per frame), and reports steps/s, ns per particle-step and the fraction\n"
@@ -37,7 +40,13 @@ static void usage(void)
          "with the ratio; Vulkan rows carry the per-stage GPU time of the last step (timestamps).\n"
          "--device N picks the Vulkan device (0 = automatic, N >= 1 = vulkaninfo's GPU<N-1>);\n"
          "--vk-chain picks the Vulkan chain strategy (default: the faster one as measured).\n"
-         "The SPH smoothing length is 3 mm x sqrt(4096 / strands) (it follows the strand spacing).");
+         "The SPH smoothing length is automatic (sph_radius 0: 1.75 x the groom's mean root spacing).\n"
+         "--substeps N sets the solver substeps (default 1, the paper's; the daemon's default is 4).\n"
+         "--animate runs each case once per head-motion preset (none, nod, shake, circle, headbang,\n"
+         "sway: the daemon's presets, from the start of the preset) instead of the default slow turn,\n"
+         "and prints each one's steps/s. The daemon's default\n"
+         "scene in real time: --case 4096x32 --features dftl+shape+sph --substeps 4\n"
+         "--animate none,nod,shake,circle,headbang,sway (60 steps/s = real time).");
 }
 
 /* Bytes a step must move at least: per particle and substep the chain reads x, v, rest
@@ -51,7 +60,8 @@ static double step_bytes(size_t n, int feat, int substeps)
 }
 
 typedef struct bench_opts {
-    int threads, device;
+    int threads, device, substeps;
+    int preset;               /* app_preset, or -1 for the default slow turn */
     sim_vk_chain chain;
     bool json;
     double bandwidth;
@@ -70,16 +80,13 @@ static int measure(const core_groom *g, int feat, sim_backend_kind backend, cons
 {
     sim_params p;
     sim_params_default(&p);
-    p.substeps = 1;
+    p.substeps = o->substeps;
     p.shape = feat >= SIM_FEAT_SHAPE;
     p.sph = feat >= SIM_FEAT_SPH;
-    /* the smoothing length follows the strand spacing: the default (3 mm) suits 4,096 strands on
-     * the head; denser grooms get a proportionally smaller h, as the paper tunes h per scene */
-    p.sph_radius = p.sph_radius * sqrtf(4096.0f / (float)g->nstrands);
-    if (p.sph_radius < 0.001f) p.sph_radius = 0.001f;
-    if (p.sph_radius > 0.02f) p.sph_radius = 0.02f;
+    /* the default smoothing length is automatic: it follows the groom's root spacing */
+    p.sph_radius = 0.0f;
     r->substeps = p.substeps;
-    r->sph_radius = p.sph_radius;
+    r->sph_radius = sim_sph_auto_radius(g);
     sim_desc d = { .backend = backend, .threads = o->threads, .device = o->device };
     sim_vk_options vo = { .chain = o->chain };
     sim s;
@@ -94,7 +101,10 @@ static int measure(const core_groom *g, int feat, sim_backend_kind backend, cons
     unsigned long long t0 = core_now_ns();
     for (int i = 0; i < steps; i++) {
         core_xform h = core_xform_identity();
-        h.rot = core_q_axis_angle(core_v3(0, 1, 0), 0.4f * (float)(i % 60) / 60.0f);
+        if (o->preset >= 0)
+            h = app_anim_head((app_preset)o->preset, (double)(i + 1) * p.dt, core_xform_identity());
+        else
+            h.rot = core_q_axis_angle(core_v3(0, 1, 0), 0.4f * (float)(i % 60) / 60.0f);
         sim_set_motion(&s, h);
         if (sim_step(&s, &err) != CORE_OK) {
             fprintf(stderr, "strandbench: step failed: %s\n", err.msg);
@@ -118,9 +128,9 @@ static void print_result(const core_groom *g, int feat, const bench_opts *o, con
     if (o->json) {
         printf("{\"bench\":\"solver\",\"strands\":%u,\"verts\":%u,\"features\":\"%s\",\"backend\":\"%s\","
                "\"threads\":%d,\"steps_per_s\":%.2f,\"ns_per_particle_step\":%.3f,\"bw_fraction\":%.4f,"
-               "\"memcpy_bytes_per_s\":%.4g,\"substeps\":%d,\"sph_radius_m\":%.5f",
+               "\"memcpy_bytes_per_s\":%.4g,\"substeps\":%d,\"sph_radius_m\":%.5f,\"animate\":\"%s\"",
                g->nstrands, g->nverts, feature_names[feat], r->backend, o->threads, r->sps, r->ns_pp, r->bw,
-               o->bandwidth, r->substeps, r->sph_radius);
+               o->bandwidth, r->substeps, r->sph_radius, o->preset >= 0 ? app_preset_names[o->preset] : "turn");
         if (vs_cpu > 0.0) printf(",\"vs_cpu\":%.3f", vs_cpu);
         if (r->stats.nstages > 0) {
             printf(",\"stage_ms\":{");
@@ -133,6 +143,7 @@ static void print_result(const core_groom *g, int feat, const bench_opts *o, con
         printf("%6u x %-3u %-15s %-7s %3d thr %10.1f steps/s %8.2f ns/particle-step  %5.1f%% of memcpy bw",
                g->nstrands, g->nverts, feature_names[feat], r->backend, o->threads, r->sps, r->ns_pp, 100.0 * r->bw);
         if (vs_cpu > 0.0) printf("  %.2fx cpu", vs_cpu);
+        if (o->preset >= 0) printf("  [%s]", app_preset_names[o->preset]);
         printf("\n");
         if (strcmp(r->backend, "vulkan") == 0 && r->stats.nstages > 0) {
             printf("%31s", "gpu ms:");
@@ -167,6 +178,7 @@ int bench_solver_main(int argc, char **argv)
     int ncases = 0, steps = 0, threads = 0, device = 0;
     sim_vk_chain chain = SIM_VK_CHAIN_DEFAULT;
     bool json = false, feats[3] = { false, false, false }, any_feat = false;
+    int substeps = 1, presets[APP_PRESET_COUNT], npresets = 0;
     const char *groom_file = NULL;
     sim_backend_kind backend = SIM_BACKEND_CPU; /* AUTO here means both, side by side */
     for (int i = 1; i < argc; i++) {
@@ -224,6 +236,28 @@ int bench_solver_main(int argc, char **argv)
             }
             device = (int)x;
             i++;
+        } else if (v && strcmp(a, "--substeps") == 0) {
+            char *end;
+            long x = strtol(v, &end, 10);
+            if (*end || x < 1 || x > SIM_MAX_SUBSTEPS) {
+                fprintf(stderr, "strandbench: --substeps wants 1..%d, got '%s'\n", SIM_MAX_SUBSTEPS, v);
+                return 2;
+            }
+            substeps = (int)x;
+            i++;
+        } else if (v && strcmp(a, "--animate") == 0) {
+            char buf[256];
+            snprintf(buf, sizeof buf, "%s", v);
+            for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ",")) {
+                int k = 0;
+                while (k < APP_PRESET_COUNT && strcmp(tok, app_preset_names[k]) != 0) k++;
+                if (k == APP_PRESET_COUNT || npresets == APP_PRESET_COUNT) {
+                    fprintf(stderr, "strandbench: --animate wants presets (none, nod, shake, circle, headbang, sway), got '%s'\n", tok);
+                    return 2;
+                }
+                presets[npresets++] = k;
+            }
+            i++;
         } else if (v && strcmp(a, "--groom") == 0) {
             groom_file = v;
             i++;
@@ -259,7 +293,7 @@ int bench_solver_main(int argc, char **argv)
         if (sim_vk_probe(device, &info, &verr) == CORE_OK)
             printf("vulkan device: %s (%s)\n", info.device_name, info.hardware ? "GPU" : "CPU device");
     }
-    const bench_opts opts = { threads, device, chain, json, bandwidth };
+    if (npresets == 0) presets[npresets++] = -1;
     int rc = 0;
     int total = ncases + (groom_file ? 1 : 0);
     for (int c = 0; c < total; c++) {
@@ -278,8 +312,13 @@ int bench_solver_main(int argc, char **argv)
         }
         size_t n = (size_t)g.nstrands * g.nverts;
         int nsteps = steps ? steps : (int)(2e7 / (double)n) + 10;
-        for (int f = 0; f < 3; f++)
-            if (feats[f]) rc |= run_case(&g, f, backend, &opts, nsteps);
+        for (int f = 0; f < 3; f++) {
+            if (!feats[f]) continue;
+            for (int k = 0; k < npresets; k++) {
+                const bench_opts opts = { threads, device, substeps, presets[k], chain, json, bandwidth };
+                rc |= run_case(&g, f, backend, &opts, nsteps);
+            }
+        }
         core_groom_free(&g);
     }
     return rc;

@@ -233,6 +233,14 @@ async function main() {
   });
   check(gl.webgl2 && !gl.lost, `WebGL2 context alive (${gl.renderer})`);
 
+  if (daemonExtra.includes('--collider')) { // e.g. -- --groom Ratboy_mohawk.tfx --collider Ratboy_body.tfxmesh
+    await page.waitForFunction(() => window.strandcast.colliderMesh, null, { timeout: 120000, polling: 200 });
+    const ntris = await page.evaluate(() => window.strandcast.colliderMesh.ntris);
+    check(ntris > 0, `the collision mesh from /collider.bin is drawn (${ntris} triangles)`);
+    await page.screenshot({ path: path.join(outDir, 'e2e-collider.png'), timeout: 180000 });
+    console.log(`e2e: screenshot ${path.join(outDir, 'e2e-collider.png')}`);
+  }
+
   const still = await capture(page);
   const ps = pixelStats(still.rgba);
   check(ps.hairShare >= 0.02, `canvas shows hair: ${(100 * ps.hairShare).toFixed(1)}% hair-coloured pixels (need 2%)`);
@@ -309,12 +317,36 @@ async function main() {
   }, null, { timeout: 20000, polling: 100 });
   check(true, 'wind_x = 3.25 set by another client shows in the panel');
 
+  // local_stiffness spans [0, 1e8] on a log slider (hello scale "log"): its middle position is
+  // in the middle decade, and 1,000 set by another client shows as 1000 at its own position
+  const stiff = await page.evaluate(() => {
+    const r = document.querySelector('input[type=range][data-param="local_stiffness"]');
+    if (!r) return null;
+    const scale = r.dataset.scale, max = Number(r.max);
+    r.value = String(Math.round(max / 2));
+    r.dispatchEvent(new Event('input', { bubbles: true }));
+    r.dispatchEvent(new Event('change', { bubbles: true }));
+    return { scale, max, num: r.parentElement.querySelector('.num').value };
+  });
+  check(stiff && stiff.scale === 'log', `local_stiffness has a log slider (${JSON.stringify(stiff)})`);
+  const ks = await waitMessage(other, (m) => m.type === 'params' && m.values && typeof m.values.local_stiffness === 'number', 60000, 'local_stiffness broadcast');
+  const kv = ks.values.local_stiffness;
+  check(ks.by === pageClient && kv >= 3e4 && kv <= 3e5 && Number(stiff.num) === kv,
+    `the local_stiffness slider's middle position sent ${kv} 1/s^2 (number box "${stiff.num}")`);
+  other.ws.send(JSON.stringify({ type: 'set_params', id: 'e2e-k', values: { local_stiffness: 1000 } }));
+  await waitMessage(other, (m) => m.id === 'e2e-k', 20000, 'reply to set_params');
+  await page.waitForFunction(() => {
+    const r = document.querySelector('input[type=range][data-param="local_stiffness"]');
+    return r && r.parentElement.querySelector('.num').value === '1000' && r.value === '101';
+  }, null, { timeout: 20000, polling: 100 });
+  check(true, 'local_stiffness = 1000 set by another client shows at slider position 101 of 601');
+
   await page.screenshot({ path: path.join(outDir, 'e2e-screenshot.png'), timeout: 180000 });
   console.log(`e2e: screenshot ${path.join(outDir, 'e2e-screenshot.png')}`);
 
   if (bench) {
     // the default parameters, and moving hair so that frames carry real motion
-    other.ws.send(JSON.stringify({ type: 'set_params', id: 'defaults', values: { gravity: 9.81, wind_x: 0 } }));
+    other.ws.send(JSON.stringify({ type: 'set_params', id: 'defaults', values: { gravity: 9.81, wind_x: 0, local_stiffness: 1e6 } }));
     await waitMessage(other, (m) => m.id === 'defaults', 20000, 'reply to set_params');
     await page.click('button[data-preset="shake"]', { force: true });
     const cpu = (os.cpus()[0] || {}).model || 'unknown';

@@ -1,7 +1,9 @@
 // Tests web/panel_model.js: schema -> control specs, value coercion and formatting.
 import test from 'node:test';
 import assert from 'node:assert/strict';
-import { buildControls, coerceValue, describe, formatValue, niceStep } from '../../web/panel_model.js';
+import {
+  LOG_DECADES, LOG_STEPS, buildControls, coerceValue, describe, formatNumber, formatValue, fromSlider, niceStep, sliderPositions, toSlider,
+} from '../../web/panel_model.js';
 
 const schema = [
   { name: 'gravity', type: 'float', min: 0, max: 50, default: 9.81, unit: 'm/s^2', help: 'Gravity along -y.' },
@@ -67,4 +69,86 @@ test('formatValue and describe show units, range and default', () => {
   assert.equal(formatValue(g, undefined), '—');
   assert.match(describe(g), /Gravity along -y\. Range 0–50 m\/s\^2, default 9\.81 m\/s\^2\./);
   assert.match(describe(b), /default on/);
+});
+
+// the server's stiffness entries (server/sim/sim_params.c) and log entries on other ranges
+const stiff = { name: 'local_stiffness', type: 'float', min: 0, max: 1e8, default: 1e6, unit: '1/s^2', help: 'Bending.', scale: 'log' };
+const logControl = (min, max) => buildControls([{ ...stiff, min, max, default: max }]).controls[0];
+
+test('a "log" scale hint is kept; absent, unknown or unfit hints are linear', () => {
+  const { controls, problems } = buildControls([
+    stiff, schema[0],
+    { ...stiff, name: 'a', scale: 'LOG' }, { ...stiff, name: 'b', scale: 7 }, { ...stiff, name: 'c', scale: 'linear' },
+    { ...stiff, name: 'd', min: -1 }, { ...stiff, name: 'e', type: 'int' }, { ...stiff, name: 'f', min: 1, max: 5, default: 2 },
+    { ...stiff, name: 'g', min: 0, max: 0, default: 0 }, { name: 'h', type: 'bool', default: true, scale: 'log' },
+  ]);
+  assert.deepEqual(problems, []);
+  assert.deepEqual(controls.map((c) => c.scale), ['log', 'linear', 'linear', 'linear', 'linear', 'linear', 'linear', 'linear', 'linear', 'linear']);
+});
+
+test('log slider with min 0: an explicit 0, then LOG_DECADES decades up to max', () => {
+  const c = logControl(0, 1e8);
+  const n = sliderPositions(c);
+  assert.equal(n, 1 + LOG_DECADES * LOG_STEPS);
+  assert.equal(fromSlider(c, 0), 0);
+  assert.equal(fromSlider(c, 1), 1e8 / 10 ** LOG_DECADES);
+  assert.equal(fromSlider(c, n), 1e8);
+  // powers of ten of a power-of-ten max land on positions: 1,000 can be picked
+  assert.equal(toSlider(c, 1000), 1 + LOG_STEPS);
+  assert.equal(fromSlider(c, 1 + LOG_STEPS), 1000);
+  assert.equal(fromSlider(c, n - LOG_STEPS), 1e7);
+  // the middle of the slider is in the middle decade (1e5 for [0, 1e8] over six decades)
+  const mid = fromSlider(c, Math.round(n / 2));
+  assert.ok(mid >= 3e4 && mid <= 3e5, `mid ${mid}`);
+  // slider values are rounded to three significant digits
+  assert.equal(fromSlider(c, 1 + LOG_STEPS + 20), 1580); // 10^3.2 = 1584.9
+});
+
+test('log slider: position -> value -> position round trips, values increase', () => {
+  for (const [min, max] of [[0, 1e8], [0, 1e6], [0, 0.3], [0.001, 0.05], [0.1, 10], [1e-3, 7.3e4]]) {
+    const c = logControl(min, max);
+    const n = sliderPositions(c);
+    let last = -1;
+    for (let p = 0; p <= n; p++) {
+      const v = fromSlider(c, p);
+      assert.ok(v >= min && v <= max && v > last, `[${min}, ${max}] position ${p}: ${v}`);
+      assert.equal(toSlider(c, v), p, `[${min}, ${max}] position ${p} value ${v}`);
+      last = v;
+    }
+    assert.equal(fromSlider(c, 0), min);
+    assert.equal(fromSlider(c, n), max);
+  }
+});
+
+test('log slider clamps positions and values, and places values between positions', () => {
+  const c = logControl(0, 1e6);
+  const n = sliderPositions(c);
+  assert.equal(fromSlider(c, -5), 0);
+  assert.equal(fromSlider(c, n + 40), 1e6);
+  assert.equal(fromSlider(c, 'x'), 0);
+  assert.equal(toSlider(c, -3), 0);
+  assert.equal(toSlider(c, 0), 0);
+  assert.equal(toSlider(c, 1e-9), 1, 'a value below the first decade sits just right of 0');
+  assert.equal(toSlider(c, 5e9), n);
+  assert.equal(toSlider(c, NaN), 0);
+  assert.equal(toSlider(c, 1e5), n - LOG_STEPS);
+  assert.equal(toSlider(c, 1.01e5), n - LOG_STEPS, 'nearest position');
+  const m = logControl(0.1, 10);
+  assert.equal(toSlider(m, 0.05), 0);
+  assert.equal(fromSlider(m, 0), 0.1);
+  // the number box takes any value in range, not only slider values
+  assert.equal(coerceValue(c, '1234.5'), 1234.5);
+  assert.equal(coerceValue(c, '2e7'), 1e6);
+});
+
+test('large values are shown as powers of ten, with the unit', () => {
+  const c = logControl(0, 1e8);
+  assert.equal(formatValue(c, 1e5), '1e5 1/s^2');
+  assert.equal(formatValue(c, 2.5e7), '2.5e7 1/s^2');
+  assert.equal(formatValue(c, 1990), '1990 1/s^2');
+  assert.equal(formatValue(c, 0), '0 1/s^2');
+  assert.equal(formatNumber(123456789), '1.23457e8');
+  assert.equal(formatNumber(99999), '99999');
+  assert.equal(formatNumber(-3e6), '-3e6');
+  assert.equal(describe(c), 'Bending. Range 0–1e8 1/s^2, default 1e8 1/s^2. Logarithmic slider.');
 });

@@ -42,6 +42,8 @@ const CLIENT_OK = [
   { type: 'reset' }, { type: 'pause' }, { type: 'resume' }, { type: 'step', count: 3 },
   { type: 'set_groom', style: 'wavy', strands: 32, verts: 6 },
   { type: 'set_groom', file: 'tiny.hair', verts: 5 },
+  { type: 'set_groom', file: 'tiny.hair', verts: 5, collider: 'tet.obj' },
+  { type: 'set_groom', style: 'wavy', collider: null },
   { type: 'subscribe', stride: 2, max_error: 0.001, max_rate: 30 },
   { type: 'keyframe', id: 9 },
 ];
@@ -56,6 +58,9 @@ const CLIENT_BAD = [
   { type: 'set_groom', file: '../etc/passwd' },
   { type: 'set_groom', file: 'a//b.tfx' },
   { type: 'set_groom', file: 'a.tfx', strands: 3 },
+  { type: 'set_groom', style: 'wavy', collider: '../x.obj' },
+  { type: 'set_groom', style: 'wavy', collider: 7 },
+  { type: 'set_groom', style: 'wavy', collider: '' },
   { type: 'subscribe', max_error: 0 },
   { type: 'reset', extra: 1 },
   { type: 'pause', id: { no: 1 } },
@@ -128,6 +133,8 @@ test('every server message validates against its schema', async () => {
   const { get } = loadSchemas();
   const dir = mkdtempSync(join(tmpdir(), 'strandcast-schema-'));
   writeFileSync(join(dir, 'tiny.hair'), tinyHair());
+  // a closed tetrahedron (counter-clockwise seen from outside) around the tiny groom's roots
+  writeFileSync(join(dir, 'tet.obj'), 'v -0.2 -0.2 -0.2\nv 0.3 -0.2 -0.2\nv -0.2 0.3 -0.2\nv -0.2 -0.2 0.3\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n');
   const { child, port } = await startDaemon(dir);
   try {
     const a = await open(port), b = await open(port);
@@ -158,6 +165,20 @@ test('every server message validates against its schema', async () => {
       seen.add(m.type);
     }
     for (const t of ['hello', 'params', 'ok', 'error', 'state', 'groom', 'subscribed', 'stats']) assert.ok(seen.has(t), `no ${t} seen`);
+    // the stiffnesses span many decades: their schema entries ask for log sliders, the rest not
+    const hello = a.texts.find((m) => m.type === 'hello');
+    const logs = hello.params.schema.filter((e) => e.scale !== undefined).map((e) => `${e.name}:${e.scale}`);
+    assert.deepEqual(logs, ['global_stiffness:log', 'local_stiffness:log']);
+    const withEntry = (patch) => {
+      const h = structuredClone(hello);
+      Object.assign(h.params.schema.find((e) => e.name === 'local_stiffness'), patch);
+      return h;
+    };
+    check(get('server.hello'), withEntry({ scale: 'linear' }), false);
+    check(get('server.hello'), withEntry({ type: 'int' }), false);
+    check(get('server.hello'), withEntry({ min: -1 }), false);
+    assert.ok(b.texts.some((m) => m.type === 'groom' && m.collider_mesh && m.collider_mesh.source === 'tet.obj'), 'no groom with the mesh');
+    assert.deepEqual(b.texts.find((m) => m.type === 'hello').grooms.colliders, ['tet.obj']);
     const codes = new Set(a.texts.filter((m) => m.type === 'error').map((m) => m.code));
     for (const c of ['unknown_type', 'unknown_param', 'bad_state', 'not_found', 'not_finite', 'bad_json']) assert.ok(codes.has(c), `no ${c}`);
     a.ws.close();

@@ -253,7 +253,7 @@ static core_status reset_state(sim_vk *s, core_err *err)
 /* One-time (per h and cap) mean density of the rest pose, as the C backend computes it. */
 static core_status compute_rho_rest(sim_vk *s, int slot, core_err *err)
 {
-    const sim_groom_info gi = { s->ncolliders, s->colliders, s->has_sdf ? &s->sdf : NULL, 1.0f };
+    const sim_groom_info gi = { s->ncolliders, s->colliders, s->has_sdf ? &s->sdf : NULL, 1.0f, s->sph_auto_h };
     sim_step_plan(&s->params, &gi, s->prev_head, s->head, &s->step);
     s->step.sph = true;
     const sim_vk_frame_in in = { &s->params, &s->step, s->nv, s->max_segment };
@@ -290,7 +290,7 @@ static core_status vk_step(void *self, core_err *err)
         if (st != CORE_OK) return st;
     }
     const sim_groom_info gi = { s->ncolliders, s->colliders, s->has_sdf ? &s->sdf : NULL,
-                                s->rho_rest_valid ? s->rho_rest : 1.0f };
+                                s->rho_rest_valid ? s->rho_rest : 1.0f, s->sph_auto_h };
     sim_step_plan(&s->params, &gi, s->prev_head, s->head, &s->step);
     const sim_vk_frame_in in = { &s->params, &s->step, s->nv, s->max_segment };
     sim_vk_frame_fill(&in, sl->frame.map);
@@ -500,6 +500,7 @@ static core_status create_impl(const sim_desc *desc, const sim_vk_options *opt, 
         s->sdf.origin = g->sdf->origin;
         s->sdf.cell = g->sdf->cell;
     }
+    s->sph_auto_h = sim_sph_auto_radius(g);
 #ifdef STRANDCAST_VK_DEBUG
     const bool validation = true;
 #else

@@ -278,6 +278,7 @@ typedef struct sim_vk {
     bool rho_rest_valid;
     bool lists_valid;     /* ORDER/NBR describe the current particles and may be reused */
     float max_segment;    /* longest rest segment */
+    float sph_auto_h;     /* the groom's automatic SPH smoothing length (sim_sph_auto_radius) */
     sim_vk_buf x, v, a, rest_buf, strand, grid, count, start, block, cell_of, order, sx, sv, rho, press, nbr, nnbr;
     sim_vk_buf stats_buf; /* READBACK: nan counter */
     sim_vk_buf sdf_buf;   /* DEVICE: the distance samples (16 unused bytes without a grid) */
