@@ -353,7 +353,7 @@ static void collide_mid(const chain_ctx *ctx, const sim_wcollider *w, chunk_tmp 
 
 /* One round of pushes: every collider taken (vertex, then segment midpoint), then the grid;
  * the displacement is added to the contact normal n. */
-static void contact_pushes(const chain_ctx *ctx, chunk_tmp *restrict t, size_t cnt, const sim_wcollider *const *hit,
+static bool contact_pushes(const chain_ctx *ctx, chunk_tmp *restrict t, size_t cnt, const sim_wcollider *const *hit,
                            uint32_t nhit, bool sdf)
 {
     float sx[CHUNK], sy[CHUNK], sz[CHUNK];
@@ -368,11 +368,13 @@ static void contact_pushes(const chain_ctx *ctx, chunk_tmp *restrict t, size_t c
         collide_sdf(ctx->sdf, ctx->wsdf, t->cx, t->cy, t->cz, cnt);
         collide_mid(ctx, NULL, t, cnt);
     }
+    float moved = 0.0f;
     for (size_t s = 0; s < cnt; s++) {
-        t->nx[s] += t->cx[s] - sx[s];
-        t->ny[s] += t->cy[s] - sy[s];
-        t->nz[s] += t->cz[s] - sz[s];
+        const float dx = t->cx[s] - sx[s], dy = t->cy[s] - sy[s], dz = t->cz[s] - sz[s];
+        t->nx[s] += dx, t->ny[s] += dy, t->nz[s] += dz;
+        moved += fabsf(dx) + fabsf(dy) + fabsf(dz);
     }
+    return moved != 0.0f;
 }
 
 /* Coulomb-like friction at the contacts of the first round: the vertex's displacement over the
@@ -467,7 +469,8 @@ static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s
     memset(t->nz, 0, cnt * sizeof(float));
     for (bool first = true;; first = false) {
         for (int it = 0; it < SIM_COLLISION_ITERATIONS; it++) {
-            contact_pushes(ctx, t, cnt, hit, nhit, sdf);
+            /* a round that pushes nothing leaves the chunk as it is (the slides are done) */
+            if (!contact_pushes(ctx, t, cnt, hit, nhit, sdf)) break;
             if (first && it == 0) contact_friction(ctx, t, cnt);
             contact_slide(ctx, t, o, s0, cnt);
         }
