@@ -80,8 +80,8 @@ static void test_procedural_presets(void **state)
 {
     (void)state;
     core_groom g;
-    simcheck_groom(&g, GROOM_STRAIGHT, 512, 24, 0);
-    const int failures = run_all("groom", &g, 3.0);
+    simcheck_groom(&g, GROOM_STRAIGHT, 256, 24, 0);
+    const int failures = run_all("groom", &g, 2.0);
     core_groom_free(&g);
     assert_int_equal(failures, 0);
 }
@@ -91,7 +91,7 @@ static void test_ratboy_presets(void **state)
     (void)state;
     core_groom g;
     if (!simcheck_ratboy(&g, true)) skip();
-    const int failures = run_all("ratboy", &g, 3.0);
+    const int failures = run_all("ratboy", &g, 2.0);
     core_groom_free(&g);
     assert_int_equal(failures, 0);
 }
