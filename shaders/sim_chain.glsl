@@ -59,13 +59,124 @@ vec3 collide_one(vec3 p, uint ci)
     return vec3(c.x + d.x * k, dl < 1e-12 ? c.y + r : c.y + d.y * k, c.z + d.z * k);
 }
 
-// Follow the leader: puts c at distance |r| from p (unchanged when c sits on p).
-vec3 follow(vec3 p, vec3 c, vec3 r)
+// Contacts are on (the chunk's box buffers are used): uniform across the workgroup.
+bool contacts_on() { return F.ncolliders > 0u || F.sdf_dims.w != 0u; }
+
+// One axis of core_sdf_sample (server/core/sdf.c).
+uint sdf_axis(float p, float lo, uint n, float cell, out float f, out float o, out float q)
 {
-    float L = v3len(r);
-    vec3 dd = p - c;
-    float len = v3len(dd);
-    return len > 1e-12 ? p - dd * (L / max(len, 1e-12)) : c;
+    float hi = lo + float(n - 1u) * cell;
+    float c = min(max(p, lo), hi);
+    float u = (c - lo) / cell;
+    float fl = min(floor(u), float(n - 2u));
+    f = u - fl;
+    o = p - c;
+    q = c;
+    return uint(fl);
+}
+
+// core_sdf_sample (server/core/sdf.c) operation for operation: trilinear distance at p (head
+// frame) and the gradient of the interpolant. p must be finite.
+float sdf_sample(vec3 p, out vec3 grad)
+{
+    uvec3 dims = F.sdf_dims.xyz;
+    vec3 org = F.sdf_origin.xyz;
+    float cell = F.sdf_origin.w;
+    float fx, fy, fz, ox, oy, oz, qx, qy, qz;
+    uint i = sdf_axis(p.x, org.x, dims.x, cell, fx, ox, qx);
+    uint j = sdf_axis(p.y, org.y, dims.y, cell, fy, oy, qy);
+    uint k = sdf_axis(p.z, org.z, dims.z, cell, fz, oz, qz);
+    uint sx = 1u, sy = dims.x, sz = dims.x * dims.y;
+    uint c = i + j * sy + k * sz;
+    float d000 = SDF.d[c], d100 = SDF.d[c + sx], d010 = SDF.d[c + sy], d110 = SDF.d[c + sx + sy];
+    float d001 = SDF.d[c + sz], d101 = SDF.d[c + sx + sz], d011 = SDF.d[c + sy + sz], d111 = SDF.d[c + sx + sy + sz];
+    float e00 = d000 + (d100 - d000) * fx, e10 = d010 + (d110 - d010) * fx;
+    float e01 = d001 + (d101 - d001) * fx, e11 = d011 + (d111 - d011) * fx;
+    float g0 = e00 + (e10 - e00) * fy, g1 = e01 + (e11 - e01) * fy;
+    float inside = g0 + (g1 - g0) * fz;
+    float outside = sqrt(ox * ox + oy * oy + oz * oz);
+    float gx0 = (d100 - d000) + ((d110 - d010) - (d100 - d000)) * fy;
+    float gx1 = (d101 - d001) + ((d111 - d011) - (d101 - d001)) * fy;
+    float gx = (gx0 + (gx1 - gx0) * fz) / cell;
+    float gy = ((e10 - e00) + ((e11 - e01) - (e10 - e00)) * fz) / cell;
+    float gz = (g1 - g0) / cell;
+    float inv = 1.0 / max(outside, 1e-30);
+    grad = vec3(qx == p.x ? gx : ox * inv, qy == p.y ? gy : oy * inv, qz == p.z ? gz : oz * inv);
+    return inside + outside;
+}
+
+// collide_sdf of sim_cpu_chain.c for one point at substep k: out of the distance grid to the skin.
+vec3 sdf_push(vec3 p, uint k)
+{
+    vec3 pos = F.sub[k].pos.xyz;
+    vec3 m0 = F.sub[k].to_head[0].xyz, m1 = F.sub[k].to_head[1].xyz, m2 = F.sub[k].to_head[2].xyz;
+    float cell = F.sdf_origin.w;
+    vec3 org = F.sdf_origin.xyz;
+    float hx = org.x + float(F.sdf_dims.x - 1u) * cell, hy = org.y + float(F.sdf_dims.y - 1u) * cell;
+    float hz = org.z + float(F.sdf_dims.z - 1u) * cell;
+    float dx = p.x - pos.x, dy = p.y - pos.y, dz = p.z - pos.z;
+    float qx = m0.x * dx + m0.y * dy + m0.z * dz;
+    float qy = m1.x * dx + m1.y * dy + m1.z * dz;
+    float qz = m2.x * dx + m2.y * dy + m2.z * dz;
+    if (!(qx >= org.x && qx <= hx && qy >= org.y && qy <= hy && qz >= org.z && qz <= hz)) return p;
+    vec3 g;
+    float d = sdf_sample(vec3(qx, qy, qz), g);
+    float push = SDF_SKIN - d;
+    float gl = sqrt(g.x * g.x + g.y * g.y + g.z * g.z);
+    if (!(push > 0.0) || !(gl > 1e-12)) return p;
+    float kk = push / gl;
+    vec3 n0 = F.sub[k].from_head[0].xyz, n1 = F.sub[k].from_head[1].xyz, n2 = F.sub[k].from_head[2].xyz;
+    return vec3(p.x + (n0.x * g.x + n0.y * g.y + n0.z * g.z) * kk, p.y + (n1.x * g.x + n1.y * g.y + n1.z * g.z) * kk,
+                p.z + (n2.x * g.x + n2.y * g.y + n2.z * g.z) * kk);
+}
+
+// Pushes out of collider ci, or the distance grid of substep k when ci == ~0u.
+vec3 push_any(vec3 p, uint ci, uint k) { return ci == ~0u ? sdf_push(p, k) : collide_one(p, ci); }
+
+// collide_mid: the segment p -> c's midpoint pushed out, the vertex moved twice as far.
+vec3 collide_mid(vec3 p, vec3 c, uint ci, uint k)
+{
+    vec3 m0 = (p + c) * 0.5;
+    vec3 m1 = push_any(m0, ci, k);
+    return c + (m1 - m0) * 2.0;
+}
+
+// contact_friction of sim_cpu_chain.c: xo is the vertex's position at the substep start.
+vec3 contact_friction(vec3 c, vec3 n, vec3 xo, uint k)
+{
+    float al = sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+    if (!(al > 0.0)) return c;
+    float inv = 1.0 / al, ux = n.x * inv, uy = n.y * inv, uz = n.z * inv;
+    vec4 c0 = F.sub[k].carry[0], c1 = F.sub[k].carry[1], c2 = F.sub[k].carry[2];
+    float ox = c0.x * xo.x + c0.y * xo.y + c0.z * xo.z + c0.w;
+    float oy = c1.x * xo.x + c1.y * xo.y + c1.z * xo.z + c1.w;
+    float oz = c2.x * xo.x + c2.y * xo.y + c2.z * xo.z + c2.w;
+    float dx = c.x - ox, dy = c.y - oy, dz = c.z - oz;
+    float dn = dx * ux + dy * uy + dz * uz;
+    float tx = dx - dn * ux, ty = dy - dn * uy, tz = dz - dn * uz;
+    float tl = sqrt(tx * tx + ty * ty + tz * tz), lim = F.friction * al;
+    float f = tl <= lim ? 1.0 : lim / tl;
+    return vec3(c.x - tx * f, c.y - ty * f, c.z - tz * f);
+}
+
+// contact_slide of sim_cpu_chain.c: rest length |r| to p along the tangent plane of n.
+vec3 contact_slide(vec3 p, vec3 c, vec3 r, vec3 n)
+{
+    float al = sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+    if (!(al > 0.0)) return c;
+    float inv = 1.0 / al, ux = n.x * inv, uy = n.y * inv, uz = n.z * inv;
+    float L2 = r.x * r.x + r.y * r.y + r.z * r.z, L = sqrt(L2);
+    float dx = c.x - p.x, dy = c.y - p.y, dz = c.z - p.z;
+    float dn = dx * ux + dy * uy + dz * uz;
+    float tx = dx - dn * ux, ty = dy - dn * uy, tz = dz - dn * uz;
+    float tl = sqrt(tx * tx + ty * ty + tz * tz), dn2 = dn * dn;
+    if (dn2 < L2 && tl > 1e-12) {
+        float k = sqrt(L2 - dn2) / tl;
+        return vec3(p.x + (ux * dn + tx * k), p.y + (uy * dn + ty * k), p.z + (uz * dn + tz * k));
+    }
+    float len = sqrt(dx * dx + dy * dy + dz * dz);
+    float k = L / max(len, 1e-12);
+    return len > 1e-12 ? vec3(p.x + dx * k, p.y + dy * k, p.z + dz * k) : c;
 }
 
 // The colliders the chunk can reach at this level, in the C backend's order: those whose box
@@ -74,7 +185,7 @@ vec3 follow(vec3 p, vec3 c, vec3 r)
 // invocation of the workgroup calls it with the same box buffer b (it synchronises); buffer b
 // must have been reset before the previous barrier; thread 0 resets buffer `next`. hit[]
 // receives indices into F.col.
-uint chunk_colliders(bool live, vec3 c, vec3 p, uint k, uint b, uint next, out uint hit[MAX_COLLIDERS])
+uint chunk_colliders(bool live, vec3 c, vec3 p, uint k, uint b, uint next, out uint hit[MAX_COLLIDERS], out bool sdf)
 {
     bool nan = live && (any(greaterThan(floatBitsToUint(c) & 0x7fffffffu, uvec3(0x7f800000u))) ||
                         any(greaterThan(floatBitsToUint(p) & 0x7fffffffu, uvec3(0x7f800000u))));
@@ -105,6 +216,8 @@ uint chunk_colliders(bool live, vec3 c, vec3 p, uint k, uint b, uint next, out u
             grew = true;
         }
     }
+    // the distance grid: a grid that holds no point changes nothing, so the grown box is as good
+    sdf = F.sdf_dims.w != 0u && (!finite || (all(lessThanEqual(lo, F.sub[k].hi.xyz)) && all(greaterThanEqual(hi, F.sub[k].lo.xyz))));
     return nhit;
 }
 
@@ -171,17 +284,26 @@ void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred
     float len = v3len(dd);
     xs = len > 1e-12 ? ch.p - dd * (L / max(len, 1e-12)) : tgt;
     vec3 delta = xs - xg;
-    if (F.ncolliders > 0u) {
+    if (contacts_on()) { // collide_level of sim_cpu_chain.c
         uint hit[MAX_COLLIDERS];
-        uint nhit = chunk_colliders(live, xs, ch.p, k, b, next, hit);
-        if (nhit > 0u) {
+        bool sdf;
+        uint nhit = chunk_colliders(live, xs, ch.p, k, b, next, hit, sdf);
+        if (nhit > 0u || sdf) {
+            vec3 n = vec3(0.0);
             for (uint it = 0u; it < COLLISION_ITERATIONS; it++) {
-                for (uint h = 0u; h < nhit; h++) xs = collide_one(xs, hit[h]);
-                xs = follow(ch.p, xs, r);
+                vec3 s0 = xs;
+                for (uint h = 0u; h < nhit; h++) {
+                    xs = collide_one(xs, hit[h]);
+                    xs = collide_mid(ch.p, xs, hit[h], k);
+                }
+                if (sdf) {
+                    xs = sdf_push(xs, k);
+                    xs = collide_mid(ch.p, xs, ~0u, k);
+                }
+                n = n + (xs - s0);
+                if (it == 0u) xs = contact_friction(xs, n, xo, k);
+                xs = contact_slide(ch.p, xs, r, n);
             }
-            uint passes = nhit > 1u ? CREVICE_PASSES : 1u;
-            for (uint pass = 0u; pass < passes; pass++)
-                for (uint h = 0u; h < nhit; h++) xs = collide_one(xs, hit[h]);
         }
     }
     if (live && l > 1u) {

@@ -27,7 +27,7 @@ void main()
     } else {
         ch = chain_root(false, s, k);
     }
-    if (F.ncolliders > 0u) { // the chunk's box buffer starts empty
+    if (contacts_on()) { // the chunk's box buffer starts empty
         if (gl_LocalInvocationID.x == 0u) box_reset(0u);
         barrier();
     }

@@ -8,7 +8,7 @@ const uint MAX_SUBSTEPS = uint(SIM_MAX_SUBSTEPS);
 const uint MAX_COLLIDERS = uint(SIM_MAX_COLLIDERS);
 const uint MAX_NEIGHBORS = uint(SIM_MAX_NEIGHBOR_CAP);
 const uint COLLISION_ITERATIONS = uint(SIM_COLLISION_ITERATIONS);
-const uint CREVICE_PASSES = uint(SIM_CREVICE_PASSES);
+const float SDF_SKIN = float(SIM_SDF_SKIN);
 
 const uint FLAG_SHAPE = 1u;
 const uint FLAG_SPH = 2u;
@@ -29,6 +29,16 @@ struct Collider {
     vec4 hi;
     vec4 m[3];   // ellipsoid: rows of world offset -> unit-sphere coordinates
     vec4 nrm[3]; // ellipsoid: rows of unit-sphere coordinates -> world offset
+};
+
+// Per substep (sim_step_desc.carry, .wsdf).
+struct Sub {
+    vec4 carry[3];     // rows (xyz matrix, w translation): the colliders' motion over the substep
+    vec4 to_head[3];   // rows: world offset from pos -> head frame (the distance grid's frame)
+    vec4 from_head[3]; // rows: head-frame direction -> world
+    vec4 pos;          // head position
+    vec4 lo;           // world box of the distance grid (culling)
+    vec4 hi;
 };
 
 // Per-step parameters: the host's sim_step_desc (server/sim/sim_step.h), so the derived values
@@ -52,9 +62,13 @@ layout(std430, set = 0, binding = 0) restrict readonly buffer FrameBuf {
     uint flags;        // FLAG_*
     uint cap;          // SPH neighbours kept
     float drag_keep;   // exp(-air_drag dt_k)
-    float pad0, pad1, pad2;
+    float friction;    // contact friction
+    float pad1, pad2;
     Xf head[MAX_SUBSTEPS];
     Collider col[MAX_SUBSTEPS * MAX_COLLIDERS];
+    uvec4 sdf_dims;    // xyz: samples per axis of the distance grid; w: 1 when it collides
+    vec4 sdf_origin;   // xyz: position of sample (0,0,0), head frame; w: cell
+    Sub sub[MAX_SUBSTEPS];
     vec2 stiff[];      // (s_g, s_l) per level
 } F;
 
@@ -71,6 +85,9 @@ layout(std430, set = 0, binding = 18) restrict buffer StatsBuf {
     uint nan_resets;
     uint pad[3];
 } STATS;
+
+// The groom's distance grid (core_sdf.d: x fastest, then y, then z), or one unused word.
+layout(std430, set = 0, binding = 19) restrict readonly buffer SdfBuf { float d[]; } SDF;
 
 layout(push_constant) uniform Push {
     uint substep;

@@ -121,8 +121,9 @@ static void test_rest_at_extremes(void **state)
             double settle;
             const double rest = motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
             printf("%-18s = %-10g rest p99.9 %.2e mm/frame, settled after %.2f s\n", t[i].name, v, rest * 1e3, settle);
-            /* known gap (issue 13): with shape off, hair lying on the colliders slides on them
-             * for want of contact friction; it is measured and printed, not yet held to the bound */
+            /* known gap (issue 13): with shape off, hair lying on the colliders still creeps on them
+             * (0.029 mm/frame after 3 s with Coulomb contact friction at 0.3, 0.055 without); it
+             * is measured and printed, not yet held to the bound */
             const bool known_gap = strcmp(t[i].name, "shape") == 0 && v == 0.0;
             if (!(rest <= REST_P999) && !known_gap) failures++;
             run_close(&r);
@@ -215,21 +216,11 @@ static void test_dt_independence(void **state)
     }
 }
 
-/* Ratboy's mohawk at the defaults, with its fitted head, keeps its style through motion:
- * mean distance from the authored shape <= 10% of the strand length, tips above roots within 5
- * points of the authored groom's. Skipped when the asset is absent. */
-static void test_ratboy_style(void **state)
+/* Ratboy at the defaults (with its head SDF when sdf): see test_ratboy_style. */
+static void ratboy_style(bool sdf)
 {
-    (void)state;
-    const char *assets = getenv("STRANDCAST_ASSETS");
-    char path[1024];
-    snprintf(path, sizeof path, "%s/ratboy/Ratboy_mohawk.tfx", assets ? assets : "../shared/assets");
-    FILE *fp = fopen(path, "rb");
-    if (!fp) skip();
-    fclose(fp);
     run r = { 0 };
-    core_err err;
-    if (groom_load_file(path, 0, &r.groom, &err) != CORE_OK) fail_msg("%s: %s", path, err.msg);
+    if (!simcheck_ratboy(&r.groom, sdf)) skip();
     sim_params p;
     sim_params_default(&p);
     run_open(&r, &p);
@@ -243,12 +234,29 @@ static void test_ratboy_style(void **state)
         above0 += r.groom.pos[3 * tip + 1] > r.groom.pos[3 * root + 1];
     }
     const double share = (double)above / r.groom.nstrands, share0 = (double)above0 / r.groom.nstrands;
-    printf("Ratboy: rest p99.9 %.2e mm, shape deviation %.4f of strand length, tips above roots %.3f (authored %.3f)\n",
-           rest * 1e3, dev, share, share0);
+    printf("Ratboy%s: rest p99.9 %.2e mm, settled after %.2f s, shape deviation %.4f of strand length, tips above "
+           "roots %.3f (authored %.3f)\n",
+           sdf ? " with its head SDF" : "", rest * 1e3, settle, dev, share, share0);
     assert_true(rest <= REST_P999);
     assert_true(dev <= 0.10);
     assert_true(fabs(share - share0) <= 0.05);
     run_close(&r);
+}
+
+/* Ratboy's mohawk at the defaults, with its fitted head, keeps its style through motion and
+ * comes to rest: mean distance from the authored shape <= 10% of the strand length, tips above
+ * roots within 5 points of the authored groom's. Skipped when the asset is absent. */
+static void test_ratboy_style(void **state)
+{
+    (void)state;
+    ratboy_style(false);
+}
+
+/* The same with the distance grid of its body mesh over the head as a collider. */
+static void test_ratboy_style_sdf(void **state)
+{
+    (void)state;
+    ratboy_style(true);
 }
 
 int main(void)
@@ -258,6 +266,7 @@ int main(void)
         cmocka_unit_test(test_damping_monotonic),
         cmocka_unit_test(test_dt_independence),
         cmocka_unit_test(test_ratboy_style),
+        cmocka_unit_test(test_ratboy_style_sdf),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -12,6 +12,7 @@
 #include "groom/groom.h"
 #include "sim/sim.h"
 #include "sim/vk/sim_vk.h"
+#include "support/quality.h"
 #include "support/sim_check.h"
 #include "support/vkpin.h"
 
@@ -32,11 +33,32 @@ static void make_vk(sim *s, const core_groom *g, const sim_params *p, sim_vk_cha
     if (sim_vk_create(s, &d, &o, g, p, &err) != CORE_OK) fail_msg("vulkan sim: %s", err.msg);
 }
 
-static void make_pair(pair *t, groom_style style, uint32_t ns, uint32_t nv, const sim_params *p)
+/* A distance grid of a sphere around the head's centre, 12 mm larger than the head ellipsoid's
+ * smallest semi-axis, so that the hair near the scalp is pushed by it. */
+static void attach_sphere_sdf(core_groom *g)
+{
+    core_err err;
+    const float r = fminf(GROOM_HEAD_RX, fminf(GROOM_HEAD_RY, GROOM_HEAD_RZ)) + 0.012f, cell = 0.004f;
+    const uint32_t n = (uint32_t)ceilf(2.0f * (r + 0.02f) / cell) + 1;
+    const uint32_t dims[3] = { n, n, n };
+    const float o = -(float)(n - 1) * cell * 0.5f;
+    g->sdf = calloc(1, sizeof *g->sdf);
+    assert_non_null(g->sdf);
+    if (core_sdf_alloc(g->sdf, dims, core_v3(o, o, o), cell, &err) != CORE_OK) fail_msg("%s", err.msg);
+    for (uint32_t k = 0; k < n; k++)
+        for (uint32_t j = 0; j < n; j++)
+            for (uint32_t i = 0; i < n; i++) {
+                const double x = o + i * (double)cell, y = o + j * (double)cell, z = o + k * (double)cell;
+                g->sdf->d[i + n * (j + (size_t)n * k)] = (float)(sqrt(x * x + y * y + z * z) - r);
+            }
+}
+
+static void make_pair_sdf(pair *t, groom_style style, uint32_t ns, uint32_t nv, const sim_params *p, bool sdf)
 {
     core_err err;
     memset(t, 0, sizeof *t);
     simcheck_groom(&t->groom, style, ns, nv, 11);
+    if (sdf) attach_sphere_sdf(&t->groom);
     sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = 2 };
     if (sim_create(&t->cpu, &d, &t->groom, p, &err) != CORE_OK) fail_msg("cpu sim: %s", err.msg);
     make_vk(&t->vk, &t->groom, p, SIM_VK_CHAIN_DEFAULT);
@@ -46,6 +68,11 @@ static void make_pair(pair *t, groom_style style, uint32_t ns, uint32_t nv, cons
     assert_non_null(t->xc);
     assert_non_null(t->xv);
     t->strand_len = simcheck_mean_strand_length(&t->groom);
+}
+
+static void make_pair(pair *t, groom_style style, uint32_t ns, uint32_t nv, const sim_params *p)
+{
+    make_pair_sdf(t, style, ns, nv, p, false);
 }
 
 static void assert_no_validation_errors(const sim *s)
@@ -90,13 +117,12 @@ static double max_distance(const float *a, const float *b, size_t n)
 /* One step from the same non-trivial state (positions and velocities of 20 steps of head
  * motion on the C backend, written into both): the positions agree within 1e-5 of the
  * strand length, with every feature on. */
-static void test_one_step_matches_cpu(void **state)
+static void one_step_matches_cpu(bool sdf)
 {
-    (void)state;
     sim_params p;
     sim_params_default(&p);
     pair t;
-    make_pair(&t, GROOM_WAVY, 384, 16, &p);
+    make_pair_sdf(&t, GROOM_WAVY, 384, 16, &p, sdf);
     core_err err;
     for (int i = 0; i < 20; i++) {
         sim_set_motion(&t.cpu, simcheck_head_motion(i * p.dt, 1.0));
@@ -121,15 +147,33 @@ static void test_one_step_matches_cpu(void **state)
     step_both(&t, h1);
     double moved = simcheck_mean_distance(t.xc, back, t.n);
     double worst = max_distance(t.xc, t.xv, t.n);
-    printf("one step (%zu particles, SPH + shape + collisions): vertices moved %.3g m on average; "
+    printf("one step (%zu particles, SPH + shape + collisions%s): vertices moved %.3g m on average; "
            "max |vulkan - cpu| = %.3g m = %.3g of the strand length\n",
-           t.n, moved, worst, worst / t.strand_len);
+           t.n, sdf ? " + distance grid" : "", moved, worst, worst / t.strand_len);
+    if (sdf) { /* the grid does push: the hair ends outside it, the scalp's vertices on it */
+        const double pen = quality_penetration_max(&t.groom, h1, t.xv);
+        printf("deepest penetration on vulkan %.3g mm\n", pen * 1e3);
+        assert_true(pen <= 0.0005);
+    }
     assert_true(moved > 1e-4); /* the step did something */
     assert_true(worst <= 1e-5 * t.strand_len);
     free(vel);
     free(back);
     free(vback);
     drop_pair(&t);
+}
+
+static void test_one_step_matches_cpu(void **state)
+{
+    (void)state;
+    one_step_matches_cpu(false);
+}
+
+/* The same with a distance grid collider (a sphere's) on the groom. */
+static void test_one_step_matches_cpu_sdf(void **state)
+{
+    (void)state;
+    one_step_matches_cpu(true);
 }
 
 /* 300 steps of scripted head motion, the first half without colliders (segment lengths hold
@@ -386,7 +430,8 @@ int main(void)
 {
     vkpin_driver_libraries();
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_one_step_matches_cpu), cmocka_unit_test(test_300_steps_track_cpu),
+        cmocka_unit_test(test_one_step_matches_cpu), cmocka_unit_test(test_one_step_matches_cpu_sdf),
+        cmocka_unit_test(test_300_steps_track_cpu),
         cmocka_unit_test(test_params_take_effect),   cmocka_unit_test(test_chain_strategies_agree),
         cmocka_unit_test(test_nan_guard),            cmocka_unit_test(test_stage_timestamps),
         cmocka_unit_test(test_backend_choice),       cmocka_unit_test(test_bad_input),

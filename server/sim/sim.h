@@ -32,6 +32,9 @@ typedef struct sim_params {
     bool shape;               /* global + local shape constraints on */
     bool sph;                 /* hair-hair interaction on */
     bool collisions;          /* character colliders on */
+    float friction;           /* contact friction, [0,1]: a vertex in contact keeps still while its
+                                 tangential displacement over a substep is at most friction times
+                                 the push out; past that it is reduced by that much (Coulomb) */
 } sim_params;
 
 /* Fills p with the defaults of sim_param_table(). Pure. */

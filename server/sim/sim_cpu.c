@@ -44,6 +44,7 @@ static void cpu_destroy(void *self)
     free(c->sg);
     free(c->perm);
     free(c->sl);
+    core_sdf_free(&c->sdf);
     free(c);
 }
 
@@ -94,6 +95,13 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
             for (int k = 0; k < 3; k++)
                 c->rest[k][(size_t)l * c->ns + s] = g->pos[3 * ((size_t)c->perm[s] * c->nv + l) + k];
     c->max_segment = sim_groom_max_segment(g);
+    if (g->sdf) {
+        core_status sst = core_sdf_copy(&c->sdf, g->sdf, err);
+        if (sst != CORE_OK) {
+            cpu_destroy(c);
+            return sst;
+        }
+    }
     c->sph_auto_h = sim_sph_auto_radius(g);
     c->sph.scalar = desc && desc->scalar_only;
     core_status st = sim_pool_init(&c->pool, desc ? desc->threads : 0, err);
@@ -120,7 +128,8 @@ static core_status cpu_step(void *self, core_err *err)
     sim_cpu *c = self;
     unsigned long long t0 = core_now_ns(), t1 = t0;
     const float dt = c->params.dt;
-    const sim_groom_info gi = { c->ncolliders, c->colliders, c->rho_rest_valid ? c->rho_rest : 1.0f, c->sph_auto_h };
+    const sim_groom_info gi = { c->ncolliders, c->colliders, c->sdf.d ? &c->sdf : NULL,
+                                c->rho_rest_valid ? c->rho_rest : 1.0f, c->sph_auto_h };
     sim_step_plan(&c->params, &gi, c->prev_head, c->head, &c->step);
     const bool sph = c->step.sph;
     if (sph) {

@@ -1,4 +1,5 @@
-/* sim: the CPU chain pass: predict, global/local shape, follow-the-leader, collisions, DFTL velocity. */
+/* sim: the CPU chain pass: predict, global/local shape, follow-the-leader, collisions with contact
+ * friction, DFTL velocity. */
 #include <math.h>
 #include <string.h>
 #ifdef __AVX2__
@@ -32,6 +33,10 @@ typedef struct chain_ctx {
     bool use_a;                  /* add the SPH accelerations */
     const sim_wcollider *wc;     /* this substep's colliders */
     uint32_t nwc;
+    const core_sdf *sdf;         /* the groom's distance grid, or NULL */
+    const sim_wsdf *wsdf;        /* its placement this substep */
+    const float *carry;          /* the colliders' motion over this substep (sim_step_desc.carry) */
+    float friction;
 } chain_ctx;
 
 /* Pushes the points (x,y,z)[0..n) out of one collider (onto its surface). */
@@ -100,6 +105,9 @@ typedef struct chunk_tmp {
     float prx[CHUNK], pry[CHUNK], prz[CHUNK], qx[CHUNK], qy[CHUNK], qz[CHUNK], qw[CHUNK];
     float cx[CHUNK], cy[CHUNK], cz[CHUNK], cox[CHUNK], coy[CHUNK], coz[CHUNK];
     float dx[CHUNK], dy[CHUNK], dz[CHUNK], bad[CHUNK];
+    /* contacts: positions before a round's pushes, the sum of the pushes (the contact normal),
+     * segment midpoints */
+    float bx[CHUNK], by[CHUNK], bz[CHUNK], nx[CHUNK], ny[CHUNK], nz[CHUNK], mx[CHUNK], my[CHUNK], mz[CHUNK];
 } chunk_tmp;
 
 
@@ -152,24 +160,6 @@ static inline __attribute__((always_inline)) void level_constraints(const chain_
         t->cx[s] = sx, t->cy[s] = sy, t->cz[s] = sz;
         t->dx[s] = sx - gx0, t->dy[s] = sy - gy0, t->dz[s] = sz - gz0;
         t->cox[s] = xo, t->coy[s] = yo, t->coz[s] = zo;
-    }
-}
-
-/* Restores the rest length to the parent after a collision push moved the vertex. */
-static void level_refollow(const chain_ctx *ctx, chunk_tmp *restrict t, size_t o, size_t s0, size_t cnt)
-{
-    const sim_cpu *c = ctx->c;
-    const float *restrict RX = c->rest[0] + s0 + o, *restrict RY = c->rest[1] + s0 + o, *restrict RZ = c->rest[2] + s0 + o;
-    for (size_t s = 0; s < cnt; s++) {
-        const float rx = RX[s] - t->prx[s], ry = RY[s] - t->pry[s], rz = RZ[s] - t->prz[s];
-        const float L = sqrtf(rx * rx + ry * ry + rz * rz);
-        const float ddx = t->px[s] - t->cx[s], ddy = t->py[s] - t->cy[s], ddz = t->pz[s] - t->cz[s];
-        const float len = sqrtf(ddx * ddx + ddy * ddy + ddz * ddz);
-        const bool ok = len > 1e-12f;
-        const float k = L / MAXF(len, 1e-12f);
-        t->cx[s] = ok ? t->px[s] - ddx * k : t->cx[s];
-        t->cy[s] = ok ? t->py[s] - ddy * k : t->cy[s];
-        t->cz[s] = ok ? t->pz[s] - ddz * k : t->cz[s];
     }
 }
 
@@ -311,13 +301,154 @@ static bool box_overlaps(const float lo[3], const float hi[3], const sim_wcollid
            hi[2] >= w->lo[2];
 }
 
-/* Alternates pushes out of the colliders with the rest-length projection so a vertex sliding
- * on a surface keeps close to its rest length; ends outside every collider.
- * Culling: the colliders whose box meets the chunk's box (this level and its parents, grown by
- * the longest segment: the rest-length projection stays within that) are processed; a push can
- * still carry a point into a collider that was skipped, so the final positions are checked
- * against the skipped ones and the passes repeat with any that holds one of them. The chunks are the same
- * for any thread count, so culling never changes results. */
+/* Pushes the points (x,y,z)[0..n) whose distance to the grid's surface is under the skin out
+ * along the normalised gradient to the skin (in the head frame of w). Only points inside the
+ * grid's box are judged: the grid describes the character there only (a region grid cuts the
+ * mesh). Mirrored by sdf_push in shaders/sim_chain.glsl. */
+static void collide_sdf(const core_sdf *sdf, const sim_wsdf *w, float *restrict x, float *restrict y,
+                        float *restrict z, size_t n)
+{
+    const float *M = w->to_head, *N = w->from_head, skin = (float)SIM_SDF_SKIN;
+    const float ox = sdf->origin.x, oy = sdf->origin.y, oz = sdf->origin.z;
+    const float hx = ox + (float)(sdf->dims[0] - 1) * sdf->cell, hy = oy + (float)(sdf->dims[1] - 1) * sdf->cell;
+    const float hz = oz + (float)(sdf->dims[2] - 1) * sdf->cell;
+    for (size_t s = 0; s < n; s++) {
+        const float dx = x[s] - w->pos[0], dy = y[s] - w->pos[1], dz = z[s] - w->pos[2];
+        const float qx = M[0] * dx + M[1] * dy + M[2] * dz;
+        const float qy = M[3] * dx + M[4] * dy + M[5] * dz;
+        const float qz = M[6] * dx + M[7] * dy + M[8] * dz;
+        if (!(qx >= ox && qx <= hx && qy >= oy && qy <= hy && qz >= oz && qz <= hz)) continue;
+        core_vec3 g;
+        const float d = core_sdf_sample(sdf, core_v3(qx, qy, qz), &g);
+        const float push = skin - d;
+        const float gl = sqrtf(g.x * g.x + g.y * g.y + g.z * g.z);
+        if (!(push > 0.0f) || !(gl > 1e-12f)) continue;
+        const float k = push / gl;
+        x[s] += (N[0] * g.x + N[1] * g.y + N[2] * g.z) * k;
+        y[s] += (N[3] * g.x + N[4] * g.y + N[5] * g.z) * k;
+        z[s] += (N[6] * g.x + N[7] * g.y + N[8] * g.z) * k;
+    }
+}
+
+/* Segment contact: pushes the midpoint of each segment parent -> vertex out of one collider (or
+ * the grid when w is NULL) and moves the vertex twice as far, so that the segment clears. */
+static void collide_mid(const chain_ctx *ctx, const sim_wcollider *w, chunk_tmp *restrict t, size_t cnt)
+{
+    for (size_t s = 0; s < cnt; s++) {
+        t->mx[s] = (t->px[s] + t->cx[s]) * 0.5f;
+        t->my[s] = (t->py[s] + t->cy[s]) * 0.5f;
+        t->mz[s] = (t->pz[s] + t->cz[s]) * 0.5f;
+        t->bx[s] = t->mx[s], t->by[s] = t->my[s], t->bz[s] = t->mz[s];
+    }
+    if (w)
+        collide(w, t->mx, t->my, t->mz, cnt);
+    else
+        collide_sdf(ctx->sdf, ctx->wsdf, t->mx, t->my, t->mz, cnt);
+    for (size_t s = 0; s < cnt; s++) {
+        t->cx[s] += (t->mx[s] - t->bx[s]) * 2.0f;
+        t->cy[s] += (t->my[s] - t->by[s]) * 2.0f;
+        t->cz[s] += (t->mz[s] - t->bz[s]) * 2.0f;
+    }
+}
+
+/* One round of pushes: every collider taken (vertex, then segment midpoint), then the grid;
+ * the displacement is added to the contact normal n. */
+static bool contact_pushes(const chain_ctx *ctx, chunk_tmp *restrict t, size_t cnt, const sim_wcollider *const *hit,
+                           uint32_t nhit, bool sdf)
+{
+    float sx[CHUNK], sy[CHUNK], sz[CHUNK];
+    memcpy(sx, t->cx, cnt * sizeof(float));
+    memcpy(sy, t->cy, cnt * sizeof(float));
+    memcpy(sz, t->cz, cnt * sizeof(float));
+    for (uint32_t k = 0; k < nhit; k++) {
+        collide(hit[k], t->cx, t->cy, t->cz, cnt);
+        collide_mid(ctx, hit[k], t, cnt);
+    }
+    if (sdf) {
+        collide_sdf(ctx->sdf, ctx->wsdf, t->cx, t->cy, t->cz, cnt);
+        collide_mid(ctx, NULL, t, cnt);
+    }
+    float moved = 0.0f;
+    for (size_t s = 0; s < cnt; s++) {
+        const float dx = t->cx[s] - sx[s], dy = t->cy[s] - sy[s], dz = t->cz[s] - sz[s];
+        t->nx[s] += dx, t->ny[s] += dy, t->nz[s] += dz;
+        moved += fabsf(dx) + fabsf(dy) + fabsf(dz);
+    }
+    return moved != 0.0f;
+}
+
+/* Coulomb-like friction at the contacts of the first round: the vertex's displacement over the
+ * substep relative to the colliders (its start position carried by their rigid motion), in the
+ * tangent plane of the push n, is cancelled while it is at most friction |n|, else shortened by
+ * that much. */
+static void contact_friction(const chain_ctx *ctx, chunk_tmp *restrict t, size_t cnt)
+{
+    const float *C = ctx->carry, mu = ctx->friction;
+    for (size_t s = 0; s < cnt; s++) {
+        const float al = sqrtf(t->nx[s] * t->nx[s] + t->ny[s] * t->ny[s] + t->nz[s] * t->nz[s]);
+        if (!(al > 0.0f)) continue;
+        const float inv = 1.0f / al, ux = t->nx[s] * inv, uy = t->ny[s] * inv, uz = t->nz[s] * inv;
+        const float ox = C[0] * t->cox[s] + C[1] * t->coy[s] + C[2] * t->coz[s] + C[3];
+        const float oy = C[4] * t->cox[s] + C[5] * t->coy[s] + C[6] * t->coz[s] + C[7];
+        const float oz = C[8] * t->cox[s] + C[9] * t->coy[s] + C[10] * t->coz[s] + C[11];
+        const float dx = t->cx[s] - ox, dy = t->cy[s] - oy, dz = t->cz[s] - oz;
+        const float dn = dx * ux + dy * uy + dz * uz;
+        const float tx = dx - dn * ux, ty = dy - dn * uy, tz = dz - dn * uz;
+        const float tl = sqrtf(tx * tx + ty * ty + tz * tz), lim = mu * al;
+        const float f = tl <= lim ? 1.0f : lim / tl;
+        t->cx[s] -= tx * f, t->cy[s] -= ty * f, t->cz[s] -= tz * f;
+    }
+}
+
+/* Rest length after contact: a vertex that was pushed keeps its offset from the parent along
+ * the contact normal n and slides in the tangent plane to the rest length L (so it stays on the
+ * surface it was pushed onto); when the normal offset alone exceeds L, plain follow-the-leader.
+ * Vertices without contact are left as they are (at L since follow-the-leader). */
+static void contact_slide(const chain_ctx *ctx, chunk_tmp *restrict t, size_t o, size_t s0, size_t cnt)
+{
+    const sim_cpu *c = ctx->c;
+    const float *restrict RX = c->rest[0] + s0 + o, *restrict RY = c->rest[1] + s0 + o, *restrict RZ = c->rest[2] + s0 + o;
+    for (size_t s = 0; s < cnt; s++) {
+        const float al = sqrtf(t->nx[s] * t->nx[s] + t->ny[s] * t->ny[s] + t->nz[s] * t->nz[s]);
+        if (!(al > 0.0f)) continue;
+        const float inv = 1.0f / al, ux = t->nx[s] * inv, uy = t->ny[s] * inv, uz = t->nz[s] * inv;
+        const float rx = RX[s] - t->prx[s], ry = RY[s] - t->pry[s], rz = RZ[s] - t->prz[s];
+        const float L2 = rx * rx + ry * ry + rz * rz, L = sqrtf(L2);
+        const float dx = t->cx[s] - t->px[s], dy = t->cy[s] - t->py[s], dz = t->cz[s] - t->pz[s];
+        const float dn = dx * ux + dy * uy + dz * uz;
+        const float tx = dx - dn * ux, ty = dy - dn * uy, tz = dz - dn * uz;
+        const float tl = sqrtf(tx * tx + ty * ty + tz * tz), dn2 = dn * dn;
+        if (dn2 < L2 && tl > 1e-12f) {
+            const float k = sqrtf(L2 - dn2) / tl;
+            t->cx[s] = t->px[s] + (ux * dn + tx * k);
+            t->cy[s] = t->py[s] + (uy * dn + ty * k);
+            t->cz[s] = t->pz[s] + (uz * dn + tz * k);
+        } else {
+            const float len = sqrtf(dx * dx + dy * dy + dz * dz);
+            const float k = L / MAXF(len, 1e-12f);
+            t->cx[s] = len > 1e-12f ? t->px[s] + dx * k : t->cx[s];
+            t->cy[s] = len > 1e-12f ? t->py[s] + dy * k : t->cy[s];
+            t->cz[s] = len > 1e-12f ? t->pz[s] + dz * k : t->cz[s];
+        }
+    }
+}
+
+static bool sdf_box_overlaps(const float lo[3], const float hi[3], const sim_wsdf *w)
+{
+    return lo[0] <= w->hi[0] && hi[0] >= w->lo[0] && lo[1] <= w->hi[1] && hi[1] >= w->lo[1] && lo[2] <= w->hi[2] &&
+           hi[2] >= w->lo[2];
+}
+
+/* Contacts of one level: SIM_COLLISION_ITERATIONS rounds of pushes out of the colliders and the
+ * grid (contact_pushes; friction after the first), each followed by the rest-length projection
+ * along the contact's tangent plane (contact_slide), so a vertex ends on the surface at its rest
+ * length.
+ * Culling: the colliders (and the grid) whose box meets the chunk's box (this level and its
+ * parents, grown by the longest segment: the rest-length projection stays within that) are
+ * processed; a push can still carry a point into a collider that was skipped, so the final
+ * positions are checked against the skipped ones and the rounds repeat with any that holds one of
+ * them. A collider that holds no point changes nothing, and the chunks are the same for any
+ * thread count, so culling never changes results. */
 static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s0, size_t cnt)
 {
     float lo[3], hi[3];
@@ -331,20 +462,33 @@ static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s
     uint32_t nhit = 0;
     for (uint32_t k = 0; k < ctx->nwc; k++)
         if (!finite || box_overlaps(lo, hi, &ctx->wc[k])) taken[k] = true, hit[nhit++] = &ctx->wc[k];
-    while (nhit > 0) {
+    bool sdf = ctx->sdf && (!finite || sdf_box_overlaps(lo, hi, ctx->wsdf));
+    if (nhit == 0 && !sdf) return;
+    memset(t->nx, 0, cnt * sizeof(float));
+    memset(t->ny, 0, cnt * sizeof(float));
+    memset(t->nz, 0, cnt * sizeof(float));
+    for (bool first = true;; first = false) {
         for (int it = 0; it < SIM_COLLISION_ITERATIONS; it++) {
-            for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
-            level_refollow(ctx, t, o, s0, cnt);
+            /* a round that pushes nothing leaves the chunk as it is (the slides are done) */
+            if (!contact_pushes(ctx, t, cnt, hit, nhit, sdf)) break;
+            if (first && it == 0) contact_friction(ctx, t, cnt);
+            contact_slide(ctx, t, o, s0, cnt);
         }
-        const int passes = nhit > 1 ? SIM_CREVICE_PASSES : 1; /* settle points in a crevice between colliders */
-        for (int pass = 0; pass < passes; pass++)
-            for (uint32_t k = 0; k < nhit; k++) collide(hit[k], t->cx, t->cy, t->cz, cnt);
         float flo[3], fhi[3];
         level_bounds(t, cnt, flo, fhi);
         uint32_t added = 0;
         for (uint32_t k = 0; k < ctx->nwc; k++)
             if (!taken[k] && box_overlaps(flo, fhi, &ctx->wc[k]) && count_inside(&ctx->wc[k], t->cx, t->cy, t->cz, cnt))
                 taken[k] = true, hit[nhit++] = &ctx->wc[k], added++;
+        if (ctx->sdf && !sdf && sdf_box_overlaps(flo, fhi, ctx->wsdf)) {
+            memcpy(t->mx, t->cx, cnt * sizeof(float));
+            memcpy(t->my, t->cy, cnt * sizeof(float));
+            memcpy(t->mz, t->cz, cnt * sizeof(float));
+            collide_sdf(ctx->sdf, ctx->wsdf, t->mx, t->my, t->mz, cnt);
+            if (memcmp(t->mx, t->cx, cnt * sizeof(float)) || memcmp(t->my, t->cy, cnt * sizeof(float)) ||
+                memcmp(t->mz, t->cz, cnt * sizeof(float)))
+                sdf = true, added++;
+        }
         if (added == 0) break;
     }
 }
@@ -377,7 +521,7 @@ static void chain_chunk(const chain_ctx *ctx, chunk_tmp *restrict t, size_t s0, 
             level_constraints(ctx, t, o, s0, cnt, l, true);
         else
             level_constraints(ctx, t, o, s0, cnt, l, false);
-        if (ctx->nwc > 0) collide_level(ctx, t, o, s0, cnt);
+        if (ctx->nwc > 0 || ctx->sdf) collide_level(ctx, t, o, s0, cnt);
         if (l > 1) level_finalize_prev(ctx, t, o - ns, s0, cnt, c->step.dftl);
         level_advance(ctx, t, o, s0, cnt);
     }
@@ -420,5 +564,9 @@ void sim_cpu_chain_pass(sim_cpu *c, int k)
     ctx.use_a = c->step.sph;
     ctx.wc = c->step.col[k];
     ctx.nwc = c->step.ncolliders;
+    ctx.sdf = c->step.sdf;
+    ctx.wsdf = &c->step.wsdf[k];
+    ctx.carry = c->step.carry[k];
+    ctx.friction = c->step.friction;
     sim_pool_run_tasks(&c->pool, chain_task, &ctx, (c->ns + CHUNK - 1) / CHUNK);
 }

@@ -46,6 +46,7 @@ typedef struct sim_cpu {
                                 neighbouring strands are near each other) */
     uint32_t ncolliders;
     core_collider colliders[CORE_MAX_COLLIDERS];
+    core_sdf sdf;            /* copy of the groom's distance grid (sdf.d NULL = none) */
     core_xform head, prev_head;
     sim_step_desc step;      /* the step being taken (sim_step_plan) */
     sim_cpu_sph sph;

@@ -11,10 +11,13 @@
 #define SIM_MAX_NEIGHBOR_CAP 64
 /* Strands solved together: a CPU task and a Vulkan workgroup; collider culling is per chunk. */
 #define SIM_CHUNK 64
-/* Collision / rest-length alternations per vertex, then final passes over overlapping
- * colliders (concave crevices converge slowly). */
-#define SIM_COLLISION_ITERATIONS 1
-#define SIM_CREVICE_PASSES 2
+/* Contact rounds per vertex and level: push out of the colliders (vertex, then the segment's
+ * midpoint), then the rest-length projection sliding along the contact's tangent plane. */
+#define SIM_COLLISION_ITERATIONS 3
+/* Distance a vertex is kept above a mesh's distance grid (metres), so hair sits on the surface. */
+#define SIM_SDF_SKIN 0.00025
+/* Most samples of a groom's distance grid the solvers accept (64 MiB of floats). */
+#define SIM_SDF_MAX_SAMPLES 16777216
 /* SPH accelerations use dimensionless kernels. The pressure term becomes an acceleration
  * through the stiffness that holds a vertex (sim_step.c): this floor, (1/60 s)^-2, the spring
  * a free vertex is held by over one reference frame, plus SIM_SPH_HOLD_GAIN x the shape

@@ -37,6 +37,7 @@ static const core_param_info table[] = {
     B(shape, 1, "Global and local shape constraints."),
     B(sph, 1, "Hair-hair interaction (SPH pressure and viscosity)."),
     B(collisions, 1, "Collisions with the character's colliders."),
+    F(friction, 0.0, 1.0, 0.15, "", "Contact friction (Coulomb-like, dimensionless): hair touching the character keeps still while its sliding over a substep is at most this share of how far the contact pushes it out, and slides that much less otherwise. 0 lets hair slide freely over the head; 1 holds it unless it is pulled nearly along the surface."),
 };
 
 const core_param_info *sim_param_table(size_t *count)

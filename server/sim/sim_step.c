@@ -44,6 +44,49 @@ void sim_world_collider(const core_collider *in, core_xform head, sim_wcollider 
     out->lo[2] = MINF(out->a.z, e.z) - r, out->hi[2] = MAXF(out->a.z, e.z) + r;
 }
 
+/* Row-major rotation matrix of the unit quaternion q. */
+static void quat_matrix(core_quat q, float m[9])
+{
+    const core_vec3 c[3] = { core_q_rotate(q, core_v3(1, 0, 0)), core_q_rotate(q, core_v3(0, 1, 0)),
+                             core_q_rotate(q, core_v3(0, 0, 1)) };
+    for (int j = 0; j < 3; j++) m[j] = (&c[j].x)[0], m[3 + j] = (&c[j].x)[1], m[6 + j] = (&c[j].x)[2];
+}
+
+/* The rigid motion from head a to head b as rows (m0 m1 m2 t): p -> Rb Ra^T (p - ta) + tb. */
+static void carry_rows(core_xform a, core_xform b, float out[12])
+{
+    float ra[9], rb[9];
+    quat_matrix(a.rot, ra);
+    quat_matrix(b.rot, rb);
+    const float ta[3] = { a.pos.x, a.pos.y, a.pos.z }, tb[3] = { b.pos.x, b.pos.y, b.pos.z };
+    for (int i = 0; i < 3; i++) {
+        float m[3], t = tb[i];
+        for (int j = 0; j < 3; j++) m[j] = rb[3 * i] * ra[3 * j] + rb[3 * i + 1] * ra[3 * j + 1] + rb[3 * i + 2] * ra[3 * j + 2];
+        for (int j = 0; j < 3; j++) t -= m[j] * ta[j];
+        out[4 * i] = m[0], out[4 * i + 1] = m[1], out[4 * i + 2] = m[2], out[4 * i + 3] = t;
+    }
+}
+
+/* The grid's box moved by head, with the transforms the samplers use. */
+static void world_sdf(const core_sdf *s, core_xform head, sim_wsdf *out)
+{
+    float r[9];
+    quat_matrix(head.rot, r);
+    out->pos[0] = head.pos.x, out->pos[1] = head.pos.y, out->pos[2] = head.pos.z;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) out->from_head[3 * i + j] = r[3 * i + j], out->to_head[3 * i + j] = r[3 * j + i];
+    const float lo[3] = { s->origin.x, s->origin.y, s->origin.z };
+    for (int a = 0; a < 3; a++) out->lo[a] = INFINITY, out->hi[a] = -INFINITY;
+    for (int c = 0; c < 8; c++) {
+        core_vec3 p;
+        float *pp = &p.x;
+        for (int a = 0; a < 3; a++) pp[a] = (c >> a) & 1 ? lo[a] + (float)(s->dims[a] - 1) * s->cell : lo[a];
+        p = core_xform_point(head, p);
+        for (int a = 0; a < 3; a++) out->lo[a] = MINF(out->lo[a], pp[a]), out->hi[a] = MAXF(out->hi[a], pp[a]);
+    }
+    for (int a = 0; a < 3; a++) out->lo[a] -= s->cell, out->hi[a] += s->cell; /* rounding of the rotation */
+}
+
 void sim_step_stiffness(const sim_params *p, uint32_t l, uint32_t nv, float *sg, float *sl)
 {
     const float h = p->dt / (float)p->substeps, h2 = h * h;
@@ -79,9 +122,13 @@ void sim_step_plan(const sim_params *p, const sim_groom_info *g, core_xform prev
     out->mu_dt = p->viscosity * p->dt;
     out->inv_rho0 = 1.0f / (p->rest_density * g->rho_rest);
     out->ncolliders = p->collisions ? g->ncolliders : 0;
+    out->friction = p->friction;
+    out->sdf = p->collisions ? g->sdf : NULL;
     for (int k = 0; k < K; k++) {
         out->head[k] = core_xform_lerp(prev_head, head, (float)(k + 1) / (float)K);
         for (uint32_t c = 0; c < out->ncolliders; c++) sim_world_collider(&g->colliders[c], out->head[k], &out->col[k][c]);
+        carry_rows(k ? out->head[k - 1] : prev_head, out->head[k], out->carry[k]);
+        if (out->sdf) world_sdf(out->sdf, out->head[k], &out->wsdf[k]);
     }
 }
 
@@ -96,6 +143,20 @@ core_status sim_groom_check(const core_groom *g, core_err *err)
         return core_fail(err, CORE_ENOMEM, "groom of %u x %u vertices is too large", g->nstrands, g->nverts);
     for (size_t i = 0; i < 3 * n; i++)
         if (!isfinite(g->pos[i])) return core_fail(err, CORE_EINVAL, "groom vertex %zu is not finite", i / 3);
+    if (g->sdf) {
+        const core_sdf *s = g->sdf;
+        const uint64_t samples = (uint64_t)s->dims[0] * s->dims[1] * s->dims[2];
+        if (s->dims[0] < 2 || s->dims[1] < 2 || s->dims[2] < 2 || !s->d || !(s->cell > 0.0f) || !isfinite(s->cell))
+            return core_fail(err, CORE_EINVAL, "groom's distance grid is malformed (%u x %u x %u samples, cell %g)",
+                             s->dims[0], s->dims[1], s->dims[2], (double)s->cell);
+        if (samples > SIM_SDF_MAX_SAMPLES)
+            return core_fail(err, CORE_EINVAL,
+                             "groom's distance grid of %u x %u x %u samples is larger than the solver's limit of %d "
+                             "samples (build it with a coarser cell or a smaller region)",
+                             s->dims[0], s->dims[1], s->dims[2], SIM_SDF_MAX_SAMPLES);
+        for (uint64_t i = 0; i < samples; i++)
+            if (!isfinite(s->d[i])) return core_fail(err, CORE_EINVAL, "groom's distance sample %llu is not finite", (unsigned long long)i);
+    }
     return CORE_OK;
 }
 

@@ -21,10 +21,20 @@ typedef struct sim_wcollider {
     float from_unit[9];  /* ellipsoid: unit-sphere coords -> world offset (R diag(r)), row-major */
 } sim_wcollider;
 
+/* A groom's distance grid (a collider moving rigidly with the head) placed for one substep. */
+typedef struct sim_wsdf {
+    float pos[3];       /* head position */
+    float to_head[9];   /* world offset from pos -> head frame (R^T), row-major */
+    float from_head[9]; /* head-frame direction -> world (R), row-major */
+    float lo[3], hi[3]; /* world bounding box of the grid's box, for culling */
+} sim_wsdf;
+
 /* What a groom contributes to every step. */
 typedef struct sim_groom_info {
     uint32_t ncolliders;
     const core_collider *colliders; /* head frame */
+    const core_sdf *sdf;            /* distance grid in the head frame (dims, origin, cell; the
+                                       samples only where a backend reads them), or NULL */
     float rho_rest;                 /* mean rest-pose SPH density (any positive value before it is known) */
     float sph_auto_h;               /* the groom's automatic smoothing length (sim_sph_auto_radius) */
 } sim_groom_info;
@@ -46,6 +56,11 @@ typedef struct sim_step_desc {
     float mu_dt;              /* viscosity * dt */
     float inv_rho0;           /* 1 / (rest_density * rest-pose mean density) */
     uint32_t ncolliders;      /* 0 when collisions are off */
+    float friction;           /* contact friction (sim_params.friction) */
+    const core_sdf *sdf;      /* the groom's distance grid when collisions are on, else NULL */
+    float carry[SIM_MAX_SUBSTEPS][12]; /* rows (m0 m1 m2 t) of the colliders' rigid motion over
+                                          substep k: p at its start -> M p + t at its end */
+    sim_wsdf wsdf[SIM_MAX_SUBSTEPS];   /* the distance grid under head[k] (when sdf) */
     core_xform head[SIM_MAX_SUBSTEPS];                     /* head at the end of substep k */
     sim_wcollider col[SIM_MAX_SUBSTEPS][SIM_MAX_COLLIDERS]; /* colliders under head[k] */
 } sim_step_desc;
@@ -78,7 +93,8 @@ void sim_step_stiffness(const sim_params *p, uint32_t l, uint32_t nv, float *sg,
 void sim_world_collider(const core_collider *in, core_xform head, sim_wcollider *out);
 
 /* Checks what every backend needs of a groom (strands of >= 2 finite vertices, at most
- * SIM_MAX_COLLIDERS colliders, a size the backends can index). Pure. */
+ * SIM_MAX_COLLIDERS colliders, a size the backends can index, a distance grid of at most
+ * SIM_SDF_MAX_SAMPLES finite samples). Pure. */
 core_status sim_groom_check(const core_groom *g, core_err *err);
 
 /* The longest rest segment of g (a collider-culling margin). Pure. */

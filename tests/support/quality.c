@@ -107,10 +107,14 @@ double quality_collider_depth(const core_collider *c, core_xform h, core_vec3 p)
 typedef struct world_shapes {
     core_collider colliders[CORE_MAX_COLLIDERS]; /* moved by the head transform */
     uint32_t ncolliders;
+    const core_sdf *sdf; /* the mesh's distance grid (head frame), or NULL */
+    core_xform head;     /* moves the grid to world space */
 } world_shapes;
 
 static void place_shapes(const core_groom *g, core_xform h, world_shapes *w)
 {
+    w->sdf = g->sdf;
+    w->head = h;
     w->ncolliders = g->ncolliders < CORE_MAX_COLLIDERS ? g->ncolliders : CORE_MAX_COLLIDERS;
     for (uint32_t k = 0; k < w->ncolliders; k++) {
         core_collider c = g->colliders[k];
@@ -121,13 +125,26 @@ static void place_shapes(const core_groom *g, core_xform h, world_shapes *w)
     }
 }
 
-/* How deep p is inside the character, metres: the deepest of its collision shapes. A groom's
- * further collision shapes (a mesh SDF) add their term here (and their placement above). */
+/* How deep p is inside the mesh's distance grid: minus the sampled distance at p moved to the
+ * head frame, for points inside the grid's box (the grid describes the character there only;
+ * a region grid cuts the mesh), else -INFINITY. */
+static double sdf_depth(const core_sdf *s, core_xform h, core_vec3 p)
+{
+    const core_vec3 q = core_q_rotate(core_q_conj(h.rot), core_v3_sub(p, h.pos));
+    const float c[3] = { q.x, q.y, q.z }, o[3] = { s->origin.x, s->origin.y, s->origin.z };
+    for (int a = 0; a < 3; a++)
+        if (!(c[a] >= o[a] && c[a] <= o[a] + (float)(s->dims[a] - 1) * s->cell)) return -INFINITY;
+    return -(double)core_sdf_sample(s, q, NULL);
+}
+
+/* How deep p is inside the character, metres: the deepest of its collision shapes (the
+ * colliders and the mesh's distance grid). */
 static double vertex_depth(const world_shapes *w, core_vec3 p)
 {
     double d = -INFINITY;
     for (uint32_t k = 0; k < w->ncolliders; k++)
         d = worse(d, quality_collider_depth(&w->colliders[k], core_xform_identity(), p));
+    if (w->sdf) d = worse(d, sdf_depth(w->sdf, w->head, p));
     return d;
 }
 

@@ -5,6 +5,9 @@
 #include <stdarg.h>
 #include <cmocka.h>
 #include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
 
 #define PI 3.14159265358979323846
 
@@ -25,6 +28,36 @@ void simcheck_groom(core_groom *g, groom_style style, uint32_t ns, uint32_t nv, 
     core_err err;
     groom_desc gd = { .style = style, .nstrands = ns, .nverts = nv, .seed = seed };
     if (groom_procedural(&gd, g, &err) != CORE_OK) fail_msg("groom %ux%u: %s", ns, nv, err.msg);
+}
+
+bool simcheck_ratboy(core_groom *g, bool sdf)
+{
+    const char *assets = getenv("STRANDCAST_ASSETS");
+    char path[4096];
+    memset(g, 0, sizeof *g);
+    snprintf(path, sizeof path, "%s/ratboy/Ratboy_mohawk.tfx", assets ? assets : "../shared/assets");
+    FILE *fp = fopen(path, "rb");
+    if (!fp) return false;
+    fclose(fp);
+    core_err err;
+    if (groom_load_file(path, 0, g, &err) != CORE_OK) fail_msg("%s: %s", path, err.msg);
+    if (!sdf) return true;
+    snprintf(path, sizeof path, "%s/ratboy/Ratboy_body.tfxmesh", assets ? assets : "../shared/assets");
+    core_mesh *m = calloc(1, sizeof *m);
+    core_sdf *s = calloc(1, sizeof *s);
+    assert_true(m && s);
+    if (groom_mesh_load_file(path, m, &err) != CORE_OK) fail_msg("%s: %s", path, err.msg);
+    groom_sdf_desc d = { .lo = core_v3(INFINITY, 0.6f, INFINITY), .hi = core_v3(-INFINITY, -INFINITY, -INFINITY) };
+    for (uint32_t v = 0; v < m->nverts; v++) {
+        const float *p = m->pos + 3 * v;
+        if (p[1] <= 0.6f) continue;
+        d.lo = core_v3(fminf(d.lo.x, p[0]), d.lo.y, fminf(d.lo.z, p[2]));
+        d.hi = core_v3(fmaxf(d.hi.x, p[0]), fmaxf(d.hi.y, p[1]), fmaxf(d.hi.z, p[2]));
+    }
+    if (groom_sdf_build(m, &d, s, &err) != CORE_OK) fail_msg("Ratboy SDF: %s", err.msg);
+    g->mesh = m;
+    g->sdf = s;
+    return true;
 }
 
 double simcheck_worse(double worst, double x)

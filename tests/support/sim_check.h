@@ -2,6 +2,7 @@
 #ifndef TESTS_SIM_CHECK_H
 #define TESTS_SIM_CHECK_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -18,6 +19,12 @@ core_xform simcheck_head_motion(double t, double speed);
  * core_groom_free. Fails the running cmocka test with the reason when the groom is refused. */
 void simcheck_groom(core_groom *g, groom_style style, uint32_t ns, uint32_t nv, uint64_t seed);
 
+/* Loads Ratboy's mohawk (STRANDCAST_ASSETS/ratboy/Ratboy_mohawk.tfx, its fitted head
+ * ellipsoid) into g and, when sdf, its body mesh (Ratboy_body.tfxmesh) with the signed
+ * distance grid built over the head region (the mesh vertices above y = 0.6 m, as test_mesh).
+ * Returns false, g zeroed, when the assets are absent; fails the running test when they do
+ * not load. The caller owns g (core_groom_free). */
+bool simcheck_ratboy(core_groom *g, bool sdf);
 /* The larger of worst and x, where a NaN on either side wins and stays: a running maximum
  * that a non-finite figure makes fail every later <= threshold check. */
 double simcheck_worse(double worst, double x);

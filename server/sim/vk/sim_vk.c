@@ -120,6 +120,11 @@ static core_status make_buffers(sim_vk *s, core_err *err)
     sim_vk_pipes_bind(&s->ctx, &s->pipes, -1, SIM_VK_B_STATS, &s->stats_buf);
     st = sim_vk_buf_create(&s->ctx, &s->staging, 2 * p3, xfer, SIM_VK_MEM_READBACK, "staging", err);
     if (st != CORE_OK) return st;
+    const size_t sdf_bytes = s->has_sdf ? (size_t)s->sdf.dims[0] * s->sdf.dims[1] * s->sdf.dims[2] * sizeof(float) : 16;
+    st = sim_vk_buf_create(&s->ctx, &s->sdf_buf, sdf_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | xfer,
+                           SIM_VK_MEM_DEVICE, "distance grid", err);
+    if (st != CORE_OK) return st;
+    sim_vk_pipes_bind(&s->ctx, &s->pipes, -1, SIM_VK_B_SDF, &s->sdf_buf);
     return make_nbr(s, (uint32_t)s->params.neighbor_cap, err);
 }
 
@@ -174,7 +179,7 @@ static void vk_destroy(void *self)
         sim_vk_once_destroy(&s->ctx, &s->once);
         sim_vk_buf *bufs[] = { &s->x, &s->v, &s->a, &s->rest_buf, &s->strand, &s->grid, &s->count, &s->start,
                                &s->block, &s->cell_of, &s->order, &s->sx, &s->sv, &s->rho, &s->press, &s->nbr,
-                               &s->nnbr, &s->stats_buf, &s->staging };
+                               &s->nnbr, &s->stats_buf, &s->staging, &s->sdf_buf };
         for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++) sim_vk_buf_destroy(&s->ctx, bufs[i]);
         sim_vk_pipes_destroy(&s->ctx, &s->pipes);
     }
@@ -248,7 +253,7 @@ static core_status reset_state(sim_vk *s, core_err *err)
 /* One-time (per h and cap) mean density of the rest pose, as the C backend computes it. */
 static core_status compute_rho_rest(sim_vk *s, int slot, core_err *err)
 {
-    const sim_groom_info gi = { s->ncolliders, s->colliders, 1.0f, s->sph_auto_h };
+    const sim_groom_info gi = { s->ncolliders, s->colliders, s->has_sdf ? &s->sdf : NULL, 1.0f, s->sph_auto_h };
     sim_step_plan(&s->params, &gi, s->prev_head, s->head, &s->step);
     s->step.sph = true;
     const sim_vk_frame_in in = { &s->params, &s->step, s->nv, s->max_segment };
@@ -284,7 +289,8 @@ static core_status vk_step(void *self, core_err *err)
         st = compute_rho_rest(s, f, err);
         if (st != CORE_OK) return st;
     }
-    const sim_groom_info gi = { s->ncolliders, s->colliders, s->rho_rest_valid ? s->rho_rest : 1.0f, s->sph_auto_h };
+    const sim_groom_info gi = { s->ncolliders, s->colliders, s->has_sdf ? &s->sdf : NULL,
+                                s->rho_rest_valid ? s->rho_rest : 1.0f, s->sph_auto_h };
     sim_step_plan(&s->params, &gi, s->prev_head, s->head, &s->step);
     const sim_vk_frame_in in = { &s->params, &s->step, s->nv, s->max_segment };
     sim_vk_frame_fill(&in, sl->frame.map);
@@ -422,6 +428,25 @@ static void vk_get_stats(void *self, sim_stats *out)
     if (!s->ctx.timestamps) out->nstages = 0;
 }
 
+/* Copies the distance samples to sdf_buf through a temporary upload buffer. Blocking. */
+static core_status upload_sdf(sim_vk *s, const core_sdf *sdf, core_err *err)
+{
+    const size_t bytes = (size_t)sdf->dims[0] * sdf->dims[1] * sdf->dims[2] * sizeof(float);
+    sim_vk_buf up;
+    core_status st = sim_vk_buf_create(&s->ctx, &up, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, SIM_VK_MEM_UPLOAD,
+                                       "distance grid upload", err);
+    if (st != CORE_OK) return st;
+    memcpy(up.map, sdf->d, bytes);
+    st = sim_vk_once_begin(&s->ctx, &s->once, err);
+    if (st == CORE_OK) {
+        VkBufferCopy c = { 0, 0, bytes };
+        vkCmdCopyBuffer(s->once.cmd, up.buf, s->sdf_buf.buf, 1, &c);
+        st = sim_vk_once_submit_wait(&s->ctx, &s->once, err);
+    }
+    sim_vk_buf_destroy(&s->ctx, &up);
+    return st;
+}
+
 /* Chooses the chain strategy: GROUP needs a chunk's predictions in shared memory. */
 static sim_vk_chain_cfg choose_chain(const sim_vk_ctx *c, sim_vk_chain want, uint32_t nv)
 {
@@ -469,6 +494,12 @@ static core_status create_impl(const sim_desc *desc, const sim_vk_options *opt, 
     }
     to_level_major(s, g->pos, s->rest);
     s->max_segment = sim_groom_max_segment(g);
+    if (g->sdf) { /* the header only: the samples go to the device below */
+        s->has_sdf = true;
+        memcpy(s->sdf.dims, g->sdf->dims, sizeof s->sdf.dims);
+        s->sdf.origin = g->sdf->origin;
+        s->sdf.cell = g->sdf->cell;
+    }
     s->sph_auto_h = sim_sph_auto_radius(g);
 #ifdef STRANDCAST_VK_DEBUG
     const bool validation = true;
@@ -501,6 +532,7 @@ static core_status create_impl(const sim_desc *desc, const sim_vk_options *opt, 
             st = sim_vk_once_submit_wait(&s->ctx, &s->once, err);
         }
     }
+    if (st == CORE_OK && s->has_sdf) st = upload_sdf(s, g->sdf, err);
     if (st == CORE_OK) st = reset_state(s, err);
     if (st != CORE_OK) {
         vk_destroy(s);

@@ -8,6 +8,9 @@ _Static_assert(offsetof(sim_vk_frame, substeps) == 64, "frame layout must match 
 _Static_assert(offsetof(sim_vk_frame, head) == 96, "frame layout must match sim_common.glsl");
 _Static_assert(offsetof(sim_vk_frame, col) == 96 + 32 * SIM_MAX_SUBSTEPS, "frame layout must match sim_common.glsl");
 _Static_assert(sizeof(sim_vk_gcollider) == 160, "collider layout must match sim_common.glsl");
+_Static_assert(sizeof(sim_vk_gsub) == 192, "substep layout must match sim_common.glsl");
+_Static_assert(offsetof(sim_vk_frame, sdf_dims) == 96 + 32 * SIM_MAX_SUBSTEPS + 160 * SIM_MAX_SUBSTEPS * SIM_MAX_COLLIDERS,
+               "frame layout must match sim_common.glsl");
 _Static_assert(sizeof(sim_vk_frame) % 8 == 0, "stiffness pairs follow the frame");
 
 size_t sim_vk_frame_size(uint32_t nv) { return sizeof(sim_vk_frame) + (size_t)nv * 2 * sizeof(float); }
@@ -55,10 +58,26 @@ void sim_vk_frame_fill(const sim_vk_frame_in *in, void *out)
                (d->collisions ? SIM_VK_FLAG_COLLISIONS : 0u);
     f->cap = (uint32_t)p->neighbor_cap;
     f->drag_keep = d->drag_keep;
+    f->friction = d->friction;
+    if (d->sdf) {
+        f->sdf_dims[0] = d->sdf->dims[0], f->sdf_dims[1] = d->sdf->dims[1], f->sdf_dims[2] = d->sdf->dims[2];
+        f->sdf_dims[3] = 1u;
+        put4(f->sdf_origin, d->sdf->origin.x, d->sdf->origin.y, d->sdf->origin.z, d->sdf->cell);
+    }
     for (int k = 0; k < d->substeps; k++) {
         put4(f->head[k].pos, d->head[k].pos.x, d->head[k].pos.y, d->head[k].pos.z, 0.0f);
         put4(f->head[k].rot, d->head[k].rot.x, d->head[k].rot.y, d->head[k].rot.z, d->head[k].rot.w);
         for (uint32_t c = 0; c < f->ncolliders; c++) pack_collider(&d->col[k][c], &f->col[(size_t)k * SIM_MAX_COLLIDERS + c]);
+        sim_vk_gsub *u = &f->sub[k];
+        const sim_wsdf *w = &d->wsdf[k];
+        for (int i = 0; i < 3; i++) {
+            memcpy(u->carry[i], d->carry[k] + 4 * i, 4 * sizeof(float));
+            put4(u->to_head[i], w->to_head[3 * i], w->to_head[3 * i + 1], w->to_head[3 * i + 2], 0.0f);
+            put4(u->from_head[i], w->from_head[3 * i], w->from_head[3 * i + 1], w->from_head[3 * i + 2], 0.0f);
+        }
+        put4(u->pos, w->pos[0], w->pos[1], w->pos[2], 0.0f);
+        put4(u->lo, w->lo[0], w->lo[1], w->lo[2], 0.0f);
+        put4(u->hi, w->hi[0], w->hi[1], w->hi[2], 0.0f);
     }
     float *stiff = (float *)((char *)out + sizeof *f);
     for (uint32_t l = 0; l < in->nv; l++) sim_step_stiffness(p, l, in->nv, &stiff[2 * l], &stiff[2 * l + 1]);

@@ -115,7 +115,7 @@ typedef enum sim_vk_binding {
     SIM_VK_B_FRAME = 0, SIM_VK_B_X, SIM_VK_B_V, SIM_VK_B_A, SIM_VK_B_REST, SIM_VK_B_STRAND,
     SIM_VK_B_GRID, SIM_VK_B_COUNT, SIM_VK_B_START, SIM_VK_B_BLOCK, SIM_VK_B_CELL_OF,
     SIM_VK_B_ORDER, SIM_VK_B_SX, SIM_VK_B_SV, SIM_VK_B_RHO, SIM_VK_B_PRESS, SIM_VK_B_NBR,
-    SIM_VK_B_NNBR, SIM_VK_B_STATS,
+    SIM_VK_B_NNBR, SIM_VK_B_STATS, SIM_VK_B_SDF,
     SIM_VK_NBINDINGS
 } sim_vk_binding;
 
@@ -195,15 +195,27 @@ typedef struct sim_vk_gcollider {
     float nrm[3][4];   /* ellipsoid: rows of unit-sphere coordinates -> world offset */
 } sim_vk_gcollider;
 
+/* Per substep: the colliders' motion and the distance grid's placement (sim_step_desc). */
+typedef struct sim_vk_gsub {
+    float carry[3][4];     /* rows: matrix (xyz) and translation (w) */
+    float to_head[3][4];   /* rows: world offset -> head frame */
+    float from_head[3][4]; /* rows: head-frame direction -> world */
+    float pos[4];          /* head position */
+    float lo[4], hi[4];    /* world box of the grid */
+} sim_vk_gsub;
+
 typedef struct sim_vk_frame {
     float accel[4];    /* xyz: gravity + wind; w: keep (internal damping per substep) */
     float dt_k, inv_dt_k, dftl, h;
     float h2, inv_h2, inv_h, kp;
     float mu_dt, inv_step_dt, inv_rho0, grow;
     uint32_t substeps, ncolliders, flags, cap;
-    float drag_keep, pad[3];
+    float drag_keep, friction, pad[2];
     sim_vk_gxf head[SIM_MAX_SUBSTEPS];
     sim_vk_gcollider col[SIM_MAX_SUBSTEPS * SIM_MAX_COLLIDERS];
+    uint32_t sdf_dims[4];  /* w: 1 when the grid collides this step */
+    float sdf_origin[4];   /* w: cell */
+    sim_vk_gsub sub[SIM_MAX_SUBSTEPS];
     /* followed by nverts pairs (s_g, s_l) */
 } sim_vk_frame;
 
@@ -257,6 +269,9 @@ typedef struct sim_vk {
     uint32_t *perm;       /* internal strand -> groom strand (sim_strand_order, shared with the C backend) */
     float *rest;          /* host copy, level-major xyz in internal strand order (reset) */
     float *host_tmp;      /* 3n floats of conversion space */
+    core_sdf sdf;         /* the groom's distance grid: dims, origin, cell (sdf.d stays NULL; the
+                             samples live in sdf_buf); has_sdf says whether there is one */
+    bool has_sdf;
     size_t cells_cap;     /* SPH hash buckets (a power of two) */
     uint32_t nbr_cap;     /* neighbour slots per particle NBR holds */
     float rho_rest;
@@ -266,6 +281,7 @@ typedef struct sim_vk {
     float sph_auto_h;     /* the groom's automatic SPH smoothing length (sim_sph_auto_radius) */
     sim_vk_buf x, v, a, rest_buf, strand, grid, count, start, block, cell_of, order, sx, sv, rho, press, nbr, nnbr;
     sim_vk_buf stats_buf; /* READBACK: nan counter */
+    sim_vk_buf sdf_buf;   /* DEVICE: the distance samples (16 unused bytes without a grid) */
     sim_vk_buf staging;   /* READBACK: 6n floats for uploads and readbacks */
     sim_vk_once once;
     sim_vk_slot slots[SIM_VK_FRAMES];

