@@ -108,6 +108,8 @@ typedef struct chunk_tmp {
     /* contacts: positions before a round's pushes, the sum of the pushes (the contact normal),
      * segment midpoints */
     float bx[CHUNK], by[CHUNK], bz[CHUNK], nx[CHUNK], ny[CHUNK], nz[CHUNK], mx[CHUNK], my[CHUNK], mz[CHUNK];
+    float dv[CHUNK]; /* a vertex's sampled grid distance after its push (+inf outside the grid) */
+    float dvx[CHUNK], dvy[CHUNK], dvz[CHUNK]; /* where dv was sampled */
 } chunk_tmp;
 
 
@@ -305,9 +307,19 @@ static bool box_overlaps(const float lo[3], const float hi[3], const sim_wcollid
  * along the normalised gradient to the skin (in the head frame of w). Only points inside the
  * grid's box are judged: the grid describes the character there only (a region grid cuts the
  * mesh). Mirrored by sdf_push in shaders/sim_chain.glsl. */
+/* The grid's distances are exact near the surface and change by at most sqrt(3) per metre
+ * across a trilinear cell: a point farther than that bound (and a cell) from where a distance
+ * was sampled needs no new sample to know it is outside. */
+#define SDF_SLOPE 1.7321f
+
+/* Pushes the points out of the distance grid (onto its skin). With d (and its sample positions
+ * dx, dy, dz), a point whose last sampled distance proves it outside is not sampled again; the
+ * others are, and d, dx, dy, dz are updated (+inf outside the grid's box). */
 static void collide_sdf(const core_sdf *sdf, const sim_wsdf *w, float *restrict x, float *restrict y,
-                        float *restrict z, size_t n)
+                        float *restrict z, size_t n, float *restrict dout, float *restrict sx, float *restrict sy,
+                        float *restrict sz)
 {
+    const float margin = (float)SIM_SDF_SKIN + sdf->cell;
     const float *M = w->to_head, *N = w->from_head, skin = (float)SIM_SDF_SKIN;
     const float ox = sdf->origin.x, oy = sdf->origin.y, oz = sdf->origin.z;
     const float hx = ox + (float)(sdf->dims[0] - 1) * sdf->cell, hy = oy + (float)(sdf->dims[1] - 1) * sdf->cell;
@@ -317,16 +329,24 @@ static void collide_sdf(const core_sdf *sdf, const sim_wsdf *w, float *restrict 
         const float qx = M[0] * dx + M[1] * dy + M[2] * dz;
         const float qy = M[3] * dx + M[4] * dy + M[5] * dz;
         const float qz = M[6] * dx + M[7] * dy + M[8] * dz;
+        if (dout) {
+            const float mx = x[s] - sx[s], my = y[s] - sy[s], mz = z[s] - sz[s];
+            if (dout[s] - SDF_SLOPE * sqrtf(mx * mx + my * my + mz * mz) > margin) continue;
+            dout[s] = INFINITY;
+        }
         if (!(qx >= ox && qx <= hx && qy >= oy && qy <= hy && qz >= oz && qz <= hz)) continue;
         core_vec3 g;
         const float d = core_sdf_sample(sdf, core_v3(qx, qy, qz), &g);
         const float push = skin - d;
         const float gl = sqrtf(g.x * g.x + g.y * g.y + g.z * g.z);
-        if (!(push > 0.0f) || !(gl > 1e-12f)) continue;
-        const float k = push / gl;
-        x[s] += (N[0] * g.x + N[1] * g.y + N[2] * g.z) * k;
-        y[s] += (N[3] * g.x + N[4] * g.y + N[5] * g.z) * k;
-        z[s] += (N[6] * g.x + N[7] * g.y + N[8] * g.z) * k;
+        const bool pushed = push > 0.0f && gl > 1e-12f;
+        if (pushed) {
+            const float k = push / gl;
+            x[s] += (N[0] * g.x + N[1] * g.y + N[2] * g.z) * k;
+            y[s] += (N[3] * g.x + N[4] * g.y + N[5] * g.z) * k;
+            z[s] += (N[6] * g.x + N[7] * g.y + N[8] * g.z) * k;
+        }
+        if (dout) dout[s] = pushed ? skin : d, sx[s] = x[s], sy[s] = y[s], sz[s] = z[s];
     }
 }
 
@@ -340,10 +360,25 @@ static void collide_mid(const chain_ctx *ctx, const sim_wcollider *w, chunk_tmp 
         t->mz[s] = (t->pz[s] + t->cz[s]) * 0.5f;
         t->bx[s] = t->mx[s], t->by[s] = t->my[s], t->bz[s] = t->mz[s];
     }
-    if (w)
+    if (w) {
         collide(w, t->mx, t->my, t->mz, cnt);
-    else
-        collide_sdf(ctx->sdf, ctx->wsdf, t->mx, t->my, t->mz, cnt);
+    } else {
+        /* the grid's distances are exact near the surface and change by at most sqrt(3) per
+         * metre across a trilinear cell: a midpoint whose vertex is farther than that bound (and
+         * a cell) from the surface is outside too, and is not sampled (same result, less cost) */
+        const float slope = SDF_SLOPE, cell = ctx->sdf->cell, skin = (float)SIM_SDF_SKIN;
+        size_t m = 0;
+        uint8_t idx[CHUNK];
+        for (size_t s = 0; s < cnt; s++) {
+            const float hx = t->cx[s] - t->mx[s], hy = t->cy[s] - t->my[s], hz = t->cz[s] - t->mz[s];
+            const float half = sqrtf(hx * hx + hy * hy + hz * hz);
+            if (!(t->dv[s] - slope * half - cell > skin)) idx[m++] = (uint8_t)s;
+        }
+        float ux[CHUNK], uy[CHUNK], uz[CHUNK];
+        for (size_t j = 0; j < m; j++) ux[j] = t->mx[idx[j]], uy[j] = t->my[idx[j]], uz[j] = t->mz[idx[j]];
+        collide_sdf(ctx->sdf, ctx->wsdf, ux, uy, uz, m, NULL, NULL, NULL, NULL);
+        for (size_t j = 0; j < m; j++) t->mx[idx[j]] = ux[j], t->my[idx[j]] = uy[j], t->mz[idx[j]] = uz[j];
+    }
     for (size_t s = 0; s < cnt; s++) {
         t->cx[s] += (t->mx[s] - t->bx[s]) * 2.0f;
         t->cy[s] += (t->my[s] - t->by[s]) * 2.0f;
@@ -365,7 +400,7 @@ static bool contact_pushes(const chain_ctx *ctx, chunk_tmp *restrict t, size_t c
         collide_mid(ctx, hit[k], t, cnt);
     }
     if (sdf) {
-        collide_sdf(ctx->sdf, ctx->wsdf, t->cx, t->cy, t->cz, cnt);
+        collide_sdf(ctx->sdf, ctx->wsdf, t->cx, t->cy, t->cz, cnt, t->dv, t->dvx, t->dvy, t->dvz);
         collide_mid(ctx, NULL, t, cnt);
     }
     float moved = 0.0f;
@@ -464,6 +499,7 @@ static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s
         if (!finite || box_overlaps(lo, hi, &ctx->wc[k])) taken[k] = true, hit[nhit++] = &ctx->wc[k];
     bool sdf = ctx->sdf && (!finite || sdf_box_overlaps(lo, hi, ctx->wsdf));
     if (nhit == 0 && !sdf) return;
+    for (size_t s = 0; s < cnt; s++) t->dv[s] = -INFINITY; /* every vertex is sampled in the first round */
     memset(t->nx, 0, cnt * sizeof(float));
     memset(t->ny, 0, cnt * sizeof(float));
     memset(t->nz, 0, cnt * sizeof(float));
@@ -484,7 +520,7 @@ static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s
             memcpy(t->mx, t->cx, cnt * sizeof(float));
             memcpy(t->my, t->cy, cnt * sizeof(float));
             memcpy(t->mz, t->cz, cnt * sizeof(float));
-            collide_sdf(ctx->sdf, ctx->wsdf, t->mx, t->my, t->mz, cnt);
+            collide_sdf(ctx->sdf, ctx->wsdf, t->mx, t->my, t->mz, cnt, NULL, NULL, NULL, NULL);
             if (memcmp(t->mx, t->cx, cnt * sizeof(float)) || memcmp(t->my, t->cy, cnt * sizeof(float)) ||
                 memcmp(t->mz, t->cz, cnt * sizeof(float)))
                 sdf = true, added++;
