@@ -80,13 +80,13 @@ static void test_segment_error(void **state)
     core_groom g;
     grid_groom(&g, 3, 2, 6);
     float *x = copy_pos(&g);
-    assert_true(quality_segment_error_max(&g, x) == 0.0);
+    assert_true(quality_segment_error_max(&g, x, 0.0) == 0.0);
     x[3 * (4 * 6 + 5) + 1] -= 0.1f * SEG; /* the tip segment of strand 4 stretched by 10% */
-    assert_float_equal(quality_segment_error_max(&g, x), 0.1, 1e-5);
+    assert_float_equal(quality_segment_error_max(&g, x, 0.0), 0.1, 1e-5);
     x[3 * (1 * 6 + 5) + 1] += 0.25f * SEG; /* strand 1's tip segment compressed by 25% */
-    assert_float_equal(quality_segment_error_max(&g, x), 0.25, 1e-5);
+    assert_float_equal(quality_segment_error_max(&g, x, 0.0), 0.25, 1e-5);
     x[3 * 2 + 0] = NAN;
-    assert_true(isnan(quality_segment_error_max(&g, x)));
+    assert_true(isnan(quality_segment_error_max(&g, x, 0.0)));
     free(x);
     core_groom_free(&g);
 }

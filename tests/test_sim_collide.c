@@ -22,20 +22,6 @@
 #define PEN_TOL 0.0005   /* metres inside any collider */
 #define MIN_REST 1e-4    /* segments shorter than this (Ratboy's 7.5 um strand) are not judged */
 
-/* Largest |len / rest - 1| over the segments of x with rest length >= MIN_REST. */
-static double segment_error(const core_groom *g, const float *x)
-{
-    double worst = 0.0;
-    for (uint32_t s = 0; s < g->nstrands; s++)
-        for (uint32_t v = 1; v < g->nverts; v++) {
-            const size_t i = (size_t)s * g->nverts + v;
-            const double rest = simcheck_dist3(g->pos + 3 * i, g->pos + 3 * (i - 1));
-            if (rest < MIN_REST) continue;
-            worst = simcheck_worse(worst, fabs(simcheck_dist3(x + 3 * i, x + 3 * (i - 1)) / rest - 1.0));
-        }
-    return worst;
-}
-
 /* Runs preset p for secs on g (CPU backend, defaults with collisions on); the worst segment
  * error and penetration (metres) over the steps' end states. */
 static void run_preset(const core_groom *g, app_preset p, double secs, double *seg, double *pen)
@@ -56,7 +42,7 @@ static void run_preset(const core_groom *g, app_preset p, double secs, double *s
         sim_set_motion(&s, h);
         if (sim_step(&s, &err) != CORE_OK) fail_msg("sim_step: %s", err.msg);
         assert_int_equal(sim_read_positions(&s, x, &err), CORE_OK);
-        *seg = simcheck_worse(*seg, segment_error(g, x));
+        *seg = simcheck_worse(*seg, quality_segment_error_max(g, x, MIN_REST));
         *pen = simcheck_worse(*pen, quality_penetration_max(g, h, x));
     }
     free(x);

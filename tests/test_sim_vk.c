@@ -202,7 +202,7 @@ static void test_300_steps_track_cpu(void **state)
         double mean = simcheck_mean_distance(t.xc, t.xv, t.n);
         worst_mean = simcheck_worse(worst_mean, mean);
         if (i < 150)
-            worst_seg = simcheck_worse(worst_seg, simcheck_max_segment_error(&t.groom, t.xv));
+            worst_seg = simcheck_worse(worst_seg, quality_segment_error_max(&t.groom, t.xv, 0.0));
         else
             worst_pen = simcheck_worse(worst_pen, simcheck_deepest_penetration(&t.groom, h, t.xv));
     }

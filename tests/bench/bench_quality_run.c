@@ -97,7 +97,7 @@ core_status bq_run(const bq_scenario *sc, bq_result *r, core_err *err)
         step_s += (double)(core_now_ns() - t0) * 1e-9;
         if (st != CORE_OK) break;
         p999 = quality_displacement_quantile(cur, prev, g->nstrands, g->nverts, BQ_QUANTILE, scratch);
-        r->segment_error_max = worse(r->segment_error_max, quality_segment_error_max(g, cur));
+        r->segment_error_max = worse(r->segment_error_max, quality_segment_error_max(g, cur, 1e-4));
         r->penetration_max_mm = worse(r->penetration_max_mm, 1e3 * quality_penetration_max(g, h, cur));
         if (k >= nmotion && !(p999 * 1e3 < BQ_SETTLE_MM)) last_above = (int64_t)(k - nmotion);
         float *t = prev;

@@ -64,14 +64,14 @@ double quality_displacement_quantile(const float *cur, const float *prev, uint32
     return select_kth(scratch, m, k);
 }
 
-double quality_segment_error_max(const core_groom *g, const float *x)
+double quality_segment_error_max(const core_groom *g, const float *x, double min_rest)
 {
     double worst = 0.0;
     for (uint32_t s = 0; s < g->nstrands; s++)
         for (uint32_t l = 1; l < g->nverts; l++) {
             size_t i = 3 * ((size_t)s * g->nverts + l);
             double rest = dist3(g->pos + i, g->pos + i - 3);
-            if (!(rest > 0.0)) continue; /* a degenerate authored segment has no ratio */
+            if (!(rest > 0.0) || rest < min_rest) continue; /* no meaningful ratio */
             worst = worse(worst, fabs(dist3(x + i, x + i - 3) / rest - 1.0));
         }
     return worst;

@@ -21,9 +21,11 @@
 double quality_displacement_quantile(const float *cur, const float *prev, uint32_t nstrands, uint32_t nverts,
                                      double q, double *scratch);
 
-/* Largest |len / rest_len - 1| over every segment of x, the rest lengths taken from g->pos
- * (x has g's layout). 0 for a groom at rest; NaN when any position is non-finite. */
-double quality_segment_error_max(const core_groom *g, const float *x);
+/* Largest |len / rest_len - 1| over the segments of x whose rest length (taken from g->pos; x
+ * has g's layout) is above zero and at least min_rest metres (shorter ones, such as Ratboy's
+ * 7.5 um strand, have float32 rounding for a ratio). 0 for a groom at rest; NaN when any
+ * position is non-finite. Pure. */
+double quality_segment_error_max(const core_groom *g, const float *x, double min_rest);
 
 /* How deep the point p (world space) is inside collider c moved rigidly by head transform h,
  * in metres: > 0 inside, <= 0 outside (the negated distance to the surface for spheres and

@@ -90,18 +90,6 @@ double simcheck_mean_strand_length(const core_groom *g)
     return len / g->nstrands;
 }
 
-double simcheck_max_segment_error(const core_groom *g, const float *x)
-{
-    double worst = 0.0;
-    for (uint32_t s = 0; s < g->nstrands; s++)
-        for (uint32_t l = 1; l < g->nverts; l++) {
-            size_t i = 3 * ((size_t)s * g->nverts + l);
-            double rest = simcheck_dist3(g->pos + i, g->pos + i - 3);
-            worst = simcheck_worse(worst, fabs(simcheck_dist3(x + i, x + i - 3) / rest - 1.0));
-        }
-    return worst;
-}
-
 /* Penetration depth of p into collider c (world space under h) relative to its radius. */
 static double relative_depth(const core_collider *c, core_xform h, const float *p)
 {

@@ -38,10 +38,6 @@ double simcheck_mean_distance(const float *a, const float *b, size_t n);
 /* Mean rest length of g's strands (sum of segment lengths of g->pos / nstrands). */
 double simcheck_mean_strand_length(const core_groom *g);
 
-/* Largest |length / rest length - 1| over every segment of positions x (laid out as g->pos,
- * which gives the rest lengths); NaN when any position is non-finite. */
-double simcheck_max_segment_error(const core_groom *g, const float *x);
-
 /* Deepest penetration of a non-root vertex of positions x (laid out as g->pos; roots are
  * kinematic, placed by the groom) into any of g's colliders moved by head transform h, as a
  * fraction of the collider's radius (for an ellipsoid, of its radius along that direction):
