@@ -297,24 +297,24 @@ static size_t count_inside(const sim_wcollider *w, const float *restrict x, cons
     return inside;
 }
 
-static bool box_overlaps(const float lo[3], const float hi[3], const sim_wcollider *w)
+/* Whether the boxes [lo, hi] and [wlo, whi] meet. */
+static bool box_overlaps(const float lo[3], const float hi[3], const float wlo[3], const float whi[3])
 {
-    return lo[0] <= w->hi[0] && hi[0] >= w->lo[0] && lo[1] <= w->hi[1] && hi[1] >= w->lo[1] && lo[2] <= w->hi[2] &&
-           hi[2] >= w->lo[2];
+    return lo[0] <= whi[0] && hi[0] >= wlo[0] && lo[1] <= whi[1] && hi[1] >= wlo[1] && lo[2] <= whi[2] && hi[2] >= wlo[2];
 }
 
-/* Pushes the points (x,y,z)[0..n) whose distance to the grid's surface is under the skin out
- * along the normalised gradient to the skin (in the head frame of w). Only points inside the
- * grid's box are judged: the grid describes the character there only (a region grid cuts the
- * mesh). Mirrored by sdf_push in shaders/sim_chain.glsl. */
 /* The grid's distances are exact near the surface and change by at most sqrt(3) per metre
  * across a trilinear cell: a point farther than that bound (and a cell) from where a distance
  * was sampled needs no new sample to know it is outside. */
 #define SDF_SLOPE 1.7321f
 
-/* Pushes the points out of the distance grid (onto its skin). With d (and its sample positions
- * dx, dy, dz), a point whose last sampled distance proves it outside is not sampled again; the
- * others are, and d, dx, dy, dz are updated (+inf outside the grid's box). */
+/* Pushes the points (x,y,z)[0..n) whose distance to the grid's surface is under the skin out
+ * along the normalised gradient to the skin (in the head frame of w). Only points inside the
+ * grid's box are judged: the grid describes the character there only (a region grid cuts the
+ * mesh). Mirrored by sdf_push in shaders/sim_chain.glsl.
+ * With dout (and the sample positions sx, sy, sz), a point whose last sampled distance proves
+ * it outside is not sampled again (the same result, SDF_SLOPE); the others are, and dout, sx,
+ * sy, sz are updated (distance after the push; +inf outside the grid's box). */
 static void collide_sdf(const core_sdf *sdf, const sim_wsdf *w, float *restrict x, float *restrict y,
                         float *restrict z, size_t n, float *restrict dout, float *restrict sx, float *restrict sy,
                         float *restrict sz)
@@ -363,16 +363,16 @@ static void collide_mid(const chain_ctx *ctx, const sim_wcollider *w, chunk_tmp 
     if (w) {
         collide(w, t->mx, t->my, t->mz, cnt);
     } else {
-        /* the grid's distances are exact near the surface and change by at most sqrt(3) per
-         * metre across a trilinear cell: a midpoint whose vertex is farther than that bound (and
-         * a cell) from the surface is outside too, and is not sampled (same result, less cost) */
-        const float slope = SDF_SLOPE, cell = ctx->sdf->cell, skin = (float)SIM_SDF_SKIN;
+        /* a midpoint that the vertex's last sampled distance proves outside (SDF_SLOPE, over
+         * the way from that sample to the vertex and on to the midpoint) is not sampled */
+        const float margin = (float)SIM_SDF_SKIN + ctx->sdf->cell;
         size_t m = 0;
         uint8_t idx[CHUNK];
         for (size_t s = 0; s < cnt; s++) {
             const float hx = t->cx[s] - t->mx[s], hy = t->cy[s] - t->my[s], hz = t->cz[s] - t->mz[s];
-            const float half = sqrtf(hx * hx + hy * hy + hz * hz);
-            if (!(t->dv[s] - slope * half - cell > skin)) idx[m++] = (uint8_t)s;
+            const float vx = t->cx[s] - t->dvx[s], vy = t->cy[s] - t->dvy[s], vz = t->cz[s] - t->dvz[s];
+            const float way = sqrtf(hx * hx + hy * hy + hz * hz) + sqrtf(vx * vx + vy * vy + vz * vz);
+            if (!(t->dv[s] - SDF_SLOPE * way > margin)) idx[m++] = (uint8_t)s;
         }
         float ux[CHUNK], uy[CHUNK], uz[CHUNK];
         for (size_t j = 0; j < m; j++) ux[j] = t->mx[idx[j]], uy[j] = t->my[idx[j]], uz[j] = t->mz[idx[j]];
@@ -468,12 +468,6 @@ static void contact_slide(const chain_ctx *ctx, chunk_tmp *restrict t, size_t o,
     }
 }
 
-static bool sdf_box_overlaps(const float lo[3], const float hi[3], const sim_wsdf *w)
-{
-    return lo[0] <= w->hi[0] && hi[0] >= w->lo[0] && lo[1] <= w->hi[1] && hi[1] >= w->lo[1] && lo[2] <= w->hi[2] &&
-           hi[2] >= w->lo[2];
-}
-
 /* Contacts of one level: SIM_COLLISION_ITERATIONS rounds of pushes out of the colliders and the
  * grid (contact_pushes; friction after the first), each followed by the rest-length projection
  * along the contact's tangent plane (contact_slide), so a vertex ends on the surface at its rest
@@ -496,8 +490,8 @@ static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s
     bool taken[CORE_MAX_COLLIDERS] = { false };
     uint32_t nhit = 0;
     for (uint32_t k = 0; k < ctx->nwc; k++)
-        if (!finite || box_overlaps(lo, hi, &ctx->wc[k])) taken[k] = true, hit[nhit++] = &ctx->wc[k];
-    bool sdf = ctx->sdf && (!finite || sdf_box_overlaps(lo, hi, ctx->wsdf));
+        if (!finite || box_overlaps(lo, hi, ctx->wc[k].lo, ctx->wc[k].hi)) taken[k] = true, hit[nhit++] = &ctx->wc[k];
+    bool sdf = ctx->sdf && (!finite || box_overlaps(lo, hi, ctx->wsdf->lo, ctx->wsdf->hi));
     if (nhit == 0 && !sdf) return;
     for (size_t s = 0; s < cnt; s++) t->dv[s] = -INFINITY; /* every vertex is sampled in the first round */
     memset(t->nx, 0, cnt * sizeof(float));
@@ -514,9 +508,9 @@ static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s
         level_bounds(t, cnt, flo, fhi);
         uint32_t added = 0;
         for (uint32_t k = 0; k < ctx->nwc; k++)
-            if (!taken[k] && box_overlaps(flo, fhi, &ctx->wc[k]) && count_inside(&ctx->wc[k], t->cx, t->cy, t->cz, cnt))
+            if (!taken[k] && box_overlaps(flo, fhi, ctx->wc[k].lo, ctx->wc[k].hi) && count_inside(&ctx->wc[k], t->cx, t->cy, t->cz, cnt))
                 taken[k] = true, hit[nhit++] = &ctx->wc[k], added++;
-        if (ctx->sdf && !sdf && sdf_box_overlaps(flo, fhi, ctx->wsdf)) {
+        if (ctx->sdf && !sdf && box_overlaps(flo, fhi, ctx->wsdf->lo, ctx->wsdf->hi)) {
             memcpy(t->mx, t->cx, cnt * sizeof(float));
             memcpy(t->my, t->cy, cnt * sizeof(float));
             memcpy(t->mz, t->cz, cnt * sizeof(float));
