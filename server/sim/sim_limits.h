@@ -32,5 +32,8 @@
 #define SIM_SPH_AUTO_SPACINGS 1.75
 #define SIM_SPH_MIN_H 0.001
 #define SIM_SPH_MAX_H 0.05
+/* The smoothing length when the automatic one is not known (no memory for it): the default
+ * groom's. */
+#define SIM_SPH_FALLBACK_H 0.003
 
 #endif

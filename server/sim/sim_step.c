@@ -12,6 +12,14 @@ _Static_assert(SIM_MAX_COLLIDERS == CORE_MAX_COLLIDERS, "one collider limit");
 
 bool sim_step_sph_on(const sim_params *p) { return p->sph && p->repulsion + p->viscosity > 0.0f; }
 
+/* Row-major rotation matrix of the unit quaternion q. */
+static void quat_matrix(core_quat q, float m[9])
+{
+    const core_vec3 c[3] = { core_q_rotate(q, core_v3(1, 0, 0)), core_q_rotate(q, core_v3(0, 1, 0)),
+                             core_q_rotate(q, core_v3(0, 0, 1)) };
+    for (int j = 0; j < 3; j++) m[j] = (&c[j].x)[0], m[3 + j] = (&c[j].x)[1], m[6 + j] = (&c[j].x)[2];
+}
+
 void sim_world_collider(const core_collider *in, core_xform head, sim_wcollider *out)
 {
     memset(out, 0, sizeof *out);
@@ -19,17 +27,14 @@ void sim_world_collider(const core_collider *in, core_xform head, sim_wcollider 
     out->a = core_xform_point(head, in->a);
     out->b = core_xform_point(head, in->b);
     out->radius = in->radius;
-    core_quat rot = core_q_norm(core_q_mul(head.rot, in->rot));
-    core_vec3 ax[3] = { core_q_rotate(rot, core_v3(1, 0, 0)), core_q_rotate(rot, core_v3(0, 1, 0)),
-                        core_q_rotate(rot, core_v3(0, 0, 1)) }; /* columns of R */
+    float R[9];
+    quat_matrix(core_q_norm(core_q_mul(head.rot, in->rot)), R);
     const float rad[3] = { in->radii.x, in->radii.y, in->radii.z };
-    for (int i = 0; i < 3; i++) {
-        const float col[3] = { ax[i].x, ax[i].y, ax[i].z };
+    for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++) {
-            out->to_unit[3 * i + j] = rad[i] > 0.0f ? col[j] / rad[i] : 0.0f; /* row i = axis i / r_i */
-            out->from_unit[3 * j + i] = col[j] * rad[i];                    /* column i = axis i * r_i */
+            out->to_unit[3 * i + j] = rad[i] > 0.0f ? R[3 * j + i] / rad[i] : 0.0f; /* row i = axis i / r_i */
+            out->from_unit[3 * j + i] = R[3 * j + i] * rad[i];                    /* column i = axis i * r_i */
         }
-    }
     const bool capsule = in->kind == CORE_COLLIDER_CAPSULE;
     out->axis[0] = capsule ? out->b.x - out->a.x : 0.0f;
     out->axis[1] = capsule ? out->b.y - out->a.y : 0.0f;
@@ -42,14 +47,6 @@ void sim_world_collider(const core_collider *in, core_xform head, sim_wcollider 
     out->lo[0] = MINF(out->a.x, e.x) - r, out->hi[0] = MAXF(out->a.x, e.x) + r;
     out->lo[1] = MINF(out->a.y, e.y) - r, out->hi[1] = MAXF(out->a.y, e.y) + r;
     out->lo[2] = MINF(out->a.z, e.z) - r, out->hi[2] = MAXF(out->a.z, e.z) + r;
-}
-
-/* Row-major rotation matrix of the unit quaternion q. */
-static void quat_matrix(core_quat q, float m[9])
-{
-    const core_vec3 c[3] = { core_q_rotate(q, core_v3(1, 0, 0)), core_q_rotate(q, core_v3(0, 1, 0)),
-                             core_q_rotate(q, core_v3(0, 0, 1)) };
-    for (int j = 0; j < 3; j++) m[j] = (&c[j].x)[0], m[3 + j] = (&c[j].x)[1], m[6 + j] = (&c[j].x)[2];
 }
 
 /* The rigid motion from head a to head b as rows (m0 m1 m2 t): p -> Rb Ra^T (p - ta) + tb. */
@@ -183,7 +180,7 @@ float sim_sph_auto_radius(const core_groom *g)
     if (!g || g->nstrands < 2) return (float)SIM_SPH_MAX_H;
     const uint32_t n = g->nstrands;
     float *r = malloc((size_t)n * 3 * sizeof *r);
-    if (!r) return 0.003f;
+    if (!r) return (float)SIM_SPH_FALLBACK_H;
     for (uint32_t s = 0; s < n; s++) memcpy(r + 3 * (size_t)s, g->pos + 3 * (size_t)s * g->nverts, 3 * sizeof *r);
     qsort(r, n, 3 * sizeof *r, cmp_root_x); /* sweep along x: stop where |dx| alone is farther */
     double sum = 0.0;
@@ -208,5 +205,5 @@ float sim_sph_auto_radius(const core_groom *g)
 float sim_sph_radius(const sim_params *p, const sim_groom_info *g)
 {
     if (p->sph_radius > 0.0f) return p->sph_radius > (float)SIM_SPH_MIN_H ? p->sph_radius : (float)SIM_SPH_MIN_H;
-    return g->sph_auto_h > 0.0f ? g->sph_auto_h : 0.003f;
+    return g->sph_auto_h > 0.0f ? g->sph_auto_h : (float)SIM_SPH_FALLBACK_H;
 }
