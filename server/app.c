@@ -26,7 +26,7 @@ static core_status load_initial_collider(app *a, core_err *err)
     if (!a->d.collider) return CORE_OK;
     core_mesh m;
     unsigned long long t0 = core_now_ns();
-    core_status st = app_collider_load(a->d.collider, &m, err);
+    core_status st = groom_mesh_load_file(a->d.collider, &m, err);
     if (st != CORE_OK) return st;
     double load_ms = (double)(core_now_ns() - t0) / 1e6;
     const char *base = strrchr(a->d.collider, '/');

@@ -48,11 +48,6 @@ bool app_collider_region(const core_groom *g, const core_mesh *m, core_vec3 *lo,
     return true;
 }
 
-core_status app_collider_load(const char *path, core_mesh *out, core_err *err)
-{
-    return groom_mesh_load_file(path, out, err);
-}
-
 /* Drops g's mesh, grid and binary. */
 static void clear(app_groom *g)
 {

@@ -252,9 +252,6 @@ core_status app_groom_render(app_groom *g, core_err *err);
  * m's bounds grown by APP_COLLIDER_MESH_PAD. False (lo, hi unset) when they do not overlap or
  * g has no finite root. Pure. */
 bool app_collider_region(const core_groom *g, const core_mesh *m, core_vec3 *lo, core_vec3 *hi);
-/* Loads the collision mesh file at path (.obj/.tfxmesh, groom_mesh_load_file's checks and
- * limits) into *out (the caller owns it: core_mesh_free). Blocking I/O, any thread. */
-core_status app_collider_load(const char *path, core_mesh *out, core_err *err);
 /* Gives g the mesh (taking it over; *mesh is zeroed, also on failure), named label: its SDF
  * over app_collider_region (2 mm cells, at most APP_COLLIDER_MAX_CELLS samples; none when
  * the hair cannot reach the mesh), its binary and the re-rendered JSON. mesh NULL removes

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "app_internal.h"
+#include "groom/groom.h"
 
 /* Index of name in list, or n. */
 static size_t find_name(char *const *list, size_t n, const char *name)
@@ -42,7 +43,7 @@ static void *loader_main(void *arg)
         memset(&l->keep, 0, sizeof l->keep);
         l->has_keep = false;
         unsigned long long t1 = core_now_ns();
-        if (l->mesh_path[0]) st = app_collider_load(l->mesh_path, &m, &l->err);
+        if (l->mesh_path[0]) st = groom_mesh_load_file(l->mesh_path, &m, &l->err);
         l->g.mesh_ms = (double)(core_now_ns() - t1) / 1e6;
         if (st == CORE_OK) st = app_groom_set_collider(&l->g, &m, l->mesh_label, &l->err);
         if (st != CORE_OK) app_groom_free(&l->g);
