@@ -244,16 +244,8 @@ void app_groom_free(app_groom *g);
 core_status app_groom_render(app_groom *g, core_err *err);
 
 /* Collision meshes (app_collider.c). */
-#define APP_COLLIDER_REACH_PAD 0.02f  /* m beyond the longest strand around the roots */
-#define APP_COLLIDER_MESH_PAD 0.01f   /* m around the mesh bounds */
-#define APP_COLLIDER_MAX_CELLS (8u << 20) /* SDF samples at most (the cell grows to fit) */
-/* The box (head frame) where the SDF of mesh m is built for groom g: the roots' bounding box
- * grown by the longest strand (rest arc length) + APP_COLLIDER_REACH_PAD, intersected with
- * m's bounds grown by APP_COLLIDER_MESH_PAD. False (lo, hi unset) when they do not overlap or
- * g has no finite root. Pure. */
-bool app_collider_region(const core_groom *g, const core_mesh *m, core_vec3 *lo, core_vec3 *hi);
 /* Gives g the mesh (taking it over; *mesh is zeroed, also on failure), named label: its SDF
- * over app_collider_region (2 mm cells, at most APP_COLLIDER_MAX_CELLS samples; none when
+ * over groom_collider_region (2 mm cells, at most GROOM_COLLIDER_MAX_CELLS samples; none when
  * the hair cannot reach the mesh), its binary and the re-rendered JSON. mesh NULL removes
  * g's mesh. Any thread (g is the caller's). */
 core_status app_groom_set_collider(app_groom *g, core_mesh *mesh, const char *label, core_err *err);

@@ -3,6 +3,7 @@
 #ifndef GROOM_GROOM_H
 #define GROOM_GROOM_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -169,5 +170,15 @@ typedef struct groom_sdf_desc {
  * about 18 bytes per sample. out is overwritten; the caller owns it (core_sdf_free).
  * CORE_EINVAL for a bad desc, the check's error for a bad mesh, CORE_ENOMEM. Pure, any thread. */
 core_status groom_sdf_build(const core_mesh *m, const groom_sdf_desc *d, core_sdf *out, core_err *err);
+
+#define GROOM_COLLIDER_REACH_PAD 0.02f /* m beyond the longest strand around the roots */
+#define GROOM_COLLIDER_MESH_PAD 0.01f  /* m around the mesh bounds */
+#define GROOM_COLLIDER_MAX_CELLS (8u << 20) /* samples of a collision mesh's grid (the cell grows to fit) */
+
+/* The box (head frame) where the SDF of collision mesh m is needed for groom g: the roots'
+ * bounding box grown by the longest strand (rest arc length) + GROOM_COLLIDER_REACH_PAD,
+ * intersected with m's bounds grown by GROOM_COLLIDER_MESH_PAD. False (lo, hi unset) when
+ * they do not overlap or g has no finite root. Pure, any thread. */
+bool groom_collider_region(const core_groom *g, const core_mesh *m, core_vec3 *lo, core_vec3 *hi);
 
 #endif

@@ -271,3 +271,43 @@ core_status groom_sdf_build(const core_mesh *m, const groom_sdf_desc *d, core_sd
     free(cp);
     return CORE_OK;
 }
+
+bool groom_collider_region(const core_groom *g, const core_mesh *m, core_vec3 *lo, core_vec3 *hi)
+{
+    float rlo[3] = { FLT_MAX, FLT_MAX, FLT_MAX }, rhi[3] = { -FLT_MAX, -FLT_MAX, -FLT_MAX };
+    double longest = 0.0;
+    bool any = false;
+    for (size_t s = 0; s < g->nstrands; s++) {
+        const float *p = g->pos + 3 * s * g->nverts;
+        if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2])) continue;
+        any = true;
+        for (int k = 0; k < 3; k++) {
+            rlo[k] = fminf(rlo[k], p[k]);
+            rhi[k] = fmaxf(rhi[k], p[k]);
+        }
+        double len = 0.0;
+        for (size_t v = 1; v < g->nverts; v++) {
+            const float *a = p + 3 * (v - 1), *b = p + 3 * v;
+            double d = sqrt((double)(b[0] - a[0]) * (b[0] - a[0]) + (double)(b[1] - a[1]) * (b[1] - a[1]) +
+                            (double)(b[2] - a[2]) * (b[2] - a[2]));
+            if (isfinite(d)) len += d;
+        }
+        if (len > longest) longest = len;
+    }
+    if (!any || !m->nverts) return false;
+    float mlo[3] = { FLT_MAX, FLT_MAX, FLT_MAX }, mhi[3] = { -FLT_MAX, -FLT_MAX, -FLT_MAX };
+    for (size_t i = 0; i < m->nverts; i++)
+        for (int k = 0; k < 3; k++) {
+            mlo[k] = fminf(mlo[k], m->pos[3 * i + k]);
+            mhi[k] = fmaxf(mhi[k], m->pos[3 * i + k]);
+        }
+    float reach = (float)longest + GROOM_COLLIDER_REACH_PAD, out_lo[3], out_hi[3];
+    for (int k = 0; k < 3; k++) {
+        out_lo[k] = fmaxf(rlo[k] - reach, mlo[k] - GROOM_COLLIDER_MESH_PAD);
+        out_hi[k] = fminf(rhi[k] + reach, mhi[k] + GROOM_COLLIDER_MESH_PAD);
+        if (!(out_lo[k] < out_hi[k])) return false;
+    }
+    *lo = core_v3(out_lo[0], out_lo[1], out_lo[2]);
+    *hi = core_v3(out_hi[0], out_hi[1], out_hi[2]);
+    return true;
+}

@@ -55,6 +55,9 @@ static void usage(void)
            "                        (default %u for speed; Ratboy's file has 32)\n"
            "  --groom-file PATH     the ratboy groom (default %s;\n"
            "                        skipped with a note when absent)\n"
+           "  --collider-file PATH  the ratboy groom's collision mesh (.obj/.tfxmesh), its distance grid\n"
+           "                        built over what the hair can reach, as strandcastd --collider does\n"
+           "                        (2 mm cells, coarser past 8.4 M samples); none by default\n"
            "  --seconds-motion S    preset duration, simulated seconds (default 2)\n"
            "  --seconds-rest S      rest period after the motion, simulated seconds (default 3)\n"
            "  --threads N           CPU solver threads (default: all cores)\n"
@@ -88,7 +91,7 @@ static void usage(void)
 
 typedef struct bq_opts {
     sim_backend_kind backend;
-    const char *groom, *param, *groom_file;
+    const char *groom, *param, *groom_file, *collider_file;
     int preset; /* -1: cycle */
     uint32_t strands, verts;
     double seconds_motion, seconds_rest;
@@ -341,6 +344,8 @@ static int parse_args(int argc, char **argv, bq_opts *o)
             o->param = argv[++i];
         } else if (v && strcmp(a, "--groom-file") == 0) {
             o->groom_file = argv[++i];
+        } else if (v && strcmp(a, "--collider-file") == 0) {
+            o->collider_file = argv[++i];
         } else if (v && strcmp(a, "--preset") == 0) {
             o->preset = -1;
             for (int p = 0; p < APP_PRESET_COUNT; p++)
@@ -369,6 +374,24 @@ static int parse_args(int argc, char **argv, bq_opts *o)
         }
     }
     return -1;
+}
+
+/* Gives g the collision mesh at path and its distance grid over groom_collider_region. */
+static core_status attach_collider(core_groom *g, const char *path, core_err *err)
+{
+    g->mesh = calloc(1, sizeof *g->mesh);
+    g->sdf = calloc(1, sizeof *g->sdf);
+    if (!g->mesh || !g->sdf) return core_fail(err, CORE_ENOMEM, "out of memory for the collision mesh");
+    core_status st = groom_mesh_load_file(path, g->mesh, err);
+    core_vec3 lo, hi;
+    if (st != CORE_OK) return st;
+    if (!groom_collider_region(g, g->mesh, &lo, &hi)) { /* out of the hair's reach: no grid */
+        free(g->sdf);
+        g->sdf = NULL;
+        return CORE_OK;
+    }
+    const groom_sdf_desc sd = { .cell = GROOM_SDF_DEFAULT_CELL, .lo = lo, .hi = hi, .max_cells = GROOM_COLLIDER_MAX_CELLS };
+    return groom_sdf_build(g->mesh, &sd, g->sdf, err);
 }
 
 int bench_quality_main(int argc, char **argv)
@@ -406,6 +429,7 @@ int bench_quality_main(int argc, char **argv)
             }
             fclose(f);
             st = groom_load_file(o.groom_file, o.verts, &g, &err);
+            if (st == CORE_OK && o.collider_file) st = attach_collider(&g, o.collider_file, &err);
         }
         if (st != CORE_OK) {
             fprintf(stderr, "strandbench quality: groom %s: %s\n", names[k], err.msg);
