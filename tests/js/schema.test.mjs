@@ -152,11 +152,14 @@ test('every server message validates against its schema', async () => {
     const bad = [{ type: 'fly' }, { type: 'set_params', values: { nope: 1 } }, { type: 'step' },
                  { type: 'set_groom', file: 'missing.tfx' }];
     send(a, { type: 'resume', id: ++id });
-    for (const m of bad) send(a, { ...m, id: ++id });
+    const ids = [];
+    for (const m of bad) { ids.push(++id); send(a, { ...m, id }); }
     a.ws.send('{"type":');
-    a.ws.send(`{"type":"set_params","id":${++id},"values":{"gravity":1e999}}`);
-    const last = id;
-    await a.until((r) => r.id === last, 'the last error');
+    ids.push(++id);
+    a.ws.send(`{"type":"set_params","id":${id},"values":{"gravity":1e999}}`);
+    // replies are matched by id: errors found while reading (bad JSON, ranges) are answered at
+    // once, the rest at the next step boundary, so the last reply may come before earlier ones
+    for (const want of ids) await a.until((r) => r.id === want, `the error for id ${want}`);
     await b.until((m) => m.type === 'stats', 'stats');
     await b.until((m) => m.type === 'groom', 'groom');
     const seen = new Set();
