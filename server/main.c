@@ -6,7 +6,9 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "app.h"
+#include "app/app.h"
+#include "codec/codec.h"
+#include "groom/groom.h"
 #include "net/net.h"
 #include "proto/proto.h"
 
@@ -37,7 +39,7 @@ static void usage(FILE *f)
             "                         (default %s/../shared/assets when present)\n"
             "  --rate HZ              frames per second streamed, 1..1000 (default %.0f; at most one per step)\n"
             "  --max-error M          default stream position error bound in metres, %g..%g (default %g)\n"
-            "  --keyframe-interval N  frames between keyframes, 1..10000 (default %d)\n"
+            "  --keyframe-interval N  frames between keyframes, 1..10000 (default %u)\n"
             "  --client-buffer BYTES  kernel send buffer per client, 4096..67108864 (default 262144); a client\n"
             "                         that reads slower than the stream skips frames once it is full\n"
             "  --ping-interval S      seconds without a pong from a client before the server pings it,\n"
@@ -51,9 +53,9 @@ static void usage(FILE *f)
             "The simulation runs in real time (one step of dt per dt of wall time) and logs steps/s every %.0f s.\n"
             "Protocol: WebSocket subprotocol %s, spec in proto/PROTOCOL.md. Metrics: GET /metrics.\n"
             "Exit status: 0 after SIGINT/SIGTERM or --steps, 1 on a run-time error, 2 on bad flags.\n",
-            PROTO_MAX_STRANDS, APP_DEFAULT_STRANDS, PROTO_MAX_VERTS, APP_DEFAULT_VERTS, STRANDCAST_SOURCE_DIR,
-            STRANDCAST_SOURCE_DIR, APP_DEFAULT_RATE, PROTO_MIN_ERROR, PROTO_MAX_ERROR, APP_DEFAULT_MAX_ERROR,
-            APP_DEFAULT_KEY_INTERVAL, NET_MAX_HANGUP_S - 1, NET_DEFAULT_PING_S, NET_MAX_HANGUP_S,
+            PROTO_MAX_STRANDS, GROOM_DEFAULT_STRANDS, PROTO_MAX_VERTS, GROOM_DEFAULT_VERTS, STRANDCAST_SOURCE_DIR,
+            STRANDCAST_SOURCE_DIR, APP_DEFAULT_RATE, PROTO_MIN_ERROR, PROTO_MAX_ERROR, (double)CODEC_DEFAULT_MAX_ERROR,
+            CODEC_DEFAULT_KEY_INTERVAL, NET_MAX_HANGUP_S - 1, NET_DEFAULT_PING_S, NET_MAX_HANGUP_S,
             NET_DEFAULT_PING_S + NET_DEFAULT_HANGUP_EXTRA_S, NET_DEFAULT_HANGUP_EXTRA_S, NET_MAX_HANGUP_S,
             APP_LOG_INTERVAL_S, PROTO_SUBPROTOCOL);
 }
@@ -163,7 +165,7 @@ static int parse_args(int argc, char **argv, app_desc *d, bool *verts_given)
             if (!*value) return bad(flag, value, "expected an address");
             d->listen = value;
         } else if (strcmp(flag, "--port") == 0) {
-            if (!(rc = parse_u64(flag, value, 0, 65535, &u))) d->port = u == 0 ? APP_PORT_ANY : (int)u;
+            if (!(rc = parse_u64(flag, value, 0, 65535, &u))) d->port = u == 0 ? NET_PORT_ANY : (int)u;
         } else if (strcmp(flag, "--web") == 0) {
             if (!is_dir(value)) return bad(flag, value, "not a folder");
             d->web_dir = value;
@@ -207,7 +209,7 @@ int main(int argc, char **argv)
     bool procedural = !d.groom || strcmp(d.groom, "straight") == 0 || strcmp(d.groom, "wavy") == 0 ||
                       strcmp(d.groom, "curly") == 0;
     if (!procedural && d.strands) return bad("--strands", NULL, "a groom file sets its own strand count");
-    uint64_t strands = d.strands ? d.strands : APP_DEFAULT_STRANDS, verts = d.verts ? d.verts : APP_DEFAULT_VERTS;
+    uint64_t strands = d.strands ? d.strands : GROOM_DEFAULT_STRANDS, verts = d.verts ? d.verts : GROOM_DEFAULT_VERTS;
     if (procedural && strands * verts > PROTO_MAX_VERTICES) return bad("--strands", NULL, "strands x verts is over 2097152");
     if (!procedural && !verts_given) d.verts = 0;
     if (!d.web_dir && is_dir(STRANDCAST_SOURCE_DIR "/web")) d.web_dir = STRANDCAST_SOURCE_DIR "/web";

@@ -1,5 +1,5 @@
 /* Tests for the app's pure pieces: the command mailbox (order, coalescing, bound), the preset
- * head animations and the blend between them, and the stream tiers (rate decimation, sharing, the full-table fallback,
+ * head animations and the blend between them, and the frame streams (rate decimation, sharing, the full-table fallback,
  * the publish schedule). The pipeline itself is exercised end to end by tests/it_net.c. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -11,7 +11,9 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "app_internal.h"
+#include "app/app_anim.h"
+#include "app/app_mailbox.h"
+#include "app/app_stream.h"
 
 static app_cmd msg_cmd(uint32_t client, proto_type t, float x)
 {
@@ -238,82 +240,77 @@ static void test_stream_decimation(void **state)
     }
 }
 
-/* An app with just what the tiers need: a small groom and the publishing rate. */
-static void tiny_app(app *a)
+/* Streams for a small groom at the default publishing rate (no net). */
+static void tiny_streams(app_streams *ss)
 {
-    memset(a, 0, sizeof *a);
-    a->d.rate = 60;
-    a->d.max_error = 1e-4;
-    a->d.keyframe_interval = 30;
-    a->groom.g.nstrands = 16;
-    a->groom.g.nverts = 4;
+    app_streams_init(ss, NULL, 60, 1e-4, 30, 16, 4);
 }
 
-static void test_tiers_share_and_fall_back(void **state)
+static void test_streams_share_and_fall_back(void **state)
 {
     (void)state;
-    app a;
-    tiny_app(&a);
-    int full = app_tier_acquire(&a, 1, 1e-4, 0), half = app_tier_acquire(&a, 1, 1e-4, 30);
+    app_streams a;
+    tiny_streams(&a);
+    int full = app_stream_acquire(&a, 1, 1e-4, 0), half = app_stream_acquire(&a, 1, 1e-4, 30);
     assert_true(full >= 0 && half >= 0 && full != half);
-    assert_int_equal(app_tier_acquire(&a, 1, 1e-4, 25), half); /* 25 Hz: the 30 Hz stream */
-    assert_int_equal(a.tiers[half].subscribers, 2);
-    assert_int_equal(a.tiers[half].decimation, 2);
-    assert_true(a.tiers[half].ready);
+    assert_int_equal(app_stream_acquire(&a, 1, 1e-4, 25), half); /* 25 Hz: the 30 Hz stream */
+    assert_int_equal(a.s[half].subscribers, 2);
+    assert_int_equal(a.s[half].decimation, 2);
+    assert_true(a.s[half].ready);
     /* fill every other slot with other settings */
-    for (int i = 2; i < NET_MAX_STREAMS; i++) assert_true(app_tier_acquire(&a, 1 + i, 1e-4, 0) >= 0);
-    assert_int_equal(app_tier_acquire(&a, 99, 1e-4, 0), -1);
+    for (int i = 2; i < NET_MAX_STREAMS; i++) assert_true(app_stream_acquire(&a, 1 + i, 1e-4, 0) >= 0);
+    assert_int_equal(app_stream_acquire(&a, 99, 1e-4, 0), -1);
     /* full table: 10 Hz shares the nearest faster stream of the same stride and error (30 Hz) */
-    assert_int_equal(app_tier_acquire(&a, 1, 1e-4, 10), half);
-    assert_int_equal(a.tiers[half].subscribers, 3);
+    assert_int_equal(app_stream_acquire(&a, 1, 1e-4, 10), half);
+    assert_int_equal(a.s[half].subscribers, 3);
     /* a faster rate than any stream of those settings has no fallback */
-    assert_int_equal(app_tier_acquire(&a, 1, 2e-4, 0), -1);
+    assert_int_equal(app_stream_acquire(&a, 1, 2e-4, 0), -1);
     /* with the default stream gone, its slot is kept for it: other settings are refused */
-    app_tier_release(&a, full);
-    assert_false(a.tiers[full].used);
-    assert_int_equal(app_tier_acquire(&a, 99, 1e-4, 0), -1);
-    assert_int_equal(app_tier_acquire(&a, 1, 1e-4, 45), full); /* 45 Hz: every round, the default stream */
-    assert_int_equal(app_tier_acquire(&a, 1, 1e-4, 0), full);
-    assert_int_equal(a.tiers[full].subscribers, 2);
-    app_tier_release(&a, full);
-    app_tier_release(&a, full);
-    app_tier_release(&a, half);
-    app_tier_release(&a, half);
-    app_tier_release(&a, half);
-    assert_false(a.tiers[half].used);
-    app_tiers_free(&a);
+    app_stream_release(&a, full);
+    assert_false(a.s[full].used);
+    assert_int_equal(app_stream_acquire(&a, 99, 1e-4, 0), -1);
+    assert_int_equal(app_stream_acquire(&a, 1, 1e-4, 45), full); /* 45 Hz: every round, the default stream */
+    assert_int_equal(app_stream_acquire(&a, 1, 1e-4, 0), full);
+    assert_int_equal(a.s[full].subscribers, 2);
+    app_stream_release(&a, full);
+    app_stream_release(&a, full);
+    app_stream_release(&a, half);
+    app_stream_release(&a, half);
+    app_stream_release(&a, half);
+    assert_false(a.s[half].used);
+    app_streams_free(&a);
 }
 
-static void test_tiers_due_schedule(void **state)
+static void test_streams_due_schedule(void **state)
 {
     (void)state;
-    app a;
-    tiny_app(&a);
-    int full = app_tier_acquire(&a, 1, 1e-4, 0), third = app_tier_acquire(&a, 1, 1e-4, 20);
-    int idle = app_tier_acquire(&a, 2, 1e-4, 0);
-    app_tier_release(&a, idle);
-    assert_int_equal(a.tiers[third].decimation, 3);
+    app_streams a;
+    tiny_streams(&a);
+    int full = app_stream_acquire(&a, 1, 1e-4, 0), third = app_stream_acquire(&a, 1, 1e-4, 20);
+    int idle = app_stream_acquire(&a, 2, 1e-4, 0);
+    app_stream_release(&a, idle);
+    assert_int_equal(a.s[third].decimation, 3);
     int nfull = 0, nthird = 0;
     for (int round = 0; round < 12; round++) {
-        assert_true(app_tiers_due(&a, true, false));
-        nfull += a.tiers[full].due;
-        nthird += a.tiers[third].due;
-        assert_false(a.tiers[idle].due); /* released: never encoded */
-        /* a new tier takes the next round, then every third */
-        assert_int_equal(a.tiers[third].due, round % 3 == 0);
+        assert_true(app_streams_due(&a, true, false));
+        nfull += a.s[full].due;
+        nthird += a.s[third].due;
+        assert_false(a.s[idle].due); /* released: never encoded */
+        /* a new stream takes the next round, then every third */
+        assert_int_equal(a.s[third].due, round % 3 == 0);
     }
     assert_int_equal(nfull, 12);
     assert_int_equal(nthird, 4);
     /* a frame outside the schedule goes to every stream and leaves the countdowns alone */
-    assert_true(app_tiers_due(&a, false, true));
-    assert_true(a.tiers[full].due && a.tiers[third].due);
-    assert_true(app_tiers_due(&a, true, false));
-    assert_true(a.tiers[third].due);
-    assert_false(app_tiers_due(&a, false, false));
-    app_tier_release(&a, full);
-    app_tier_release(&a, third);
-    assert_false(app_tiers_due(&a, true, true)); /* no subscribers: nothing to encode */
-    app_tiers_free(&a);
+    assert_true(app_streams_due(&a, false, true));
+    assert_true(a.s[full].due && a.s[third].due);
+    assert_true(app_streams_due(&a, true, false));
+    assert_true(a.s[third].due);
+    assert_false(app_streams_due(&a, false, false));
+    app_stream_release(&a, full);
+    app_stream_release(&a, third);
+    assert_false(app_streams_due(&a, true, true)); /* no subscribers: nothing to encode */
+    app_streams_free(&a);
 }
 
 int main(void)
@@ -325,8 +322,8 @@ int main(void)
         cmocka_unit_test(test_blend_pure),
         cmocka_unit_test(test_preset_switch_blends),
         cmocka_unit_test(test_stream_decimation),
-        cmocka_unit_test(test_tiers_share_and_fall_back),
-        cmocka_unit_test(test_tiers_due_schedule),
+        cmocka_unit_test(test_streams_share_and_fall_back),
+        cmocka_unit_test(test_streams_due_schedule),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -82,12 +82,12 @@ static void test_inbox_merges_count(void **state)
     assert_int_equal(net_create(&n, &d, &err), CORE_OK);
     for (int i = 0; i < 6; i++) net_publish(n, 3, net_buf_new(8), 10u + (uint64_t)i, i == 0);
     net_drain(n); /* as the net thread does on its wake-up */
-    assert_int_equal(n->slots[3].count, 6);
-    assert_int_equal(n->slots[3].key_count, 1);
-    assert_true(n->slots[3].latest_seq == 15 && n->slots[3].key_seq == 10);
+    assert_int_equal(n->streams[3].count, 6);
+    assert_int_equal(n->streams[3].key_count, 1);
+    assert_true(n->streams[3].latest_seq == 15 && n->streams[3].key_seq == 10);
     net_publish(n, 3, net_buf_new(8), 16, false);
     net_drain(n);
-    assert_int_equal(n->slots[3].count, 7);
+    assert_int_equal(n->streams[3].count, 7);
     net_destroy(n);
 }
 

@@ -12,7 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "app_anim.h"
+#include "app/app_anim.h"
 #include "groom/groom.h"
 #include "sim/sim.h"
 #include "support/quality.h"

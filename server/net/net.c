@@ -232,8 +232,8 @@ void net_destroy(net *n)
     if (n->ctx) lws_context_destroy(n->ctx);
     free_events(n->in_head);
     for (int i = 0; i < NET_MAX_STREAMS; i++) {
-        net_buf_unref(n->slots[i].latest);
-        net_buf_unref(n->slots[i].key);
+        net_buf_unref(n->streams[i].latest);
+        net_buf_unref(n->streams[i].key);
     }
     net_blobs_free(n);
     pthread_mutex_destroy(&n->lock);
@@ -396,7 +396,7 @@ static void set_stream(net_session *s, uint32_t stream, double max_rate)
 
 static void apply_frame(net *n, net_event *e)
 {
-    net_slot *sl = &n->slots[e->stream];
+    net_stream *sl = &n->streams[e->stream];
     sl->count += 1u + e->merged; /* the merged frames count as published, so as skipped by every client */
     if (e->key) {
         net_buf_unref(sl->key);
@@ -436,9 +436,9 @@ static void apply(net *n, net_event *e)
         break;
     case NET_EV_FRAME: apply_frame(n, e); break;
     case NET_EV_DROP:
-        net_buf_unref(n->slots[e->stream].latest);
-        net_buf_unref(n->slots[e->stream].key);
-        n->slots[e->stream].latest = n->slots[e->stream].key = NULL;
+        net_buf_unref(n->streams[e->stream].latest);
+        net_buf_unref(n->streams[e->stream].key);
+        n->streams[e->stream].latest = n->streams[e->stream].key = NULL;
         break;
     }
 }

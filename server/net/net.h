@@ -13,7 +13,7 @@
  * Clients are numbered from 1 in connection order; NET_ALL addresses every ready client. */
 #define NET_ALL 0u
 #define NET_PORT_ANY (-1)          /* net_desc.port: let the kernel pick a free port */
-#define NET_MAX_STREAMS 32         /* frame streams (e.g. one per subscription tier) */
+#define NET_MAX_STREAMS 32         /* frame streams (one per distinct subscription) */
 #define NET_DEFAULT_PORT 7681
 #define NET_DEFAULT_MAX_MESSAGE (64 * 1024)
 #define NET_DEFAULT_TEXT_QUEUE 32

@@ -31,12 +31,12 @@ typedef struct net_event {
 } net_event;
 
 /* A stream's newest frame and its retained keyframe (net thread only). */
-typedef struct net_slot {
+typedef struct net_stream {
     net_buf *latest, *key;
     uint64_t latest_seq, latest_key_seq, key_seq;
     uint64_t count;       /* frames published on the stream; the latest is number `count` */
     uint64_t key_count;   /* the retained keyframe's number */
-} net_slot;
+} net_stream;
 
 /* One WebSocket connection (lws per-session data, net thread only). */
 typedef struct net_session {
@@ -100,7 +100,7 @@ struct net {
     /* net thread only */
     net_session *sessions;
     uint32_t next_client;
-    net_slot slots[NET_MAX_STREAMS];
+    net_stream streams[NET_MAX_STREAMS];
     lws_sorted_usec_list_t shutdown_sul;
     bool shutting_down;
 

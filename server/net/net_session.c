@@ -62,7 +62,7 @@ void net_session_enqueue(net *n, net_session *s, net_buf *b, unsigned flags)
 
 static bool frame_pending(net *n, const net_session *s)
 {
-    return s->ready && s->stream < NET_MAX_STREAMS && n->slots[s->stream].latest && n->slots[s->stream].count > s->last_count;
+    return s->ready && s->stream < NET_MAX_STREAMS && n->streams[s->stream].latest && n->streams[s->stream].count > s->last_count;
 }
 
 void net_session_kick(net *n, net_session *s)
@@ -149,7 +149,7 @@ static int write_buf(net *n, struct lws *wsi, net_buf *b, enum lws_write_protoco
 /* Sends the newest frame the session lacks (its keyframe first when needed). */
 static int send_frame(net *n, net_session *s, struct lws *wsi)
 {
-    net_slot *sl = &n->slots[s->stream];
+    net_stream *sl = &n->streams[s->stream];
     uint64_t now = core_now_ns();
     if (s->max_rate > 0 && s->next_due_ns && now < s->next_due_ns) {
         lws_set_timer_usecs(wsi, (lws_usec_t)((s->next_due_ns - now) / 1000 + 1));

@@ -5,7 +5,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "app_anim.h"
+#include "app/app_anim.h"
 #include "core/core.h"
 #include "core/groom_types.h"
 #include "sim/sim.h"

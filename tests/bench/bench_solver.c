@@ -6,7 +6,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "app_anim.h"
+#include "app/app_anim.h"
 #include "bench.h"
 #include "groom/groom.h"
 #include "sim/sim.h"

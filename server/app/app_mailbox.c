@@ -3,7 +3,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "app_internal.h"
+#include "app_mailbox.h"
 
 core_status app_mailbox_init(app_mailbox *m, core_err *err)
 {

@@ -1,4 +1,5 @@
-/* app: the strandcastd pipeline (groom -> sim -> codec -> net, commands back); main.c fills the desc. */
+/* app: the strandcastd pipeline (groom -> sim -> codec -> net, commands back); main.c fills the
+ * desc. The only header of the app folder that code outside it includes. */
 #ifndef APP_H
 #define APP_H
 
@@ -8,30 +9,25 @@
 #include "core/core.h"
 #include "sim/sim.h"
 
-#define APP_DEFAULT_STRANDS 4096u
-#define APP_DEFAULT_VERTS 32u
 #define APP_DEFAULT_RATE 60.0         /* stream Hz */
-#define APP_DEFAULT_MAX_ERROR 1e-4    /* m */
-#define APP_DEFAULT_KEY_INTERVAL 30
 #define APP_LOG_INTERVAL_S 5.0
-#define APP_PORT_ANY (-1)             /* app_desc.port: let the kernel pick a free port */
 
 /* Everything strandcastd's flags set; zero means default for every field. */
 typedef struct app_desc {
     const char *groom;         /* "straight" | "wavy" | "curly" or a .tfx/.hair path; NULL = straight */
     const char *collider;      /* .obj/.tfxmesh collision mesh path; NULL = none */
-    uint32_t strands;          /* procedural strand count; 0 = 4096 */
-    uint32_t verts;            /* vertices per strand; 0 = 32 (procedural) or the file's own */
+    uint32_t strands;          /* procedural strand count; 0 = GROOM_DEFAULT_STRANDS */
+    uint32_t verts;            /* vertices per strand; 0 = GROOM_DEFAULT_VERTS (procedural) or the file's own */
     uint64_t seed;             /* procedural seed; 0 = the groom module's default */
     sim_backend_kind backend;
     int device, threads;
     const char *listen;        /* NULL = 127.0.0.1 */
-    int port;                  /* 0 = 7681; APP_PORT_ANY = a free port */
+    int port;                  /* 0 = NET_DEFAULT_PORT; NET_PORT_ANY = a free port */
     const char *web_dir;       /* NULL = no static files */
     const char *assets_dir;    /* folder set_groom files come from; NULL = none */
     double rate;               /* stream frames per second; 0 = 60 */
-    double max_error;          /* default stream max position error, m; 0 = 1e-4 */
-    int keyframe_interval;     /* frames between keyframes; 0 = 30 */
+    double max_error;          /* default stream max position error, m; 0 = CODEC_DEFAULT_MAX_ERROR */
+    int keyframe_interval;     /* frames between keyframes; 0 = CODEC_DEFAULT_KEY_INTERVAL */
     int client_buffer;         /* kernel send buffer per client, bytes; 0 = 256 KiB */
     int ping_interval;         /* seconds without a pong before a client is pinged; 0 = 20 */
     int ping_timeout;          /* seconds without a pong before a client is dropped (> ping_interval);

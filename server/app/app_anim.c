@@ -2,7 +2,7 @@
  * and the blend that makes a change of preset continuous. */
 #include <math.h>
 
-#include "app_internal.h"
+#include "app_anim.h"
 
 const char *const app_preset_names[APP_PRESET_COUNT] = { "none", "nod", "shake", "circle", "headbang", "sway" };
 

@@ -3,7 +3,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "app_internal.h"
+#include "app_groom.h"
 #include "groom/groom.h"
 
 /* Drops g's mesh, grid and binary. */
@@ -64,11 +64,11 @@ core_status app_groom_set_collider(app_groom *g, core_mesh *mesh, const char *la
     return app_groom_render(g, err);
 }
 
-void app_publish_mesh(app *a)
+void app_groom_publish_mesh(net *n, const app_groom *g)
 {
-    if (!a->net) return;
-    net_buf *b = a->groom.mesh_bin;
+    if (!n) return;
+    net_buf *b = g->mesh_bin;
     if (b) net_buf_ref(b);
-    if (net_set_blob(a->net, APP_MESH_PATH, b, a->groom.mesh_etag) != CORE_OK)
+    if (net_set_blob(n, APP_MESH_PATH, b, g->mesh_etag) != CORE_OK)
         core_log(CORE_LOG_ERROR, "app", "the collision mesh could not be handed to net");
 }

@@ -1,0 +1,203 @@
+/* app: carries out client commands on the sim thread (at a step boundary) and replies. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "app_cmd.h"
+
+void app_cmd_tell_failure(app_world *w, int stream, uint32_t client)
+{
+    proto_error e;
+    if (!app_stream_failure(&w->streams, stream, &e)) return;
+    for (size_t k = 0; k < w->clients.n; k++) {
+        const app_client *c = &w->clients.v[k];
+        if (c->stream == stream && (client == NET_ALL || c->id == client))
+            app_send(w->out, c->id, proto_build_error(NULL, &e), 0);
+    }
+}
+
+static void broadcast_state(app_world *w)
+{
+    proto_state s = app_world_state(w);
+    app_send(w->out, NET_ALL, proto_build_state(NULL, &s), 0);
+}
+
+static proto_stream stream_info(const app_world *w, const app_client *c)
+{
+    uint32_t k = c->stream >= 0 ? w->streams.s[c->stream].decimation : app_stream_decimation(w->d->rate, c->max_rate);
+    proto_stream s = { "strand", c->stride, app_stream_strands(w->groom.g.nstrands, c->stride), c->max_error, c->max_rate,
+                       w->d->rate, w->d->rate / k, w->d->keyframe_interval };
+    return s;
+}
+
+static void client_open(app_world *w, uint32_t id)
+{
+    app_client *c = app_clients_add(&w->clients, id);
+    if (!c) return;
+    c->stride = 1;
+    c->max_error = w->d->max_error;
+    c->stream = app_stream_acquire(&w->streams, c->stride, c->max_error, c->max_rate);
+    const app_assets *as = w->assets;
+    proto_hello h = {
+        .server = "strandcastd", .version = STRANDCAST_VERSION, .client = id, .groom = &w->groom.json,
+        .head = app_anim_pose(&w->anim), .params = w->ptable, .nparams = w->nparams,
+        .values = &w->params, .presets = app_preset_names, .npresets = APP_PRESET_COUNT,
+        .animation = { app_preset_names[w->anim.preset], w->anim.speed }, .styles = w->styles, .nstyles = APP_NSTYLES,
+        .files = (const char *const *)as->files, .nfiles = as->nfiles,
+        .meshes = (const char *const *)as->meshes, .nmeshes = as->nmeshes, .stream = stream_info(w, c),
+        .state = app_world_state(w),
+    };
+    char *hello = proto_build_hello(&h);
+    if (!hello) {
+        core_log(CORE_LOG_ERROR, "app", "client %u: out of memory building the hello", id);
+        return;
+    }
+    uint32_t stream = c->stream >= 0 ? (uint32_t)c->stream : NET_MAX_STREAMS;
+    if (w->out->net) net_start_client(w->out->net, id, hello, strlen(hello), stream, c->max_rate);
+    proto_free(hello);
+    app_cmd_tell_failure(w, c->stream, id);
+    w->dirty = w->dirty || w->paused; /* a paused server still shows the newcomer a frame */
+}
+
+static void client_close(app_world *w, uint32_t id)
+{
+    app_client *c = app_clients_find(&w->clients, id);
+    if (!c) return;
+    app_stream_release(&w->streams, c->stream);
+    app_clients_remove(&w->clients, id);
+}
+
+static void set_params(app_world *w, uint32_t client, const proto_msg *m)
+{
+    sim_params p = w->params;
+    bool changed[PROTO_MAX_PARAMS] = { false };
+    for (uint32_t i = 0; i < m->u.set_params.count; i++) {
+        const proto_param_value *v = &m->u.set_params.v[i];
+        const core_param_info *t = &w->ptable[v->index];
+        char *field = (char *)&p + t->offset;
+        switch (t->type) {
+        case CORE_PARAM_FLOAT: *(float *)field = (float)v->value; break;
+        case CORE_PARAM_INT: *(int32_t *)field = (int32_t)v->value; break;
+        case CORE_PARAM_BOOL: *(bool *)field = v->value != 0.0; break;
+        }
+        changed[v->index] = true;
+    }
+    core_err err;
+    if (sim_set_params(&w->sim, &p, &err) != CORE_OK) {
+        app_reply_fail(w->out, client, &m->id, PROTO_ERR_OUT_OF_RANGE, "values", err.msg);
+        return;
+    }
+    w->params = p;
+    app_reply_ok(w->out, client, m);
+    app_send(w->out, NET_ALL, proto_build_params(NULL, w->ptable, w->nparams, &w->params, changed, client), 0);
+}
+
+static void motion(app_world *w, uint32_t client, const proto_msg *m)
+{
+    app_client *c = app_clients_find(&w->clients, client);
+    if (c && m->u.motion.has_t) {
+        if (c->has_t && m->u.motion.t < c->last_t) { /* stale: a newer pose was applied */
+            if (m->id.kind == PROTO_ID_NONE) return;
+            proto_error e;
+            proto_fail(&e, PROTO_ERR_BAD_STATE, "t", "stale motion: t %.17g is older than the last applied t %.17g",
+                       m->u.motion.t, c->last_t);
+            app_reply_error(w->out, client, &m->id, &e);
+            return;
+        }
+        c->has_t = true;
+        c->last_t = m->u.motion.t;
+    }
+    core_xform base = { m->u.motion.position, m->u.motion.orientation };
+    bool stopped = app_anim_motion(&w->anim, base);
+    if (m->id.kind != PROTO_ID_NONE) app_reply_ok(w->out, client, m);
+    else app_count_accepted(w->out);
+    if (stopped) broadcast_state(w);
+}
+
+static void subscribe(app_world *w, uint32_t client, const proto_msg *m)
+{
+    app_client *c = app_clients_find(&w->clients, client);
+    if (!c) return;
+    int32_t stride = m->u.subscribe.has_stride ? m->u.subscribe.stride : c->stride;
+    double max_error = m->u.subscribe.has_max_error ? m->u.subscribe.max_error : c->max_error;
+    double max_rate = m->u.subscribe.has_max_rate ? m->u.subscribe.max_rate : c->max_rate;
+    int stream = app_stream_acquire(&w->streams, stride, max_error, max_rate);
+    if (stream < 0) {
+        app_reply_fail(w->out, client, &m->id, PROTO_ERR_BUSY, "",
+                       "every stream slot is taken by other stride/max_error/rate settings; pick settings another client uses");
+        return;
+    }
+    if (!w->streams.s[stream].ready) {
+        app_stream_release(&w->streams, stream);
+        app_reply_fail(w->out, client, &m->id, PROTO_ERR_FAILED, "", "the stream's encoder could not be set up (see the server log)");
+        return;
+    }
+    app_stream_release(&w->streams, c->stream);
+    c->stream = stream;
+    c->stride = stride;
+    c->max_error = max_error;
+    c->max_rate = max_rate;
+    if (w->out->net) net_subscribe(w->out->net, client, (uint32_t)stream, c->max_rate);
+    w->dirty = w->dirty || w->paused;
+    app_count_accepted(w->out);
+    proto_stream s = stream_info(w, c);
+    app_send(w->out, client, proto_build_subscribed(&m->id, &s), 0);
+    app_cmd_tell_failure(w, stream, client); /* joined a stream whose frames are not being sent */
+}
+
+static void handle_msg(app_world *w, uint32_t client, const proto_msg *m)
+{
+    switch (m->type) {
+    case PROTO_GET_PARAMS:
+        app_count_accepted(w->out);
+        app_send(w->out, client, proto_build_params(&m->id, w->ptable, w->nparams, &w->params, NULL, -1), 0);
+        return;
+    case PROTO_SET_PARAMS: set_params(w, client, m); return;
+    case PROTO_MOTION: motion(w, client, m); return;
+    case PROTO_ANIMATE:
+        app_anim_start(&w->anim, (app_preset)m->u.animate.preset, m->u.animate.speed);
+        break;
+    case PROTO_RESET:
+        app_world_reset(w);
+        app_streams_force_keys(&w->streams);
+        w->dirty = true;
+        break;
+    case PROTO_PAUSE:
+        w->paused = true;
+        w->step_budget = 0;
+        break;
+    case PROTO_RESUME:
+        w->paused = false;
+        w->step_budget = 0;
+        break;
+    case PROTO_STEP:
+        if (!w->paused) {
+            app_reply_fail(w->out, client, &m->id, PROTO_ERR_BAD_STATE, "", "step works while paused; send pause first");
+            return;
+        }
+        w->step_budget += m->u.step.count;
+        if (w->step_budget > PROTO_MAX_STEP) w->step_budget = PROTO_MAX_STEP;
+        app_reply_ok(w->out, client, m);
+        return; /* the state follows when the steps are done */
+    case PROTO_SET_GROOM: app_cmd_set_groom(w, client, m); return; /* it drops grooms_pending */
+    case PROTO_SUBSCRIBE: subscribe(w, client, m); return;
+    case PROTO_KEYFRAME: {
+        app_client *c = app_clients_find(&w->clients, client);
+        if (c) app_stream_force_key(&w->streams, c->stream);
+        w->dirty = w->dirty || w->paused;
+        app_reply_ok(w->out, client, m);
+        return;
+    }
+    }
+    app_reply_ok(w->out, client, m);
+    broadcast_state(w);
+}
+
+void app_cmd_handle(app_world *w, app_cmd *c)
+{
+    switch (c->kind) {
+    case APP_CMD_OPEN: client_open(w, c->client); break;
+    case APP_CMD_CLOSE: client_close(w, c->client); break;
+    case APP_CMD_MSG: handle_msg(w, c->client, &c->msg); break;
+    }
+}

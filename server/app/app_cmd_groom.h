@@ -1,0 +1,16 @@
+/* app: the set_groom command on the sim thread: the request checked and handed to the loader
+ * thread, then the loaded groom swapped in at a step boundary. */
+#ifndef APP_CMD_GROOM_H
+#define APP_CMD_GROOM_H
+
+#include "app_world.h"
+
+/* Checks the names (errors are replied at once) and starts the loads on the loader thread; the
+ * swap, the replies and the groom broadcast follow in app_cmd_groom_poll. Drops grooms_pending
+ * when the request ends, before its replies. Sim thread. */
+void app_cmd_set_groom(app_world *w, uint32_t client, const proto_msg *m);
+/* Collects a finished groom load: swaps the groom in and replies, or replies the error. Sim
+ * thread, at a step boundary. */
+void app_cmd_groom_poll(app_world *w);
+
+#endif

@@ -1,0 +1,63 @@
+/* app: loads the live groom (procedural style or file) and renders its JSON. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "app_groom.h"
+#include "groom/groom.h"
+
+core_status app_groom_render(app_groom *g, core_err *err)
+{
+    proto_mesh_ref mr = { g->collider, APP_MESH_PATH, g->mesh_etag, g->mesh_bin ? net_buf_len(g->mesh_bin) : 0 };
+    proto_groom pg = { g->source, &g->g, g->seed, g->g.mesh && g->mesh_bin ? &mr : NULL };
+    proto_groom_json_free(&g->json);
+    return proto_groom_json_build(&g->json, &pg, err);
+}
+
+static core_status finish(app_groom *out, core_err *err)
+{
+    core_status st = app_groom_render(out, err);
+    if (st != CORE_OK) app_groom_free(out);
+    return st;
+}
+
+core_status app_groom_load_style(const char *style, uint32_t strands, uint32_t verts, uint64_t seed, app_groom *out,
+                                 core_err *err)
+{
+    memset(out, 0, sizeof *out);
+    groom_desc gd = { 0 };
+    core_status st = groom_style_parse(style, &gd.style, err);
+    if (st != CORE_OK) return st;
+    gd.nstrands = strands ? strands : GROOM_DEFAULT_STRANDS;
+    gd.nverts = verts ? verts : GROOM_DEFAULT_VERTS;
+    gd.seed = seed ? seed : GROOM_DEFAULT_SEED;
+    if ((st = groom_procedural(&gd, &out->g, err)) != CORE_OK) return st;
+    snprintf(out->source, sizeof out->source, "procedural:%s", groom_style_name(gd.style));
+    out->seed = gd.seed;
+    return finish(out, err);
+}
+
+core_status app_groom_load_path(const char *path, const char *label, uint32_t verts, app_groom *out, core_err *err)
+{
+    memset(out, 0, sizeof *out);
+    core_status st = groom_load_file(path, verts, &out->g, err);
+    if (st != CORE_OK) return st;
+    snprintf(out->source, sizeof out->source, "file:%s", label);
+    return finish(out, err);
+}
+
+core_status app_groom_check_size(const app_groom *g, core_err *err)
+{
+    uint64_t nv = (uint64_t)g->g.nstrands * g->g.nverts;
+    if (nv <= PROTO_MAX_VERTICES) return CORE_OK;
+    return core_fail(err, CORE_EINVAL, "%s: %u strands x %u vertices = %llu, over the %u a groom may have (a smaller verts count fits it)",
+                     g->source, g->g.nstrands, g->g.nverts, (unsigned long long)nv, PROTO_MAX_VERTICES);
+}
+
+void app_groom_free(app_groom *g)
+{
+    core_groom_free(&g->g);
+    net_buf_unref(g->mesh_bin);
+    proto_groom_json_free(&g->json);
+    memset(g, 0, sizeof *g);
+}

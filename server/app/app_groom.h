@@ -1,0 +1,47 @@
+/* app: the live groom as the daemon holds it: the groom, its collision mesh (distance grid and
+ * the binary clients fetch) and its pre-rendered JSON. Loading is pure of threads: whoever
+ * fills an app_groom owns it (app_groom_free). */
+#ifndef APP_GROOM_H
+#define APP_GROOM_H
+
+#include "core/core.h"
+#include "core/groom_types.h"
+#include "net/net.h"
+#include "proto/proto.h"
+
+#define APP_MESH_PATH "/collider.bin" /* where clients GET the collision mesh binary */
+
+typedef struct app_groom {
+    core_groom g;             /* g.mesh / g.sdf: the collision mesh and its distance grid, if any */
+    char source[PROTO_MAX_NAME + 16];
+    uint64_t seed;
+    char collider[PROTO_MAX_NAME + 1]; /* the mesh's name ("" = none) */
+    net_buf *mesh_bin;        /* proto_mesh_bin_write of g.mesh (NULL = none) */
+    char mesh_etag[17];
+    double mesh_ms, sdf_ms;   /* time to load the mesh and build its grid */
+    proto_groom_json json;
+} app_groom;
+
+/* A procedural groom into *out (zeroed on failure): style name, counts (0 = GROOM_DEFAULT_STRANDS,
+ * GROOM_DEFAULT_VERTS) and seed (0 = GROOM_DEFAULT_SEED). */
+core_status app_groom_load_style(const char *style, uint32_t strands, uint32_t verts, uint64_t seed, app_groom *out,
+                                 core_err *err);
+/* A .tfx/.hair file at path into *out, shown to clients as "file:<label>"; verts 0 = the file's
+ * count. */
+core_status app_groom_load_path(const char *path, const char *label, uint32_t verts, app_groom *out, core_err *err);
+void app_groom_free(app_groom *g);
+/* (Re-)renders g's JSON after a change of its mesh. */
+core_status app_groom_render(app_groom *g, core_err *err);
+/* CORE_EINVAL (the counts in err) when g has more vertices than a groom may have
+ * (PROTO_MAX_VERTICES: what set_groom and the hello's limits allow). Pure. */
+core_status app_groom_check_size(const app_groom *g, core_err *err);
+
+/* Gives g the mesh (taking it over; *mesh is zeroed, also on failure), named label: its SDF
+ * over groom_collider_region (2 mm cells, at most GROOM_COLLIDER_MAX_CELLS samples; none when
+ * the hair cannot reach the mesh), its binary and the re-rendered JSON. mesh NULL removes
+ * g's mesh. (app_collider.c) */
+core_status app_groom_set_collider(app_groom *g, core_mesh *mesh, const char *label, core_err *err);
+/* Hands g's mesh binary to n at APP_MESH_PATH (or none); n NULL does nothing. Sim thread. */
+void app_groom_publish_mesh(net *n, const app_groom *g);
+
+#endif

@@ -1,0 +1,30 @@
+/* app: the net thread's side: client text parsed into commands for the sim thread (replies
+ * to what cannot be parsed or queued go out at once), connection events, /metrics text. */
+#ifndef APP_NET_H
+#define APP_NET_H
+
+#include <stdatomic.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "app_mailbox.h"
+#include "app_outbox.h"
+#include "app_stats.h"
+
+/* What the net callbacks need; borrowed from app.c, which outlives the net thread. */
+typedef struct app_gate {
+    const proto_parser *parser;
+    app_mailbox *mb;
+    app_outbox *out;
+    app_stats_board *board;
+    atomic_uint *grooms_pending;  /* set_groom requests queued or being carried out (at most 1) */
+    const atomic_bool *sim_done;  /* the sim thread has stopped: opens and closes are not waited for */
+} app_gate;
+
+/* Net-thread callbacks (net_callbacks.user = the app_gate). */
+void app_on_open(void *user, uint32_t client);
+void app_on_text(void *user, uint32_t client, const char *text, size_t len);
+void app_on_close(void *user, uint32_t client);
+size_t app_metrics(void *user, char *buf, size_t cap);
+
+#endif

@@ -1,0 +1,221 @@
+/* app: app_run: wires groom -> sim -> codec -> net and back; owns the threads and the signal-driven shutdown. */
+#include <errno.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/prctl.h>
+#include <time.h>
+
+#include "app_net.h"
+#include "app_sim.h"
+#include "codec/codec.h"
+#include "groom/groom.h"
+
+/* The daemon: the settings, the pieces shared between threads, and the sim thread's world. */
+typedef struct app {
+    app_desc d;
+    net *net;
+    app_outbox out;           /* net thread and sim thread */
+    app_mailbox mb;           /* net thread -> sim thread */
+    app_stats_board board;    /* sim thread -> net thread */
+    atomic_uint grooms_pending;
+    proto_parser parser;      /* read-only after set-up */
+    const char *styles[APP_NSTYLES];
+    app_assets assets;        /* read-only after set-up */
+    app_gate gate;            /* the net callbacks' view */
+    app_world w;              /* the sim thread's */
+} app;
+
+static void defaults(app_desc *d)
+{
+    if (!d->groom) d->groom = "straight";
+    if (d->rate <= 0.0) d->rate = APP_DEFAULT_RATE;
+    if (d->max_error <= 0.0) d->max_error = CODEC_DEFAULT_MAX_ERROR;
+    if (d->keyframe_interval <= 0) d->keyframe_interval = (int)CODEC_DEFAULT_KEY_INTERVAL;
+}
+
+/* The --collider mesh into the loaded groom (its SDF covers what that groom's hair reaches). */
+static core_status load_initial_collider(const app_desc *d, app_groom *g, core_err *err)
+{
+    if (!d->collider) return CORE_OK;
+    core_mesh m;
+    unsigned long long t0 = core_now_ns();
+    core_status st = groom_mesh_load_file(d->collider, &m, err);
+    if (st != CORE_OK) return st;
+    double load_ms = (double)(core_now_ns() - t0) / 1e6;
+    const char *base = strrchr(d->collider, '/');
+    if ((st = app_groom_set_collider(g, &m, base ? base + 1 : d->collider, err)) != CORE_OK) return st;
+    g->mesh_ms = load_ms;
+    const core_sdf *s = g->g.sdf;
+    core_log(CORE_LOG_INFO, "app", "collider %s: %u vertices, %u triangles (%.0f ms); grid %ux%ux%u of %.4g m (%.0f ms)",
+             g->collider, g->g.mesh->nverts, g->g.mesh->ntris, load_ms, s ? s->dims[0] : 0, s ? s->dims[1] : 0,
+             s ? s->dims[2] : 0, s ? s->cell : 0.0f, g->sdf_ms);
+    return CORE_OK;
+}
+
+static core_status load_initial_groom(const app_desc *d, app_groom *g, core_err *err)
+{
+    groom_style style;
+    core_status st;
+    unsigned long long t0 = core_now_ns();
+    if (groom_style_parse(d->groom, &style, NULL) == CORE_OK) {
+        st = app_groom_load_style(d->groom, d->strands, d->verts, d->seed, g, err);
+    } else {
+        const char *base = strrchr(d->groom, '/');
+        st = app_groom_load_path(d->groom, base ? base + 1 : d->groom, d->verts, g, err);
+        if (st == CORE_OK && (st = app_groom_check_size(g, err)) != CORE_OK) app_groom_free(g);
+    }
+    if (st != CORE_OK) return st;
+    core_log(CORE_LOG_INFO, "app", "groom %s loaded in %.0f ms", g->source, (double)(core_now_ns() - t0) / 1e6);
+    return load_initial_collider(d, g, err);
+}
+
+/* The sim thread's world on the loaded groom (its pieces shared with the net thread are a's). */
+static core_status setup_world(app *a, const core_param_info *ptable, size_t nparams, core_err *err)
+{
+    app_world *w = &a->w;
+    w->d = &a->d;
+    w->out = &a->out;
+    w->board = &a->board;
+    w->mb = &a->mb;
+    w->grooms_pending = &a->grooms_pending;
+    w->assets = &a->assets;
+    w->ptable = ptable;
+    w->nparams = nparams;
+    w->styles = a->styles;
+    sim_params_default(&w->params);
+    app_anim_init(&w->anim);
+    core_status st = load_initial_groom(&a->d, &w->groom, err);
+    if (st != CORE_OK) return st;
+    sim_desc sd = { .backend = a->d.backend, .threads = a->d.threads, .device = a->d.device };
+    if ((st = sim_create(&w->sim, &sd, &w->groom.g, &w->params, err)) != CORE_OK) return st;
+    size_t n = (size_t)w->groom.g.nstrands * w->groom.g.nverts * 3;
+    w->xyz = malloc(n * sizeof *w->xyz);
+    if (!w->xyz) return core_fail(err, CORE_ENOMEM, "out of memory for %zu positions", n / 3);
+    sim_set_motion(&w->sim, app_anim_pose(&w->anim));
+    if ((st = sim_read_positions(&w->sim, w->xyz, err)) != CORE_OK) return st;
+    core_log(CORE_LOG_INFO, "app", "groom %s: %u strands x %u vertices, %u colliders; backend %s", w->groom.source,
+             w->groom.g.nstrands, w->groom.g.nverts, w->groom.g.ncolliders, w->sim.vt->name);
+    return CORE_OK;
+}
+
+static core_status setup(app *a, core_err *err)
+{
+    size_t nparams;
+    const core_param_info *ptable = sim_param_table(&nparams);
+    if (nparams > PROTO_MAX_PARAMS)
+        return core_fail(err, CORE_EINVAL, "the parameter table has %zu entries; proto serves at most %d", nparams,
+                         PROTO_MAX_PARAMS);
+    for (int i = 0; i < APP_NSTYLES; i++) a->styles[i] = groom_style_name((groom_style)i);
+    a->parser = (proto_parser){ ptable, nparams, app_preset_names, APP_PRESET_COUNT, a->styles, APP_NSTYLES };
+    app_stats_board_init(&a->board);
+    core_status st = app_mailbox_init(&a->mb, err);
+    if (st != CORE_OK) return st;
+    app_assets_list(&a->assets, a->d.assets_dir, &a->parser);
+    if ((st = setup_world(a, ptable, nparams, err)) != CORE_OK) return st;
+    a->gate = (app_gate){ &a->parser, &a->mb, &a->out, &a->board, &a->grooms_pending, &a->w.done };
+    if (!a->d.no_net) {
+        net_desc nd = {
+            .listen = a->d.listen, .port = a->d.port, .web_dir = a->d.web_dir, .subprotocol = PROTO_SUBPROTOCOL,
+            .max_message = PROTO_MAX_MESSAGE, .sndbuf = a->d.client_buffer,
+            .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout, .blobs = { APP_MESH_PATH },
+            .cb = { &a->gate, app_on_open, app_on_text, app_on_close, app_metrics },
+        };
+        if ((st = net_create(&a->net, &nd, err)) != CORE_OK) return st;
+    }
+    a->out.net = a->net;
+    app_streams_init(&a->w.streams, a->net, a->d.rate, a->d.max_error, (uint32_t)a->d.keyframe_interval,
+                     a->w.groom.g.nstrands, a->w.groom.g.nverts);
+    app_groom_publish_mesh(a->net, &a->w.groom);
+    return CORE_OK;
+}
+
+static void teardown(app *a)
+{
+    net_destroy(a->net);
+    a->net = NULL;
+    app_world *w = &a->w;
+    app_streams_free(&w->streams);
+    sim_destroy(&w->sim);
+    app_groom_free(&w->groom);
+    free(w->xyz);
+    app_clients_free(&w->clients);
+    app_assets_free(&a->assets);
+    app_mailbox_free(&a->mb);
+    app_stats_board_free(&a->board);
+}
+
+static void *net_main(void *arg)
+{
+    prctl(PR_SET_NAME, "sc-net"); /* thread names let tools (strandbench fanout) split CPU time */
+    net_run(arg);
+    return NULL;
+}
+
+/* Waits for SIGINT/SIGTERM (blocked, taken with sigtimedwait) or the sim thread's end. */
+static void wait_for_stop(app *a, const sigset_t *set)
+{
+    struct timespec tick = { 0, 50 * 1000 * 1000 };
+    while (!atomic_load(&a->w.done)) {
+        int sig = sigtimedwait(set, NULL, &tick);
+        if (sig == SIGINT || sig == SIGTERM) {
+            core_log(CORE_LOG_INFO, "app", "%s: shutting down", sig == SIGINT ? "SIGINT" : "SIGTERM");
+            return;
+        }
+        if (sig < 0 && errno != EAGAIN && errno != EINTR) return;
+    }
+}
+
+core_status app_run(const app_desc *desc, core_err *err)
+{
+    sigset_t set, old;
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &set, &old);
+    signal(SIGPIPE, SIG_IGN);
+
+    app *a = calloc(1, sizeof *a);
+    if (!a) return core_fail(err, CORE_ENOMEM, "out of memory");
+    a->d = *desc;
+    defaults(&a->d);
+    core_status st = setup(a, err);
+    pthread_t sim_thread, net_thread;
+    bool sim_started = false, net_started = false;
+    if (st == CORE_OK && a->net) {
+        const char *host = a->d.listen && *a->d.listen ? a->d.listen : "127.0.0.1";
+        bool any = strcmp(host, "0.0.0.0") == 0 || strcmp(host, "*") == 0;
+        bool v6 = strchr(host, ':') != NULL;
+        printf("strandcastd: open http://%s%s%s:%d/  (WebSocket subprotocol %s%s)\n", v6 ? "[" : "", any ? "127.0.0.1" : host,
+               v6 ? "]" : "", net_port(a->net), PROTO_SUBPROTOCOL, any ? "; listening on every interface" : "");
+        fflush(stdout);
+        if (pthread_create(&net_thread, NULL, net_main, a->net) != 0) st = core_fail(err, CORE_EBACKEND, "cannot start the net thread");
+        else net_started = true;
+    }
+    if (st == CORE_OK) {
+        if (pthread_create(&sim_thread, NULL, app_sim_main, &a->w) != 0) st = core_fail(err, CORE_EBACKEND, "cannot start the sim thread");
+        else sim_started = true;
+    }
+    if (st == CORE_OK) wait_for_stop(a, &set);
+    atomic_store(&a->w.quit, true);
+    if (sim_started) {
+        app_mailbox_wake(&a->mb);
+        pthread_join(sim_thread, NULL);
+        if (a->w.fatal != CORE_OK) st = core_fail(err, a->w.fatal, "simulation stopped: %s", a->w.fatal_err.msg);
+    }
+    app_loader_join(&a->w.loader); /* a groom load still running (the sim thread has stopped) */
+    if (net_started) {
+        net_stop(a->net);
+        pthread_join(net_thread, NULL);
+    }
+    if (st == CORE_OK) {
+        sim_stats ss;
+        sim_get_stats(&a->w.sim, &ss);
+        core_log(CORE_LOG_INFO, "app", "stopped after %llu steps (%.2f s simulated)", (unsigned long long)ss.steps, ss.sim_time);
+    }
+    teardown(a);
+    free(a);
+    pthread_sigmask(SIG_SETMASK, &old, NULL);
+    return st;
+}

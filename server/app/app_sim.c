@@ -1,0 +1,172 @@
+/* app: the sim thread: commands at step boundaries, real-time fixed steps, publishing, stats. */
+#include <stdio.h>
+#include <string.h>
+#include <sys/prctl.h>
+
+#include "app_cmd.h"
+#include "app_sim.h"
+
+#define NS 1000000000ull
+
+/* Applies every queued command. */
+static void take_commands(app_world *w)
+{
+    app_cmd c;
+    while (app_mailbox_take(w->mb, &c)) app_cmd_handle(w, &c);
+    app_cmd_groom_poll(w); /* a set_groom whose loads finished */
+}
+
+static core_status step_once(app_world *w)
+{
+    app_anim_advance(&w->anim, w->params.dt);
+    sim_set_motion(&w->sim, app_anim_pose(&w->anim));
+    unsigned long long t0 = core_now_ns();
+    core_status st = sim_step(&w->sim, &w->fatal_err);
+    double ms = (double)(core_now_ns() - t0) / 1e6;
+    w->pace.step_ms_acc += ms;
+    w->pace.log_step_ms_acc += ms;
+    w->pace.win_steps++;
+    w->pace.log_steps++;
+    return st;
+}
+
+/* Encodes and publishes the positions to the due streams; counts for the stats. */
+static void publish(app_world *w)
+{
+    unsigned long long t0 = core_now_ns();
+    sim_stats ss;
+    sim_get_stats(&w->sim, &ss);
+    app_publish_result r = app_streams_publish(&w->streams, w->xyz, ss.sim_time);
+    for (int i = 0; i < NET_MAX_STREAMS; i++)
+        if (r.began_failing & (1u << i)) app_cmd_tell_failure(w, i, NET_ALL);
+    if (!w->out->net) return;
+    pthread_mutex_lock(&w->board->mu);
+    w->board->s.frames_encoded += r.frames;
+    w->board->s.encode_bytes += r.bytes;
+    pthread_mutex_unlock(&w->board->mu);
+    w->pace.encode_ms_acc += (double)(core_now_ns() - t0) / 1e6;
+    w->pace.encode_rounds++;
+}
+
+/* Publishes when the stream rate says so (a round every step at the default 60 Hz; a stream
+ * of decimation k takes every k-th round), reading the positions from the backend only when
+ * some stream takes a frame. */
+static void maybe_publish(app_world *w, bool stepped)
+{
+    bool tick = false;
+    if (stepped) {
+        double period = 1.0 / w->d->rate;
+        w->pace.publish_acc += w->params.dt;
+        if (w->pace.publish_acc >= period - 1e-9) {
+            w->pace.publish_acc -= period;
+            if (w->pace.publish_acc > period) w->pace.publish_acc = 0.0;
+            tick = true;
+        }
+    }
+    if (!tick && !w->dirty) return;
+    if (!app_streams_due(&w->streams, tick, w->dirty)) { /* nobody to send to: the positions are not even read */
+        w->dirty = false;
+        return;
+    }
+    core_err err;
+    if (sim_read_positions(&w->sim, w->xyz, &err) != CORE_OK) {
+        core_log(CORE_LOG_WARN, "sim", "positions not read for streaming: %s", err.msg);
+        return;
+    }
+    w->dirty = false;
+    publish(w);
+}
+
+/* Once a second: stats for clients and /metrics; every APP_LOG_INTERVAL_S a log line. */
+static void update_stats(app_world *w, unsigned long long now)
+{
+    app_pace *pc = &w->pace;
+    if (now - pc->win_start_ns < NS) return;
+    double secs = (double)(now - pc->win_start_ns) / 1e9;
+    sim_stats ss;
+    sim_get_stats(&w->sim, &ss);
+    pthread_mutex_lock(&w->board->mu);
+    app_stats *b = &w->board->s;
+    b->steps = ss.steps;
+    b->sim_time = ss.sim_time;
+    b->steps_per_s = (double)pc->win_steps / secs;
+    b->step_ms = pc->win_steps ? pc->step_ms_acc / (double)pc->win_steps : 0.0;
+    b->encode_ms = pc->encode_rounds ? pc->encode_ms_acc / (double)pc->encode_rounds : 0.0;
+    b->clients = (uint32_t)w->clients.n;
+    app_stats s = *b;
+    pthread_mutex_unlock(&w->board->mu);
+    proto_stats ps = { s.steps_per_s, s.step_ms, s.encode_ms, s.clients, s.sim_time, s.steps, s.nan_resets };
+    if (w->clients.n) app_send(w->out, NET_ALL, proto_build_stats(&ps), NET_TEXT_DROPPABLE);
+    pc->win_start_ns = now;
+    pc->win_steps = 0;
+    pc->step_ms_acc = pc->encode_ms_acc = 0.0;
+    pc->encode_rounds = 0;
+
+    double log_secs = (double)(now - pc->log_start_ns) / 1e9;
+    if (log_secs >= APP_LOG_INTERVAL_S) {
+        double sps = (double)pc->log_steps / log_secs;
+        core_log(CORE_LOG_INFO, "sim", "%.1f steps/s (real time %.0f), step %.2f ms, encode %.2f ms, %zu clients%s",
+                 sps, 1.0 / w->params.dt, pc->log_steps ? pc->log_step_ms_acc / (double)pc->log_steps : 0.0, s.encode_ms,
+                 w->clients.n, w->paused ? ", paused" : "");
+        pc->log_start_ns = now;
+        pc->log_steps = 0;
+        pc->log_step_ms_acc = 0.0;
+    }
+}
+
+/* After a step: the /metrics counters, exact between stats windows. */
+static void count_step(app_world *w)
+{
+    sim_stats ss;
+    sim_get_stats(&w->sim, &ss);
+    pthread_mutex_lock(&w->board->mu);
+    app_stats *b = &w->board->s;
+    b->steps_run++;
+    b->nan_resets_run += ss.nan_resets - b->nan_resets; /* zeroed with the sim's */
+    b->nan_resets = ss.nan_resets;
+    b->steps = ss.steps;
+    b->sim_time = ss.sim_time;
+    pthread_mutex_unlock(&w->board->mu);
+}
+
+void *app_sim_main(void *arg)
+{
+    app_world *w = arg;
+    prctl(PR_SET_NAME, "sc-sim");
+    unsigned long long next = core_now_ns();
+    w->pace.win_start_ns = w->pace.log_start_ns = next;
+    uint64_t total = 0;
+    while (!atomic_load(&w->quit)) {
+        /* wait for the next step's wall-clock time, handling commands as they come */
+        for (;;) {
+            take_commands(w);
+            unsigned long long now = core_now_ns();
+            if (now >= next || atomic_load(&w->quit)) break;
+            if (w->dirty) maybe_publish(w, false);
+            app_mailbox_wait(w->mb, next);
+        }
+        if (atomic_load(&w->quit)) break;
+        bool run = !w->paused || w->step_budget > 0;
+        if (run) {
+            if ((w->fatal = step_once(w)) != CORE_OK) {
+                core_log(CORE_LOG_ERROR, "sim", "step failed: %s", w->fatal_err.msg);
+                break;
+            }
+            total++;
+            count_step(w);
+            if (w->paused && --w->step_budget == 0) {
+                proto_state s = app_world_state(w);
+                app_send(w->out, NET_ALL, proto_build_state(NULL, &s), 0);
+            }
+        }
+        maybe_publish(w, run);
+        unsigned long long now = core_now_ns();
+        update_stats(w, now);
+        if (w->d->steps && total >= w->d->steps) break;
+        next += (unsigned long long)(w->params.dt * 1e9);
+        /* more than a quarter second behind: give up catching up (log shows the deficit) */
+        if (now > next + NS / 4) next = now;
+    }
+    atomic_store(&w->done, true);
+    return NULL;
+}

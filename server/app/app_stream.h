@@ -1,0 +1,89 @@
+/* app: the frame streams: one codec encoder and one net stream per distinct (stride,
+ * max_error, decimation), shared by every client subscribed with those settings. Owns the
+ * encoders and the encode buffer; borrows net. Sim thread only. */
+#ifndef APP_STREAM_H
+#define APP_STREAM_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "codec/codec.h"
+#include "net/net.h"
+#include "proto/proto.h"
+
+#define APP_MAX_DECIMATION 100000u /* publish rounds per stream frame, at most */
+
+typedef struct app_stream {
+    bool used;
+    int32_t stride;
+    double max_error;
+    uint32_t decimation;      /* the stream takes every decimation-th publish round */
+    uint32_t countdown;       /* rounds until its next frame (0: the next round) */
+    bool due;                 /* encode it in the current publish round */
+    uint32_t subscribers;
+    bool force_key;
+    bool ready;               /* encoder initialised for the current groom */
+    bool failing;             /* the last encode failed (logged and told once until one succeeds) */
+    uint64_t fail_seq;        /* while failing: the first frame not sent, and why */
+    core_err fail_err;
+    codec_encoder enc;
+} app_stream;
+
+/* Every stream slot (index = net stream), the settings they are made with, and the groom
+ * size their encoders are for. */
+typedef struct app_streams {
+    app_stream s[NET_MAX_STREAMS];
+    net *net;                 /* borrowed; NULL: nothing is published (--no-net, tests) */
+    double rate;              /* the server's publish rate, Hz */
+    double max_error;         /* the default stream's bound, m */
+    uint32_t keyframe_interval;
+    uint32_t nstrands, nverts;
+    uint64_t frame_seq;
+    codec_buf enc_buf;
+} app_streams;
+
+/* What one publish round did (for the stats). */
+typedef struct app_publish_result {
+    uint64_t frames, bytes;
+    uint32_t began_failing;   /* bit i: stream i's frames stopped being encodable this round */
+} app_publish_result;
+_Static_assert(NET_MAX_STREAMS <= 32, "began_failing holds one bit per stream");
+
+/* No stream yet; settings as above. The caller owns ss (app_streams_free). */
+void app_streams_init(app_streams *ss, net *n, double rate, double max_error, uint32_t keyframe_interval,
+                      uint32_t nstrands, uint32_t nverts);
+void app_streams_free(app_streams *ss);
+/* Strands per frame at a stride: ceil(nstrands / stride). Pure. */
+uint32_t app_stream_strands(uint32_t nstrands, int32_t stride);
+/* The decimation of a client capped at max_rate (Hz, 0 = no cap) when the server publishes at
+ * rate Hz: the largest k (1..APP_MAX_DECIMATION) with rate / k >= max_rate. Pure. */
+uint32_t app_stream_decimation(double rate, double max_rate);
+/* Adds a subscriber to the stream of (stride, max_error, app_stream_decimation(rate, max_rate)),
+ * creating it (its first frame, in the next publish round, is a keyframe). The last free slot
+ * of NET_MAX_STREAMS is kept for the default stream (stride 1, the default max_error, every
+ * round), so a new client always has one. When no slot can be had it shares the stream of the
+ * same stride and max_error with the largest smaller decimation (a faster stream; the net rate
+ * cap thins it). Returns the stream index, or -1 when no slot is free and no stream fits. */
+int app_stream_acquire(app_streams *ss, int32_t stride, double max_error, double max_rate);
+/* Drops a subscriber; the last one frees the encoder and the net stream. */
+void app_stream_release(app_streams *ss, int stream);
+/* Re-initialises every stream's encoder for a new groom size (after a groom change); no frame
+ * of the old groom is sent after this. */
+void app_streams_regroom(app_streams *ss, uint32_t nstrands, uint32_t nverts);
+/* Marks the streams with subscribers that take a frame now: on a tick (a publish round of the
+ * --rate schedule) those whose decimation countdown runs out, which it advances; with all,
+ * every one (a frame outside the schedule: paused newcomers, reset, keyframe requests while
+ * paused). Returns true when any is due. */
+bool app_streams_due(app_streams *ss, bool tick, bool all);
+/* Asks stream's next frame to be a keyframe (no-op for a bad index). */
+void app_stream_force_key(app_streams *ss, int stream);
+/* Every stream's next frame is a keyframe. */
+void app_streams_force_keys(app_streams *ss);
+/* Encodes xyz (strand-major, the current groom) once per due stream and publishes the frames
+ * (one seq per call, so a stream of decimation k sees seq grow by k per frame). */
+app_publish_result app_streams_publish(app_streams *ss, const float *xyz, double sim_time);
+/* When stream's frames are not being sent because they cannot be encoded: fills *e (code
+ * failed, field "stream") and returns true; false while it encodes. */
+bool app_stream_failure(const app_streams *ss, int stream, proto_error *e);
+
+#endif

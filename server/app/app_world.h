@@ -1,0 +1,76 @@
+/* app: the sim thread's world: the simulation and its live groom, parameters and head
+ * animation, the run state (paused, steps owed), the streams and clients, the groom loader and
+ * the pacing windows. The sim thread owns all of it; it borrows the shared pieces (outbox,
+ * stats board, mailbox, asset list, parser tables) that app.c owns. */
+#ifndef APP_WORLD_H
+#define APP_WORLD_H
+
+#include <stdatomic.h>
+#include <stdbool.h>
+
+#include "app.h"
+#include "app_anim.h"
+#include "app_assets.h"
+#include "app_clients.h"
+#include "app_groom.h"
+#include "app_loader.h"
+#include "app_mailbox.h"
+#include "app_outbox.h"
+#include "app_stats.h"
+#include "app_stream.h"
+
+/* Wall-clock measuring windows of the sim thread: the stats window (1 s) and the log window. */
+typedef struct app_pace {
+    unsigned long long win_start_ns, log_start_ns;
+    uint64_t win_steps, log_steps;
+    double step_ms_acc, log_step_ms_acc, encode_ms_acc;
+    uint64_t encode_rounds;
+    double publish_acc;       /* simulated time since the last publish round */
+} app_pace;
+
+typedef struct app_world {
+    const app_desc *d;        /* the daemon's settings (defaults applied) */
+
+    /* the simulation */
+    sim sim;
+    sim_params params;
+    app_groom groom;
+    float *xyz;               /* positions of the current groom, strand-major */
+    app_anim anim;            /* head motion: client base pose, preset, blend */
+
+    /* run state */
+    bool paused;
+    int32_t step_budget;      /* steps left while paused */
+    bool dirty;               /* publish the current positions even when not stepping */
+    core_status fatal;        /* a sim-thread failure that stops the daemon */
+    core_err fatal_err;
+
+    app_streams streams;
+    app_clients clients;
+    app_loader loader;        /* the set_groom being loaded */
+    app_pace pace;
+
+    /* borrowed from app.c */
+    app_outbox *out;
+    app_stats_board *board;
+    app_mailbox *mb;
+    atomic_uint *grooms_pending;  /* set_groom requests queued or being carried out (at most 1) */
+    const app_assets *assets;
+    const core_param_info *ptable;
+    size_t nparams;
+    const char *const *styles;    /* the procedural style names, APP_NSTYLES of them */
+
+    /* thread control */
+    atomic_bool quit;         /* ask the sim thread to stop */
+    atomic_bool done;         /* the sim thread has finished (steps reached or failure) */
+} app_world;
+
+#define APP_NSTYLES 3
+
+/* Puts the simulation back to its rest pose; its own counters restart at 0, so the baseline the
+ * daemon's NaN total counts from does too (the daemon's totals go on). Sim thread. */
+void app_world_reset(app_world *w);
+/* The run state for state messages and the hello. Sim thread. */
+proto_state app_world_state(const app_world *w);
+
+#endif
