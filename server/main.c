@@ -1,5 +1,4 @@
 /* strandcastd: entry point: parses the flags into an app_desc and runs the daemon. */
-#include <errno.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -7,12 +6,13 @@
 #include <sys/stat.h>
 
 #include "app/app.h"
+#include "core/cli.h"
 #include "codec/codec.h"
 #include "groom/groom.h"
 #include "net/net.h"
 #include "proto/proto.h"
 
-#define EXIT_USAGE 2
+#define PROG "strandcastd"
 
 static void usage(FILE *f)
 {
@@ -60,37 +60,7 @@ static void usage(FILE *f)
             APP_LOG_INTERVAL_S, PROTO_SUBPROTOCOL);
 }
 
-static int bad(const char *flag, const char *value, const char *why)
-{
-    fprintf(stderr, "strandcastd: %s %s: %s\nTry 'strandcastd --help'.\n", flag, value ? value : "", why);
-    return EXIT_USAGE;
-}
-
-static int parse_u64(const char *flag, const char *v, unsigned long long lo, unsigned long long hi, unsigned long long *out)
-{
-    char why[96];
-    snprintf(why, sizeof why, "expected an integer in [%llu, %llu]", lo, hi);
-    if (!v || !*v || *v == '-' || *v == '+') return bad(flag, v, why);
-    errno = 0;
-    char *end;
-    unsigned long long x = strtoull(v, &end, 10);
-    if (errno || *end || x < lo || x > hi) return bad(flag, v, why);
-    *out = x;
-    return 0;
-}
-
-static int parse_f64(const char *flag, const char *v, double lo, double hi, double *out)
-{
-    char why[96];
-    snprintf(why, sizeof why, "expected a number in [%g, %g]", lo, hi);
-    if (!v || !*v) return bad(flag, v, why);
-    errno = 0;
-    char *end;
-    double x = strtod(v, &end);
-    if (errno || *end || !(x >= lo && x <= hi)) return bad(flag, v, why);
-    *out = x;
-    return 0;
-}
+static int bad(const char *flag, const char *value, const char *why) { return core_cli_bad(PROG, flag, value, why); }
 
 static bool is_dir(const char *p)
 {
@@ -98,97 +68,137 @@ static bool is_dir(const char *p)
     return stat(p, &sb) == 0 && S_ISDIR(sb.st_mode);
 }
 
+enum {
+    OPT_GROOM = 256, OPT_COLLIDER, OPT_STRANDS, OPT_VERTS, OPT_SEED, OPT_BACKEND, OPT_DEVICE, OPT_THREADS, OPT_LISTEN,
+    OPT_PORT, OPT_WEB, OPT_ASSETS, OPT_RATE, OPT_MAX_ERROR, OPT_KEY_INTERVAL, OPT_CLIENT_BUFFER, OPT_PING_INTERVAL,
+    OPT_PING_TIMEOUT, OPT_NO_NET, OPT_STEPS, OPT_VERSION
+};
+
+static const struct option options[] = {
+    { "groom", required_argument, NULL, OPT_GROOM },
+    { "collider", required_argument, NULL, OPT_COLLIDER },
+    { "strands", required_argument, NULL, OPT_STRANDS },
+    { "verts", required_argument, NULL, OPT_VERTS },
+    { "seed", required_argument, NULL, OPT_SEED },
+    { "backend", required_argument, NULL, OPT_BACKEND },
+    { "device", required_argument, NULL, OPT_DEVICE },
+    { "threads", required_argument, NULL, OPT_THREADS },
+    { "listen", required_argument, NULL, OPT_LISTEN },
+    { "port", required_argument, NULL, OPT_PORT },
+    { "web", required_argument, NULL, OPT_WEB },
+    { "assets", required_argument, NULL, OPT_ASSETS },
+    { "rate", required_argument, NULL, OPT_RATE },
+    { "max-error", required_argument, NULL, OPT_MAX_ERROR },
+    { "keyframe-interval", required_argument, NULL, OPT_KEY_INTERVAL },
+    { "client-buffer", required_argument, NULL, OPT_CLIENT_BUFFER },
+    { "ping-interval", required_argument, NULL, OPT_PING_INTERVAL },
+    { "ping-timeout", required_argument, NULL, OPT_PING_TIMEOUT },
+    { "no-net", no_argument, NULL, OPT_NO_NET },
+    { "steps", required_argument, NULL, OPT_STEPS },
+    { "help", no_argument, NULL, 'h' },
+    { "version", no_argument, NULL, OPT_VERSION },
+    { NULL, 0, NULL, 0 },
+};
+
+/* One flag's value into d; 0 or an exit status. */
+static int apply(int opt, const char *flag, const char *v, app_desc *d, bool *verts_given)
+{
+    unsigned long long u = 0;
+    double f = 0;
+    int rc = 0;
+    switch (opt) {
+    case OPT_GROOM:
+        if (!*v) return bad(flag, v, "expected a style or a file");
+        d->groom = v;
+        break;
+    case OPT_COLLIDER:
+        if (!*v) return bad(flag, v, "expected an .obj or .tfxmesh file");
+        d->collider = v;
+        break;
+    case OPT_STRANDS:
+        if (!(rc = core_cli_u64(PROG, flag, v, 1, PROTO_MAX_STRANDS, &u))) d->strands = (uint32_t)u;
+        break;
+    case OPT_VERTS:
+        if (!(rc = core_cli_u64(PROG, flag, v, 2, PROTO_MAX_VERTS, &u))) d->verts = (uint32_t)u;
+        *verts_given = true;
+        break;
+    case OPT_SEED: /* at most 2^53 - 1: exact in JSON */
+        if (!(rc = core_cli_u64(PROG, flag, v, 0, 9007199254740991ull, &u))) d->seed = u;
+        break;
+    case OPT_BACKEND:
+        if (strcmp(v, "auto") == 0) d->backend = SIM_BACKEND_AUTO;
+        else if (strcmp(v, "cpu") == 0) d->backend = SIM_BACKEND_CPU;
+        else if (strcmp(v, "vulkan") == 0) d->backend = SIM_BACKEND_VULKAN;
+        else return bad(flag, v, "expected auto, cpu or vulkan");
+        break;
+    case OPT_DEVICE:
+        if (!(rc = core_cli_u64(PROG, flag, v, 0, 64, &u))) d->device = (int)u;
+        break;
+    case OPT_THREADS:
+        if (!(rc = core_cli_u64(PROG, flag, v, 0, 256, &u))) d->threads = (int)u;
+        break;
+    case OPT_LISTEN:
+        if (!*v) return bad(flag, v, "expected an address");
+        d->listen = v;
+        break;
+    case OPT_PORT:
+        if (!(rc = core_cli_u64(PROG, flag, v, 0, 65535, &u))) d->port = u == 0 ? NET_PORT_ANY : (int)u;
+        break;
+    case OPT_WEB:
+        if (!is_dir(v)) return bad(flag, v, "not a folder");
+        d->web_dir = v;
+        break;
+    case OPT_ASSETS:
+        if (!is_dir(v)) return bad(flag, v, "not a folder");
+        d->assets_dir = v;
+        break;
+    case OPT_RATE:
+        if (!(rc = core_cli_f64(PROG, flag, v, 1, 1000, &f))) d->rate = f;
+        break;
+    case OPT_MAX_ERROR:
+        if (!(rc = core_cli_f64(PROG, flag, v, PROTO_MIN_ERROR, PROTO_MAX_ERROR, &f))) d->max_error = f;
+        break;
+    case OPT_KEY_INTERVAL:
+        if (!(rc = core_cli_u64(PROG, flag, v, 1, 10000, &u))) d->keyframe_interval = (int)u;
+        break;
+    case OPT_CLIENT_BUFFER:
+        if (!(rc = core_cli_u64(PROG, flag, v, 4096, 64u << 20, &u))) d->client_buffer = (int)u;
+        break;
+    case OPT_PING_INTERVAL:
+        if (!(rc = core_cli_u64(PROG, flag, v, 1, NET_MAX_HANGUP_S - 1, &u))) d->ping_interval = (int)u;
+        break;
+    case OPT_PING_TIMEOUT:
+        if (!(rc = core_cli_u64(PROG, flag, v, 2, NET_MAX_HANGUP_S, &u))) d->ping_timeout = (int)u;
+        break;
+    case OPT_STEPS:
+        if (!(rc = core_cli_u64(PROG, flag, v, 0, (unsigned long long)LLONG_MAX, &u))) d->steps = u;
+        break;
+    case OPT_NO_NET: d->no_net = true; break;
+    }
+    return rc;
+}
+
 /* Returns 0 and fills d, or an exit status (help/version print and return -1). */
 static int parse_args(int argc, char **argv, app_desc *d, bool *verts_given)
 {
-    for (int i = 1; i < argc; i++) {
-        char flag[64];
-        const char *arg = argv[i], *value = NULL;
-        const char *eq = strchr(arg, '=');
-        if (strncmp(arg, "--", 2) == 0 && eq && (size_t)(eq - arg) < sizeof flag) {
-            memcpy(flag, arg, (size_t)(eq - arg));
-            flag[eq - arg] = '\0';
-            value = eq + 1;
-        } else {
-            snprintf(flag, sizeof flag, "%s", arg);
-        }
-        if (strcmp(flag, "--help") == 0 || strcmp(flag, "-h") == 0) {
+    opterr = 0;
+    int opt, index;
+    while ((opt = getopt_long(argc, argv, ":h", options, &index)) != -1) {
+        if (opt == '?' || opt == ':') return core_cli_getopt_error(PROG, opt, argv);
+        if (opt == 'h') {
             usage(stdout);
             return -1;
         }
-        if (strcmp(flag, "--version") == 0) {
+        if (opt == OPT_VERSION) {
             printf("strandcastd %s (protocol %s)\n", STRANDCAST_VERSION, PROTO_SUBPROTOCOL);
             return -1;
         }
-        if (strcmp(flag, "--no-net") == 0) {
-            if (value) return bad(flag, value, "takes no value");
-            d->no_net = true;
-            continue;
-        }
-        static const char *const with_value[] = { "--groom", "--collider", "--strands", "--verts", "--seed", "--backend", "--device",
-                                                  "--threads", "--listen", "--port", "--web", "--assets", "--rate",
-                                                  "--max-error", "--keyframe-interval", "--client-buffer", "--ping-interval",
-                                                  "--ping-timeout", "--steps" };
-        bool known = false;
-        for (size_t k = 0; k < sizeof with_value / sizeof with_value[0]; k++) known = known || strcmp(flag, with_value[k]) == 0;
-        if (!known) return bad(arg, NULL, "unknown option");
-        if (!value) {
-            if (i + 1 >= argc) return bad(flag, NULL, "needs a value");
-            value = argv[++i];
-        }
-        unsigned long long u = 0;
-        double f = 0;
-        int rc = 0;
-        if (strcmp(flag, "--groom") == 0) {
-            if (!*value) return bad(flag, value, "expected a style or a file");
-            d->groom = value;
-        } else if (strcmp(flag, "--collider") == 0) {
-            if (!*value) return bad(flag, value, "expected an .obj or .tfxmesh file");
-            d->collider = value;
-        } else if (strcmp(flag, "--strands") == 0) {
-            if (!(rc = parse_u64(flag, value, 1, PROTO_MAX_STRANDS, &u))) d->strands = (uint32_t)u;
-        } else if (strcmp(flag, "--verts") == 0) {
-            if (!(rc = parse_u64(flag, value, 2, PROTO_MAX_VERTS, &u))) d->verts = (uint32_t)u;
-            *verts_given = true;
-        } else if (strcmp(flag, "--seed") == 0) {
-            if (!(rc = parse_u64(flag, value, 0, 9007199254740991ull, &u))) d->seed = u; /* exact in JSON */
-        } else if (strcmp(flag, "--backend") == 0) {
-            if (strcmp(value, "auto") == 0) d->backend = SIM_BACKEND_AUTO;
-            else if (strcmp(value, "cpu") == 0) d->backend = SIM_BACKEND_CPU;
-            else if (strcmp(value, "vulkan") == 0) d->backend = SIM_BACKEND_VULKAN;
-            else return bad(flag, value, "expected auto, cpu or vulkan");
-        } else if (strcmp(flag, "--device") == 0) {
-            if (!(rc = parse_u64(flag, value, 0, 64, &u))) d->device = (int)u;
-        } else if (strcmp(flag, "--threads") == 0) {
-            if (!(rc = parse_u64(flag, value, 0, 256, &u))) d->threads = (int)u;
-        } else if (strcmp(flag, "--listen") == 0) {
-            if (!*value) return bad(flag, value, "expected an address");
-            d->listen = value;
-        } else if (strcmp(flag, "--port") == 0) {
-            if (!(rc = parse_u64(flag, value, 0, 65535, &u))) d->port = u == 0 ? NET_PORT_ANY : (int)u;
-        } else if (strcmp(flag, "--web") == 0) {
-            if (!is_dir(value)) return bad(flag, value, "not a folder");
-            d->web_dir = value;
-        } else if (strcmp(flag, "--assets") == 0) {
-            if (!is_dir(value)) return bad(flag, value, "not a folder");
-            d->assets_dir = value;
-        } else if (strcmp(flag, "--rate") == 0) {
-            if (!(rc = parse_f64(flag, value, 1, 1000, &f))) d->rate = f;
-        } else if (strcmp(flag, "--max-error") == 0) {
-            if (!(rc = parse_f64(flag, value, PROTO_MIN_ERROR, PROTO_MAX_ERROR, &f))) d->max_error = f;
-        } else if (strcmp(flag, "--keyframe-interval") == 0) {
-            if (!(rc = parse_u64(flag, value, 1, 10000, &u))) d->keyframe_interval = (int)u;
-        } else if (strcmp(flag, "--client-buffer") == 0) {
-            if (!(rc = parse_u64(flag, value, 4096, 64u << 20, &u))) d->client_buffer = (int)u;
-        } else if (strcmp(flag, "--ping-interval") == 0) {
-            if (!(rc = parse_u64(flag, value, 1, NET_MAX_HANGUP_S - 1, &u))) d->ping_interval = (int)u;
-        } else if (strcmp(flag, "--ping-timeout") == 0) {
-            if (!(rc = parse_u64(flag, value, 2, NET_MAX_HANGUP_S, &u))) d->ping_timeout = (int)u;
-        } else if (strcmp(flag, "--steps") == 0) {
-            if (!(rc = parse_u64(flag, value, 0, (unsigned long long)LLONG_MAX, &u))) d->steps = u;
-        }
+        char flag[64];
+        snprintf(flag, sizeof flag, "--%s", options[index].name);
+        int rc = apply(opt, flag, optarg, d, verts_given);
         if (rc) return rc;
     }
+    if (optind < argc) return bad(argv[optind], NULL, "unexpected argument (flags start with --)");
     return 0;
 }
 

@@ -7,10 +7,13 @@
 #include <string.h>
 
 #include "codec/codec.h"
+#include "core/cli.h"
 #include "core/core.h"
+#include "net/net.h"
 #include "proto/proto.h"
 #include "wsc/wsc.h"
 
+#define PROG "strandcastc"
 #define CLI_MAX_SEND 32
 #define CLI_CONNECT_MS 5000
 
@@ -26,7 +29,7 @@ static const char *const USAGE =
     "  --port N      its port (default 7681)\n"
     "  --send JSON   a control message, e.g. '{\"type\":\"subscribe\",\"stride\":4}' (up to 32)\n"
     "  --frames N    stop after N decoded frames (default 10; 0 = until --seconds)\n"
-    "  --seconds S   stop after S seconds in any case (default 10)\n"
+    "  --seconds S   stop after S seconds in any case, 0.001..86400 (default 10)\n"
     "  --out FILE    write the decoded positions as SCFR: \"SCFR\", u32 strands, u32 vertices,\n"
     "                u32 frames, then the frames' float32 xyz, strand-major (strandbench codec\n"
     "                --frames reads it); frames of another shape (a groom change) are not written\n"
@@ -63,70 +66,63 @@ typedef struct cli {
     char error[CORE_ERR_MAX + 64];
 } cli;
 
+enum { OPT_HOST = 256, OPT_PORT, OPT_SEND, OPT_FRAMES, OPT_SECONDS, OPT_OUT, OPT_JSON };
+
+static const struct option options[] = {
+    { "host", required_argument, NULL, OPT_HOST },
+    { "port", required_argument, NULL, OPT_PORT },
+    { "send", required_argument, NULL, OPT_SEND },
+    { "frames", required_argument, NULL, OPT_FRAMES },
+    { "seconds", required_argument, NULL, OPT_SECONDS },
+    { "out", required_argument, NULL, OPT_OUT },
+    { "json", no_argument, NULL, OPT_JSON },
+    { "help", no_argument, NULL, 'h' },
+    { NULL, 0, NULL, 0 },
+};
+
+/* Returns 0 and fills d, or an exit status (--help prints and returns -1). */
 static int parse_args(int argc, char **argv, cli_desc *d)
 {
     memset(d, 0, sizeof *d);
     d->host = "127.0.0.1";
-    d->port = 7681;
+    d->port = NET_DEFAULT_PORT;
     d->frames = 10;
     d->seconds = 10.0;
-    for (int i = 1; i < argc; i++) {
-        const char *f = argv[i];
-        if (strcmp(f, "--help") == 0 || strcmp(f, "-h") == 0) {
+    opterr = 0;
+    int opt, index;
+    while ((opt = getopt_long(argc, argv, ":h", options, &index)) != -1) {
+        if (opt == '?' || opt == ':') return core_cli_getopt_error(PROG, opt, argv);
+        if (opt == 'h') {
             fputs(USAGE, stdout);
-            exit(0);
+            return -1;
         }
-        if (strcmp(f, "--json") == 0) {
-            d->json = true;
-            continue;
-        }
-        if (i + 1 >= argc) {
-            fprintf(stderr, "strandcastc: %s needs a value (see --help)\n", f);
-            return 2;
-        }
-        const char *v = argv[++i];
-        char *end;
-        errno = 0;
-        if (strcmp(f, "--host") == 0) {
-            d->host = v;
-        } else if (strcmp(f, "--out") == 0) {
-            d->out = v;
-        } else if (strcmp(f, "--send") == 0) {
-            if (d->nsend == CLI_MAX_SEND) {
-                fprintf(stderr, "strandcastc: at most %d --send messages\n", CLI_MAX_SEND);
-                return 2;
-            }
-            if (strlen(v) > PROTO_MAX_MESSAGE) {
-                fprintf(stderr, "strandcastc: a --send message is over %d bytes\n", PROTO_MAX_MESSAGE);
-                return 2;
-            }
+        char flag[64];
+        snprintf(flag, sizeof flag, "--%s", options[index].name);
+        const char *v = optarg;
+        unsigned long long u = 0;
+        int rc = 0;
+        switch (opt) {
+        case OPT_HOST: d->host = v; break;
+        case OPT_OUT: d->out = v; break;
+        case OPT_JSON: d->json = true; break;
+        case OPT_SEND:
+            if (d->nsend == CLI_MAX_SEND) return core_cli_bad(PROG, flag, NULL, "given more than 32 times");
+            if (strlen(v) > PROTO_MAX_MESSAGE) return core_cli_bad(PROG, flag, NULL, "message over 65536 bytes");
             d->send[d->nsend++] = v;
-        } else if (strcmp(f, "--port") == 0) {
-            long p = strtol(v, &end, 10);
-            if (errno || *end || end == v || p < 1 || p > 65535) {
-                fprintf(stderr, "strandcastc: --port wants 1..65535, not \"%s\"\n", v);
-                return 2;
-            }
-            d->port = (int)p;
-        } else if (strcmp(f, "--frames") == 0) {
-            unsigned long n = strtoul(v, &end, 10);
-            if (errno || *end || end == v || v[0] == '-' || n > 100000000ul) {
-                fprintf(stderr, "strandcastc: --frames wants 0..100000000, not \"%s\"\n", v);
-                return 2;
-            }
-            d->frames = n;
-        } else if (strcmp(f, "--seconds") == 0) {
-            double s = strtod(v, &end);
-            if (errno || *end || end == v || !(s > 0.0 && s <= 86400.0)) {
-                fprintf(stderr, "strandcastc: --seconds wants a number in (0, 86400], not \"%s\"\n", v);
-                return 2;
-            }
-            d->seconds = s;
-        } else {
-            fprintf(stderr, "strandcastc: unknown flag %s (see --help)\n", f);
-            return 2;
+            break;
+        case OPT_PORT:
+            if (!(rc = core_cli_u64(PROG, flag, v, 1, 65535, &u))) d->port = (int)u;
+            break;
+        case OPT_FRAMES:
+            if (!(rc = core_cli_u64(PROG, flag, v, 0, 100000000ull, &u))) d->frames = (unsigned long)u;
+            break;
+        case OPT_SECONDS:
+            rc = core_cli_f64(PROG, flag, v, 0.001, 86400.0, &d->seconds);
+            break;
         }
+        if (rc) return rc;
     }
+    if (optind < argc) return core_cli_bad(PROG, argv[optind], NULL, "unexpected argument (flags start with --)");
     return 0;
 }
 
@@ -377,7 +373,7 @@ int main(int argc, char **argv)
     cli c;
     memset(&c, 0, sizeof c);
     int rc = parse_args(argc, argv, &c.d);
-    if (rc) return rc;
+    if (rc) return rc < 0 ? 0 : rc;
     codec_decoder_init(&c.dec);
     rc = run(&c);
     codec_decoder_free(&c.dec);

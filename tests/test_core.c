@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "core/cli.h"
 #include "core/utf8.h"
 
 static const char *const GOOD[] = { "", "plain ascii", "caf\xc3\xa9", "\xe2\x82\xac", "\xf0\x9f\x98\x80",
@@ -58,9 +59,38 @@ static void test_utf8_repair(void **state)
     assert_string_equal(cut, "abc?!");
 }
 
+/* The programs' shared number flags: whole values in range, nothing else (signs, spaces,
+ * trailing text, NaN, infinities), each refusal with exit status 2. */
+static void test_cli_numbers(void **state)
+{
+    (void)state;
+    unsigned long long u = 7;
+    assert_int_equal(core_cli_u64("t", "--n", "0", 0, 10, &u), 0);
+    assert_int_equal(u, 0);
+    assert_int_equal(core_cli_u64("t", "--n", "10", 0, 10, &u), 0);
+    assert_int_equal(u, 10);
+    const char *bad_u[] = { "11", "-1", "+1", " 1", "1x", "", "0x5", "99999999999999999999" };
+    for (size_t i = 0; i < sizeof bad_u / sizeof bad_u[0]; i++) {
+        u = 3;
+        assert_int_equal(core_cli_u64("t", "--n", bad_u[i], 0, 10, &u), CORE_CLI_USAGE);
+        assert_int_equal(u, 3);
+    }
+    assert_int_equal(core_cli_u64("t", "--n", NULL, 0, 10, &u), CORE_CLI_USAGE);
+    double f = 2;
+    assert_int_equal(core_cli_f64("t", "--x", "0.5", 0, 1, &f), 0);
+    assert_true(f == 0.5);
+    const char *bad_f[] = { "nan", "inf", "-inf", "1.5", "-0.1", "1e999", "0.5s", "" };
+    for (size_t i = 0; i < sizeof bad_f / sizeof bad_f[0]; i++) {
+        f = 2;
+        assert_int_equal(core_cli_f64("t", "--x", bad_f[i], 0, 1, &f), CORE_CLI_USAGE);
+        assert_true(f == 2);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_cli_numbers),
         cmocka_unit_test(test_utf8_valid),
         cmocka_unit_test(test_utf8_repair),
     };
