@@ -1,14 +1,13 @@
-# web: Node unit tests of the viewer's JavaScript modules (tests/js/NAME.test.mjs, node --test).
-find_program(STRANDCAST_NODE node)
-if(NOT STRANDCAST_NODE)
-  message(FATAL_ERROR "node not found: install the Debian package 'nodejs' (or run .ci/deps)")
-endif()
-
-# the viewer's own modules (web/codec.js has its own test, registered by codec.cmake)
-set(STRANDCAST_WEB_JS_TESTS backoff camera catmull collider_mesh frames geometry interp motion net overlay panel_model pick
-    pixels rigid stats view_settings)
-foreach(name ${STRANDCAST_WEB_JS_TESTS})
-  add_test(NAME web_js_${name} COMMAND ${STRANDCAST_NODE} --test ${CMAKE_CURRENT_SOURCE_DIR}/js/${name}.test.mjs)
+# web: Node unit tests of the viewer's JavaScript modules: every tests/js/NAME.test.mjs but the
+# codec's and the protocol schema's (codec.cmake and integration.cmake register those).
+file(GLOB STRANDCAST_WEB_JS_FILES CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/js/*.test.mjs)
+foreach(f ${STRANDCAST_WEB_JS_FILES})
+  get_filename_component(file ${f} NAME)
+  string(REGEX REPLACE "\\.test\\.mjs$" "" name ${file})
+  if(name STREQUAL "codec" OR name STREQUAL "schema")
+    continue()
+  endif()
+  add_test(NAME web_js_${name} COMMAND ${STRANDCAST_NODE} --test ${f})
   # pure JavaScript: nothing for the sanitizers to check, so it runs in the release tree only
   set_tests_properties(web_js_${name} PROPERTIES LABELS "web;no_asan" TIMEOUT 120)
 endforeach()

@@ -1,0 +1,118 @@
+/* Integration tests: the real strandcastd on a free loopback port, driven by real WebSocket
+ * clients. Shared types and helpers of the scenario files (tests/it/it_*.c); the scenarios
+ * themselves are listed once, in scenarios.h. */
+#ifndef IT_H
+#define IT_H
+
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <cjson/cJSON.h>
+#include <stdbool.h>
+
+#include "codec/codec.h"
+#include "proto/proto.h"
+#include "support/daemon.h"
+#include "support/rawws.h"
+#include "wsc/wsc.h"
+
+#define SUBPROTOCOL PROTO_SUBPROTOCOL
+#define NSTRANDS 128
+#define NVERTS 8
+#define WAIT_MS 8000 /* generous: the ASan build is slow */
+#define PING_INTERVAL_S 1 /* setup_ping's --ping-interval and --ping-timeout */
+#define PING_TIMEOUT_S 3
+
+typedef struct config {
+    const char *exe;
+} config;
+
+/* What one client has decoded from its binary frames. */
+typedef struct view {
+    codec_decoder dec;
+    float *xyz;
+    size_t cap;
+    codec_frame_info info; /* of the last decoded frame */
+    uint64_t ok, bad, keys;
+    uint64_t last_seq, last_key_seq; /* of the last decoded frame and keyframe */
+    uint64_t seq_gcd, key_gcd;       /* gcd of the seq steps between decoded frames / keyframes */
+    bool first_was_key;
+    char last_error[256];
+} view;
+
+typedef struct fixture {
+    const config *cfg;
+    char dir[64];
+    char web[96], assets[96];
+    daemon_proc d;
+    wsc *w;
+    view views[8];
+    int nviews;
+} fixture;
+
+typedef struct reach_arg {
+    const uint64_t *count;
+    uint64_t n;
+} reach_arg;
+
+typedef struct time_arg {
+    view *v;
+    double t;
+} time_arg;
+
+typedef struct count_arg {
+    view *v;
+    uint32_t strands, verts;
+} count_arg;
+
+/* ---- it_support.c: fixtures and helpers shared by the scenarios (test thread) ---- */
+
+uint64_t gcd(uint64_t a, uint64_t b);
+/* wsc frame callback: decodes into the view (user) and tracks seq/keyframe steps. */
+void on_frame(wsc_conn *c, const uint8_t *data, size_t len, void *user);
+/* Writes a whole file (fails the test on error). */
+void write_file(const char *path, const void *data, size_t len);
+/* A Cem Yuksel .hair file of hairs x pts points (straight strands, tips up by `up`). */
+void write_hair(const char *path, uint32_t hairs, uint32_t pts, float up);
+/* Starts the daemon with the common flags plus extra (NULL-terminated, may be NULL) into a new
+ * fixture (*state, whose prestate is the config); teardown stops it and frees everything. */
+int setup_with(void **state, const char *const *extra);
+int setup(void **state);
+int setup_ping(void **state);
+int setup_ipv6(void **state);
+int teardown(void **state);
+/* A new client connection whose frames decode into a fresh view (*out). */
+wsc_conn *connect_view(fixture *fx, view **out);
+/* The next text message of type on c within ms (fails the test otherwise); the caller frees it. */
+cJSON *expect_msg_within(fixture *fx, wsc_conn *c, const char *type, int ms);
+cJSON *expect_msg(fixture *fx, wsc_conn *c, const char *type);
+/* Field k of o (fails when missing); as a number; as a string. */
+const cJSON *get(const cJSON *o, const char *k);
+double num(const cJSON *o, const char *k);
+const char *str(const cJSON *o, const char *k);
+/* wsc_until predicates: *count >= n (reach_arg); a frame at sim time t (time_arg); a frame of
+ * the given shape (count_arg). */
+bool counted(void *arg);
+bool at_time(void *arg);
+bool frame_shape(void *arg);
+/* Waits until v has decoded n frames / a frame at sim time t (fails the test otherwise). */
+void wait_frames(fixture *fx, view *v, uint64_t n);
+void wait_sim_time(fixture *fx, view *v, double t);
+/* Mean y of the strand tips of v's last frame. */
+double mean_tip_y(const view *v);
+/* The value of a /metrics line name (NAN when absent). */
+double metric(const char *body, const char *name);
+
+/* ---- the scenarios (it_protocol.c, it_streams.c, it_lifecycle.c, it_programs.c, it_collider.c) ---- */
+
+/* The daemon on Ratboy with its body mesh (it_collider.c); the scenario skips without the assets. */
+int setup_ratboy(void **state);
+int teardown_ratboy(void **state);
+#define IT_SCENARIO(name, su, td, timeout) void test_##name(void **state);
+#include "scenarios.h"
+#undef IT_SCENARIO
+
+#endif

@@ -1,0 +1,185 @@
+/* Integration tests: listening, shutdown on signals, and clients that never read or never answer pings. */
+#include <pthread.h>
+#include <signal.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "it.h"
+
+void test_listen_ipv6(void **state)
+{
+    fixture *fx = *state;
+    view v = { 0 };
+    codec_decoder_init(&v.dec);
+    wsc_conn *c6 = wsc_connect_host(fx->w, "::1", fx->d.port, SUBPROTOCOL, on_frame, &v);
+    assert_true(wsc_wait_open(fx->w, c6, WAIT_MS));
+    cJSON_Delete(expect_msg(fx, c6, "hello"));
+    wait_frames(fx, &v, 3);
+    wsc_conn *c4 = wsc_connect(fx->w, fx->d.port, SUBPROTOCOL, NULL, NULL);
+    assert_false(wsc_wait_open(fx->w, c4, 2000)); /* nothing on 127.0.0.1 */
+    codec_decoder_free(&v.dec);
+    free(v.xyz);
+}
+
+/* Without --listen and --port the daemon serves 127.0.0.1:7681 and prints that URL. */
+void test_default_address(void **state)
+{
+    const config *cfg = *state;
+    daemon_proc d;
+    char *argv[] = { (char *)cfg->exe, "--backend", "cpu", "--strands", "64", "--verts", "4", "--threads", "1", NULL };
+    assert_int_equal(daemon_start(&d, cfg->exe, argv, 20000), 0);
+    assert_int_equal(d.port, 7681); /* the documented default */
+    http_reply r;
+    assert_int_equal(http_get(d.port, "/metrics", &r), 0);
+    assert_int_equal(r.status, 200);
+    http_reply_free(&r);
+    assert_int_equal(daemon_stop(&d, SIGTERM, 15000), 0);
+}
+
+/* SIGTERM or SIGINT: every client is closed with 1001 and the daemon exits 0. */
+static void signal_closes_clients(fixture *fx, int sig)
+{
+    view *v;
+    wsc_conn *a = connect_view(fx, &v), *b = connect_view(fx, NULL);
+    wait_frames(fx, v, 5);
+    kill(fx->d.pid, sig);
+    assert_int_equal(wsc_wait_closed(fx->w, a, WAIT_MS), 1001);
+    assert_int_equal(wsc_wait_closed(fx->w, b, WAIT_MS), 1001);
+    assert_string_equal(wsc_close_reason(a), "server shutting down");
+    /* exit status 0: a clean shutdown (the sanitizer build also fails on any leak) */
+    assert_int_equal(daemon_stop(&fx->d, 0, 15000), 0);
+}
+
+void test_sigterm_closes_clients(void **state) { signal_closes_clients(*state, SIGTERM); }
+
+void test_sigint_closes_clients(void **state) { signal_closes_clients(*state, SIGINT); }
+
+void test_reader_that_never_reads_is_closed(void **state)
+{
+    fixture *fx = *state;
+    view *watch;
+    connect_view(fx, &watch);
+    wait_frames(fx, watch, 2);
+    /* a client floods requests and never reads: its replies pile up in a bounded queue,
+     * then the server gives up on it (1008) while everyone else keeps streaming */
+    int fd = rawws_open(fx->d.port, SUBPROTOCOL);
+    assert_true(fd >= 0);
+    int small = 4096;
+    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+    static const char req[] = "{\"type\":\"get_params\"}";
+    for (int i = 0; i < 3000; i++)
+        if (rawws_send(fd, 1, req, sizeof req - 1, true) != 0) break;
+    uint64_t before = watch->ok;
+    wsc_run(fx->w, 1500);
+    assert_int_equal(rawws_close_code(fd, WAIT_MS), 1008);
+    rawws_free(fd);
+    wait_frames(fx, watch, before + 10);
+    assert_int_equal(watch->bad, 0);
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static double clients_now(fixture *fx)
+{
+    http_reply r;
+    assert_int_equal(http_get(fx->d.port, "/metrics", &r), 0);
+    double n = metric(r.body, "strandcast_clients");
+    http_reply_free(&r);
+    return n;
+}
+
+/* A raw WebSocket client on its own thread that reads every frame and sends a request every
+ * 0.5 s but never answers a ping: when the server pinged it first, and when and how the
+ * connection ended. */
+typedef struct no_pong_client {
+    int fd;
+    double t_open, t_first_ping, t_end;
+    int pings, end; /* end: 0 EOF or reset, 8 close frame, -1 still open at the deadline */
+    atomic_bool done;
+} no_pong_client;
+
+static void *no_pong_run(void *arg)
+{
+    no_pong_client *r = arg;
+    static const char req[] = "{\"type\":\"get_params\"}";
+    double next_req = 0;
+    int code = 0, k;
+    do {
+        double t = now_s() - r->t_open;
+        if (t >= next_req) {
+            rawws_send(r->fd, 1, req, sizeof req - 1, true); /* fails once the server hung up: then read says so */
+            next_req += 0.5;
+        }
+        k = rawws_next_control(r->fd, 100, &code);
+        if (k == 9 && !r->pings++) r->t_first_ping = now_s() - r->t_open;
+    } while (k == 9 || k == 10 || (k == -1 && now_s() - r->t_open < PING_TIMEOUT_S + 10));
+    r->end = k;
+    r->t_end = now_s() - r->t_open;
+    atomic_store(&r->done, true);
+    return NULL;
+}
+
+/* Runs the client loop (the well-behaved client answers pings inside it) until time t. */
+static void run_until(fixture *fx, double t)
+{
+    while (now_s() < t) wsc_run(fx->w, 50);
+}
+
+/* The daemon runs with --ping-interval 1 --ping-timeout 3. */
+void test_ping_drops_silent_client(void **state)
+{
+    fixture *fx = *state;
+    view *v;
+    wsc_conn *good = connect_view(fx, &v);
+    wait_frames(fx, v, 2);
+    /* two clients never answer pings: one reads and sends requests, the other neither reads nor writes */
+    int mute = rawws_open(fx->d.port, SUBPROTOCOL);
+    no_pong_client r = { .fd = rawws_open(fx->d.port, SUBPROTOCOL), .t_first_ping = -1 };
+    r.t_open = now_s();
+    assert_true(mute >= 0 && r.fd >= 0);
+    pthread_t th;
+    assert_int_equal(pthread_create(&th, NULL, no_pong_run, &r), 0);
+    run_until(fx, r.t_open + PING_TIMEOUT_S - 1);
+    double clients_before = clients_now(fx);
+    while (!atomic_load(&r.done)) wsc_run(fx->w, 50);
+    pthread_join(th, NULL);
+    /* nobody dropped a second before the timeout */
+    if (clients_before != 3) fail_msg("%g clients 1 s before the ping timeout (want 3)", clients_before);
+    /* pinged after the interval without a pong; hung up after the timeout without one, not before
+     * (its requests do not count) */
+    if (r.pings < 1 || r.t_first_ping < PING_INTERVAL_S - 0.3 || r.t_first_ping > PING_TIMEOUT_S - 0.5)
+        fail_msg("client that never pongs: %d pings, the first at %.2f s (want one after ~%d s)", r.pings, r.t_first_ping,
+                 PING_INTERVAL_S);
+    if (r.end != 0 || r.t_end < PING_TIMEOUT_S - 0.3 || r.t_end > PING_TIMEOUT_S + 2.5)
+        fail_msg("client that never pongs: %s after %.2f s (want the connection closed after ~%d s)",
+                 r.end == -1 ? "still open" : r.end == 8 ? "close frame" : "closed", r.t_end, PING_TIMEOUT_S);
+    /* the well-behaved client (lws answers pings) still streams at twice the timeout */
+    run_until(fx, r.t_open + 2 * PING_TIMEOUT_S - 1);
+    uint64_t n0 = v->ok;
+    run_until(fx, r.t_open + 2 * PING_TIMEOUT_S);
+    assert_true(wsc_is_open(good));
+    if (v->ok - n0 < 10)
+        fail_msg("the well-behaved client got %llu frames in its last second", (unsigned long long)(v->ok - n0));
+    assert_int_equal(v->bad, 0);
+    /* the mute one was dropped too: only the well-behaved client is left */
+    double clients_after = clients_now(fx);
+    if (clients_after != 1) fail_msg("%g clients at twice the ping timeout (want 1)", clients_after);
+    int code, k;
+    do k = rawws_next_control(mute, WAIT_MS, &code);
+    while (k == 9);
+    assert_int_equal(k, 0);
+    rawws_free(mute);
+    rawws_free(r.fd);
+}
+
+/* Runs exe with args to completion; returns its exit status and what it printed (both streams). */

@@ -1,0 +1,158 @@
+/* Integration tests: the programs' flags (strandcastd) and the command-line client (strandcastc). */
+#include <math.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "it.h"
+
+static int run_capture(const char *exe, const char *const *args, char *out, size_t cap)
+{
+    int fds[2];
+    assert_int_equal(pipe(fds), 0);
+    pid_t pid = fork();
+    if (pid == 0) {
+        dup2(fds[1], 1);
+        dup2(fds[1], 2);
+        close(fds[0]);
+        char *argv[32];
+        int n = 0;
+        argv[n++] = (char *)exe;
+        for (; args[n - 1] && n < 31; n++) argv[n] = (char *)args[n - 1];
+        argv[n] = NULL;
+        execv(exe, argv);
+        _exit(127);
+    }
+    close(fds[1]);
+    size_t len = 0;
+    ssize_t r;
+    while ((r = read(fds[0], out + len, cap - 1 - len)) > 0) len += (size_t)r;
+    out[len] = '\0';
+    close(fds[0]);
+    int status;
+    waitpid(pid, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+void test_flags(void **state)
+{
+    const config *cfg = *state;
+    static char out[16384];
+    const char *help[] = { "--help", NULL };
+    assert_int_equal(run_capture(cfg->exe, help, out, sizeof out), 0);
+    static const char *const flags[] = { "--groom", "--collider", "--strands", "--verts", "--seed", "--backend", "--device", "--threads",
+                                         "--listen", "--port", "--web", "--assets", "--rate", "--max-error",
+                                         "--keyframe-interval", "--client-buffer", "--ping-interval", "--ping-timeout",
+                                         "--no-net", "--steps", "default" };
+    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++)
+        if (!strstr(out, flags[i])) fail_msg("--help does not mention %s", flags[i]);
+    static const char *const bad[][4] = {
+        { "--strands", "0", NULL }, { "--strands", "12x", NULL }, { "--bogus", NULL, NULL }, { "--port", "70000", NULL },
+        { "--port", NULL, NULL },   { "--backend", "gpu", NULL }, { "--max-error", "1", NULL }, { "--rate", "nan", NULL },
+        { "--web", "/nonexistent-dir", NULL }, { "--no-net=1", NULL, NULL }, { "--steps", "-1", NULL },
+        { "--ping-interval", "0", NULL }, { "--ping-interval", "65535", NULL }, { "--ping-timeout", "65536", NULL },
+        { "--ping-timeout", "20", NULL }, { "--ping-timeout=5", "--ping-interval", "5" }, { "--ping-timeout", "x", NULL },
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        int rc = run_capture(cfg->exe, bad[i], out, sizeof out);
+        char name[32];
+        snprintf(name, sizeof name, "%.*s", (int)strcspn(bad[i][0], "="), bad[i][0]);
+        if (rc != 2 || !strstr(out, name)) fail_msg("%s %s: exit %d, said: %s", bad[i][0], bad[i][1] ? bad[i][1] : "", rc, out);
+    }
+    const char *missing[] = { "--no-net", "--groom", "/nonexistent/x.tfx", NULL };
+    assert_int_equal(run_capture(cfg->exe, missing, out, sizeof out), 1);
+    assert_non_null(strstr(out, "x.tfx"));
+    /* a groom file over the vertex limit once resampled: refused at start-up as by set_groom */
+    char dir[64], big[96];
+    snprintf(dir, sizeof dir, "/tmp/strandcast-big-XXXXXX");
+    assert_non_null(mkdtemp(dir));
+    snprintf(big, sizeof big, "%s/big.hair", dir);
+    write_hair(big, 70000, 2, 0.0f);
+    const char *too_big[] = { "--no-net", "--groom", big, "--verts", "32", NULL };
+    int rc = run_capture(cfg->exe, too_big, out, sizeof out);
+    unlink(big);
+    rmdir(dir);
+    if (rc != 1 || !strstr(out, "2240000")) fail_msg("a 70,000 x 32 groom file: exit %d, said: %s", rc, out);
+    /* a collision mesh that cannot be read or is malformed: exit 1 with the loader's message */
+    const char *no_mesh[] = { "--no-net", "--collider", "/nonexistent/body.obj", NULL };
+    rc = run_capture(cfg->exe, no_mesh, out, sizeof out);
+    if (rc != 1 || !strstr(out, "body.obj")) fail_msg("a missing --collider: exit %d, said: %s", rc, out);
+    char open_mesh[96];
+    snprintf(dir, sizeof dir, "/tmp/strandcast-mesh-XXXXXX");
+    assert_non_null(mkdtemp(dir));
+    snprintf(open_mesh, sizeof open_mesh, "%s/open.obj", dir);
+    write_file(open_mesh, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", 32);
+    const char *bad_mesh[] = { "--no-net", "--collider", open_mesh, NULL };
+    rc = run_capture(cfg->exe, bad_mesh, out, sizeof out);
+    unlink(open_mesh);
+    rmdir(dir);
+    if (rc != 1 || !strstr(out, "open.obj")) fail_msg("an open --collider mesh: exit %d, said: %s", rc, out);
+    const char *empty_mesh[] = { "--collider=", NULL };
+    assert_int_equal(run_capture(cfg->exe, empty_mesh, out, sizeof out), 2);
+    const char *run[] = { "--no-net", "--steps", "5", "--backend", "cpu", "--strands", "16", "--verts", "4",
+                          "--threads", "1", NULL };
+    assert_int_equal(run_capture(cfg->exe, run, out, sizeof out), 0);
+    assert_non_null(strstr(out, "stopped after 5 steps"));
+}
+
+/* Counts the occurrences of needle in hay. */
+static int count_of(const char *hay, const char *needle)
+{
+    int n = 0;
+    for (const char *p = strstr(hay, needle); p; p = strstr(p + 1, needle)) n++;
+    return n;
+}
+
+/* strandcastc, the command-line client (built beside strandcastd): it subscribes, waits for the
+ * reply, decodes frames with the C decoder, prints them and records them as SCFR; bad flags
+ * exit 2 and a port nobody listens on exits 1. */
+void test_cli_client(void **state)
+{
+    fixture *fx = *state;
+    char exe[1024], port[16], rec[160];
+    snprintf(exe, sizeof exe, "%s", fx->cfg->exe);
+    char *slash = strrchr(exe, '/');
+    snprintf(slash ? slash + 1 : exe, sizeof exe - (size_t)(slash ? slash + 1 - exe : 0), "strandcastc");
+    snprintf(port, sizeof port, "%d", fx->d.port);
+    snprintf(rec, sizeof rec, "%s/rec.scfr", fx->dir);
+    const char *args[] = { "--port", port, "--frames", "12", "--json", "--out", rec, "--send",
+                           "{\"type\":\"subscribe\",\"stride\":4,\"max_error\":0.001,\"id\":\"s\"}", NULL };
+    static char out[1 << 17];
+    int rc = run_capture(exe, args, out, sizeof out);
+    if (rc != 0) fail_msg("strandcastc exited %d:\n%s", rc, out);
+    if (!strstr(out, "{\"cli\":\"hello\",\"server\":\"strandcastd\"") || !strstr(out, "\"strands\":128,\"verts\":8,"))
+        fail_msg("no hello summary:\n%s", out);
+    const char *sub = strstr(out, "{\"type\":\"subscribed\",\"id\":\"s\"");
+    const char *first = strstr(out, "{\"cli\":\"frame\",\"frame\":0,");
+    if (!sub || !first || first < sub) fail_msg("frames shown before the subscribe's reply:\n%s", out);
+    assert_true(strstr(first, "\"keyframe\":true") < strchr(first, '\n')); /* the new stream starts with a keyframe */
+    if (count_of(out, "{\"cli\":\"frame\"") != 12 || count_of(out, "\"strands\":32,\"strands_total\":128,\"verts\":8,\"stride\":4,") != 12)
+        fail_msg("want 12 frames of every 4th strand:\n%s", out);
+    if (!strstr(out, "\"frames\":12,") || !strstr(out, "\"recorded\":12,") || !strstr(out, "\"ok\":true}"))
+        fail_msg("summary:\n%s", out);
+    /* the recording: SCFR header, then 12 frames of 32 x 8 finite positions near the head */
+    size_t len;
+    FILE *fp = fopen(rec, "rb");
+    assert_non_null(fp);
+    static float xyz[16 + 12 * 32 * 8 * 3];
+    len = fread(xyz, 1, sizeof xyz, fp);
+    fclose(fp);
+    assert_int_equal(len, 16 + 12 * 32 * 8 * 3 * sizeof(float));
+    uint32_t h[4];
+    memcpy(h, xyz, sizeof h);
+    assert_memory_equal(h, "SCFR", 4);
+    assert_true(h[1] == 32 && h[2] == 8 && h[3] == 12);
+    for (size_t i = 4; i < len / sizeof(float); i++)
+        if (!(fabsf(xyz[i]) < 1.0f)) fail_msg("recorded coordinate %zu is %g", i - 4, (double)xyz[i]);
+
+    const char *bad[] = { "--port", "0", NULL };
+    assert_int_equal(run_capture(exe, bad, out, sizeof out), 2);
+    const char *bad2[] = { "--frames", "-1", NULL };
+    assert_int_equal(run_capture(exe, bad2, out, sizeof out), 2);
+    const char *nobody[] = { "--port", "1", "--frames", "1", NULL };
+    rc = run_capture(exe, nobody, out, sizeof out);
+    if (rc != 1 || !strstr(out, "cannot connect")) fail_msg("no daemon: exit %d:\n%s", rc, out);
+}
