@@ -1,6 +1,6 @@
 /* Tests for the app's pure pieces: the command mailbox (order, coalescing, bound), the preset
  * head animations and the blend between them, and the frame streams (rate decimation, sharing, the full-table fallback,
- * the publish schedule). The pipeline itself is exercised end to end by tests/it_net.c. */
+ * the publish schedule). The pipeline itself is exercised end to end by tests/it/. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>

@@ -1,5 +1,5 @@
 /* Tests for server/net's pure parts (subprotocol lists, refcounted buffers);
- * the server itself is exercised end to end by tests/it_net.c. */
+ * the server itself is exercised end to end by tests/it/. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>

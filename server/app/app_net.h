@@ -11,7 +11,7 @@
 #include "app_outbox.h"
 #include "app_stats.h"
 
-/* What the net callbacks need; borrowed from app.c, which outlives the net thread. */
+/* What the net callbacks need; borrowed from app_run.c, which outlives the net thread. */
 typedef struct app_gate {
     const proto_parser *parser;
     app_mailbox *mb;

@@ -1,7 +1,7 @@
 /* app: the sim thread's world: the simulation and its live groom, parameters and head
  * animation, the run state (paused, steps owed), the streams and clients, the groom loader and
  * the pacing windows. The sim thread owns all of it; it borrows the shared pieces (outbox,
- * stats board, mailbox, asset list, parser tables) that app.c owns. */
+ * stats board, mailbox, asset list, parser tables) that app_run.c owns. */
 #ifndef APP_WORLD_H
 #define APP_WORLD_H
 
@@ -50,7 +50,7 @@ typedef struct app_world {
     app_loader loader;        /* the set_groom being loaded */
     app_pace pace;
 
-    /* borrowed from app.c */
+    /* borrowed from app_run.c */
     app_outbox *out;
     app_stats_board *board;
     app_mailbox *mb;

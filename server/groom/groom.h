@@ -66,7 +66,8 @@ const char *groom_style_name(groom_style s);
  * it. Pure, any thread. */
 core_status groom_load_tfx(const void *data, size_t size, uint32_t nverts, core_groom *out, core_err *err);
 
-/* Loads a Cem Yuksel .hair file image (layout in shared/DESIGN.md) of size bytes; the file
+/* Loads a Cem Yuksel .hair file image (128-byte "HAIR" header, then the arrays its flags name:
+ * segments, points, thickness, transparency, colours) of size bytes; the file
  * size must equal what the header implies. nverts: target vertex count per strand, or 0 =
  * keep the file's count when every strand has the same number of points (and at most
  * GROOM_MAX_VERTS), else 32. Strands are resampled arc-length uniform; positions are taken
