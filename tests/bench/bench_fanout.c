@@ -12,7 +12,9 @@
 #include <unistd.h>
 
 #include "bench.h"
+#include "core/cli.h"
 #include "fanout_rx.h"
+#include "proto/proto.h"
 #include "support/daemon.h"
 #include "wsc/wsc.h"
 
@@ -111,85 +113,104 @@ static double metric(int port, const char *name)
     return v;
 }
 
+#define PROG "strandbench fanout"
+
+static const char *const FANOUT_USAGE =
+    "usage: strandbench fanout [--clients 1,10,100] [--seconds S] [--warmup S] [--rate HZ] [--server-rate HZ]\n"
+    "                          [--strands N] [--verts N] [--daemon PATH] [--json]\n"
+    "Starts strandcastd (default scene unless --strands/--verts) on a free loopback port, connects N\n"
+    "WebSocket clients from one thread (lean raw-socket receivers on one epoll loop; each subscribes\n"
+    "with max_rate HZ, default 30; 0 = every frame), streams for the warm-up (default 6 s: the hair\n"
+    "settles from its rest pose, the costliest seconds of a run) and then measures over S seconds\n"
+    "(default 5): sim steps/s, frames per client per second, server CPU\n"
+    "(fraction of one core, /proc; the net thread's share and its CPU per frame delivered to one client\n"
+    "are robust to other load). A 0-client run first gives the sim's baseline on this machine.\n"
+    "--server-rate passes --rate to the daemon (frames it publishes per second; default 60).\n"
+    "--params '{\"sph\":false}' sends set_params first (e.g. to separate solver cost from fan-out cost).\n"
+    "--animate PRESET starts a head-motion preset first (nod, shake, circle, headbang, sway; default: the\n"
+    "head stays at rest, and once the hair has settled the delta frames are small).";
+
+enum { OPT_CLIENTS = 256, OPT_SECONDS, OPT_WARMUP, OPT_RATE, OPT_SERVER_RATE, OPT_STRANDS, OPT_VERTS, OPT_ANIMATE,
+       OPT_PARAMS, OPT_DAEMON, OPT_JSON };
+
+static const struct option fanout_options[] = {
+    { "clients", required_argument, NULL, OPT_CLIENTS }, { "seconds", required_argument, NULL, OPT_SECONDS },
+    { "warmup", required_argument, NULL, OPT_WARMUP },   { "rate", required_argument, NULL, OPT_RATE },
+    { "server-rate", required_argument, NULL, OPT_SERVER_RATE },
+    { "strands", required_argument, NULL, OPT_STRANDS }, { "verts", required_argument, NULL, OPT_VERTS },
+    { "animate", required_argument, NULL, OPT_ANIMATE }, { "params", required_argument, NULL, OPT_PARAMS },
+    { "daemon", required_argument, NULL, OPT_DAEMON },   { "json", no_argument, NULL, OPT_JSON },
+    { "help", no_argument, NULL, 'h' },                  { NULL, 0, NULL, 0 },
+};
+
+/* --clients: a comma-separated list of counts in [1, 1000]. */
+static int parse_clients(const char *flag, const char *v, fanout_opts *o)
+{
+    o->ncases = 0;
+    const char *p = v;
+    while (*p) {
+        char item[16];
+        size_t n = strcspn(p, ",");
+        unsigned long long u;
+        snprintf(item, sizeof item, "%.*s", (int)(n < sizeof item ? n : sizeof item - 1), p);
+        if (o->ncases == MAX_CASES || n >= sizeof item)
+            return core_cli_bad(PROG, flag, v, "expected at most 8 counts, comma-separated");
+        int rc = core_cli_u64(PROG, flag, item, 1, 1000, &u);
+        if (rc) return rc;
+        o->clients[o->ncases++] = (int)u;
+        p += n + (p[n] == ',');
+    }
+    return o->ncases ? 0 : core_cli_bad(PROG, flag, v, "expected a count");
+}
+
+/* 0 and fills o; 1 after --help; or the bad-flag exit status. */
 static int parse_opts(int argc, char **argv, fanout_opts *o)
 {
     o->ncases = 0;
     o->seconds = 5;
     o->warmup = 6;
     o->max_rate = 30;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-        if (strcmp(a, "--json") == 0) {
-            o->json = true;
-            continue;
-        }
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            puts("usage: strandbench fanout [--clients 1,10,100] [--seconds S] [--warmup S] [--rate HZ] [--server-rate HZ]\n"
-                 "                          [--strands N] [--verts N] [--daemon PATH] [--json]\n"
-                 "Starts strandcastd (default scene unless --strands/--verts) on a free loopback port, connects N\n"
-                 "WebSocket clients from one thread (lean raw-socket receivers on one epoll loop; each subscribes\n"
-                 "with max_rate HZ, default 30; 0 = every frame), streams for the warm-up (default 6 s: the hair\n"
-                 "settles from its rest pose, the costliest seconds of a run) and then measures over S seconds\n"
-                 "(default 5): sim steps/s, frames per client per second, server CPU\n"
-                 "(fraction of one core, /proc; the net thread's share and its CPU per frame delivered to one client\n"
-                 "are robust to other load). A 0-client run first gives the sim's baseline on this machine.\n"
-                 "--server-rate passes --rate to the daemon (frames it publishes per second; default 60).\n"
-                 "--params '{\"sph\":false}' sends set_params first (e.g. to separate solver cost from fan-out cost).\n"
-                 "--animate PRESET starts a head-motion preset first (nod, shake, circle, headbang, sway; default: the\n"
-                 "head stays at rest, and once the hair has settled the delta frames are small).");
+    optind = 1;
+    opterr = 0;
+    int opt, index;
+    while ((opt = getopt_long(argc, argv, ":h", fanout_options, &index)) != -1) {
+        if (opt == '?' || opt == ':') return core_cli_getopt_error(PROG, opt, argv);
+        if (opt == 'h') {
+            puts(FANOUT_USAGE);
             return 1;
         }
-        if (!v) {
-            fprintf(stderr, "fanout: %s needs a value\n", a);
-            return 2;
-        }
-        i++;
-        if (strcmp(a, "--clients") == 0) {
-            char *end;
-            const char *p = v;
-            while (*p && o->ncases < MAX_CASES) {
-                long n = strtol(p, &end, 10);
-                if (end == p || n < 1 || n > 1000) {
-                    fprintf(stderr, "fanout: --clients wants numbers in [1, 1000], got %s\n", v);
-                    return 2;
-                }
-                o->clients[o->ncases++] = (int)n;
-                p = *end == ',' ? end + 1 : end;
-                if (*end && *end != ',') {
-                    fprintf(stderr, "fanout: bad --clients list %s\n", v);
-                    return 2;
-                }
-            }
-        } else if (strcmp(a, "--seconds") == 0) {
-            o->seconds = atof(v);
-            if (!(o->seconds >= 1 && o->seconds <= 600)) return fprintf(stderr, "fanout: --seconds in [1, 600]\n"), 2;
-        } else if (strcmp(a, "--warmup") == 0) {
-            o->warmup = atof(v);
-            if (!(o->warmup >= 0 && o->warmup <= 600)) return fprintf(stderr, "fanout: --warmup in [0, 600]\n"), 2;
-        } else if (strcmp(a, "--rate") == 0) {
-            o->max_rate = atof(v);
-            if (!(o->max_rate >= 0 && o->max_rate <= 240)) return fprintf(stderr, "fanout: --rate in [0, 240]\n"), 2;
-        } else if (strcmp(a, "--server-rate") == 0) {
-            o->server_rate = atof(v);
-            if (!(o->server_rate >= 1 && o->server_rate <= 1000)) return fprintf(stderr, "fanout: --server-rate in [1, 1000]\n"), 2;
-        } else if (strcmp(a, "--strands") == 0) {
-            o->strands = atoi(v);
-        } else if (strcmp(a, "--verts") == 0) {
-            o->verts = atoi(v);
-        } else if (strcmp(a, "--animate") == 0) {
+        char flag[32];
+        snprintf(flag, sizeof flag, "--%s", fanout_options[index].name);
+        const char *v = optarg;
+        unsigned long long u = 0;
+        int rc = 0;
+        switch (opt) {
+        case OPT_JSON: o->json = true; break;
+        case OPT_CLIENTS: rc = parse_clients(flag, v, o); break;
+        case OPT_SECONDS: rc = core_cli_f64(PROG, flag, v, 1, 600, &o->seconds); break;
+        case OPT_WARMUP: rc = core_cli_f64(PROG, flag, v, 0, 600, &o->warmup); break;
+        case OPT_RATE: rc = core_cli_f64(PROG, flag, v, 0, 240, &o->max_rate); break;
+        case OPT_SERVER_RATE: rc = core_cli_f64(PROG, flag, v, 1, 1000, &o->server_rate); break;
+        case OPT_STRANDS:
+            if (!(rc = core_cli_u64(PROG, flag, v, 1, PROTO_MAX_STRANDS, &u))) o->strands = (int)u;
+            break;
+        case OPT_VERTS:
+            if (!(rc = core_cli_u64(PROG, flag, v, 2, PROTO_MAX_VERTS, &u))) o->verts = (int)u;
+            break;
+        case OPT_ANIMATE:
             if (strlen(v) > 32 || strspn(v, "abcdefghijklmnopqrstuvwxyz") != strlen(v))
-                return fprintf(stderr, "fanout: --animate wants a preset name\n"), 2;
+                return core_cli_bad(PROG, flag, v, "expected a preset name");
             o->animate = v;
-        } else if (strcmp(a, "--params") == 0) {
-            if (v[0] != '{' || strlen(v) > 1000) return fprintf(stderr, "fanout: --params wants a JSON object\n"), 2;
+            break;
+        case OPT_PARAMS:
+            if (v[0] != '{' || strlen(v) > 1000) return core_cli_bad(PROG, flag, v, "expected a JSON object");
             o->params = v;
-        } else if (strcmp(a, "--daemon") == 0) {
-            o->daemon = v;
-        } else {
-            fprintf(stderr, "fanout: unknown option %s\n", a);
-            return 2;
+            break;
+        case OPT_DAEMON: o->daemon = v; break;
         }
+        if (rc) return rc;
     }
+    if (optind < argc) return core_cli_bad(PROG, argv[optind], NULL, "unexpected argument (flags start with --)");
     if (!o->ncases) {
         o->clients[0] = 1, o->clients[1] = 10, o->clients[2] = 100;
         o->ncases = 3;
