@@ -154,7 +154,7 @@ static int parse_clients(const char *flag, const char *v, fanout_opts *o)
         unsigned long long u;
         snprintf(item, sizeof item, "%.*s", (int)(n < sizeof item ? n : sizeof item - 1), p);
         if (o->ncases == MAX_CASES || n >= sizeof item)
-            return core_cli_bad(PROG, flag, v, "expected at most 8 counts, comma-separated");
+            return core_cli_bad(PROG, flag, v, "expected at most 16 counts, comma-separated");
         int rc = core_cli_u64(PROG, flag, item, 1, 1000, &u);
         if (rc) return rc;
         o->clients[o->ncases++] = (int)u;
