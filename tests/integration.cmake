@@ -10,12 +10,17 @@ add_dependencies(it_net strandcastd strandcastc)
 set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/it/scenarios.h)
 file(STRINGS ${CMAKE_CURRENT_SOURCE_DIR}/it/scenarios.h IT_SCENARIOS REGEX "^IT_SCENARIO\\(")
 foreach(line ${IT_SCENARIOS})
-  if(NOT line MATCHES "^IT_SCENARIO\\(([a-z0-9_]+), *[A-Za-z0-9_]+, *[A-Za-z0-9_]+, *([0-9]+)\\)$")
+  if(NOT line MATCHES "^IT_SCENARIO\\(([a-z0-9_]+), *[A-Za-z0-9_]+, *[A-Za-z0-9_]+, *([0-9]+), *\"([a-z_ ]+)\"\\)$")
     message(FATAL_ERROR "tests/it/scenarios.h: cannot read \"${line}\"")
   endif()
-  add_test(NAME integration_${CMAKE_MATCH_1} COMMAND it_net $<TARGET_FILE:strandcastd> test_${CMAKE_MATCH_1})
-  set_tests_properties(integration_${CMAKE_MATCH_1} PROPERTIES TIMEOUT ${CMAKE_MATCH_2} LABELS integration
+  set(name integration_${CMAKE_MATCH_1})
+  string(REPLACE " " ";" labels "${CMAKE_MATCH_3}")
+  add_test(NAME ${name} COMMAND it_net $<TARGET_FILE:strandcastd> test_${CMAKE_MATCH_1})
+  set_tests_properties(${name} PROPERTIES TIMEOUT ${CMAKE_MATCH_2} LABELS "${labels}"
                        ENVIRONMENT "STRANDCAST_ASSETS=${PROJECT_SOURCE_DIR}/../shared/assets")
+  if("serial" IN_LIST labels) # a timing bound: nothing else runs beside it
+    set_tests_properties(${name} PROPERTIES RUN_SERIAL TRUE)
+  endif()
 endforeach()
 
 # The JSON Schemas in proto/schema against sample messages and the real server (Node + ajv + ws).

@@ -42,6 +42,8 @@ static bool make_job(app_world *w, uint32_t client, const proto_msg *m, app_load
     }
     memset(j, 0, sizeof *j);
     j->verts = verts;
+    j->sim = (sim_desc){ .backend = w->backend, .threads = w->d->threads, .device = w->d->device };
+    j->params = w->params;
     if (m->u.set_groom.is_file) {
         snprintf(j->groom_path, sizeof j->groom_path, "%s/%s", w->d->assets_dir, as->files[fi]);
         j->label = as->files[fi];
@@ -83,36 +85,27 @@ void app_cmd_set_groom(app_world *w, uint32_t client, const proto_msg *m)
     if (app_loader_start(l, w->mb, &err) != CORE_OK) refuse(w, client, m, PROTO_ERR_FAILED, "", err.msg);
 }
 
-/* Makes g (taken over on success) the live groom with a new simulation; false after replying
- * the error. */
-static bool swap_groom(app_world *w, app_groom *g, uint32_t client, const proto_msg *m)
+/* Makes the loaded groom and its simulation (taken over from l) the live ones, with the
+ * parameters, head pose and streams of now; pointer moves and a reset, no allocation. */
+static void swap_groom(app_world *w, app_loader *l)
 {
     core_err err;
-    sim fresh;
-    sim_desc sd = { .backend = w->d->backend, .threads = w->d->threads, .device = w->d->device };
-    if (sim_create(&fresh, &sd, &g->g, &w->params, &err) != CORE_OK) {
-        app_reply_fail(w->out, client, &m->id, PROTO_ERR_FAILED, "", err.msg);
-        return false;
-    }
-    size_t n = (size_t)g->g.nstrands * g->g.nverts * 3;
-    float *xyz = malloc(n * sizeof *xyz);
-    if (!xyz) {
-        sim_destroy(&fresh);
-        app_reply_fail(w->out, client, &m->id, PROTO_ERR_FAILED, "", "out of memory");
-        return false;
-    }
-    sim_destroy(&w->sim);
-    w->sim = fresh;
+    if (sim_set_params(&l->sim, &w->params, &err) != CORE_OK) /* validated when they were set */
+        core_log(CORE_LOG_ERROR, "app", "the new groom's simulation refused the current parameters: %s", err.msg);
+    sim old = w->sim;
+    w->sim = l->sim;
+    memset(&l->sim, 0, sizeof l->sim);
     free(w->xyz);
-    w->xyz = xyz;
+    w->xyz = l->xyz;
+    l->xyz = NULL;
     app_groom_free(&w->groom);
-    w->groom = *g;
-    memset(g, 0, sizeof *g);
+    w->groom = l->g;
+    memset(&l->g, 0, sizeof l->g);
     sim_set_motion(&w->sim, app_anim_pose(&w->anim));
     app_world_reset(w);
     app_streams_regroom(&w->streams, w->groom.g.nstrands, w->groom.g.nverts);
     w->dirty = true;
-    return true;
+    sim_destroy(&old);
 }
 
 void app_cmd_groom_poll(app_world *w)
@@ -126,17 +119,16 @@ void app_cmd_groom_poll(app_world *w)
     } else {
         done(w); /* before the replies: a client may send the next set_groom on seeing them */
         unsigned long long t0 = core_now_ns();
-        if (swap_groom(w, &l->g, client, m)) {
-            app_groom_publish_mesh(w->out->net, &w->groom); /* before the groom message that names it */
-            core_log(CORE_LOG_INFO, "app",
-                     "client %u: groom %s, %u strands x %u vertices (load %.0f ms), collider %s (load %.0f ms, grid %.0f ms); "
-                     "off the sim thread %.0f ms, swap on it %.1f ms",
-                     client, w->groom.source, w->groom.g.nstrands, w->groom.g.nverts, l->groom_ms,
-                     w->groom.collider[0] ? w->groom.collider : "none", w->groom.mesh_ms, w->groom.sdf_ms, l->total_ms,
-                     (double)(core_now_ns() - t0) / 1e6);
-            app_reply_ok(w->out, client, m);
-            app_send(w->out, NET_ALL, proto_build_groom(&w->groom.json), 0);
-        }
+        swap_groom(w, l);
+        app_groom_publish_mesh(w->out->net, &w->groom); /* before the groom message that names it */
+        core_log(CORE_LOG_INFO, "app",
+                 "client %u: groom %s, %u strands x %u vertices (load %.0f ms), collider %s (load %.0f ms, grid %.0f ms), "
+                 "simulation %.0f ms; off the sim thread %.0f ms, swap on it %.1f ms",
+                 client, w->groom.source, w->groom.g.nstrands, w->groom.g.nverts, l->groom_ms,
+                 w->groom.collider[0] ? w->groom.collider : "none", w->groom.mesh_ms, w->groom.sdf_ms, l->sim_ms,
+                 l->total_ms, (double)(core_now_ns() - t0) / 1e6);
+        app_reply_ok(w->out, client, m);
+        app_send(w->out, NET_ALL, proto_build_groom(&w->groom.json), 0);
     }
     app_loader_clear(l);
 }

@@ -1,4 +1,4 @@
-/* app: the groom loader thread (groom, then collision mesh and SDF). */
+/* app: the groom loader thread (groom, then collision mesh and SDF, then the simulation). */
 #define _GNU_SOURCE /* gettid */
 #include <stdio.h>
 #include <stdlib.h>
@@ -10,7 +10,24 @@
 #include "app_loader.h"
 #include "groom/groom.h"
 
-/* Loader thread: the groom, then its collision mesh and SDF, into l->g (or an error). */
+/* The simulation for the loaded groom and its positions buffer into l (or an error). */
+static core_status make_sim(app_loader *l)
+{
+    unsigned long long t0 = core_now_ns();
+    core_status st = sim_create(&l->sim, &l->job.sim, &l->g.g, &l->job.params, &l->err);
+    if (st != CORE_OK) return st;
+    size_t n = (size_t)l->g.g.nstrands * l->g.g.nverts * 3;
+    l->xyz = malloc(n * sizeof *l->xyz);
+    l->sim_ms = (double)(core_now_ns() - t0) / 1e6;
+    if (!l->xyz) {
+        sim_destroy(&l->sim);
+        return core_fail(&l->err, CORE_ENOMEM, "out of memory for %zu positions", n / 3);
+    }
+    return CORE_OK;
+}
+
+/* Loader thread: the groom, then its collision mesh and SDF, into l->g, then the simulation
+ * (or an error). */
 static void *loader_main(void *arg)
 {
     app_loader *l = arg;
@@ -38,6 +55,10 @@ static void *loader_main(void *arg)
         l->g.mesh_ms = (double)(core_now_ns() - t1) / 1e6;
         if (st == CORE_OK) st = app_groom_set_collider(&l->g, &m, j->mesh_label, &l->err);
         if (st != CORE_OK) app_groom_free(&l->g);
+    }
+    if (st == CORE_OK) {
+        l->field = "";
+        if ((st = make_sim(l)) != CORE_OK) app_groom_free(&l->g);
     }
     l->st = st;
     l->total_ms = (double)(core_now_ns() - t0) / 1e6;
@@ -68,6 +89,9 @@ bool app_loader_collect(app_loader *l)
 
 void app_loader_clear(app_loader *l)
 {
+    sim_destroy(&l->sim);
+    free(l->xyz);
+    l->xyz = NULL;
     app_groom_free(&l->g);
     core_mesh_free(&l->job.keep);
 }

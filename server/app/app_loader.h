@@ -1,6 +1,7 @@
-/* app: the groom loader thread: one set_groom's loads (groom, collision mesh, SDF: seconds for
- * a large mesh) run off the sim thread, which fills the job, starts it and collects the result
- * at a step boundary. One load at a time. The loader owns its job and result until collected. */
+/* app: the groom loader thread: one set_groom's work (the groom, its collision mesh and SDF:
+ * seconds for a large mesh; then the new simulation: buffers, thread pool or Vulkan pipelines)
+ * runs off the sim thread, which fills the job, starts it and swaps the result in at a step
+ * boundary. One load at a time. The loader owns its job and result until collected. */
 #ifndef APP_LOADER_H
 #define APP_LOADER_H
 
@@ -10,6 +11,7 @@
 
 #include "app_groom.h"
 #include "app_mailbox.h"
+#include "sim/sim.h"
 
 /* What to load (filled on the sim thread before app_loader_start). */
 typedef struct app_load_job {
@@ -22,6 +24,8 @@ typedef struct app_load_job {
     bool has_keep;            /* keep: a copy of the live groom's mesh */
     core_mesh keep;
     char mesh_label[PROTO_MAX_NAME + 1];
+    sim_desc sim;             /* the simulation to create (a resolved backend: no AUTO trial) */
+    sim_params params;        /* its parameters (the sim thread applies the current ones at the swap) */
 } app_load_job;
 
 typedef struct app_loader {
@@ -34,11 +38,13 @@ typedef struct app_loader {
     app_load_job job;
     /* the result */
     app_groom g;
+    sim sim;                  /* created for g (zeroed on failure) */
+    float *xyz;               /* positions buffer for g */
     core_status st;
     proto_code code;          /* on failure: the error code and field to reply with */
     const char *field;
     core_err err;
-    double groom_ms, total_ms;
+    double groom_ms, sim_ms, total_ms;
 } app_loader;
 
 /* Starts the load of l->job on a new thread (l->job, client and msg filled, not running);

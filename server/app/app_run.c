@@ -90,6 +90,7 @@ static core_status setup_world(app *a, const core_param_info *ptable, size_t npa
     if (st != CORE_OK) return st;
     sim_desc sd = { .backend = a->d.backend, .threads = a->d.threads, .device = a->d.device };
     if ((st = sim_create(&w->sim, &sd, &w->groom.g, &w->params, err)) != CORE_OK) return st;
+    w->backend = sim_backend(&w->sim); /* groom changes create this kind without a new trial */
     size_t n = (size_t)w->groom.g.nstrands * w->groom.g.nverts * 3;
     w->xyz = malloc(n * sizeof *w->xyz);
     if (!w->xyz) return core_fail(err, CORE_ENOMEM, "out of memory for %zu positions", n / 3);

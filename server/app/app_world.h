@@ -33,6 +33,7 @@ typedef struct app_world {
 
     /* the simulation */
     sim sim;
+    sim_backend_kind backend; /* the backend the first simulation resolved to: later ones use it */
     sim_params params;
     app_groom groom;
     float *xyz;               /* positions of the current groom, strand-major */

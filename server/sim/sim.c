@@ -50,6 +50,8 @@ void sim_get_stats(sim *s, sim_stats *out)
     s->vt->get_stats(s->self, out);
 }
 
+sim_backend_kind sim_backend(const sim *s) { return s->vt == sim_vk_vtable() ? SIM_BACKEND_VULKAN : SIM_BACKEND_CPU; }
+
 void sim_destroy(sim *s)
 {
     if (s->vt) s->vt->destroy(s->self);

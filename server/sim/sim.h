@@ -103,8 +103,9 @@ typedef struct sim {
 /* Creates a solver for groom (copied; the caller keeps ownership of groom) with params
  * (validated). backend AUTO uses a hardware Vulkan device when present; with only a CPU Vulkan
  * device (lavapipe) it times a few steps of each backend on this groom and keeps the faster;
- * if Vulkan set-up fails it falls back to the CPU backend and logs why. On failure *s is zeroed and err says why. The sim is used from one thread at
- * a time (the sim thread). */
+ * if Vulkan set-up fails it falls back to the CPU backend and logs why. On failure *s is zeroed
+ * and err says why. Any thread may create a sim; it is then used from one thread at a time (the
+ * sim thread). */
 core_status sim_create(sim *s, const sim_desc *desc, const core_groom *groom, const sim_params *params,
                        core_err *err);
 
@@ -129,6 +130,10 @@ core_status sim_write_state(sim *s, const float *xyz, const float *vel, core_err
 void sim_reset(sim *s);
 
 void sim_get_stats(sim *s, sim_stats *out);
+
+/* The backend s runs on (CPU or VULKAN, never AUTO): what to ask for to get the same again
+ * without sim_create's AUTO trial. Any thread. */
+sim_backend_kind sim_backend(const sim *s);
 
 /* Frees everything; safe on a zeroed sim. */
 void sim_destroy(sim *s);

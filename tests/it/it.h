@@ -40,6 +40,7 @@ typedef struct view {
     uint64_t last_seq, last_key_seq; /* of the last decoded frame and keyframe */
     uint64_t seq_gcd, key_gcd;       /* gcd of the seq steps between decoded frames / keyframes */
     bool first_was_key;
+    double last_frame_s, max_gap_s;  /* arrival (monotonic s) of the last frame; longest gap between two */
     char last_error[256];
 } view;
 
@@ -83,6 +84,8 @@ int setup_with(void **state, const char *const *extra);
 int setup(void **state);
 int setup_ping(void **state);
 int setup_ipv6(void **state);
+/* The common fixture with --backend auto (the probe loads lavapipe: release tree only). */
+int setup_auto(void **state);
 int teardown(void **state);
 /* A new client connection whose frames decode into a fresh view (*out). */
 wsc_conn *connect_view(fixture *fx, view **out);
@@ -103,6 +106,8 @@ void wait_frames(fixture *fx, view *v, uint64_t n);
 void wait_sim_time(fixture *fx, view *v, double t);
 /* Mean y of the strand tips of v's last frame. */
 double mean_tip_y(const view *v);
+/* Monotonic seconds. */
+double now_s(void);
 /* The value of a /metrics line name (NAN when absent). */
 double metric(const char *body, const char *name);
 
@@ -111,7 +116,7 @@ double metric(const char *body, const char *name);
 /* The daemon on Ratboy with its body mesh (it_collider.c); the scenario skips without the assets. */
 int setup_ratboy(void **state);
 int teardown_ratboy(void **state);
-#define IT_SCENARIO(name, su, td, timeout) void test_##name(void **state);
+#define IT_SCENARIO(name, su, td, timeout, labels) void test_##name(void **state);
 #include "scenarios.h"
 #undef IT_SCENARIO
 

@@ -82,13 +82,6 @@ void test_reader_that_never_reads_is_closed(void **state)
     assert_int_equal(watch->bad, 0);
 }
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 static double clients_now(fixture *fx)
 {
     http_reply r;

@@ -15,7 +15,7 @@ int main(int argc, char **argv)
     cfg.exe = argv[1];
     if (argc > 2) cmocka_set_test_filter(argv[2]);
     signal(SIGPIPE, SIG_IGN);
-#define IT_SCENARIO(name, su, td, timeout) cmocka_unit_test_prestate_setup_teardown(test_##name, su, td, &cfg),
+#define IT_SCENARIO(name, su, td, timeout, labels) cmocka_unit_test_prestate_setup_teardown(test_##name, su, td, &cfg),
     const struct CMUnitTest tests[] = {
 #include "scenarios.h"
     };

@@ -1,6 +1,7 @@
 /* Integration tests: fixtures (the daemon and its clients) and helpers shared by the scenarios. */
 #include <math.h>
 #include <signal.h>
+#include <time.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -17,6 +18,13 @@ uint64_t gcd(uint64_t a, uint64_t b)
         b = t;
     }
     return a;
+}
+
+double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 void on_frame(wsc_conn *c, const uint8_t *data, size_t len, void *user)
@@ -45,6 +53,9 @@ void on_frame(wsc_conn *c, const uint8_t *data, size_t len, void *user)
     if (info.keyframe && v->keys) v->key_gcd = gcd(v->key_gcd, info.seq - v->last_key_seq);
     if (info.keyframe) v->last_key_seq = info.seq;
     v->last_seq = info.seq;
+    double t = now_s();
+    if (v->ok && t - v->last_frame_s > v->max_gap_s) v->max_gap_s = t - v->last_frame_s;
+    v->last_frame_s = t;
     v->ok++;
     v->keys += info.keyframe;
     v->info = info;
@@ -135,6 +146,12 @@ int setup(void **state)
 int setup_ping(void **state)
 {
     static const char *const extra[] = { "--ping-interval", "1", "--ping-timeout", "3", NULL };
+    return setup_with(state, extra);
+}
+
+int setup_auto(void **state)
+{
+    static const char *const extra[] = { "--backend", "auto", NULL };
     return setup_with(state, extra);
 }
 

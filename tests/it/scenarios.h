@@ -1,24 +1,28 @@
 /* The integration scenarios, listed once: it_main.c makes its cmocka table from this list and
  * tests/integration.cmake one ctest test per line (integration_NAME, with the timeout in
- * seconds). IT_SCENARIO(name, setup, teardown, timeout): test_NAME runs between the two
- * (NULL: none; the state is then the config). Keep one entry per line, in this form. */
-IT_SCENARIO(hello_and_frames, setup, teardown, 120)
-IT_SCENARIO(params_broadcast_and_physics, setup, teardown, 120)
-IT_SCENARIO(motion_moves_roots, setup, teardown, 120)
-IT_SCENARIO(bad_inputs_keep_stream, setup, teardown, 120)
-IT_SCENARIO(subprotocol_refused, setup, teardown, 120)
-IT_SCENARIO(http_static_and_metrics, setup, teardown, 120)
-IT_SCENARIO(pause_step_subscribe_groom, setup, teardown, 120)
-IT_SCENARIO(slow_client_skips, setup, teardown, 120)
-IT_SCENARIO(rate_streams, setup, teardown, 120)
-IT_SCENARIO(stream_slots, setup, teardown, 120)
-IT_SCENARIO(cli_client, setup, teardown, 120)
-IT_SCENARIO(stream_failure_is_reported, setup, teardown, 120)
-IT_SCENARIO(sigterm_closes_clients, setup, teardown, 120)
-IT_SCENARIO(sigint_closes_clients, setup, teardown, 120)
-IT_SCENARIO(listen_ipv6, setup_ipv6, teardown, 120)
-IT_SCENARIO(default_address, NULL, NULL, 120)
-IT_SCENARIO(flags, NULL, NULL, 120)
-IT_SCENARIO(reader_that_never_reads_is_closed, setup, teardown, 120)
-IT_SCENARIO(ping_drops_silent_client, setup_ping, teardown, 120)
-IT_SCENARIO(collider_mesh, setup_ratboy, teardown_ratboy, 900)
+ * seconds and the space-separated ctest labels). IT_SCENARIO(name, setup, teardown, timeout,
+ * "labels"): test_NAME runs between the two (NULL: none; the state is then the config).
+ * "no_asan": the release tree only (timing bounds, or lavapipe, whose allocations LeakSanitizer
+ * reports); "serial": a timing bound, so ctest runs nothing beside it. Keep one entry per line,
+ * in this form. */
+IT_SCENARIO(hello_and_frames, setup, teardown, 120, "integration")
+IT_SCENARIO(params_broadcast_and_physics, setup, teardown, 120, "integration")
+IT_SCENARIO(motion_moves_roots, setup, teardown, 120, "integration")
+IT_SCENARIO(bad_inputs_keep_stream, setup, teardown, 120, "integration")
+IT_SCENARIO(subprotocol_refused, setup, teardown, 120, "integration")
+IT_SCENARIO(http_static_and_metrics, setup, teardown, 120, "integration")
+IT_SCENARIO(pause_step_subscribe_groom, setup, teardown, 120, "integration")
+IT_SCENARIO(slow_client_skips, setup, teardown, 120, "integration")
+IT_SCENARIO(rate_streams, setup, teardown, 120, "integration")
+IT_SCENARIO(stream_slots, setup, teardown, 120, "integration")
+IT_SCENARIO(cli_client, setup, teardown, 120, "integration")
+IT_SCENARIO(stream_failure_is_reported, setup, teardown, 120, "integration")
+IT_SCENARIO(groom_change_keeps_frames, setup_auto, teardown, 120, "integration no_asan serial")
+IT_SCENARIO(sigterm_closes_clients, setup, teardown, 120, "integration")
+IT_SCENARIO(sigint_closes_clients, setup, teardown, 120, "integration")
+IT_SCENARIO(listen_ipv6, setup_ipv6, teardown, 120, "integration")
+IT_SCENARIO(default_address, NULL, NULL, 120, "integration")
+IT_SCENARIO(flags, NULL, NULL, 120, "integration")
+IT_SCENARIO(reader_that_never_reads_is_closed, setup, teardown, 120, "integration")
+IT_SCENARIO(ping_drops_silent_client, setup_ping, teardown, 120, "integration")
+IT_SCENARIO(collider_mesh, setup_ratboy, teardown_ratboy, 900, "integration")
