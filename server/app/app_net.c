@@ -49,8 +49,9 @@ void app_on_text(void *user, uint32_t client, const char *text, size_t len)
         post(g, &c, &c.msg.id);
         return;
     }
-    /* a groom change rebuilds the simulation on the sim thread (up to ~0.3 s for the largest):
-     * one at a time, so that no client can queue up seconds of stalls for everyone */
+    /* a groom change loads a groom, a mesh and its distance grid and builds a simulation on the
+     * loader thread (seconds for the largest): one at a time, so that no client can queue up
+     * minutes of work */
     if (atomic_fetch_add(g->grooms_pending, 1) > 0) {
         atomic_fetch_sub(g->grooms_pending, 1);
         proto_fail(&e, PROTO_ERR_BUSY, "", "a groom change is already in progress; retry after its groom message");
