@@ -285,6 +285,24 @@ static void test_envelope_errors(void **state)
     expect_err("{\"type\":\"reset\"} {\"type\":\"reset\"}", PROTO_ERR_BAD_JSON, "");
     expect_err("{\"type\":\"reset\"}x", PROTO_ERR_BAD_JSON, "");
     expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":NaN}}", PROTO_ERR_BAD_JSON, "");
+    /* RFC 8259, which cJSON does not hold to: no byte-order mark, numbers in JSON's grammar */
+    expect_err("\xEF\xBB\xBF{\"type\":\"reset\"}", PROTO_ERR_BAD_JSON, "");
+    static const char *const bad_numbers[] = { "007", "-01", "00", "+1", ".5", "1.", "1.e3", "1e", "1e+", "-", "01.5" };
+    for (size_t i = 0; i < sizeof bad_numbers / sizeof bad_numbers[0]; i++) {
+        char msg[128];
+        snprintf(msg, sizeof msg, "{\"type\":\"step\",\"count\":%s}", bad_numbers[i]);
+        expect_err(msg, PROTO_ERR_BAD_JSON, "");
+        snprintf(msg, sizeof msg, "{\"type\":\"reset\",\"id\":%s}", bad_numbers[i]);
+        expect_err(msg, PROTO_ERR_BAD_JSON, "");
+    }
+    static const char *const good_numbers[] = { "0", "-0", "7", "10", "0.5", "1e2", "1E+2", "2e-0", "-0.0e0" };
+    for (size_t i = 0; i < sizeof good_numbers / sizeof good_numbers[0]; i++) {
+        char msg[128];
+        snprintf(msg, sizeof msg, "{\"type\":\"reset\",\"id\":%s}", good_numbers[i]);
+        expect_ok(msg, PROTO_RESET);
+    }
+    /* digits inside strings are not numbers */
+    expect_ok("{\"type\":\"reset\",\"id\":\"007+.5e\\\"01\"}", PROTO_RESET);
     expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":Infinity}}", PROTO_ERR_BAD_JSON, "");
     expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":-Infinity}}", PROTO_ERR_BAD_JSON, "");
     expect_err("{'type':'reset'}", PROTO_ERR_BAD_JSON, "");

@@ -30,5 +30,10 @@ char *proto_sb_take(proto_sb *sb);
  * character (the escape \u0000 or a raw 0 byte); member receives the top-level member it is
  * in ("" when it is in a key or outside any member), cut to cap - 1 bytes. Pure. */
 bool proto_json_nul_member(const char *t, size_t len, char *member, size_t cap);
+/* True when the text t[0, len) keeps the RFC 8259 rules cJSON does not check: no byte-order
+ * mark, every number in JSON's grammar (no leading zeros, '+', bare '.', or exponent without
+ * digits). Otherwise false with the byte offset and a reason (static). Scans the text only;
+ * whether it is valid JSON otherwise is cJSON's job. Pure. */
+bool proto_json_strict(const char *t, size_t len, size_t *at, const char **why);
 
 #endif

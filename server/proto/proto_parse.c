@@ -416,11 +416,14 @@ core_status proto_parse(const proto_parser *p, const char *text, size_t len, pro
         size_t at = end && end >= text ? (size_t)(end - text) : 0;
         return proto_fail(e, PROTO_ERR_BAD_JSON, "", "not valid JSON (parse error at byte %zu)", at);
     }
-    size_t at = (size_t)(end - text);
+    size_t at = (size_t)(end - text), bad;
     while (at < len && (text[at] == ' ' || text[at] == '\t' || text[at] == '\r' || text[at] == '\n')) at++;
     char member[PROTO_MAX_NAME + 1];
+    const char *why;
     core_status st = at < len ? proto_fail(e, PROTO_ERR_BAD_JSON, "", "trailing data after the JSON value at byte %zu", at)
-                              : parse_root(p, root, out, e);
+                     : !proto_json_strict(text, len, &bad, &why)
+                         ? proto_fail(e, PROTO_ERR_BAD_JSON, "", "not valid JSON: %s at byte %zu", why, bad)
+                         : parse_root(p, root, out, e);
     /* C strings end at a NUL: a name with \u0000 would be read cut short, so none is taken */
     if (st == CORE_OK && proto_json_nul_member(text, len, member, sizeof member))
         st = proto_fail(e, PROTO_ERR_BAD_FIELD, member, "strings may not contain NUL characters (\\u0000)");
