@@ -19,7 +19,7 @@ void app_cmd_tell_failure(app_world *w, int stream, uint32_t client)
 static void broadcast_state(app_world *w)
 {
     proto_state s = app_world_state(w);
-    app_send(w->out, NET_ALL, proto_build_state(NULL, &s), 0);
+    app_send(w->out, NET_ALL, proto_build_state(NULL, &s), APP_ANNOUNCE_STATE);
 }
 
 static proto_stream stream_info(const app_world *w, const app_client *c)
@@ -89,7 +89,8 @@ static void set_params(app_world *w, uint32_t client, const proto_msg *m)
     }
     w->params = p;
     app_reply_ok(w->out, client, m);
-    app_send(w->out, NET_ALL, proto_build_params(NULL, w->ptable, w->nparams, &w->params, changed, client), 0);
+    app_send(w->out, NET_ALL, proto_build_params(NULL, w->ptable, w->nparams, &w->params, changed, client),
+             APP_ANNOUNCE_PARAMS);
 }
 
 static void motion(app_world *w, uint32_t client, const proto_msg *m)

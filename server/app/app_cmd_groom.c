@@ -128,7 +128,7 @@ void app_cmd_groom_poll(app_world *w)
                  w->groom.collider[0] ? w->groom.collider : "none", w->groom.mesh_ms, w->groom.sdf_ms, l->sim_ms,
                  l->total_ms, (double)(core_now_ns() - t0) / 1e6);
         app_reply_ok(w->out, client, m);
-        app_send(w->out, NET_ALL, proto_build_groom(&w->groom.json), 0);
+        app_send(w->out, NET_ALL, proto_build_groom(&w->groom.json), APP_ANNOUNCE_GROOM);
     }
     app_loader_clear(l);
 }

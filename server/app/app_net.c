@@ -26,19 +26,43 @@ static void post_essential(app_gate *g, const app_cmd *c)
 
 void app_on_open(void *user, uint32_t client)
 {
+    app_gate *g = user;
+    if (app_rates_open(&g->rates, client, core_now_ns()) != CORE_OK)
+        core_log(CORE_LOG_WARN, "app", "client %u: out of memory for its message budget; not rate-limited", client);
     app_cmd c = { .kind = APP_CMD_OPEN, .client = client };
-    post_essential(user, &c);
+    post_essential(g, &c);
 }
 
 void app_on_close(void *user, uint32_t client)
 {
+    app_gate *g = user;
+    app_rates_close(&g->rates, client);
     app_cmd c = { .kind = APP_CMD_CLOSE, .client = client };
-    post_essential(user, &c);
+    post_essential(g, &c);
+}
+
+/* A request over the client's budget: answered rate_limited (echoing its id when it has one),
+ * not carried out. The answer may be dropped from the client's own full queue, so a flood
+ * cannot get the flooder closed for the answers it provoked. */
+static void limited(app_gate *g, uint32_t client, const char *text, size_t len)
+{
+    app_cmd c;
+    proto_error e;
+    proto_parse(g->parser, text, len, &c.msg, &e); /* only for the id */
+    proto_fail(&e, PROTO_ERR_RATE_LIMITED, "",
+               "over the budget of %.0f control messages a second (%.0f at once); this one was not carried out",
+               APP_RATE_PER_S, APP_RATE_BURST);
+    atomic_fetch_add(&g->out->rejected, 1);
+    app_send(g->out, client, proto_build_error(&c.msg.id, &e), NET_TEXT_DROPPABLE);
 }
 
 void app_on_text(void *user, uint32_t client, const char *text, size_t len)
 {
     app_gate *g = user;
+    if (!app_rates_take(&g->rates, client, core_now_ns())) {
+        limited(g, client, text, len);
+        return;
+    }
     app_cmd c = { .kind = APP_CMD_MSG, .client = client };
     proto_error e;
     if (proto_parse(g->parser, text, len, &c.msg, &e) != CORE_OK) {
@@ -67,3 +91,5 @@ size_t app_metrics(void *user, char *buf, size_t cap)
     app_stats s = app_stats_read(g->board);
     return app_stats_metrics(&s, atomic_load(&g->out->accepted), atomic_load(&g->out->rejected), buf, cap);
 }
+
+void app_gate_free(app_gate *g) { app_rates_free(&g->rates); }

@@ -9,6 +9,7 @@
 
 #include "app_mailbox.h"
 #include "app_outbox.h"
+#include "app_rate.h"
 #include "app_stats.h"
 
 /* What the net callbacks need; borrowed from app_run.c, which outlives the net thread. */
@@ -19,12 +20,15 @@ typedef struct app_gate {
     app_stats_board *board;
     atomic_uint *grooms_pending;  /* set_groom requests queued or being carried out (at most 1) */
     const atomic_bool *sim_done;  /* the sim thread has stopped: opens and closes are not waited for */
+    app_rates rates;              /* owned: each client's control-message budget */
 } app_gate;
 
-/* Net-thread callbacks (net_callbacks.user = the app_gate). */
+/* Net-thread callbacks (net_callbacks.user = the app_gate). app_gate_free releases the rates
+ * table once the net thread has stopped. */
 void app_on_open(void *user, uint32_t client);
 void app_on_text(void *user, uint32_t client, const char *text, size_t len);
 void app_on_close(void *user, uint32_t client);
 size_t app_metrics(void *user, char *buf, size_t cap);
+void app_gate_free(app_gate *g);
 
 #endif

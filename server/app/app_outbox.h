@@ -10,6 +10,13 @@
 #include "net/net.h"
 #include "proto/proto.h"
 
+/* Announcements to every client whose latest carries the whole current value: a client's queue
+ * keeps only the newest of each kind, so a burst of changes from one client cannot fill the
+ * queues of the others (net coalesces them). */
+#define APP_ANNOUNCE_PARAMS NET_TEXT_LATEST(1)
+#define APP_ANNOUNCE_STATE NET_TEXT_LATEST(2)
+#define APP_ANNOUNCE_GROOM NET_TEXT_LATEST(3)
+
 typedef struct app_outbox {
     net *net;                           /* NULL: messages are dropped (--no-net) */
     atomic_uint_fast64_t accepted, rejected;

@@ -115,7 +115,7 @@ static core_status setup(app *a, core_err *err)
     if (st != CORE_OK) return st;
     app_assets_list(&a->assets, a->d.assets_dir, &a->parser);
     if ((st = setup_world(a, ptable, nparams, err)) != CORE_OK) return st;
-    a->gate = (app_gate){ &a->parser, &a->mb, &a->out, &a->board, &a->grooms_pending, &a->w.done };
+    a->gate = (app_gate){ &a->parser, &a->mb, &a->out, &a->board, &a->grooms_pending, &a->w.done, { 0 } };
     if (!a->d.no_net) {
         net_desc nd = {
             .listen = a->d.listen, .port = a->d.port, .web_dir = a->d.web_dir, .subprotocol = PROTO_SUBPROTOCOL,
@@ -143,6 +143,7 @@ static void teardown(app *a)
     free(w->xyz);
     app_clients_free(&w->clients);
     app_assets_free(&a->assets);
+    app_gate_free(&a->gate);
     app_mailbox_free(&a->mb);
     app_stats_board_free(&a->board);
 }

@@ -156,7 +156,7 @@ void *app_sim_main(void *arg)
             count_step(w);
             if (w->paused && --w->step_budget == 0) {
                 proto_state s = app_world_state(w);
-                app_send(w->out, NET_ALL, proto_build_state(NULL, &s), 0);
+                app_send(w->out, NET_ALL, proto_build_state(NULL, &s), APP_ANNOUNCE_STATE);
             }
         }
         maybe_publish(w, run);

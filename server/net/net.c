@@ -371,6 +371,7 @@ void net_get_stats(net *n, net_stats *out)
     out->bytes_sent = atomic_load(&n->bytes_sent);
     out->text_sent = atomic_load(&n->text_sent);
     out->text_dropped = atomic_load(&n->text_dropped);
+    out->text_coalesced = atomic_load(&n->text_coalesced);
     out->messages_in = atomic_load(&n->messages_in);
     out->protocol_closes = atomic_load(&n->protocol_closes);
     out->http_requests = atomic_load(&n->http_requests);

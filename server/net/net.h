@@ -92,10 +92,16 @@ void net_destroy(net *n);
 enum {
     NET_TEXT_DROPPABLE = 1 /* may be dropped when the client's queue is full (e.g. stats) */
 };
+/* Flag of an announcement of kind k (1..15) where only the latest matters (it carries the whole
+ * current value): queueing one for a client drops that client's older queued message of the
+ * same kind, and the new one goes to the back of the queue. */
+#define NET_TEXT_LATEST(k) ((unsigned)(k) << 4)
+#define NET_TEXT_KIND(flags) (((unsigned)(flags) >> 4) & 15u)
 
 /* Queues a copy of text (len bytes) for one client or NET_ALL (ready clients only).
- * A client whose queue is full loses its oldest droppable message; with none to drop it is
- * closed (1008, "send queue overflow"). Unknown or closed clients are ignored. Any thread.
+ * flags: NET_TEXT_DROPPABLE, NET_TEXT_LATEST(kind). A client whose queue is full loses its
+ * oldest droppable message; with none to drop it is closed (1008, "send queue overflow").
+ * Unknown or closed clients are ignored. Any thread.
  * Fails only when out of memory or the inbox is full. */
 core_status net_send_text(net *n, uint32_t client, const char *text, size_t len, unsigned flags);
 
@@ -128,6 +134,7 @@ void net_drop_stream(net *n, uint32_t stream);
 typedef struct net_stats {
     uint64_t clients;          /* connected WebSocket clients now */
     uint64_t frames_sent, frames_skipped, bytes_sent, text_sent, text_dropped;
+    uint64_t text_coalesced;   /* announcements superseded in a client's queue by a newer one */
     uint64_t messages_in, protocol_closes, http_requests;
 } net_stats;
 void net_get_stats(net *n, net_stats *out);

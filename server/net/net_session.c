@@ -27,9 +27,28 @@ static int close_now(net *n, net_session *s, int code, const char *reason)
     return 0;
 }
 
+/* Removes the k-th queued message (0 = the oldest), keeping the order of the others. */
+static void queue_remove(net_session *s, int k)
+{
+    net_buf_unref(s->q[(s->qhead + k) % s->qcap]);
+    for (int i = k; i + 1 < s->qlen; i++) {
+        int a = (s->qhead + i) % s->qcap, b = (s->qhead + i + 1) % s->qcap;
+        s->q[a] = s->q[b];
+        s->qflags[a] = s->qflags[b];
+    }
+    s->qlen--;
+}
+
 void net_session_enqueue(net *n, net_session *s, net_buf *b, unsigned flags)
 {
     if (s->closing || !s->q) return;
+    unsigned kind = NET_TEXT_KIND(flags);
+    for (int i = 0; kind && i < s->qlen; i++)
+        if (NET_TEXT_KIND(s->qflags[(s->qhead + i) % s->qcap]) == kind) { /* superseded */
+            queue_remove(s, i);
+            atomic_fetch_add(&n->text_coalesced, 1);
+            break;
+        }
     if (s->qlen == s->qcap) {
         /* full: drop the oldest droppable message, or give up on this client */
         int victim = -1;
@@ -43,14 +62,7 @@ void net_session_enqueue(net *n, net_session *s, net_buf *b, unsigned flags)
             net_session_close(s, LWS_CLOSE_STATUS_POLICY_VIOLATION, "send queue overflow");
             return;
         }
-        int at = (s->qhead + victim) % s->qcap;
-        net_buf_unref(s->q[at]);
-        for (int i = victim; i + 1 < s->qlen; i++) {
-            int a = (s->qhead + i) % s->qcap, b2 = (s->qhead + i + 1) % s->qcap;
-            s->q[a] = s->q[b2];
-            s->qflags[a] = s->qflags[b2];
-        }
-        s->qlen--;
+        queue_remove(s, victim);
         atomic_fetch_add(&n->text_dropped, 1);
     }
     int at = (s->qhead + s->qlen) % s->qcap;

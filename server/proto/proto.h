@@ -55,6 +55,7 @@ typedef enum proto_code {
     PROTO_ERR_NOT_FOUND,     /* groom file not in the asset list */
     PROTO_ERR_BAD_STATE,     /* request not valid now (e.g. step while running) */
     PROTO_ERR_BUSY,          /* the server's command queue is full; retry later */
+    PROTO_ERR_RATE_LIMITED,  /* the client is over its control-message budget */
     PROTO_ERR_FAILED         /* valid request that failed while being carried out */
 } proto_code;
 

@@ -28,6 +28,7 @@ static const char *const code_names[] = {
     [PROTO_ERR_TOO_LARGE] = "too_large",
     [PROTO_ERR_NOT_FOUND] = "not_found",
     [PROTO_ERR_BAD_STATE] = "bad_state",
+    [PROTO_ERR_RATE_LIMITED] = "rate_limited",
     [PROTO_ERR_BUSY] = "busy",
     [PROTO_ERR_FAILED] = "failed",
 };
