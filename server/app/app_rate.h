@@ -13,7 +13,7 @@
 #include "core/core.h"
 
 #define APP_RATE_PER_S 400.0
-#define APP_RATE_BURST 800.0
+#define APP_RATE_BURST 128.0 /* the replies to a full burst fit a client's text queue (NET_DEFAULT_TEXT_QUEUE) */
 
 typedef struct app_rate_slot {
     uint32_t client;          /* 0: empty (client ids start at 1) */

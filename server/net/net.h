@@ -16,7 +16,7 @@
 #define NET_MAX_STREAMS 32         /* frame streams (one per distinct subscription) */
 #define NET_DEFAULT_PORT 7681
 #define NET_DEFAULT_MAX_MESSAGE (64 * 1024)
-#define NET_DEFAULT_TEXT_QUEUE 32
+#define NET_DEFAULT_TEXT_QUEUE 256
 #define NET_DEFAULT_PING_S 20
 #define NET_DEFAULT_HANGUP_EXTRA_S 10 /* default hangup_s = ping_s + this */
 #define NET_MAX_HANGUP_S 65535     /* lws keeps both times as uint16 seconds */
@@ -59,7 +59,7 @@ typedef struct net_desc {
     const char *web_dir;       /* folder served at "/"; NULL = no static files */
     const char *subprotocol;   /* the WebSocket subprotocol clients must ask for (required) */
     size_t max_message;        /* largest client text message; default 64 KiB (bigger: close 1009) */
-    int text_queue;            /* queued text messages per client; default 32 */
+    int text_queue;            /* queued text messages per client; default NET_DEFAULT_TEXT_QUEUE */
     int ping_s;                /* seconds without a pong before the server pings; default 20, max 65534 */
     int hangup_s;              /* seconds without a pong before the client is dropped; > ping_s,
                                 * max 65535; default ping_s + 10 (at most 65535) */

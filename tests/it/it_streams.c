@@ -213,3 +213,55 @@ void test_groom_change_keeps_frames(void **state)
     printf("longest gap between frames across the groom change: %.1f ms\n", v->max_gap_s * 1e3);
     if (!(v->max_gap_s < 0.1)) fail_msg("frames stopped for %.0f ms during the groom change", v->max_gap_s * 1e3);
 }
+
+/* One client's flood cannot hurt another: a burst of set_params (each announced to every
+ * client) leaves a client that does not read meanwhile connected, since its queue keeps only
+ * the newest params; past its budget the flooder gets rate_limited errors and stays open. */
+void test_flood_spares_others(void **state)
+{
+    fixture *fx = *state;
+    view *va, *vb;
+    wsc_conn *a = connect_view(fx, &va), *b = connect_view(fx, &vb);
+    cJSON_Delete(expect_msg(fx, a, "hello"));
+    cJSON_Delete(expect_msg(fx, b, "hello"));
+    wait_frames(fx, vb, 5);
+    wsc_small_rcvbuf(b, 4096);
+    wsc_read_enable(b, false); /* b's socket backs up: what the server sends it waits in b's queue */
+    /* 2,000 at once: about the first 128 (the burst) are carried out and announced, the rest refused */
+    char msg[128];
+    for (int i = 0; i < 2000; i++) {
+        snprintf(msg, sizeof msg, "{\"type\":\"set_params\",\"values\":{\"wind_x\":%d}}", i % 50);
+        wsc_send_text(a, msg);
+    }
+    wsc_send_text(a, "{\"type\":\"get_params\",\"id\":\"last\"}");
+    cJSON *e = expect_msg(fx, a, "error");
+    assert_string_equal(str(e, "code"), "rate_limited");
+    cJSON_Delete(e);
+    /* b was not read during the flood: still open, frames still coming, the newest params there */
+    wsc_read_enable(b, true);
+    uint64_t before = vb->ok;
+    wait_frames(fx, vb, before + 10);
+    assert_true(wsc_is_open(b));
+    assert_true(wsc_is_open(a));
+    cJSON *p = expect_msg(fx, b, "params");
+    cJSON_Delete(p);
+    http_reply r;
+    assert_int_equal(http_get(fx->d.port, "/metrics", &r), 0);
+    double coalesced = metric(r.body, "strandcast_text_coalesced_total");
+    double rejected = metric(r.body, "strandcast_control_messages_total{result=\"rejected\"}");
+    http_reply_free(&r);
+    printf("coalesced %.0f announcements, %.0f messages rejected\n", coalesced, rejected);
+    assert_true(coalesced > 100);
+    assert_true(rejected >= 1000);
+    /* after a second the budget is back: requests are carried out again */
+    double t = now_s() + 1.0;
+    while (now_s() < t) wsc_run(fx->w, 50);
+    wsc_send_text(a, "{\"type\":\"get_params\",\"id\":\"again\"}");
+    for (;;) {
+        cJSON *m = expect_msg_within(fx, a, "params", WAIT_MS);
+        const cJSON *id = cJSON_GetObjectItemCaseSensitive(m, "id");
+        bool mine = cJSON_IsString(id) && strcmp(id->valuestring, "again") == 0;
+        cJSON_Delete(m);
+        if (mine) break;
+    }
+}
