@@ -46,6 +46,8 @@ static void usage(FILE *f)
             "                         1..%d (default %d)\n"
             "  --ping-timeout S       seconds without a pong after which a client is dropped, more than the\n"
             "                         interval, 2..%d (default %d: the interval + %d, at most %d)\n"
+            "  --max-clients N        WebSocket clients at once, 1..%d; more are refused with HTTP 503\n"
+            "                         (default %d per online core: %d here)\n"
             "  --no-net               simulate and log only (no sockets)\n"
             "Run\n"
             "  --steps N              exit after N simulation steps (default 0 = until SIGINT/SIGTERM)\n"
@@ -56,7 +58,8 @@ static void usage(FILE *f)
             PROTO_MAX_STRANDS, GROOM_DEFAULT_STRANDS, PROTO_MAX_VERTS, GROOM_DEFAULT_VERTS, STRANDCAST_SOURCE_DIR,
             STRANDCAST_SOURCE_DIR, APP_DEFAULT_RATE, PROTO_MIN_ERROR, PROTO_MAX_ERROR, (double)CODEC_DEFAULT_MAX_ERROR,
             CODEC_DEFAULT_KEY_INTERVAL, NET_MAX_HANGUP_S - 1, NET_DEFAULT_PING_S, NET_MAX_HANGUP_S,
-            NET_DEFAULT_PING_S + NET_DEFAULT_HANGUP_EXTRA_S, NET_DEFAULT_HANGUP_EXTRA_S, NET_MAX_HANGUP_S,
+            NET_DEFAULT_PING_S + NET_DEFAULT_HANGUP_EXTRA_S, NET_DEFAULT_HANGUP_EXTRA_S, NET_MAX_HANGUP_S, APP_MAX_CLIENTS,
+            APP_CLIENTS_PER_CORE, app_default_max_clients(),
             APP_LOG_INTERVAL_S, PROTO_SUBPROTOCOL);
 }
 
@@ -71,7 +74,7 @@ static bool is_dir(const char *p)
 enum {
     OPT_GROOM = 256, OPT_COLLIDER, OPT_STRANDS, OPT_VERTS, OPT_SEED, OPT_BACKEND, OPT_DEVICE, OPT_THREADS, OPT_LISTEN,
     OPT_PORT, OPT_WEB, OPT_ASSETS, OPT_RATE, OPT_MAX_ERROR, OPT_KEY_INTERVAL, OPT_CLIENT_BUFFER, OPT_PING_INTERVAL,
-    OPT_PING_TIMEOUT, OPT_NO_NET, OPT_STEPS, OPT_VERSION
+    OPT_PING_TIMEOUT, OPT_MAX_CLIENTS, OPT_NO_NET, OPT_STEPS, OPT_VERSION
 };
 
 static const struct option options[] = {
@@ -93,6 +96,7 @@ static const struct option options[] = {
     { "client-buffer", required_argument, NULL, OPT_CLIENT_BUFFER },
     { "ping-interval", required_argument, NULL, OPT_PING_INTERVAL },
     { "ping-timeout", required_argument, NULL, OPT_PING_TIMEOUT },
+    { "max-clients", required_argument, NULL, OPT_MAX_CLIENTS },
     { "no-net", no_argument, NULL, OPT_NO_NET },
     { "steps", required_argument, NULL, OPT_STEPS },
     { "help", no_argument, NULL, 'h' },
@@ -169,6 +173,9 @@ static int apply(int opt, const char *flag, const char *v, app_desc *d, bool *ve
         break;
     case OPT_PING_TIMEOUT:
         if (!(rc = core_cli_u64(PROG, flag, v, 2, NET_MAX_HANGUP_S, &u))) d->ping_timeout = (int)u;
+        break;
+    case OPT_MAX_CLIENTS:
+        if (!(rc = core_cli_u64(PROG, flag, v, 1, APP_MAX_CLIENTS, &u))) d->max_clients = (int)u;
         break;
     case OPT_STEPS:
         if (!(rc = core_cli_u64(PROG, flag, v, 0, (unsigned long long)LLONG_MAX, &u))) d->steps = u;

@@ -11,6 +11,8 @@
 
 #define APP_DEFAULT_RATE 60.0         /* stream Hz */
 #define APP_LOG_INTERVAL_S 5.0
+#define APP_CLIENTS_PER_CORE 64  /* default client limit per core: 100 clients stream in real time on 2 */
+#define APP_MAX_CLIENTS 4096
 
 /* Everything strandcastd's flags set; zero means default for every field. */
 typedef struct app_desc {
@@ -29,12 +31,18 @@ typedef struct app_desc {
     double max_error;          /* default stream max position error, m; 0 = CODEC_DEFAULT_MAX_ERROR */
     int keyframe_interval;     /* frames between keyframes; 0 = CODEC_DEFAULT_KEY_INTERVAL */
     int client_buffer;         /* kernel send buffer per client, bytes; 0 = 256 KiB */
+    int max_clients;           /* WebSocket clients at once (more get HTTP 503); 0 = APP_CLIENTS_PER_CORE
+                                * per online core, at least that and at most APP_MAX_CLIENTS */
     int ping_interval;         /* seconds without a pong before a client is pinged; 0 = 20 */
     int ping_timeout;          /* seconds without a pong before a client is dropped (> ping_interval);
                                 * 0 = ping_interval + 10 */
     bool no_net;               /* simulate and log only */
     uint64_t steps;            /* stop after this many steps; 0 = run until SIGINT/SIGTERM */
 } app_desc;
+
+/* The client limit when app_desc.max_clients is 0: APP_CLIENTS_PER_CORE per online core, at
+ * most APP_MAX_CLIENTS. Any thread. */
+int app_default_max_clients(void);
 
 /* Runs the daemon on the calling thread (which becomes the signal-waiting controller; SIGINT
  * and SIGTERM are blocked in it and in every thread it starts) until SIGINT/SIGTERM or

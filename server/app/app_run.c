@@ -6,6 +6,7 @@
 #include <string.h>
 #include <sys/prctl.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "app_net.h"
 #include "app_sim.h"
@@ -27,12 +28,20 @@ typedef struct app {
     app_world w;              /* the sim thread's */
 } app;
 
+int app_default_max_clients(void)
+{
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    long n = APP_CLIENTS_PER_CORE * (cores > 1 ? cores : 1);
+    return (int)(n < APP_MAX_CLIENTS ? n : APP_MAX_CLIENTS);
+}
+
 static void defaults(app_desc *d)
 {
     if (!d->groom) d->groom = "straight";
     if (d->rate <= 0.0) d->rate = APP_DEFAULT_RATE;
     if (d->max_error <= 0.0) d->max_error = CODEC_DEFAULT_MAX_ERROR;
     if (d->keyframe_interval <= 0) d->keyframe_interval = (int)CODEC_DEFAULT_KEY_INTERVAL;
+    if (d->max_clients <= 0) d->max_clients = app_default_max_clients();
 }
 
 /* The --collider mesh into the loaded groom (its SDF covers what that groom's hair reaches). */
@@ -119,7 +128,7 @@ static core_status setup(app *a, core_err *err)
     if (!a->d.no_net) {
         net_desc nd = {
             .listen = a->d.listen, .port = a->d.port, .web_dir = a->d.web_dir, .subprotocol = PROTO_SUBPROTOCOL,
-            .max_message = PROTO_MAX_MESSAGE, .sndbuf = a->d.client_buffer,
+            .max_message = PROTO_MAX_MESSAGE, .sndbuf = a->d.client_buffer, .max_clients = a->d.max_clients,
             .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout, .blobs = { APP_MESH_PATH },
             .cb = { &a->gate, app_on_open, app_on_text, app_on_close, app_metrics },
         };

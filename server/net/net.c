@@ -126,6 +126,7 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     n->desc = *d;
     if (!n->desc.max_message) n->desc.max_message = NET_DEFAULT_MAX_MESSAGE;
     if (n->desc.text_queue <= 0) n->desc.text_queue = NET_DEFAULT_TEXT_QUEUE;
+    if (n->desc.max_clients <= 0) n->desc.max_clients = NET_DEFAULT_MAX_CLIENTS;
     n->desc.ping_s = ping_s;
     n->desc.hangup_s = hangup_s;
     if (n->desc.sndbuf <= 0) n->desc.sndbuf = NET_DEFAULT_SNDBUF;
@@ -372,6 +373,7 @@ void net_get_stats(net *n, net_stats *out)
     out->text_sent = atomic_load(&n->text_sent);
     out->text_dropped = atomic_load(&n->text_dropped);
     out->text_coalesced = atomic_load(&n->text_coalesced);
+    out->clients_refused = atomic_load(&n->clients_refused);
     out->messages_in = atomic_load(&n->messages_in);
     out->protocol_closes = atomic_load(&n->protocol_closes);
     out->http_requests = atomic_load(&n->http_requests);

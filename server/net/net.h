@@ -17,6 +17,7 @@
 #define NET_DEFAULT_PORT 7681
 #define NET_DEFAULT_MAX_MESSAGE (64 * 1024)
 #define NET_DEFAULT_TEXT_QUEUE 256
+#define NET_DEFAULT_MAX_CLIENTS 128
 #define NET_DEFAULT_PING_S 20
 #define NET_DEFAULT_HANGUP_EXTRA_S 10 /* default hangup_s = ping_s + this */
 #define NET_MAX_HANGUP_S 65535     /* lws keeps both times as uint16 seconds */
@@ -60,6 +61,7 @@ typedef struct net_desc {
     const char *subprotocol;   /* the WebSocket subprotocol clients must ask for (required) */
     size_t max_message;        /* largest client text message; default 64 KiB (bigger: close 1009) */
     int text_queue;            /* queued text messages per client; default NET_DEFAULT_TEXT_QUEUE */
+    int max_clients;           /* WebSocket clients at once; default NET_DEFAULT_MAX_CLIENTS; more: 503 */
     int ping_s;                /* seconds without a pong before the server pings; default 20, max 65534 */
     int hangup_s;              /* seconds without a pong before the client is dropped; > ping_s,
                                 * max 65535; default ping_s + 10 (at most 65535) */
@@ -135,6 +137,7 @@ typedef struct net_stats {
     uint64_t clients;          /* connected WebSocket clients now */
     uint64_t frames_sent, frames_skipped, bytes_sent, text_sent, text_dropped;
     uint64_t text_coalesced;   /* announcements superseded in a client's queue by a newer one */
+    uint64_t clients_refused;  /* upgrades answered 503 at max_clients */
     uint64_t messages_in, protocol_closes, http_requests;
 } net_stats;
 void net_get_stats(net *n, net_stats *out);

@@ -2,18 +2,28 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "net_internal.h"
 
 #define METRICS_MAX (32 * 1024)
 
+/* A WebSocket upgrade (the Upgrade token compared case-insensitively, RFC 7230) is refused
+ * with a reason: 400 without the subprotocol, 503 when the server has its maximum of clients. */
 static int confirm_upgrade(net *n, struct lws *wsi, const char *upgrade)
 {
-    if (!upgrade || strcmp(upgrade, "websocket") != 0) return 0;
+    if (!upgrade || strcasecmp(upgrade, "websocket") != 0) return 0;
     char list[256] = "";
     int len = lws_hdr_total_length(wsi, WSI_TOKEN_PROTOCOL);
     if (len > 0 && len < (int)sizeof list) lws_hdr_copy(wsi, list, sizeof list, WSI_TOKEN_PROTOCOL);
-    if (len > 0 && len < (int)sizeof list && net_token_listed(list, n->subprotocol)) return 0;
+    if (len > 0 && len < (int)sizeof list && net_token_listed(list, n->subprotocol)) {
+        if (atomic_load(&n->clients) < (uint64_t)n->desc.max_clients) return 0;
+        char busy[160];
+        snprintf(busy, sizeof busy, "the server has its maximum of %d clients (--max-clients); try again later",
+                 n->desc.max_clients);
+        atomic_fetch_add(&n->clients_refused, 1);
+        return lws_return_http_status(wsi, HTTP_STATUS_SERVICE_UNAVAILABLE, busy) ? -1 : 1;
+    }
     char body[384];
     char shown[64];
     snprintf(shown, sizeof shown, "%.60s", len <= 0 ? "(none)" : len < (int)sizeof list ? list : "(too long)");
@@ -50,6 +60,8 @@ static void metrics_body(net *n, net_http *h)
                      "# TYPE strandcast_text_sent_total counter\nstrandcast_text_sent_total %llu\n"
                      "# HELP strandcast_text_dropped_total Droppable text messages dropped from full client queues.\n"
                      "# TYPE strandcast_text_dropped_total counter\nstrandcast_text_dropped_total %llu\n"
+                     "# HELP strandcast_clients_refused_total WebSocket upgrades answered 503 at --max-clients.\n"
+                     "# TYPE strandcast_clients_refused_total counter\nstrandcast_clients_refused_total %llu\n"
                      "# HELP strandcast_text_coalesced_total Announcements (params, state, groom) replaced in a client queue by a newer one.\n"
                      "# TYPE strandcast_text_coalesced_total counter\nstrandcast_text_coalesced_total %llu\n"
                      "# HELP strandcast_messages_received_total Complete client text messages received.\n"
@@ -59,7 +71,7 @@ static void metrics_body(net *n, net_http *h)
                      (unsigned long long)st.clients, (unsigned long long)st.frames_sent,
                      (unsigned long long)st.frames_skipped, (unsigned long long)st.bytes_sent,
                      (unsigned long long)st.text_sent, (unsigned long long)st.text_dropped,
-                     (unsigned long long)st.text_coalesced, (unsigned long long)st.messages_in, (unsigned long long)st.protocol_closes);
+                     (unsigned long long)st.clients_refused, (unsigned long long)st.text_coalesced, (unsigned long long)st.messages_in, (unsigned long long)st.protocol_closes);
     if (w > 0) used += (size_t)w < METRICS_MAX - used ? (size_t)w : METRICS_MAX - used - 1;
     h->len = used;
 }

@@ -104,7 +104,7 @@ struct net {
     lws_sorted_usec_list_t shutdown_sul;
     bool shutting_down;
 
-    atomic_uint_fast64_t clients, frames_sent, frames_skipped, bytes_sent, text_sent, text_dropped, text_coalesced;
+    atomic_uint_fast64_t clients, frames_sent, frames_skipped, bytes_sent, text_sent, text_dropped, text_coalesced, clients_refused;
     atomic_uint_fast64_t messages_in, protocol_closes, http_requests;
 };
 

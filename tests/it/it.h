@@ -115,6 +115,8 @@ double metric(const char *body, const char *name);
 
 /* The daemon on Ratboy with its body mesh (it_collider.c); the scenario skips without the assets. */
 int setup_ratboy(void **state);
+/* The common fixture with --max-clients 2 (it_lifecycle.c). */
+int setup_two_clients(void **state);
 int teardown_ratboy(void **state);
 #define IT_SCENARIO(name, su, td, timeout, labels) void test_##name(void **state);
 #include "scenarios.h"

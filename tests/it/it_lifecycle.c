@@ -179,3 +179,45 @@ void test_ping_drops_silent_client(void **state)
 }
 
 /* Runs exe with args to completion; returns its exit status and what it printed (both streams). */
+
+int setup_two_clients(void **state)
+{
+    static const char *const extra[] = { "--max-clients", "2", NULL };
+    return setup_with(state, extra);
+}
+
+/* --max-clients: one more WebSocket upgrade is answered 503 with the reason, counted in
+ * /metrics; once a client leaves, a new one gets in. */
+void test_max_clients_refused(void **state)
+{
+    fixture *fx = *state;
+    int a = rawws_open(fx->d.port, SUBPROTOCOL), b = rawws_open(fx->d.port, SUBPROTOCOL);
+    assert_true(a >= 0 && b >= 0);
+    static const char req[] = "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                              "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n"
+                              "Sec-WebSocket-Protocol: " SUBPROTOCOL "\r\n\r\n";
+    http_reply r;
+    double t_end = now_s() + WAIT_MS / 1e3;
+    do { /* the two are counted once their upgrades are through */
+        assert_int_equal(http_exchange(fx->d.port, req, &r, 3000), 0);
+        if (r.status == 503) break;
+        http_reply_free(&r);
+        wsc_run(fx->w, 50);
+    } while (now_s() < t_end);
+    assert_int_equal(r.status, 503);
+    assert_non_null(strstr(r.body, "maximum of 2 clients"));
+    http_reply_free(&r);
+    assert_int_equal(http_get(fx->d.port, "/metrics", &r), 0);
+    assert_true(metric(r.body, "strandcast_clients_refused_total") >= 1);
+    http_reply_free(&r);
+    rawws_free(a);
+    int c = -1;
+    t_end = now_s() + WAIT_MS / 1e3;
+    while (c < 0 && now_s() < t_end) {
+        wsc_run(fx->w, 50);
+        c = rawws_open(fx->d.port, SUBPROTOCOL);
+    }
+    assert_true(c >= 0);
+    rawws_free(b);
+    rawws_free(c);
+}

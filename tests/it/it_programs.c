@@ -46,7 +46,7 @@ void test_flags(void **state)
     static const char *const flags[] = { "--groom", "--collider", "--strands", "--verts", "--seed", "--backend", "--device", "--threads",
                                          "--listen", "--port", "--web", "--assets", "--rate", "--max-error",
                                          "--keyframe-interval", "--client-buffer", "--ping-interval", "--ping-timeout",
-                                         "--no-net", "--steps", "default" };
+                                         "--max-clients", "--no-net", "--steps", "default" };
     for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++)
         if (!strstr(out, flags[i])) fail_msg("--help does not mention %s", flags[i]);
     static const char *const bad[][4] = {
@@ -55,6 +55,7 @@ void test_flags(void **state)
         { "--web", "/nonexistent-dir", NULL }, { "--no-net=1", NULL, NULL }, { "--steps", "-1", NULL },
         { "--ping-interval", "0", NULL }, { "--ping-interval", "65535", NULL }, { "--ping-timeout", "65536", NULL },
         { "--ping-timeout", "20", NULL }, { "--ping-timeout=5", "--ping-interval", "5" }, { "--ping-timeout", "x", NULL },
+        { "--max-clients", "0", NULL }, { "--max-clients", "5000", NULL },
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         int rc = run_capture(cfg->exe, bad[i], out, sizeof out);

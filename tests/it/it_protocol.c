@@ -334,6 +334,14 @@ void test_subprotocol_refused(void **state)
     assert_int_equal(r.status, 400);
     assert_non_null(strstr(r.body, "strandcast.v2"));
     http_reply_free(&r);
+    /* the Upgrade token is case-insensitive (RFC 7230): "WebSocket" is checked like "websocket" */
+    static const char *const caps =
+        "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: WebSocket\r\nConnection: Upgrade\r\n"
+        "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n";
+    assert_int_equal(http_exchange(fx->d.port, caps, &r, 3000), 0);
+    assert_int_equal(r.status, 400);
+    assert_non_null(strstr(r.body, "strandcast.v2"));
+    http_reply_free(&r);
     /* the right name in a list is accepted */
     snprintf(buf, sizeof buf, req, "Sec-WebSocket-Protocol: chat, strandcast.v2\r\n");
     assert_int_equal(http_exchange(fx->d.port, buf, &r, 300), 0);
