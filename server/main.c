@@ -1,4 +1,5 @@
 /* strandcastd: entry point: parses the flags into an app_desc and runs the daemon. */
+#include <errno.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -48,6 +49,15 @@ static void usage(FILE *f)
             "                         interval, 2..%d (default %d: the interval + %d, at most %d)\n"
             "  --max-clients N        WebSocket clients at once, 1..%d; more are refused with HTTP 503\n"
             "                         (default %d per online core: %d here)\n"
+            "Access\n"
+            "  --token-file FILE      clients must send {\"type\":\"auth\",\"token\":...} with the token in FILE (its\n"
+            "                         first line, 16..256 printable bytes) before changing anything; without it a\n"
+            "                         client is read-only (hello, frames, subscribe). The viewer takes it from\n"
+            "                         the page URL: http://HOST:PORT/#token=TOKEN\n"
+            "  --insecure-open        allow --listen beyond loopback without --token-file (anyone may change it)\n"
+            "  --allow-origin ORIGIN  browsers from this origin only, e.g. https://example.org (repeatable, up to\n"
+            "                         16; requests without an Origin header, from non-browser clients, pass)\n"
+            "  --tls-cert PEM --tls-key PEM   serve https:// and wss:// only, with this certificate and key\n"
             "  --no-net               simulate and log only (no sockets)\n"
             "Run\n"
             "  --steps N              exit after N simulation steps (default 0 = until SIGINT/SIGTERM)\n"
@@ -74,7 +84,8 @@ static bool is_dir(const char *p)
 enum {
     OPT_GROOM = 256, OPT_COLLIDER, OPT_STRANDS, OPT_VERTS, OPT_SEED, OPT_BACKEND, OPT_DEVICE, OPT_THREADS, OPT_LISTEN,
     OPT_PORT, OPT_WEB, OPT_ASSETS, OPT_RATE, OPT_MAX_ERROR, OPT_KEY_INTERVAL, OPT_CLIENT_BUFFER, OPT_PING_INTERVAL,
-    OPT_PING_TIMEOUT, OPT_MAX_CLIENTS, OPT_NO_NET, OPT_STEPS, OPT_VERSION
+    OPT_PING_TIMEOUT, OPT_MAX_CLIENTS, OPT_TOKEN_FILE, OPT_INSECURE_OPEN, OPT_ALLOW_ORIGIN, OPT_TLS_CERT, OPT_TLS_KEY,
+    OPT_NO_NET, OPT_STEPS, OPT_VERSION
 };
 
 static const struct option options[] = {
@@ -97,6 +108,11 @@ static const struct option options[] = {
     { "ping-interval", required_argument, NULL, OPT_PING_INTERVAL },
     { "ping-timeout", required_argument, NULL, OPT_PING_TIMEOUT },
     { "max-clients", required_argument, NULL, OPT_MAX_CLIENTS },
+    { "token-file", required_argument, NULL, OPT_TOKEN_FILE },
+    { "insecure-open", no_argument, NULL, OPT_INSECURE_OPEN },
+    { "allow-origin", required_argument, NULL, OPT_ALLOW_ORIGIN },
+    { "tls-cert", required_argument, NULL, OPT_TLS_CERT },
+    { "tls-key", required_argument, NULL, OPT_TLS_KEY },
     { "no-net", no_argument, NULL, OPT_NO_NET },
     { "steps", required_argument, NULL, OPT_STEPS },
     { "help", no_argument, NULL, 'h' },
@@ -104,8 +120,46 @@ static const struct option options[] = {
     { NULL, 0, NULL, 0 },
 };
 
+#define MAX_ORIGINS 16
+#define MIN_TOKEN 16 /* bytes: a token shorter than this could be guessed */
+
+/* What the flags gather besides the desc: the token read from its file and the origins. */
+typedef struct extra_args {
+    bool verts_given;
+    char token[PROTO_MAX_TOKEN + 1];
+    const char *origins[MAX_ORIGINS + 1];
+    int norigins;
+} extra_args;
+
+/* The token: the file's first line without its line end; printable ASCII, MIN_TOKEN..PROTO_MAX_TOKEN bytes. */
+static int read_token(const char *flag, const char *path, char *out)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return bad(flag, path, strerror(errno));
+    char buf[PROTO_MAX_TOKEN + 3];
+    size_t n = fread(buf, 1, sizeof buf - 1, f);
+    fclose(f);
+    buf[n] = '\0';
+    n = strcspn(buf, "\r\n");
+    buf[n] = '\0';
+    if (n < MIN_TOKEN || n > PROTO_MAX_TOKEN) return bad(flag, path, "the token (its first line) must be 16..256 bytes");
+    for (size_t i = 0; i < n; i++)
+        if (buf[i] <= ' ' || buf[i] > '~') return bad(flag, path, "the token may hold printable ASCII only, no spaces");
+    struct stat sb;
+    if (stat(path, &sb) == 0 && (sb.st_mode & 077))
+        fprintf(stderr, "strandcastd: warning: %s is readable by other users (chmod 600 it)\n", path);
+    memcpy(out, buf, n + 1);
+    return 0;
+}
+
+/* True for the loopback addresses --listen may name (127.0.0.0/8, ::1, localhost). */
+static bool loopback(const char *listen)
+{
+    return !listen || strncmp(listen, "127.", 4) == 0 || strcmp(listen, "::1") == 0 || strcmp(listen, "localhost") == 0;
+}
+
 /* One flag's value into d; 0 or an exit status. */
-static int apply(int opt, const char *flag, const char *v, app_desc *d, bool *verts_given)
+static int apply(int opt, const char *flag, const char *v, app_desc *d, extra_args *x)
 {
     unsigned long long u = 0;
     double f = 0;
@@ -124,7 +178,7 @@ static int apply(int opt, const char *flag, const char *v, app_desc *d, bool *ve
         break;
     case OPT_VERTS:
         if (!(rc = core_cli_u64(PROG, flag, v, 2, PROTO_MAX_VERTS, &u))) d->verts = (uint32_t)u;
-        *verts_given = true;
+        x->verts_given = true;
         break;
     case OPT_SEED: /* at most 2^53 - 1: exact in JSON */
         if (!(rc = core_cli_u64(PROG, flag, v, 0, 9007199254740991ull, &u))) d->seed = u;
@@ -180,13 +234,26 @@ static int apply(int opt, const char *flag, const char *v, app_desc *d, bool *ve
     case OPT_STEPS:
         if (!(rc = core_cli_u64(PROG, flag, v, 0, (unsigned long long)LLONG_MAX, &u))) d->steps = u;
         break;
+    case OPT_TOKEN_FILE:
+        if ((rc = read_token(flag, v, x->token)) == 0) d->token = x->token;
+        break;
+    case OPT_INSECURE_OPEN: d->insecure_open = true; break;
+    case OPT_ALLOW_ORIGIN:
+        if (strncmp(v, "http://", 7) != 0 && strncmp(v, "https://", 8) != 0)
+            return bad(flag, v, "expected an origin: http(s)://host[:port]");
+        if (x->norigins == MAX_ORIGINS) return bad(flag, v, "at most 16 origins");
+        x->origins[x->norigins++] = v;
+        d->allow_origins = x->origins;
+        break;
+    case OPT_TLS_CERT: d->tls_cert = v; break;
+    case OPT_TLS_KEY: d->tls_key = v; break;
     case OPT_NO_NET: d->no_net = true; break;
     }
     return rc;
 }
 
 /* Returns 0 and fills d, or an exit status (help/version print and return -1). */
-static int parse_args(int argc, char **argv, app_desc *d, bool *verts_given)
+static int parse_args(int argc, char **argv, app_desc *d, extra_args *x)
 {
     opterr = 0;
     int opt, index;
@@ -202,7 +269,7 @@ static int parse_args(int argc, char **argv, app_desc *d, bool *verts_given)
         }
         char flag[64];
         snprintf(flag, sizeof flag, "--%s", options[index].name);
-        int rc = apply(opt, flag, optarg, d, verts_given);
+        int rc = apply(opt, flag, optarg, d, x);
         if (rc) return rc;
     }
     if (optind < argc) return bad(argv[optind], NULL, "unexpected argument (flags start with --)");
@@ -212,9 +279,14 @@ static int parse_args(int argc, char **argv, app_desc *d, bool *verts_given)
 int main(int argc, char **argv)
 {
     app_desc d = { 0 };
-    bool verts_given = false;
-    int rc = parse_args(argc, argv, &d, &verts_given);
+    static extra_args x;
+    int rc = parse_args(argc, argv, &d, &x);
     if (rc) return rc < 0 ? 0 : rc;
+    if (!d.no_net && !loopback(d.listen) && !d.token && !d.insecure_open)
+        return bad("--listen", d.listen,
+                   "beyond loopback anyone could change the simulation: give --token-file FILE (clients then need "
+                   "its token to make changes), or --insecure-open");
+    if (!d.tls_cert != !d.tls_key) return bad(d.tls_cert ? "--tls-cert" : "--tls-key", NULL, "needs both --tls-cert and --tls-key");
     int interval = d.ping_interval ? d.ping_interval : NET_DEFAULT_PING_S;
     if (d.ping_timeout && d.ping_timeout <= interval) {
         char why[96];
@@ -228,7 +300,7 @@ int main(int argc, char **argv)
     if (!procedural && d.strands) return bad("--strands", NULL, "a groom file sets its own strand count");
     uint64_t strands = d.strands ? d.strands : GROOM_DEFAULT_STRANDS, verts = d.verts ? d.verts : GROOM_DEFAULT_VERTS;
     if (procedural && strands * verts > PROTO_MAX_VERTICES) return bad("--strands", NULL, "strands x verts is over 2097152");
-    if (!procedural && !verts_given) d.verts = 0;
+    if (!procedural && !x.verts_given) d.verts = 0;
     if (!d.web_dir && is_dir(STRANDCAST_SOURCE_DIR "/web")) d.web_dir = STRANDCAST_SOURCE_DIR "/web";
     if (!d.assets_dir && is_dir(STRANDCAST_SOURCE_DIR "/../shared/assets")) d.assets_dir = STRANDCAST_SOURCE_DIR "/../shared/assets";
     core_err err = { "" };

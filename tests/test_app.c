@@ -13,7 +13,7 @@
 
 #include "app/app_anim.h"
 #include "app/app_mailbox.h"
-#include "app/app_rate.h"
+#include "app/app_peers.h"
 #include "app/app_stream.h"
 
 static app_cmd msg_cmd(uint32_t client, proto_type t, float x)
@@ -320,28 +320,28 @@ static void test_streams_due_schedule(void **state)
 static void test_rate_budget(void **state)
 {
     (void)state;
-    app_rates r = { 0 };
+    app_peers r = { 0 };
     const unsigned long long t0 = 1000000000ull;
-    assert_true(app_rates_take(&r, 7, t0)); /* empty table: nobody is limited */
-    for (uint32_t c = 1; c <= 300; c++) assert_int_equal(app_rates_open(&r, c, t0), CORE_OK);
+    assert_true(app_peers_take(&r, 7, t0)); /* empty table: nobody is limited */
+    for (uint32_t c = 1; c <= 300; c++) assert_int_equal(app_peers_open(&r, c, true, t0), CORE_OK);
     int burst = 0;
-    while (app_rates_take(&r, 5, t0)) burst++;
+    while (app_peers_take(&r, 5, t0)) burst++;
     assert_int_equal(burst, (int)APP_RATE_BURST);
     /* a quarter second later: a quarter of the sustained rate is back */
     int later = 0;
-    while (app_rates_take(&r, 5, t0 + 250000000ull)) later++;
+    while (app_peers_take(&r, 5, t0 + 250000000ull)) later++;
     assert_int_equal(later, (int)(APP_RATE_PER_S / 4));
     /* the others still have full buckets, also after half of them leave */
-    for (uint32_t c = 1; c <= 300; c += 2) app_rates_close(&r, c);
+    for (uint32_t c = 1; c <= 300; c += 2) app_peers_close(&r, c);
     assert_int_equal(r.n, 150);
     for (uint32_t c = 2; c <= 300; c += 2) {
         int n = 0;
-        while (n <= (int)APP_RATE_BURST && app_rates_take(&r, c, t0)) n++;
+        while (n <= (int)APP_RATE_BURST && app_peers_take(&r, c, t0)) n++;
         if (n != (int)APP_RATE_BURST) fail_msg("client %u had %d messages, not %d", c, n, (int)APP_RATE_BURST);
     }
-    assert_true(app_rates_take(&r, 3, t0)); /* closed: no longer limited */
-    assert_true(app_rates_take(&r, 1000, t0)); /* never opened */
-    app_rates_free(&r);
+    assert_true(app_peers_take(&r, 3, t0)); /* closed: no longer limited */
+    assert_true(app_peers_take(&r, 1000, t0)); /* never opened */
+    app_peers_free(&r);
 }
 
 int main(void)

@@ -6,7 +6,7 @@ import { buildLayout } from './interp.js';
 import { rendererName, softwareWebGL } from './gl_util.js';
 import { Input } from './input.js';
 import { dragRotate, dragTranslate, motionMessage } from './motion.js';
-import { defaultUrl } from './net.js';
+import { defaultUrl, takeToken } from './net.js';
 import { Banner, statsText } from './overlay.js';
 import { Panel } from './panel.js';
 import { pickColliders } from './pick.js';
@@ -127,7 +127,8 @@ export class App {
   }
 
   start() {
-    this.stream.start(this.url);
+    this.token = takeToken(location, history);
+    this.stream.start(this.url, undefined, this.token);
     requestAnimationFrame(this._loop);
   }
 
@@ -188,7 +189,11 @@ export class App {
     this._applyGroom(h.groom, h.colliders);
     this.meshLoader.update(h.collider_mesh);
     if (first && finiteArray(h.groom.bounds, 6)) this.camera.frame(h.groom.bounds);
-    this.panel.showStatus(`connected to ${h.server || 'server'} ${h.version || ''} as client ${h.client ?? '?'}`, false);
+    if (h.access === 'token' && !this.token) {
+      this.panel.showStatus('read-only: this server needs its token to take changes (open the page as .../#token=TOKEN)', true);
+    } else {
+      this.panel.showStatus(`connected to ${h.server || 'server'} ${h.version || ''} as client ${h.client ?? '?'}`, false);
+    }
   }
 
   _onMessage(m) {

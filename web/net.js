@@ -13,13 +13,27 @@ export function defaultUrl(loc) {
   return `${loc.protocol === 'https:' ? 'wss' : 'ws'}://${loc.host}/`;
 }
 
+// The access token in a page URL ending in #token=TOKEN (strandcastd --token-file), or null. When
+// there is one it is removed from the address bar (history.replaceState), so it is not shown,
+// bookmarked or shared with the page; the page keeps it in memory only.
+export function takeToken(loc, history) {
+  const m = /(?:^#|&)token=([^&]*)/.exec(loc.hash || '');
+  if (!m) return null;
+  let token = null;
+  try { token = decodeURIComponent(m[1]); } catch { token = null; }
+  if (history && history.replaceState) history.replaceState(null, '', loc.pathname + loc.search);
+  return token || null;
+}
+
 // Callbacks (all optional): onHello(hello), onMessage(msg) for every other JSON message,
 // onBinary(ArrayBuffer), onStatus({ state: 'connecting' | 'open' | 'lost' | 'refused' |
 // 'mismatch', attempt, delayMs, reason }). 'refused' (the server is up but keeps refusing the
 // handshake) keeps retrying; 'mismatch' (hello names another protocol) stops. Call start() once.
+// token (optional): sent as auth after every hello whose access is 'token' (reconnects included).
 export class Connection {
-  constructor(url, callbacks, backoffOptions) {
+  constructor(url, callbacks, backoffOptions, token = null) {
     this.url = url;
+    this.token = token;
     this.cb = callbacks;
     this.backoff = new Backoff(backoffOptions);
     this.ws = null;
@@ -124,6 +138,7 @@ export class Connection {
       this.helloSeen = true;
       this.backoff.reset();
       this._status({ state: 'open' });
+      if (msg.access === 'token' && this.token) this.send({ type: 'auth', token: this.token });
       if (this.cb.onHello) this.cb.onHello(msg);
       return;
     }

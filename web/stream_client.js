@@ -19,9 +19,10 @@ export class StreamClient {
     this.transfer = [null];
   }
 
-  // Connects to url (ws:// or wss://); backoff: reconnect delay options (backoff.js).
-  start(url, backoff) {
-    this.worker.postMessage({ type: 'start', url, backoff });
+  // Connects to url (ws:// or wss://); backoff: reconnect delay options (backoff.js); token: the
+  // server's access token (sent as auth when the hello asks for one), or null.
+  start(url, backoff, token = null) {
+    this.worker.postMessage({ type: 'start', url, backoff, token });
   }
 
   // Sends a control message; returns its id (assigned unless it is a motion message, which

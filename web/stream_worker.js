@@ -104,7 +104,7 @@ function onFrame(data) {
   }, [buf.buffer]);
 }
 
-function start(url, backoff) {
+function start(url, backoff, token) {
   st.connection = new Connection(url, {
     onHello: (h) => { st.decoder.reset(); postMessage({ type: 'hello', hello: h }); },
     onMessage: (m) => {
@@ -113,13 +113,13 @@ function start(url, backoff) {
     },
     onBinary: onFrame,
     onStatus: (s) => postMessage({ type: 'status', status: s }),
-  }, backoff);
+  }, backoff, token);
   st.connection.start();
 }
 
 self.onmessage = (ev) => {
   const m = ev.data;
-  if (m.type === 'start') start(m.url, m.backoff);
+  if (m.type === 'start') start(m.url, m.backoff, m.token);
   else if (m.type === 'send') st.connection.send(m.message);
   else if (m.type === 'config') configure(m);
   else if (m.type === 'recycle') { if (m.gen === st.gen && m.buf.length === 2 * st.block && st.free.length < POOL) st.free.push(m.buf); }

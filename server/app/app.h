@@ -36,6 +36,11 @@ typedef struct app_desc {
     int ping_interval;         /* seconds without a pong before a client is pinged; 0 = 20 */
     int ping_timeout;          /* seconds without a pong before a client is dropped (> ping_interval);
                                 * 0 = ping_interval + 10 */
+    const char *token;         /* clients must send auth with this before changing shared state;
+                                * NULL = every client may (only on loopback, or insecure_open) */
+    bool insecure_open;        /* allow listening beyond loopback without a token */
+    const char *const *allow_origins; /* NULL-terminated browser Origins allowed to connect; NULL = any */
+    const char *tls_cert, *tls_key;   /* PEM files: serve https/wss only; NULL = plain */
     bool no_net;               /* simulate and log only */
     uint64_t steps;            /* stop after this many steps; 0 = run until SIGINT/SIGTERM */
 } app_desc;
@@ -46,7 +51,8 @@ int app_default_max_clients(void);
 
 /* Runs the daemon on the calling thread (which becomes the signal-waiting controller; SIGINT
  * and SIGTERM are blocked in it and in every thread it starts) until SIGINT/SIGTERM or
- * desc->steps steps. Prints "strandcastd: open http://ADDR:PORT/" on stdout once listening.
+ * desc->steps steps. Prints "strandcastd: open http://ADDR:PORT/" (https with TLS) on stdout
+ * once listening.
  * Returns CORE_OK after a clean shutdown, or the error that stopped start-up or the simulation
  * (err says why). */
 core_status app_run(const app_desc *desc, core_err *err);

@@ -45,7 +45,7 @@ static void client_open(app_world *w, uint32_t id)
         .animation = { app_preset_names[w->anim.preset], w->anim.speed }, .styles = w->styles, .nstyles = APP_NSTYLES,
         .files = (const char *const *)as->files, .nfiles = as->nfiles,
         .meshes = (const char *const *)as->meshes, .nmeshes = as->nmeshes, .stream = stream_info(w, c),
-        .state = app_world_state(w),
+        .state = app_world_state(w), .token_required = w->d->token != NULL,
     };
     char *hello = proto_build_hello(&h);
     if (!hello) {
@@ -181,6 +181,7 @@ static void handle_msg(app_world *w, uint32_t client, const proto_msg *m)
         app_reply_ok(w->out, client, m);
         return; /* the state follows when the steps are done */
     case PROTO_SET_GROOM: app_cmd_set_groom(w, client, m); return; /* it drops grooms_pending */
+    case PROTO_AUTH: return; /* answered on the net thread (app_net.c), never queued */
     case PROTO_SUBSCRIBE: subscribe(w, client, m); return;
     case PROTO_KEYFRAME: {
         app_client *c = app_clients_find(&w->clients, client);

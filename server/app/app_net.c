@@ -1,4 +1,5 @@
 /* app: the net-thread side: parse client text into commands, reply to rejects, /metrics lines. */
+#include <string.h>
 #include <time.h>
 
 #include "app_net.h"
@@ -27,8 +28,8 @@ static void post_essential(app_gate *g, const app_cmd *c)
 void app_on_open(void *user, uint32_t client)
 {
     app_gate *g = user;
-    if (app_rates_open(&g->rates, client, core_now_ns()) != CORE_OK)
-        core_log(CORE_LOG_WARN, "app", "client %u: out of memory for its message budget; not rate-limited", client);
+    if (app_peers_open(&g->peers, client, g->token == NULL, core_now_ns()) != CORE_OK)
+        core_log(CORE_LOG_WARN, "app", "client %u: out of memory for its entry; it is read-only and not rate-limited", client);
     app_cmd c = { .kind = APP_CMD_OPEN, .client = client };
     post_essential(g, &c);
 }
@@ -36,7 +37,7 @@ void app_on_open(void *user, uint32_t client)
 void app_on_close(void *user, uint32_t client)
 {
     app_gate *g = user;
-    app_rates_close(&g->rates, client);
+    app_peers_close(&g->peers, client);
     app_cmd c = { .kind = APP_CMD_CLOSE, .client = client };
     post_essential(g, &c);
 }
@@ -56,10 +57,39 @@ static void limited(app_gate *g, uint32_t client, const char *text, size_t len)
     app_send(g->out, client, proto_build_error(&c.msg.id, &e), NET_TEXT_DROPPABLE);
 }
 
+/* Same length and bytes, in time that does not depend on where they differ. */
+static bool same_secret(const char *a, const char *b)
+{
+    size_t na = strlen(a), nb = strlen(b);
+    unsigned diff = (unsigned)(na ^ nb);
+    for (size_t i = 0; i < na; i++) diff |= (unsigned char)a[i] ^ (unsigned char)(nb ? b[i % nb] : 0);
+    return diff == 0;
+}
+
+/* Access control: auth is answered here; without it (when the server has a token) a client
+ * may only subscribe. True when m goes on to the sim thread. */
+static bool allowed(app_gate *g, uint32_t client, const proto_msg *m)
+{
+    app_peer *p = app_peers_find(&g->peers, client);
+    if (m->type == PROTO_AUTH) {
+        if (!g->token || same_secret(m->u.auth.token, g->token)) {
+            if (p) p->writer = true;
+            app_reply_ok(g->out, client, m);
+        } else {
+            app_reply_fail(g->out, client, &m->id, PROTO_ERR_FORBIDDEN, "token", "wrong token");
+        }
+        return false;
+    }
+    if (m->type == PROTO_SUBSCRIBE || (p && p->writer)) return true;
+    app_reply_fail(g->out, client, &m->id, PROTO_ERR_FORBIDDEN, "",
+                   "this connection is read-only: send {\"type\":\"auth\",\"token\":...} with the server's token first");
+    return false;
+}
+
 void app_on_text(void *user, uint32_t client, const char *text, size_t len)
 {
     app_gate *g = user;
-    if (!app_rates_take(&g->rates, client, core_now_ns())) {
+    if (!app_peers_take(&g->peers, client, core_now_ns())) {
         limited(g, client, text, len);
         return;
     }
@@ -69,6 +99,7 @@ void app_on_text(void *user, uint32_t client, const char *text, size_t len)
         app_reply_error(g->out, client, &c.msg.id, &e);
         return;
     }
+    if (!allowed(g, client, &c.msg)) return;
     if (c.msg.type != PROTO_SET_GROOM) {
         post(g, &c, &c.msg.id);
         return;
@@ -92,4 +123,4 @@ size_t app_metrics(void *user, char *buf, size_t cap)
     return app_stats_metrics(&s, atomic_load(&g->out->accepted), atomic_load(&g->out->rejected), buf, cap);
 }
 
-void app_gate_free(app_gate *g) { app_rates_free(&g->rates); }
+void app_gate_free(app_gate *g) { app_peers_free(&g->peers); }

@@ -9,7 +9,7 @@
 
 #include "app_mailbox.h"
 #include "app_outbox.h"
-#include "app_rate.h"
+#include "app_peers.h"
 #include "app_stats.h"
 
 /* What the net callbacks need; borrowed from app_run.c, which outlives the net thread. */
@@ -20,10 +20,11 @@ typedef struct app_gate {
     app_stats_board *board;
     atomic_uint *grooms_pending;  /* set_groom requests queued or being carried out (at most 1) */
     const atomic_bool *sim_done;  /* the sim thread has stopped: opens and closes are not waited for */
-    app_rates rates;              /* owned: each client's control-message budget */
+    const char *token;            /* NULL: every client is a writer */
+    app_peers peers;              /* owned: each client's budget and access */
 } app_gate;
 
-/* Net-thread callbacks (net_callbacks.user = the app_gate). app_gate_free releases the rates
+/* Net-thread callbacks (net_callbacks.user = the app_gate). app_gate_free releases the peers
  * table once the net thread has stopped. */
 void app_on_open(void *user, uint32_t client);
 void app_on_text(void *user, uint32_t client, const char *text, size_t len);

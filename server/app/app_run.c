@@ -124,11 +124,12 @@ static core_status setup(app *a, core_err *err)
     if (st != CORE_OK) return st;
     app_assets_list(&a->assets, a->d.assets_dir, &a->parser);
     if ((st = setup_world(a, ptable, nparams, err)) != CORE_OK) return st;
-    a->gate = (app_gate){ &a->parser, &a->mb, &a->out, &a->board, &a->grooms_pending, &a->w.done, { 0 } };
+    a->gate = (app_gate){ &a->parser, &a->mb, &a->out, &a->board, &a->grooms_pending, &a->w.done, a->d.token, { 0 } };
     if (!a->d.no_net) {
         net_desc nd = {
             .listen = a->d.listen, .port = a->d.port, .web_dir = a->d.web_dir, .subprotocol = PROTO_SUBPROTOCOL,
             .max_message = PROTO_MAX_MESSAGE, .sndbuf = a->d.client_buffer, .max_clients = a->d.max_clients,
+            .allow_origins = a->d.allow_origins, .tls_cert = a->d.tls_cert, .tls_key = a->d.tls_key,
             .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout, .blobs = { APP_MESH_PATH },
             .cb = { &a->gate, app_on_open, app_on_text, app_on_close, app_metrics },
         };
@@ -198,8 +199,12 @@ core_status app_run(const app_desc *desc, core_err *err)
         const char *host = a->d.listen && *a->d.listen ? a->d.listen : "127.0.0.1";
         bool any = strcmp(host, "0.0.0.0") == 0 || strcmp(host, "*") == 0;
         bool v6 = strchr(host, ':') != NULL;
-        printf("strandcastd: open http://%s%s%s:%d/  (WebSocket subprotocol %s%s)\n", v6 ? "[" : "", any ? "127.0.0.1" : host,
-               v6 ? "]" : "", net_port(a->net), PROTO_SUBPROTOCOL, any ? "; listening on every interface" : "");
+        /* the token itself is never printed or logged: the user has it in the file */
+        printf("strandcastd: open %s://%s%s%s:%d/%s  (WebSocket subprotocol %s%s)\n", a->d.tls_cert ? "https" : "http",
+               v6 ? "[" : "", any ? "127.0.0.1" : host, v6 ? "]" : "", net_port(a->net),
+               a->d.token ? "#token=TOKEN" : "", PROTO_SUBPROTOCOL, any ? "; listening on every interface" : "");
+        if (a->d.token)
+            printf("strandcastd: TOKEN is the first line of the --token-file; without it a page is read-only\n");
         fflush(stdout);
         if (pthread_create(&net_thread, NULL, net_main, a->net) != 0) st = core_fail(err, CORE_EBACKEND, "cannot start the net thread");
         else net_started = true;

@@ -140,6 +140,16 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     n->desc.listen = n->listen;
     n->desc.web_dir = n->web_dir;
     n->desc.subprotocol = n->subprotocol;
+    n->desc.allow_origins = NULL;
+    n->desc.tls_cert = n->desc.tls_key = NULL;
+    for (const char *const *o = d->allow_origins; o && *o; o++) {
+        if (n->norigins == NET_MAX_ORIGINS || strlen(*o) >= NET_MAX_ORIGIN) {
+            net_destroy(n);
+            return core_fail(err, CORE_EINVAL, "net: at most %d allowed origins of under %d bytes", NET_MAX_ORIGINS,
+                             NET_MAX_ORIGIN);
+        }
+        snprintf(n->origins[n->norigins++], NET_MAX_ORIGIN, "%s", *o);
+    }
     pthread_mutex_init(&n->lock, NULL);
     n->next_client = 1;
     if ((st = net_blobs_init(n, err)) != CORE_OK) {
@@ -167,6 +177,11 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     /* an IPv4 address on lws' IPv6 socket ends up bound to every interface: use an IPv4 socket */
     if (n->listen && !strchr(n->listen, ':')) info.options |= LWS_SERVER_OPTION_DISABLE_IPV6;
     info.vhost_name = "strandcast";
+    if (d->tls_cert) {
+        info.options |= LWS_SERVER_OPTION_DO_SSL_GLOBAL_INIT;
+        info.ssl_cert_filepath = d->tls_cert;
+        info.ssl_private_key_filepath = d->tls_key;
+    }
     info.timeout_secs = 10;
     n->ctx = lws_create_context(&info);
     if (!n->ctx) {
@@ -176,6 +191,10 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     n->vhost = lws_create_vhost(n->ctx, &info);
     if (!n->vhost) {
         net_destroy(n);
+        if (d->tls_cert)
+            return core_fail(err, CORE_EIO, "net: could not listen with TLS on %s port %d (certificate %s or key %s "
+                             "unreadable or not a matching PEM pair, or the port is in use)",
+                             listen ? listen : "*", info.port, d->tls_cert, d->tls_key);
         return core_fail(err, CORE_EIO, "net: could not listen on %s port %d (in use, or no such address?)",
                          listen ? listen : "*", info.port);
     }

@@ -23,6 +23,8 @@
 #define NET_MAX_HANGUP_S 65535     /* lws keeps both times as uint16 seconds */
 #define NET_DEFAULT_SNDBUF (256 * 1024)
 #define NET_INBOX_MAX 8192         /* pending posts from other threads before posting fails */
+#define NET_MAX_ORIGINS 16         /* net_desc.allow_origins entries */
+#define NET_MAX_ORIGIN 256         /* longest origin, bytes */
 #define NET_MAX_BLOBS 4            /* byte blobs served over HTTP from memory (net_set_blob) */
 #define NET_MAX_BLOB_PATH 64       /* longest blob path, bytes */
 #define NET_MAX_ETAG 64            /* longest blob version tag, bytes */
@@ -71,6 +73,12 @@ typedef struct net_desc {
      * last handed over (application/octet-stream, ETag, Cache-Control: no-cache; 304 for a
      * matching If-None-Match), or 404 while there are none. */
     const char *blobs[NET_MAX_BLOBS];
+    /* Browser origins ("https://host:port", exact match) a WebSocket upgrade with an Origin
+     * header must come from (403 otherwise); NULL-terminated, at most NET_MAX_ORIGINS; NULL =
+     * any. An upgrade without Origin (not a browser) is not checked. */
+    const char *const *allow_origins;
+    /* PEM certificate and key: serve TLS only (https, wss); NULL = plain. Read at net_create. */
+    const char *tls_cert, *tls_key;
     net_callbacks cb;
 } net_desc;
 

@@ -17,6 +17,22 @@ static int confirm_upgrade(net *n, struct lws *wsi, const char *upgrade)
     int len = lws_hdr_total_length(wsi, WSI_TOKEN_PROTOCOL);
     if (len > 0 && len < (int)sizeof list) lws_hdr_copy(wsi, list, sizeof list, WSI_TOKEN_PROTOCOL);
     if (len > 0 && len < (int)sizeof list && net_token_listed(list, n->subprotocol)) {
+        char origin[NET_MAX_ORIGIN + 1] = "";
+        int olen = lws_hdr_total_length(wsi, WSI_TOKEN_ORIGIN);
+        if (n->norigins && olen > 0) {
+            if (olen < (int)sizeof origin) lws_hdr_copy(wsi, origin, sizeof origin, WSI_TOKEN_ORIGIN);
+            bool listed = false;
+            for (int i = 0; i < n->norigins && !listed; i++) listed = strcmp(origin, n->origins[i]) == 0;
+            if (!listed) {
+                char why[NET_MAX_ORIGIN + 96];
+                for (char *c = origin; *c; c++)
+                    if (*c == '<' || *c == '>' || *c == '&') *c = '?';
+                snprintf(why, sizeof why, "origin %s is not allowed to connect (strandcastd --allow-origin)",
+                         origin[0] ? origin : "(too long)");
+                atomic_fetch_add(&n->protocol_closes, 1);
+                return lws_return_http_status(wsi, HTTP_STATUS_FORBIDDEN, why) ? -1 : 1;
+            }
+        }
         if (atomic_load(&n->clients) < (uint64_t)n->desc.max_clients) return 0;
         char busy[160];
         snprintf(busy, sizeof busy, "the server has its maximum of %d clients (--max-clients); try again later",

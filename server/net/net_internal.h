@@ -83,6 +83,8 @@ struct net {
     struct lws_vhost *vhost;
     net_desc desc;
     char *listen, *web_dir, *subprotocol;
+    char origins[NET_MAX_ORIGINS][NET_MAX_ORIGIN]; /* allowed browser origins */
+    int norigins;                                  /* 0: any */
     lws_retry_bo_t retry;
     struct lws_protocols protocols[3];
     struct lws_http_mount mounts[2 + NET_MAX_BLOBS];

@@ -27,6 +27,7 @@
 #define PROTO_MIN_ERROR 1e-5          /* subscribe max_error range, m (the codec's lower bound) */
 #define PROTO_MAX_ERROR 1e-2
 #define PROTO_MAX_RATE 240.0          /* subscribe max_rate, Hz (0 = the server's rate) */
+#define PROTO_MAX_TOKEN 256           /* auth token, bytes */
 
 typedef enum proto_type {
     PROTO_GET_PARAMS = 1,
@@ -39,7 +40,8 @@ typedef enum proto_type {
     PROTO_STEP,
     PROTO_SET_GROOM,
     PROTO_SUBSCRIBE,
-    PROTO_KEYFRAME
+    PROTO_KEYFRAME,
+    PROTO_AUTH
 } proto_type;
 
 /* Stable error codes; proto_code_name gives the wire string. */
@@ -56,6 +58,7 @@ typedef enum proto_code {
     PROTO_ERR_BAD_STATE,     /* request not valid now (e.g. step while running) */
     PROTO_ERR_BUSY,          /* the server's command queue is full; retry later */
     PROTO_ERR_RATE_LIMITED,  /* the client is over its control-message budget */
+    PROTO_ERR_FORBIDDEN,     /* a read-only client asked to change shared state (or a wrong token) */
     PROTO_ERR_FAILED         /* valid request that failed while being carried out */
 } proto_code;
 
@@ -123,6 +126,9 @@ typedef struct proto_msg {
             double max_error;
             double max_rate;
         } subscribe;
+        struct {
+            char token[PROTO_MAX_TOKEN + 1];
+        } auth;
     } u;
 } proto_msg;
 
@@ -246,6 +252,7 @@ typedef struct proto_hello {
     size_t nmeshes;
     proto_stream stream;
     proto_state state;
+    bool token_required;      /* access "token": changes need an accepted auth first; else "open" */
 } proto_hello;
 
 /* The first message of every connection; see proto/PROTOCOL.md. */

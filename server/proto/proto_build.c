@@ -230,12 +230,13 @@ static cJSON *limits_object(void)
 char *proto_build_hello(const proto_hello *h)
 {
     static const char *const caps[] = { "params", "motion", "presets", "reset", "pause",
-                                        "step",   "groom",  "subscribe", "keyframe", "stats" };
+                                        "step",   "groom",  "subscribe", "keyframe", "stats", "auth" };
     cJSON *o = new_message("hello", NULL);
     bool ok = o && cJSON_AddStringToObject(o, "server", h->server) && cJSON_AddStringToObject(o, "version", h->version) &&
               cJSON_AddNumberToObject(o, "protocol", PROTO_VERSION) &&
               cJSON_AddStringToObject(o, "subprotocol", PROTO_SUBPROTOCOL) &&
               cJSON_AddNumberToObject(o, "client", h->client) &&
+              cJSON_AddStringToObject(o, "access", h->token_required ? "token" : "open") &&
               add_item(o, "capabilities", string_array(caps, sizeof caps / sizeof caps[0])) &&
               add_item(o, "groom", cJSON_CreateRaw(h->groom->groom)) &&
               add_item(o, "colliders", cJSON_CreateRaw(h->groom->colliders)) &&

@@ -14,6 +14,7 @@ static const char *const type_names[] = {
     [PROTO_ANIMATE] = "animate",       [PROTO_RESET] = "reset",           [PROTO_PAUSE] = "pause",
     [PROTO_RESUME] = "resume",         [PROTO_STEP] = "step",             [PROTO_SET_GROOM] = "set_groom",
     [PROTO_SUBSCRIBE] = "subscribe",   [PROTO_KEYFRAME] = "keyframe",
+    [PROTO_AUTH] = "auth",
 };
 #define NTYPES (sizeof type_names / sizeof type_names[0])
 
@@ -29,6 +30,7 @@ static const char *const code_names[] = {
     [PROTO_ERR_NOT_FOUND] = "not_found",
     [PROTO_ERR_BAD_STATE] = "bad_state",
     [PROTO_ERR_RATE_LIMITED] = "rate_limited",
+    [PROTO_ERR_FORBIDDEN] = "forbidden",
     [PROTO_ERR_BUSY] = "busy",
     [PROTO_ERR_FAILED] = "failed",
 };
@@ -64,6 +66,7 @@ static const char *const *allowed_fields(proto_type t)
     static const char *const step[] = { "count", NULL };
     static const char *const set_groom[] = { "style", "file", "strands", "verts", "seed", "collider", NULL };
     static const char *const subscribe[] = { "stride", "max_error", "max_rate", NULL };
+    static const char *const auth[] = { "token", NULL };
     switch (t) {
     case PROTO_SET_PARAMS: return set_params;
     case PROTO_MOTION: return motion;
@@ -71,6 +74,7 @@ static const char *const *allowed_fields(proto_type t)
     case PROTO_STEP: return step;
     case PROTO_SET_GROOM: return set_groom;
     case PROTO_SUBSCRIBE: return subscribe;
+    case PROTO_AUTH: return auth;
     default: return none;
     }
 }
@@ -401,6 +405,12 @@ static core_status parse_root(const proto_parser *p, const cJSON *root, proto_ms
         return st;
     case PROTO_SET_GROOM: return parse_set_groom(p, root, m, e);
     case PROTO_SUBSCRIBE: return parse_subscribe(root, m, e);
+    case PROTO_AUTH: {
+        const char *token = NULL;
+        get_string(root, "token", true, PROTO_MAX_TOKEN, &token, e, &st);
+        if (st == CORE_OK) snprintf(m->u.auth.token, sizeof m->u.auth.token, "%s", token);
+        return st;
+    }
     default: return CORE_OK;
     }
 }

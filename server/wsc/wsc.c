@@ -129,6 +129,7 @@ wsc *wsc_new(void)
     struct lws_context_creation_info info;
     memset(&info, 0, sizeof info);
     info.port = CONTEXT_PORT_NO_LISTEN;
+    info.options = LWS_SERVER_OPTION_DO_SSL_GLOBAL_INIT; /* wss:// (wsc_connect_tls) */
     info.protocols = w->protocols;
     w->ctx = lws_create_context(&info);
     if (!w->ctx) {
@@ -172,8 +173,9 @@ wsc_conn *wsc_connect(wsc *w, int port, const char *subprotocol, wsc_binary_fn o
     return wsc_connect_host(w, "127.0.0.1", port, subprotocol, on_binary, user);
 }
 
-wsc_conn *wsc_connect_host(wsc *w, const char *host, int port, const char *subprotocol, wsc_binary_fn on_binary,
-                           void *user)
+/* A connection to host:port, over TLS when tls (any certificate accepted: tests only). */
+static wsc_conn *connect_to(wsc *w, const char *host, int port, bool tls, const char *subprotocol, wsc_binary_fn on_binary,
+                            void *user)
 {
     wsc_conn *c = calloc(1, sizeof *c);
     if (!c) return NULL;
@@ -194,8 +196,20 @@ wsc_conn *wsc_connect_host(wsc *w, const char *host, int port, const char *subpr
     ci.local_protocol_name = "wsc";
     ci.opaque_user_data = c;
     ci.pwsi = &c->wsi;
+    if (tls) ci.ssl_connection = LCCSCF_USE_SSL | LCCSCF_ALLOW_SELFSIGNED | LCCSCF_SKIP_SERVER_CERT_HOSTNAME_CHECK;
     if (!lws_client_connect_via_info(&ci)) c->failed = true;
     return c;
+}
+
+wsc_conn *wsc_connect_host(wsc *w, const char *host, int port, const char *subprotocol, wsc_binary_fn on_binary,
+                           void *user)
+{
+    return connect_to(w, host, port, false, subprotocol, on_binary, user);
+}
+
+wsc_conn *wsc_connect_tls(wsc *w, int port, const char *subprotocol, wsc_binary_fn on_binary, void *user)
+{
+    return connect_to(w, "127.0.0.1", port, true, subprotocol, on_binary, user);
 }
 
 static unsigned long long now_ms(void)

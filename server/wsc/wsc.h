@@ -26,6 +26,9 @@ wsc_conn *wsc_connect(wsc *w, int port, const char *subprotocol, wsc_binary_fn o
 wsc_conn *wsc_connect_host(wsc *w, const char *host, int port, const char *subprotocol, wsc_binary_fn on_binary,
                            void *user);
 
+/* wsc_connect over TLS (wss://), accepting any certificate (self-signed test certificates). */
+wsc_conn *wsc_connect_tls(wsc *w, int port, const char *subprotocol, wsc_binary_fn on_binary, void *user);
+
 /* Runs the event loop until pred(arg) is true or timeout_ms passes; returns pred's last value. */
 bool wsc_until(wsc *w, bool (*pred)(void *arg), void *arg, int timeout_ms);
 /* Runs the event loop for ms milliseconds. */

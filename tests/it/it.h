@@ -48,6 +48,7 @@ typedef struct fixture {
     const config *cfg;
     char dir[64];
     char web[96], assets[96];
+    char files[64];           /* a folder of files made before the daemon started (token, TLS), or "" */
     daemon_proc d;
     wsc *w;
     view views[8];
@@ -89,6 +90,8 @@ int setup_auto(void **state);
 int teardown(void **state);
 /* A new client connection whose frames decode into a fresh view (*out). */
 wsc_conn *connect_view(fixture *fx, view **out);
+/* The same, over TLS (wss) when tls. */
+wsc_conn *connect_view_via(fixture *fx, bool tls, view **out);
 /* The next text message of type on c within ms (fails the test otherwise); the caller frees it. */
 cJSON *expect_msg_within(fixture *fx, wsc_conn *c, const char *type, int ms);
 cJSON *expect_msg(fixture *fx, wsc_conn *c, const char *type);
@@ -117,6 +120,12 @@ double metric(const char *body, const char *name);
 int setup_ratboy(void **state);
 /* The common fixture with --max-clients 2 (it_lifecycle.c). */
 int setup_two_clients(void **state);
+/* it_access.c: with --token-file (IT_TOKEN); with --allow-origin https://good.example; with a
+ * self-signed --tls-cert/--tls-key made by openssl. */
+int setup_token(void **state);
+int setup_origin(void **state);
+int setup_tls(void **state);
+#define IT_TOKEN "k3Jq9-Vx2Lm7Tz8Wb4Np6Rs1Yd5Hf0Gc"
 int teardown_ratboy(void **state);
 #define IT_SCENARIO(name, su, td, timeout, labels) void test_##name(void **state);
 #include "scenarios.h"

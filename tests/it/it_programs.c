@@ -46,7 +46,8 @@ void test_flags(void **state)
     static const char *const flags[] = { "--groom", "--collider", "--strands", "--verts", "--seed", "--backend", "--device", "--threads",
                                          "--listen", "--port", "--web", "--assets", "--rate", "--max-error",
                                          "--keyframe-interval", "--client-buffer", "--ping-interval", "--ping-timeout",
-                                         "--max-clients", "--no-net", "--steps", "default" };
+                                         "--max-clients", "--token-file", "--insecure-open", "--allow-origin",
+                                         "--tls-cert", "--tls-key", "--no-net", "--steps", "default" };
     for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++)
         if (!strstr(out, flags[i])) fail_msg("--help does not mention %s", flags[i]);
     static const char *const bad[][4] = {
@@ -55,7 +56,8 @@ void test_flags(void **state)
         { "--web", "/nonexistent-dir", NULL }, { "--no-net=1", NULL, NULL }, { "--steps", "-1", NULL },
         { "--ping-interval", "0", NULL }, { "--ping-interval", "65535", NULL }, { "--ping-timeout", "65536", NULL },
         { "--ping-timeout", "20", NULL }, { "--ping-timeout=5", "--ping-interval", "5" }, { "--ping-timeout", "x", NULL },
-        { "--max-clients", "0", NULL }, { "--max-clients", "5000", NULL },
+        { "--max-clients", "0", NULL }, { "--max-clients", "5000", NULL }, { "--token-file", "/nonexistent/t", NULL },
+        { "--allow-origin", "good.example", NULL }, { "--tls-cert", "/tmp/c.pem", NULL },
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         int rc = run_capture(cfg->exe, bad[i], out, sizeof out);
@@ -63,6 +65,27 @@ void test_flags(void **state)
         snprintf(name, sizeof name, "%.*s", (int)strcspn(bad[i][0], "="), bad[i][0]);
         if (rc != 2 || !strstr(out, name)) fail_msg("%s %s: exit %d, said: %s", bad[i][0], bad[i][1] ? bad[i][1] : "", rc, out);
     }
+    /* beyond loopback without a token: refused at start-up unless told --insecure-open */
+    const char *open_wide[] = { "--listen", "0.0.0.0", "--port", "0", "--steps", "1", NULL };
+    int rc0 = run_capture(cfg->exe, open_wide, out, sizeof out);
+    if (rc0 != 2 || !strstr(out, "--token-file")) fail_msg("--listen 0.0.0.0 without a token: exit %d, said: %s", rc0, out);
+    const char *insecure[] = { "--listen", "0.0.0.0", "--port", "0", "--steps", "2", "--insecure-open", "--backend", "cpu",
+                               "--strands", "16", "--verts", "4", NULL };
+    assert_int_equal(run_capture(cfg->exe, insecure, out, sizeof out), 0);
+    /* a token file whose token is too short, or holds spaces */
+    char tdir[64], tfile[96];
+    snprintf(tdir, sizeof tdir, "/tmp/strandcast-token-XXXXXX");
+    assert_non_null(mkdtemp(tdir));
+    snprintf(tfile, sizeof tfile, "%s/t", tdir);
+    static const char *const weak[] = { "short\n", "sixteen bytes ok but spaced\n" };
+    for (int i = 0; i < 2; i++) {
+        write_file(tfile, weak[i], strlen(weak[i]));
+        const char *tok[] = { "--token-file", tfile, "--no-net", NULL };
+        int rct = run_capture(cfg->exe, tok, out, sizeof out);
+        if (rct != 2 || !strstr(out, "token")) fail_msg("weak token %d: exit %d, said: %s", i, rct, out);
+    }
+    unlink(tfile);
+    rmdir(tdir);
     const char *missing[] = { "--no-net", "--groom", "/nonexistent/x.tfx", NULL };
     assert_int_equal(run_capture(cfg->exe, missing, out, sizeof out), 1);
     assert_non_null(strstr(out, "x.tfx"));

@@ -170,21 +170,24 @@ int teardown(void **state)
         codec_decoder_free(&fx->views[i].dec);
         free(fx->views[i].xyz);
     }
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf %s", fx->dir);
-    if (system(cmd) != 0) fprintf(stderr, "could not remove %s\n", fx->dir);
+    char cmd[160];
+    snprintf(cmd, sizeof cmd, "rm -rf %s %s", fx->dir, fx->files);
+    if (system(cmd) != 0) fprintf(stderr, "could not remove %s %s\n", fx->dir, fx->files);
     free(fx);
     if (rc != 0) fprintf(stderr, "strandcastd exited with %d after SIGTERM (want 0)\n", rc);
     return rc == 0 ? 0 : -1;
 }
 
 /* Connects a client with a frame view; waits for it to open. */
-wsc_conn *connect_view(fixture *fx, view **out)
+wsc_conn *connect_view(fixture *fx, view **out) { return connect_view_via(fx, false, out); }
+
+wsc_conn *connect_view_via(fixture *fx, bool tls, view **out)
 {
     assert_true(fx->nviews < 8);
     view *v = &fx->views[fx->nviews++];
     codec_decoder_init(&v->dec);
-    wsc_conn *c = wsc_connect(fx->w, fx->d.port, SUBPROTOCOL, on_frame, v);
+    wsc_conn *c = tls ? wsc_connect_tls(fx->w, fx->d.port, SUBPROTOCOL, on_frame, v)
+                      : wsc_connect(fx->w, fx->d.port, SUBPROTOCOL, on_frame, v);
     assert_true(wsc_wait_open(fx->w, c, WAIT_MS));
     if (out) *out = v;
     return c;

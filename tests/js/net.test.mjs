@@ -32,11 +32,11 @@ globalThis.WebSocket = FakeSocket;
 let fetchStatus = 200;
 globalThis.fetch = async () => ({ status: fetchStatus });
 
-const { Connection, SUBPROTOCOL, PROTOCOL_VERSION, defaultUrl } = await import('../../web/net.js');
+const { Connection, SUBPROTOCOL, PROTOCOL_VERSION, defaultUrl, takeToken } = await import('../../web/net.js');
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const HELLO = { type: 'hello', protocol: PROTOCOL_VERSION, server: 'strandcastd', version: '0.1.0' };
 
-function make(extra = {}) {
+function make(extra = {}, token = null) {
   FakeSocket.all = [];
   const log = { hello: [], msgs: [], bin: [], status: [] };
   const c = new Connection('ws://h:1/', {
@@ -44,7 +44,7 @@ function make(extra = {}) {
     onMessage: (m) => log.msgs.push(m),
     onBinary: (b) => log.bin.push(b),
     onStatus: (s) => log.status.push(s),
-  }, { baseMs: 5, factor: 2, maxMs: 40, jitter: 0, ...extra });
+  }, { baseMs: 5, factor: 2, maxMs: 40, jitter: 0, ...extra }, token);
   return { c, log };
 }
 
@@ -143,4 +143,40 @@ test('handshakes refused while HTTP answers are reported as a likely version mis
   await sleep(30);
   assert.ok(!second.log.status.some((s) => s.state === 'refused'));
   second.c.stop();
+});
+
+test('takeToken reads #token= and removes it from the address bar', () => {
+  const calls = [];
+  const history = { replaceState: (...a) => calls.push(a) };
+  assert.equal(takeToken({ hash: '#token=ab%2Bc-9', pathname: '/', search: '?x=1' }, history), 'ab+c-9');
+  assert.deepEqual(calls, [[null, '', '/?x=1']]);
+  assert.equal(takeToken({ hash: '#view=1&token=t0k', pathname: '/p', search: '' }, history), 't0k');
+  assert.equal(takeToken({ hash: '', pathname: '/', search: '' }, history), null);
+  assert.equal(takeToken({ hash: '#token=%E0%A4%A', pathname: '/', search: '' }, history), null);
+  assert.equal(calls.length, 3); /* a malformed token is removed too */
+});
+
+test('a token is sent as auth after every hello that asks for one, and only then', async () => {
+  const { c } = make({}, 'secret-token-123456');
+  c.start();
+  let ws = FakeSocket.all[0];
+  ws.accept();
+  ws.text({ ...HELLO, access: 'open' });
+  assert.equal(ws.sent.length, 0);
+  ws.drop();
+  await sleep(20);
+  ws = FakeSocket.all[1];
+  ws.accept();
+  ws.text({ ...HELLO, access: 'token' });
+  assert.equal(ws.sent.length, 1);
+  const auth = JSON.parse(ws.sent[0]);
+  assert.equal(auth.type, 'auth');
+  assert.equal(auth.token, 'secret-token-123456');
+  c.stop();
+  const { c: c2 } = make();
+  c2.start();
+  FakeSocket.all[0].accept();
+  FakeSocket.all[0].text({ ...HELLO, access: 'token' });
+  assert.equal(FakeSocket.all[0].sent.length, 0); /* no token: read-only, nothing sent */
+  c2.stop();
 });

@@ -46,8 +46,11 @@ const CLIENT_OK = [
   { type: 'set_groom', style: 'wavy', collider: null },
   { type: 'subscribe', stride: 2, max_error: 0.001, max_rate: 30 },
   { type: 'keyframe', id: 9 },
+  { type: 'auth', id: 10, token: 'k3Jq9-Vx2Lm7Tz8Wb4Np6Rs1Yd5Hf0Gc' },
 ];
 const CLIENT_BAD = [
+  { type: 'auth' },
+  { type: 'auth', token: 5 },
   { type: 'set_params', values: {} },
   { type: 'set_params', values: { gravity: 'x' } },
   { type: 'motion', position: [0, 0], orientation: [0, 0, 0, 1] },

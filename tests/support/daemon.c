@@ -51,8 +51,10 @@ int daemon_start(daemon_proc *d, const char *exe, char *const argv[], int timeou
         if (n <= 0) break;
         len += (size_t)n;
         buf[len] = '\0';
-        const char *u = strstr(buf, "http://");
-        const char *host_end = u && u[7] == '[' ? strchr(u + 7, ']') : u ? u + 7 : NULL; /* [v6]:port */
+        const char *u = strstr(buf, "open http");
+        const char *host = u ? strstr(u, "://") : NULL; /* http:// or https:// */
+        if (host) host += 3;
+        const char *host_end = host && host[0] == '[' ? strchr(host, ']') : host; /* [v6]:port */
         const char *colon = host_end ? strchr(host_end, ':') : NULL;
         if (colon && strchr(colon, '/')) {
             d->port = atoi(colon + 1);

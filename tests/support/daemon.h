@@ -8,7 +8,7 @@
 typedef struct daemon_proc {
     pid_t pid;
     int out_fd;   /* the child's stdout */
-    int port;     /* parsed from "open http://ADDR:PORT/" */
+    int port;     /* parsed from "open http://ADDR:PORT/" (or https) */
 } daemon_proc;
 
 /* Starts exe with argv (NULL-terminated, argv[0] included) and waits up to timeout_ms for the

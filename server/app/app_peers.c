@@ -1,26 +1,26 @@
-/* app: per-client token buckets in an open-addressed table (linear probing, backward-shift
- * deletion). */
+/* app: the net thread's per-client entries (access, token bucket) in an open-addressed table
+ * (linear probing, backward-shift deletion). */
 #include <stdlib.h>
 #include <string.h>
 
-#include "app_rate.h"
+#include "app_peers.h"
 
-static size_t home(const app_rates *r, uint32_t client) { return (size_t)(client * 2654435761u) & (r->cap - 1); }
+static size_t home(const app_peers *r, uint32_t client) { return (size_t)(client * 2654435761u) & (r->cap - 1); }
 
 /* The slot of client, or of the empty slot where it would go. cap > 0. */
-static size_t find(const app_rates *r, uint32_t client)
+static size_t find(const app_peers *r, uint32_t client)
 {
     size_t i = home(r, client);
     while (r->v[i].client && r->v[i].client != client) i = (i + 1) & (r->cap - 1);
     return i;
 }
 
-static core_status grow(app_rates *r)
+static core_status grow(app_peers *r)
 {
     size_t cap = r->cap ? 2 * r->cap : 64;
-    app_rate_slot *v = calloc(cap, sizeof *v);
+    app_peer *v = calloc(cap, sizeof *v);
     if (!v) return CORE_ENOMEM;
-    app_rates old = *r;
+    app_peers old = *r;
     r->v = v;
     r->cap = cap;
     for (size_t i = 0; i < old.cap; i++)
@@ -29,16 +29,16 @@ static core_status grow(app_rates *r)
     return CORE_OK;
 }
 
-core_status app_rates_open(app_rates *r, uint32_t client, unsigned long long now_ns)
+core_status app_peers_open(app_peers *r, uint32_t client, bool writer, unsigned long long now_ns)
 {
     if (2 * (r->n + 1) > r->cap && grow(r) != CORE_OK) return CORE_ENOMEM;
     size_t i = find(r, client);
     if (!r->v[i].client) r->n++;
-    r->v[i] = (app_rate_slot){ client, APP_RATE_BURST, now_ns };
+    r->v[i] = (app_peer){ client, writer, APP_RATE_BURST, now_ns };
     return CORE_OK;
 }
 
-void app_rates_close(app_rates *r, uint32_t client)
+void app_peers_close(app_peers *r, uint32_t client)
 {
     if (!r->cap) return;
     size_t i = find(r, client);
@@ -57,10 +57,17 @@ void app_rates_close(app_rates *r, uint32_t client)
     }
 }
 
-bool app_rates_take(app_rates *r, uint32_t client, unsigned long long now_ns)
+app_peer *app_peers_find(app_peers *r, uint32_t client)
+{
+    if (!r->cap) return NULL;
+    app_peer *p = &r->v[find(r, client)];
+    return p->client ? p : NULL;
+}
+
+bool app_peers_take(app_peers *r, uint32_t client, unsigned long long now_ns)
 {
     if (!r->cap) return true;
-    app_rate_slot *s = &r->v[find(r, client)];
+    app_peer *s = &r->v[find(r, client)];
     if (!s->client) return true;
     double refill = (double)(now_ns - s->t_ns) * 1e-9 * APP_RATE_PER_S;
     s->tokens = s->tokens + refill < APP_RATE_BURST ? s->tokens + refill : APP_RATE_BURST;
@@ -70,7 +77,7 @@ bool app_rates_take(app_rates *r, uint32_t client, unsigned long long now_ns)
     return true;
 }
 
-void app_rates_free(app_rates *r)
+void app_peers_free(app_peers *r)
 {
     free(r->v);
     memset(r, 0, sizeof *r);
