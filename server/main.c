@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 
 #include "app/app.h"
+#include "app/app_budget.h"
 #include "core/cli.h"
 #include "codec/codec.h"
 #include "groom/groom.h"
@@ -59,6 +60,9 @@ static void usage(FILE *f)
             "                         16; requests without an Origin header, from non-browser clients, pass)\n"
             "  --tls-cert PEM --tls-key PEM   serve https:// and wss:// only, with this certificate and key\n"
             "  --no-net               simulate and log only (no sockets)\n"
+            "Limits\n"
+            "  --min-step-rate HZ     refuse grooms (--groom, set_groom) this machine would step slower than this,\n"
+            "                         measured at start-up on a 2048 x 32 groom; 0 = no limit (default %.0f)\n"
             "Run\n"
             "  --steps N              exit after N simulation steps (default 0 = until SIGINT/SIGTERM)\n"
             "  --help                 this text;  --version  the version\n\n"
@@ -69,8 +73,7 @@ static void usage(FILE *f)
             STRANDCAST_SOURCE_DIR, APP_DEFAULT_RATE, PROTO_MIN_ERROR, PROTO_MAX_ERROR, (double)CODEC_DEFAULT_MAX_ERROR,
             CODEC_DEFAULT_KEY_INTERVAL, NET_MAX_HANGUP_S - 1, NET_DEFAULT_PING_S, NET_MAX_HANGUP_S,
             NET_DEFAULT_PING_S + NET_DEFAULT_HANGUP_EXTRA_S, NET_DEFAULT_HANGUP_EXTRA_S, NET_MAX_HANGUP_S, APP_MAX_CLIENTS,
-            APP_CLIENTS_PER_CORE, app_default_max_clients(),
-            APP_LOG_INTERVAL_S, PROTO_SUBPROTOCOL);
+            APP_CLIENTS_PER_CORE, app_default_max_clients(), APP_MIN_STEP_RATE, APP_LOG_INTERVAL_S, PROTO_SUBPROTOCOL);
 }
 
 static int bad(const char *flag, const char *value, const char *why) { return core_cli_bad(PROG, flag, value, why); }
@@ -84,7 +87,7 @@ static bool is_dir(const char *p)
 enum {
     OPT_GROOM = 256, OPT_COLLIDER, OPT_STRANDS, OPT_VERTS, OPT_SEED, OPT_BACKEND, OPT_DEVICE, OPT_THREADS, OPT_LISTEN,
     OPT_PORT, OPT_WEB, OPT_ASSETS, OPT_RATE, OPT_MAX_ERROR, OPT_KEY_INTERVAL, OPT_CLIENT_BUFFER, OPT_PING_INTERVAL,
-    OPT_PING_TIMEOUT, OPT_MAX_CLIENTS, OPT_TOKEN_FILE, OPT_INSECURE_OPEN, OPT_ALLOW_ORIGIN, OPT_TLS_CERT, OPT_TLS_KEY,
+    OPT_PING_TIMEOUT, OPT_MAX_CLIENTS, OPT_MIN_STEP_RATE, OPT_TOKEN_FILE, OPT_INSECURE_OPEN, OPT_ALLOW_ORIGIN, OPT_TLS_CERT, OPT_TLS_KEY,
     OPT_NO_NET, OPT_STEPS, OPT_VERSION
 };
 
@@ -108,6 +111,7 @@ static const struct option options[] = {
     { "ping-interval", required_argument, NULL, OPT_PING_INTERVAL },
     { "ping-timeout", required_argument, NULL, OPT_PING_TIMEOUT },
     { "max-clients", required_argument, NULL, OPT_MAX_CLIENTS },
+    { "min-step-rate", required_argument, NULL, OPT_MIN_STEP_RATE },
     { "token-file", required_argument, NULL, OPT_TOKEN_FILE },
     { "insecure-open", no_argument, NULL, OPT_INSECURE_OPEN },
     { "allow-origin", required_argument, NULL, OPT_ALLOW_ORIGIN },
@@ -230,6 +234,9 @@ static int apply(int opt, const char *flag, const char *v, app_desc *d, extra_ar
         break;
     case OPT_MAX_CLIENTS:
         if (!(rc = core_cli_u64(PROG, flag, v, 1, APP_MAX_CLIENTS, &u))) d->max_clients = (int)u;
+        break;
+    case OPT_MIN_STEP_RATE: /* 0 turns the budget off (the desc's 0 is the default) */
+        if (!(rc = core_cli_f64(PROG, flag, v, 0, 1000, &f))) d->min_step_rate = f > 0.0 ? f : -1.0;
         break;
     case OPT_STEPS:
         if (!(rc = core_cli_u64(PROG, flag, v, 0, (unsigned long long)LLONG_MAX, &u))) d->steps = u;

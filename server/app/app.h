@@ -39,6 +39,8 @@ typedef struct app_desc {
     const char *token;         /* clients must send auth with this before changing shared state;
                                 * NULL = every client may (only on loopback, or insecure_open) */
     bool insecure_open;        /* allow listening beyond loopback without a token */
+    double min_step_rate;      /* grooms that would step slower (steps/s) are refused; 0 =
+                                * APP_MIN_STEP_RATE (app_budget.h), negative = no budget */
     const char *const *allow_origins; /* NULL-terminated browser Origins allowed to connect; NULL = any */
     const char *tls_cert, *tls_key;   /* PEM files: serve https/wss only; NULL = plain */
     bool no_net;               /* simulate and log only */

@@ -7,6 +7,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include "app_budget.h"
 #include "app_loader.h"
 #include "groom/groom.h"
 
@@ -40,7 +41,9 @@ static void *loader_main(void *arg)
                                       : app_groom_load_style(j->style, j->strands, j->verts, j->seed, &l->g, &l->err);
     l->code = PROTO_ERR_FAILED;
     l->field = j->groom_path[0] ? "file" : "style";
-    if (st == CORE_OK && (st = app_groom_check_size(&l->g, &l->err)) != CORE_OK) {
+    if (st == CORE_OK && ((st = app_groom_check_size(&l->g, &l->err)) != CORE_OK ||
+                          (st = app_budget_check(j->particles_per_s, j->min_rate, l->g.g.nstrands, l->g.g.nverts, &l->err)) !=
+                              CORE_OK)) {
         l->code = PROTO_ERR_TOO_LARGE;
         app_groom_free(&l->g);
     }

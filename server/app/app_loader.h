@@ -26,6 +26,7 @@ typedef struct app_load_job {
     char mesh_label[PROTO_MAX_NAME + 1];
     sim_desc sim;             /* the simulation to create (a resolved backend: no AUTO trial) */
     sim_params params;        /* its parameters (the sim thread applies the current ones at the swap) */
+    double particles_per_s, min_rate; /* the groom budget (app_budget_check); 0 = none */
 } app_load_job;
 
 typedef struct app_loader {

@@ -8,6 +8,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "app_budget.h"
 #include "app_net.h"
 #include "app_sim.h"
 #include "codec/codec.h"
@@ -42,6 +43,7 @@ static void defaults(app_desc *d)
     if (d->max_error <= 0.0) d->max_error = CODEC_DEFAULT_MAX_ERROR;
     if (d->keyframe_interval <= 0) d->keyframe_interval = (int)CODEC_DEFAULT_KEY_INTERVAL;
     if (d->max_clients <= 0) d->max_clients = app_default_max_clients();
+    if (d->min_step_rate == 0.0) d->min_step_rate = APP_MIN_STEP_RATE;
 }
 
 /* The --collider mesh into the loaded groom (its SDF covers what that groom's hair reaches). */
@@ -80,6 +82,24 @@ static core_status load_initial_groom(const app_desc *d, app_groom *g, core_err 
     return load_initial_collider(d, g, err);
 }
 
+/* Measures what the chosen backend steps (unless the budget is off) and refuses a start-up
+ * groom over it. */
+static core_status check_budget(const app *a, app_world *w, core_err *err)
+{
+    if (a->d.min_step_rate < 0.0) return CORE_OK;
+    sim_desc sd = { .backend = w->backend, .threads = a->d.threads, .device = a->d.device };
+    unsigned long long t0 = core_now_ns();
+    core_status st = app_budget_measure(&sd, &w->particles_per_s, err);
+    if (st != CORE_OK) return st;
+    core_log(CORE_LOG_INFO, "app", "groom budget: %.3g particles/s here (%.0f ms to measure); grooms of up to %.0f particles "
+             "step at %.0f steps/s", w->particles_per_s, (double)(core_now_ns() - t0) / 1e6,
+             w->particles_per_s / a->d.min_step_rate, a->d.min_step_rate);
+    core_err why;
+    if ((st = app_budget_check(w->particles_per_s, a->d.min_step_rate, w->groom.g.nstrands, w->groom.g.nverts, &why)) != CORE_OK)
+        return core_fail(err, st, "--groom %s: %s (or lower --min-step-rate)", w->groom.source, why.msg);
+    return CORE_OK;
+}
+
 /* The sim thread's world on the loaded groom (its pieces shared with the net thread are a's). */
 static core_status setup_world(app *a, const core_param_info *ptable, size_t nparams, core_err *err)
 {
@@ -100,6 +120,7 @@ static core_status setup_world(app *a, const core_param_info *ptable, size_t npa
     sim_desc sd = { .backend = a->d.backend, .threads = a->d.threads, .device = a->d.device };
     if ((st = sim_create(&w->sim, &sd, &w->groom.g, &w->params, err)) != CORE_OK) return st;
     w->backend = sim_backend(&w->sim); /* groom changes create this kind without a new trial */
+    if ((st = check_budget(a, w, err)) != CORE_OK) return st;
     size_t n = (size_t)w->groom.g.nstrands * w->groom.g.nverts * 3;
     w->xyz = malloc(n * sizeof *w->xyz);
     if (!w->xyz) return core_fail(err, CORE_ENOMEM, "out of memory for %zu positions", n / 3);

@@ -34,6 +34,7 @@ typedef struct app_world {
     /* the simulation */
     sim sim;
     sim_backend_kind backend; /* the backend the first simulation resolved to: later ones use it */
+    double particles_per_s;   /* what that backend steps (app_budget); 0 = no groom budget */
     sim_params params;
     app_groom groom;
     float *xyz;               /* positions of the current groom, strand-major */

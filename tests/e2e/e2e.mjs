@@ -69,7 +69,8 @@ async function cleanup() {
 function startDaemon(port, logName) {
   let log = fs.openSync(path.join(outDir, logName), 'w');
   // setpriv --pdeathsig: the daemon gets SIGTERM if this process dies (e.g. killed by ctest)
-  const args = ['--port', String(port), '--web', webDir, ...daemonExtra];
+  // no groom budget: its start-up measurement would compete with the browser on a busy machine
+  const args = ['--port', String(port), '--web', webDir, '--min-step-rate', '0', ...daemonExtra];
   const child = fs.existsSync('/usr/bin/setpriv')
     ? spawn('/usr/bin/setpriv', ['--pdeathsig', 'TERM', '--', daemonPath, ...args], { stdio: ['ignore', 'pipe', 'pipe'] })
     : spawn(daemonPath, args, { stdio: ['ignore', 'pipe', 'pipe'] });

@@ -120,6 +120,8 @@ double metric(const char *body, const char *name);
 int setup_ratboy(void **state);
 /* The common fixture with --max-clients 2 (it_lifecycle.c). */
 int setup_two_clients(void **state);
+/* The common fixture with a groom budget of 100 steps/s (it_lifecycle.c). */
+int setup_budget(void **state);
 /* it_access.c: with --token-file (IT_TOKEN); with --allow-origin https://good.example; with a
  * self-signed --tls-cert/--tls-key made by openssl. */
 int setup_token(void **state);

@@ -58,7 +58,7 @@ int setup_ratboy(void **state)
     write_file(p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", 32);
     snprintf(p, sizeof p, "%s/tiny.hair", fx->assets);
     write_hair(p, 16, 8, 0.0f);
-    char *argv[] = { (char *)fx->cfg->exe, "--port", "0", "--backend", "cpu", "--threads", "1", "--verts", "8",
+    char *argv[] = { (char *)fx->cfg->exe, "--port", "0", "--backend", "cpu", "--threads", "1", "--verts", "8", "--min-step-rate", "0",
                      "--assets", fx->assets, "--groom", groom, "--collider", mesh, NULL };
     assert_int_equal(daemon_start(&fx->d, fx->cfg->exe, argv, MESH_WAIT_MS), 0);
     fx->w = wsc_new();

@@ -221,3 +221,28 @@ void test_max_clients_refused(void **state)
     rawws_free(b);
     rawws_free(c);
 }
+
+int setup_budget(void **state)
+{
+    static const char *const extra[] = { "--min-step-rate", "100", NULL };
+    return setup_with(state, extra);
+}
+
+/* The groom budget: a groom this machine would step slower than --min-step-rate is refused
+ * too_large with the numbers, whether procedural or from a file; a small one is taken. */
+void test_groom_budget_refuses(void **state)
+{
+    fixture *fx = *state;
+    wsc_conn *c = connect_view(fx, NULL);
+    cJSON_Delete(expect_msg(fx, c, "hello"));
+    wsc_send_text(c, "{\"type\":\"set_groom\",\"style\":\"wavy\",\"strands\":4096,\"verts\":32,\"id\":1}");
+    cJSON *e = expect_msg_within(fx, c, "error", 4 * WAIT_MS);
+    assert_true(num(e, "id") == 1);
+    assert_string_equal(str(e, "code"), "too_large");
+    assert_non_null(strstr(str(e, "message"), "steps/s"));
+    cJSON_Delete(e);
+    wsc_send_text(c, "{\"type\":\"set_groom\",\"style\":\"wavy\",\"strands\":16,\"verts\":8,\"id\":2}");
+    cJSON *ok = expect_msg_within(fx, c, "ok", 4 * WAIT_MS);
+    assert_true(num(ok, "id") == 2);
+    cJSON_Delete(ok);
+}

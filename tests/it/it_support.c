@@ -125,8 +125,11 @@ int setup_with(void **state, const char *const *extra)
     snprintf(verts, sizeof verts, "%d", NVERTS);
     /* --backend cpu: the auto probe would load lavapipe, whose Mesa/LLVM allocations LeakSanitizer
      * reports from an unloaded module in the sanitizer tree (the Vulkan tests cover auto) */
+    /* --min-step-rate 0: no groom budget (its measurement takes seconds under the sanitizers;
+     * groom_budget_refuses tests it) */
     char *argv[32] = { (char *)fx->cfg->exe, "--port", "0", "--backend", "cpu", "--strands", strands, "--verts", verts,
-                       "--threads", "1", "--web", fx->web, "--assets", fx->assets, "--client-buffer", "8192", NULL };
+                       "--threads", "1", "--web", fx->web, "--assets", fx->assets, "--client-buffer", "8192",
+                       "--min-step-rate", "0", NULL };
     int argc = 0;
     while (argv[argc]) argc++;
     for (; extra && *extra && argc < 31; extra++) argv[argc++] = (char *)*extra;

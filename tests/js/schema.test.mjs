@@ -98,7 +98,7 @@ function tinyHair() {
 function startDaemon(assets) {
   const exe = process.env.STRANDCASTD;
   assert.ok(exe, 'set STRANDCASTD to the strandcastd binary');
-  const child = spawn(exe, ['--port', '0', '--strands', '64', '--verts', '8', '--threads', '1', '--assets', assets],
+  const child = spawn(exe, ['--port', '0', '--strands', '64', '--verts', '8', '--threads', '1', '--assets', assets, '--min-step-rate', '0'],
                       { stdio: ['ignore', 'pipe', 'inherit'] });
   return new Promise((resolve, reject) => {
     let out = '';
