@@ -13,6 +13,19 @@
 static int confirm_upgrade(net *n, struct lws *wsi, const char *upgrade)
 {
     if (!upgrade || strcasecmp(upgrade, "websocket") != 0) return 0;
+    /* RFC 6455 4.1/4.2: a Host header, and version 13 (426 with the version this server speaks) */
+    char version[16] = "";
+    int vlen = lws_hdr_total_length(wsi, WSI_TOKEN_VERSION);
+    if (vlen > 0 && vlen < (int)sizeof version) lws_hdr_copy(wsi, version, sizeof version, WSI_TOKEN_VERSION);
+    if (strcmp(version, "13") != 0) {
+        atomic_fetch_add(&n->protocol_closes, 1);
+        return lws_return_http_status(wsi, 426, "unsupported or missing Sec-WebSocket-Version: this server speaks 13")
+                   ? -1 : 1;
+    }
+    if (lws_hdr_total_length(wsi, WSI_TOKEN_HOST) <= 0) {
+        atomic_fetch_add(&n->protocol_closes, 1);
+        return lws_return_http_status(wsi, HTTP_STATUS_BAD_REQUEST, "a WebSocket upgrade needs a Host header") ? -1 : 1;
+    }
     char list[256] = "";
     int len = lws_hdr_total_length(wsi, WSI_TOKEN_PROTOCOL);
     if (len > 0 && len < (int)sizeof list) lws_hdr_copy(wsi, list, sizeof list, WSI_TOKEN_PROTOCOL);

@@ -342,6 +342,25 @@ void test_subprotocol_refused(void **state)
     assert_int_equal(r.status, 400);
     assert_non_null(strstr(r.body, "strandcast.v2"));
     http_reply_free(&r);
+    /* RFC 6455: version 13 only (426 otherwise, or when missing), and a Host header */
+    static const char *const versioned =
+        "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+        "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n%sSec-WebSocket-Protocol: " SUBPROTOCOL "\r\n\r\n";
+    static const char *const versions[] = { "Sec-WebSocket-Version: 8\r\n", "" };
+    for (int i = 0; i < 2; i++) {
+        snprintf(buf, sizeof buf, versioned, versions[i]);
+        assert_int_equal(http_exchange(fx->d.port, buf, &r, 3000), 0);
+        assert_int_equal(r.status, 426);
+        assert_non_null(strstr(r.body, "13"));
+        http_reply_free(&r);
+    }
+    static const char *const hostless =
+        "GET / HTTP/1.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+        "Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: " SUBPROTOCOL "\r\n\r\n";
+    assert_int_equal(http_exchange(fx->d.port, hostless, &r, 3000), 0);
+    assert_int_equal(r.status, 400);
+    assert_non_null(strstr(r.body, "Host"));
+    http_reply_free(&r);
     /* the right name in a list is accepted */
     snprintf(buf, sizeof buf, req, "Sec-WebSocket-Protocol: chat, strandcast.v2\r\n");
     assert_int_equal(http_exchange(fx->d.port, buf, &r, 300), 0);
