@@ -393,6 +393,7 @@ void net_get_stats(net *n, net_stats *out)
     out->text_dropped = atomic_load(&n->text_dropped);
     out->text_coalesced = atomic_load(&n->text_coalesced);
     out->clients_refused = atomic_load(&n->clients_refused);
+    out->text_queued_bytes = atomic_load(&n->text_queued_bytes);
     out->messages_in = atomic_load(&n->messages_in);
     out->protocol_closes = atomic_load(&n->protocol_closes);
     out->http_requests = atomic_load(&n->http_requests);

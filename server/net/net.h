@@ -146,6 +146,7 @@ typedef struct net_stats {
     uint64_t frames_sent, frames_skipped, bytes_sent, text_sent, text_dropped;
     uint64_t text_coalesced;   /* announcements superseded in a client's queue by a newer one */
     uint64_t clients_refused;  /* upgrades answered 503 at max_clients */
+    uint64_t text_queued_bytes; /* text bytes queued for all clients now (shared broadcasts counted per client) */
     uint64_t messages_in, protocol_closes, http_requests;
 } net_stats;
 void net_get_stats(net *n, net_stats *out);

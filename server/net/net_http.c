@@ -89,6 +89,8 @@ static void metrics_body(net *n, net_http *h)
                      "# TYPE strandcast_text_sent_total counter\nstrandcast_text_sent_total %llu\n"
                      "# HELP strandcast_text_dropped_total Droppable text messages dropped from full client queues.\n"
                      "# TYPE strandcast_text_dropped_total counter\nstrandcast_text_dropped_total %llu\n"
+                     "# HELP strandcast_client_queued_bytes Bytes of text messages queued for the clients now (memory held for them).\n"
+                     "# TYPE strandcast_client_queued_bytes gauge\nstrandcast_client_queued_bytes %llu\n"
                      "# HELP strandcast_clients_refused_total WebSocket upgrades answered 503 at --max-clients.\n"
                      "# TYPE strandcast_clients_refused_total counter\nstrandcast_clients_refused_total %llu\n"
                      "# HELP strandcast_text_coalesced_total Announcements (params, state, groom) replaced in a client queue by a newer one.\n"
@@ -100,7 +102,7 @@ static void metrics_body(net *n, net_http *h)
                      (unsigned long long)st.clients, (unsigned long long)st.frames_sent,
                      (unsigned long long)st.frames_skipped, (unsigned long long)st.bytes_sent,
                      (unsigned long long)st.text_sent, (unsigned long long)st.text_dropped,
-                     (unsigned long long)st.clients_refused, (unsigned long long)st.text_coalesced, (unsigned long long)st.messages_in, (unsigned long long)st.protocol_closes);
+                     (unsigned long long)st.text_queued_bytes, (unsigned long long)st.clients_refused, (unsigned long long)st.text_coalesced, (unsigned long long)st.messages_in, (unsigned long long)st.protocol_closes);
     if (w > 0) used += (size_t)w < METRICS_MAX - used ? (size_t)w : METRICS_MAX - used - 1;
     h->len = used;
 }

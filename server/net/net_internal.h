@@ -107,6 +107,7 @@ struct net {
     bool shutting_down;
 
     atomic_uint_fast64_t clients, frames_sent, frames_skipped, bytes_sent, text_sent, text_dropped, text_coalesced, clients_refused;
+    atomic_size_t text_queued_bytes; /* bytes of the text messages queued for every client now */
     atomic_uint_fast64_t messages_in, protocol_closes, http_requests;
 };
 

@@ -28,9 +28,11 @@ static int close_now(net *n, net_session *s, int code, const char *reason)
 }
 
 /* Removes the k-th queued message (0 = the oldest), keeping the order of the others. */
-static void queue_remove(net_session *s, int k)
+static void queue_remove(net *n, net_session *s, int k)
 {
-    net_buf_unref(s->q[(s->qhead + k) % s->qcap]);
+    net_buf *b = s->q[(s->qhead + k) % s->qcap];
+    atomic_fetch_sub(&n->text_queued_bytes, net_buf_len(b));
+    net_buf_unref(b);
     for (int i = k; i + 1 < s->qlen; i++) {
         int a = (s->qhead + i) % s->qcap, b = (s->qhead + i + 1) % s->qcap;
         s->q[a] = s->q[b];
@@ -45,7 +47,7 @@ void net_session_enqueue(net *n, net_session *s, net_buf *b, unsigned flags)
     unsigned kind = NET_TEXT_KIND(flags);
     for (int i = 0; kind && i < s->qlen; i++)
         if (NET_TEXT_KIND(s->qflags[(s->qhead + i) % s->qcap]) == kind) { /* superseded */
-            queue_remove(s, i);
+            queue_remove(n, s, i);
             atomic_fetch_add(&n->text_coalesced, 1);
             break;
         }
@@ -62,11 +64,12 @@ void net_session_enqueue(net *n, net_session *s, net_buf *b, unsigned flags)
             net_session_close(s, LWS_CLOSE_STATUS_POLICY_VIOLATION, "send queue overflow");
             return;
         }
-        queue_remove(s, victim);
+        queue_remove(n, s, victim);
         atomic_fetch_add(&n->text_dropped, 1);
     }
     int at = (s->qhead + s->qlen) % s->qcap;
     net_buf_ref(b);
+    atomic_fetch_add(&n->text_queued_bytes, net_buf_len(b));
     s->q[at] = b;
     s->qflags[at] = (unsigned char)flags;
     s->qlen++;
@@ -113,7 +116,7 @@ static void session_closed(net *n, net_session *s)
     if (s->prev) s->prev->next = s->next;
     else n->sessions = s->next;
     if (s->next) s->next->prev = s->prev;
-    for (int i = 0; i < s->qlen; i++) net_buf_unref(s->q[(s->qhead + i) % s->qcap]);
+    while (s->qlen > 0) queue_remove(n, s, 0);
     free(s->q);
     free(s->qflags);
     free(s->rx);
@@ -209,6 +212,7 @@ static int session_writeable(net *n, net_session *s, struct lws *wsi)
         net_buf *b = s->q[s->qhead];
         s->qhead = (s->qhead + 1) % s->qcap;
         s->qlen--;
+        atomic_fetch_sub(&n->text_queued_bytes, net_buf_len(b));
         int rc = write_buf(n, wsi, b, LWS_WRITE_TEXT);
         net_buf_unref(b);
         if (rc) return -1;

@@ -83,6 +83,13 @@ void test_reader_that_never_reads_is_closed(void **state)
     rawws_free(fd);
     wait_frames(fx, watch, before + 10);
     assert_int_equal(watch->bad, 0);
+    /* the memory held for it went with it: what stays queued is the watcher's few messages */
+    http_reply r;
+    assert_int_equal(http_get(fx->d.port, "/metrics", &r), 0);
+    double held = metric(r.body, "strandcast_client_queued_bytes");
+    http_reply_free(&r);
+    printf("text bytes queued for clients after the close: %.0f\n", held);
+    assert_true(held >= 0 && held < 65536);
 }
 
 static double clients_now(fixture *fx)
