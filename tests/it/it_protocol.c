@@ -486,9 +486,10 @@ void test_pause_step_subscribe_groom(void **state)
     assert_int_equal(v->info.stride, 4);
     assert_int_equal(v->info.nstrands_sent, NSTRANDS / 4);
     assert_true(fabs(v->info.max_error_m - 0.001) < 1e-6);
-    /* at most 20/s; and no fewer than 60% of what the server published, up to that rate (the
-     * sanitizer build may simulate slower than real time) */
-    double expect = fmin(40.0, (double)other);
+    /* at most 20/s; and no fewer than 60% of its share of what the server published: a 20 Hz
+     * stream of a 60 Hz server takes every third published frame, which the full-rate client
+     * counts (a sanitizer build or a busy machine may publish slower than real time) */
+    double expect = fmin(40.0, (double)other / 3.0);
     if ((double)got > 40.0 + 2.0 || (double)got < 0.6 * expect)
         fail_msg("%llu frames in 2 s at max_rate 20 (full-rate client: %llu)", (unsigned long long)got,
                  (unsigned long long)other);
