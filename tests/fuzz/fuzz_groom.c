@@ -16,21 +16,33 @@ static void check_refusal(core_status st, const core_err *err)
     if (err->msg[0] == '\0') __builtin_trap();
 }
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+#if FUZZ_LOADER <= 2
+/* Loads the image resampled to nverts (0 = the file's count); a loaded groom must be finite. */
+static void load_groom(const uint8_t *data, size_t size, uint32_t nverts)
 {
     core_err err;
-#if FUZZ_LOADER <= 2
     core_groom g;
     memset(&g, 0, sizeof g);
-    core_status st = FUZZ_LOADER == 1 ? groom_load_tfx(data, size, 0, &g, &err) : groom_load_hair(data, size, 0, &g, &err);
-    if (st == CORE_OK) {
-        for (size_t i = 0; i < (size_t)g.nstrands * g.nverts * 3; i++)
-            if (!(g.pos[i] == g.pos[i])) __builtin_trap();
-        core_groom_free(&g);
-    } else {
+    core_status st = FUZZ_LOADER == 1 ? groom_load_tfx(data, size, nverts, &g, &err)
+                                      : groom_load_hair(data, size, nverts, &g, &err);
+    if (st != CORE_OK) {
         check_refusal(st, &err);
+        return;
     }
+    if (nverts && g.nverts != nverts) __builtin_trap();
+    for (size_t i = 0; i < (size_t)g.nstrands * g.nverts * 3; i++)
+        if (!(g.pos[i] == g.pos[i])) __builtin_trap();
+    core_groom_free(&g);
+}
+#endif
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+#if FUZZ_LOADER <= 2
+    load_groom(data, size, 0);
+    load_groom(data, size, 3);
 #else
+    core_err err;
     core_mesh m;
     memset(&m, 0, sizeof m);
     core_status st = FUZZ_LOADER == 3 ? groom_mesh_load_obj(data, size, &m, &err) : groom_mesh_load_tfxmesh(data, size, &m, &err);
