@@ -43,8 +43,9 @@ add_custom_command(OUTPUT ${FUZZ_LIB}
 add_custom_target(fuzz_lib ALL DEPENDS ${FUZZ_LIB})
 
 # strandcast_fuzz(NAME SOURCE SEEDS [DEFINES...]): builds fuzz_NAME from tests/fuzz/SOURCE and
-# adds the test fuzz_NAME (4 s from the seeds in tests/fuzz/SEEDS; release tree only, as the
-# target carries its own sanitizers).
+# adds the test fuzz_NAME (4 s from the seeds in tests/fuzz/SEEDS, with the dictionary
+# tests/fuzz/NAME.dict when there is one; release tree only, as the target carries its own
+# sanitizers).
 function(strandcast_fuzz name source seeds)
   set(exe ${FUZZ_DIR}/fuzz_${name})
   set(defs)
@@ -59,8 +60,12 @@ function(strandcast_fuzz name source seeds)
     COMMENT "fuzz: linking fuzz_${name}" VERBATIM)
   add_custom_target(fuzz_${name} ALL DEPENDS ${exe})
   add_dependencies(fuzz_${name} fuzz_lib)
+  set(dict)
+  if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/fuzz/${name}.dict)
+    set(dict ${CMAKE_CURRENT_SOURCE_DIR}/fuzz/${name}.dict)
+  endif()
   add_test(NAME fuzz_${name}
-           COMMAND sh ${CMAKE_CURRENT_SOURCE_DIR}/fuzz/run.sh ${exe} ${CMAKE_CURRENT_SOURCE_DIR}/fuzz/${seeds} 4)
+           COMMAND sh ${CMAKE_CURRENT_SOURCE_DIR}/fuzz/run.sh ${exe} ${CMAKE_CURRENT_SOURCE_DIR}/fuzz/${seeds} 4 ${dict})
   set_tests_properties(fuzz_${name} PROPERTIES LABELS "fuzz;no_asan" TIMEOUT 30)
 endfunction()
 

@@ -1,5 +1,5 @@
 #!/bin/sh
-# Runs one libFuzzer target briefly: run.sh FUZZER SEED_DIR SECONDS.
+# Runs one libFuzzer target briefly: run.sh FUZZER SEED_DIR SECONDS [DICTIONARY].
 # New inputs go to a temporary corpus (first, so the source tree is never written); the
 # committed seeds are read from SEED_DIR. On a crash, leak, UB report or timeout the temporary
 # folder is kept and the saved input is named; otherwise it is removed.
@@ -7,9 +7,10 @@ set -u
 fuzzer=$1
 seeds=$2
 seconds=$3
+if [ $# -ge 4 ]; then set -- "-dict=$4"; else set --; fi
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/strandcast-fuzz.XXXXXX") || exit 1
 mkdir "$tmp/corpus"
-"$fuzzer" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+"$fuzzer" "$@" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
   -artifact_prefix="$tmp/" "$tmp/corpus" "$seeds"
 rc=$?
 if [ "$rc" -ne 0 ]; then
