@@ -32,7 +32,7 @@
  * pressure and viscosity. The pressure is computed once per step from the step's start and
  * pushes against stiff shape springs; unfiltered, that lagged loop overshoots where the hair is
  * dense once the hold gain is large enough to give volume (Ratboy's mohawk jitters at a gain of
- * 10). Filtered, a vertex moves toward its settled place over a few frames instead of past it
+ * 10). Filtered, a vertex moves toward its settled place over a few frames instead of past it.
  * Measured 3 s after motion (p99.9 per frame): Ratboy with its head's distance grid 0.011 mm at
  * 0.075 s, 0.005 at 0.09, 0.003 at 0.1; the wavy rest-test groom at repulsion 0.5 0.005 mm at
  * 0.075-0.09 s, 0.0096 at 0.1 and 0.2 at 0.15 (a longer lag lets strands swing through). With
