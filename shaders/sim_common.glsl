@@ -63,7 +63,8 @@ layout(std430, set = 0, binding = 0) restrict readonly buffer FrameBuf {
     uint cap;          // SPH neighbours kept
     float drag_keep;   // exp(-air_drag dt_k)
     float friction;    // contact friction
-    float pad1, pad2;
+    float sph_keep;    // share of the previous step's SPH acceleration kept (sim_step.h)
+    float pad1;
     Xf head[MAX_SUBSTEPS];
     Collider col[MAX_SUBSTEPS * MAX_COLLIDERS];
     uvec4 sdf_dims;    // xyz: samples per axis of the distance grid; w: 1 when it collides

@@ -1,5 +1,6 @@
 // shaders: per sorted slot, the pressure and viscosity accelerations over its neighbour list
-// (as sim_cpu_sph.c force_job), written to A at the particle's unsorted index.
+// (as sim_cpu_sph.c force_job), smoothed with the previous step's in A at the particle's unsorted
+// index and written there.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "sim_common.glsl"
@@ -39,5 +40,9 @@ void main()
         float blend = (1.0 - exp(-F.mu_dt * W / RHO.d[i])) * F.inv_step_dt;
         acc += blend * (vb / W - vi);
     }
-    stA(ORDER.d[i], acc);
+    // the low-pass (sim_limits.h SIM_SPH_SMOOTH_TIME), per component as sim_cpu_sph.c smooth_accel
+    uint o = ORDER.d[i];
+    vec3 prev = ldA(o);
+    stA(o, vec3(acc.x + F.sph_keep * (prev.x - acc.x), acc.y + F.sph_keep * (prev.y - acc.y),
+                acc.z + F.sph_keep * (prev.z - acc.z)));
 }

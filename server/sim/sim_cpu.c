@@ -23,6 +23,7 @@ static void cpu_reset(void *self)
     }
     c->prev_head = c->head;
     c->sph.lists_valid = false;
+    c->sph_warm = false;
     memset(c->nan_per_thread, 0, sizeof c->nan_per_thread);
     c->stats.steps = 0;
     c->stats.sim_time = 0.0;
@@ -131,6 +132,7 @@ static core_status cpu_step(void *self, core_err *err)
     const sim_groom_info gi = { c->ncolliders, c->colliders, c->sdf.d ? &c->sdf : NULL,
                                 c->rho_rest_valid ? c->rho_rest : 1.0f, c->sph_auto_h };
     sim_step_plan(&c->params, &gi, c->prev_head, c->head, &c->step);
+    if (!c->sph_warm) c->step.sph_keep = 0.0f; /* a holds no SPH acceleration to smooth */
     const bool sph = c->step.sph;
     if (sph) {
         if (!c->rho_rest_valid) {
@@ -146,6 +148,7 @@ static core_status cpu_step(void *self, core_err *err)
         if (st != CORE_OK) return st;
         t1 = core_now_ns();
     }
+    c->sph_warm = sph;
     for (int k = 0; k < c->step.substeps; k++) sim_cpu_chain_pass(c, k);
     c->prev_head = c->head;
     unsigned long long t2 = core_now_ns();

@@ -455,7 +455,7 @@ static void pressure_job(void *vctx, int tid, int nt)
 
 /* The per-particle constants of the force pass. */
 typedef struct force_consts {
-    float inv_h, kp, mu_dt, inv_dt;
+    float inv_h, kp, mu_dt, inv_dt, keep;
     int cap;
 } force_consts;
 
@@ -488,7 +488,12 @@ static inline float sph_exp(float x)
     return p * scale;
 }
 
-/* Turns the sums over particle i's neighbours into its acceleration, stored at its unsorted index. */
+/* The low-pass of the SPH acceleration (sim_limits.h SIM_SPH_SMOOTH_TIME): this step's a moved
+ * toward by 1 - keep from the previous step's prev. */
+static inline float smooth_accel(float a, float prev, float keep) { return a + keep * (prev - a); }
+
+/* Turns the sums over particle i's neighbours into its acceleration, smoothed with the one at
+ * its unsorted index, where it is stored. */
 static void force_finish(sim_cpu *c, const force_consts *fc, size_t i, const float sum[FORCE_TERMS])
 {
     const sim_cpu_sph *s = &c->sph;
@@ -506,7 +511,9 @@ static void force_finish(sim_cpu *c, const force_consts *fc, size_t i, const flo
         az += blend * (sum[6] / W - vi[2]);
     }
     const uint32_t o = s->order[i];
-    c->a[0][o] = ax, c->a[1][o] = ay, c->a[2][o] = az;
+    c->a[0][o] = smooth_accel(ax, c->a[0][o], fc->keep);
+    c->a[1][o] = smooth_accel(ay, c->a[1][o], fc->keep);
+    c->a[2][o] = smooth_accel(az, c->a[2][o], fc->keep);
 }
 
 /* Pressure and viscosity of particle i from its neighbour list (scalar path). */
@@ -629,7 +636,8 @@ static inline __m256 sph_exp8(__m256 x)
     return _mm256_mul_ps(p, _mm256_castsi256_ps(bits));
 }
 
-/* force_finish for particles i0..i0+7, one per lane; rows[l] = the sums of particle i0 + l. */
+/* force_finish for particles i0..i0+7, one per lane; rows[l] = the sums of particle i0 + l. The
+ * smoothing is scalar, as in force_finish, so both paths give the same bits. */
 static void force_finish8(sim_cpu *c, const force_consts *fc, size_t i0, const __m256 rows[8])
 {
     const sim_cpu_sph *s = &c->sph;
@@ -667,7 +675,9 @@ static void force_finish8(sim_cpu *c, const force_consts *fc, size_t i0, const _
     _mm256_storeu_ps(out[2], _mm256_and_ps(az, has));
     for (int l = 0; l < 8; l++) {
         const uint32_t o = s->order[i0 + (size_t)l];
-        c->a[0][o] = out[0][l], c->a[1][o] = out[1][l], c->a[2][o] = out[2][l];
+        c->a[0][o] = smooth_accel(out[0][l], c->a[0][o], fc->keep);
+        c->a[1][o] = smooth_accel(out[1][l], c->a[1][o], fc->keep);
+        c->a[2][o] = smooth_accel(out[2][l], c->a[2][o], fc->keep);
     }
 }
 #endif
@@ -677,7 +687,8 @@ static void force_job(void *vctx, int tid, int nt)
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     const float h = c->step.sph_h;
-    const force_consts fc = { 1.0f / h, c->step.kp, c->step.mu_dt, 1.0f / ctx->dt, c->params.neighbor_cap };
+    const force_consts fc = { 1.0f / h, c->step.kp, c->step.mu_dt, 1.0f / ctx->dt, c->step.sph_keep,
+                              c->params.neighbor_cap };
     size_t b, e, i;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     i = b;

@@ -117,6 +117,7 @@ void sim_step_plan(const sim_params *p, const sim_groom_info *g, core_xform prev
                        (p->shape ? (float)SIM_SPH_HOLD_GAIN * p->global_stiffness * p->stiffness_tip : 0.0f);
     out->kp = p->repulsion * p->rest_density * out->sph_h * hold;
     out->mu_dt = p->viscosity * p->dt;
+    out->sph_keep = p->shape ? expf(-p->dt / (float)SIM_SPH_SMOOTH_TIME) : 0.0f; /* sim_limits.h */
     out->inv_rho0 = 1.0f / (p->rest_density * g->rho_rest);
     out->ncolliders = p->collisions ? g->ncolliders : 0;
     out->friction = p->friction;

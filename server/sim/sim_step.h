@@ -54,6 +54,9 @@ typedef struct sim_step_desc {
     float kp;                 /* repulsion * rest_density * h * hold, hold = SIM_SPH_ACCEL_SCALE
                                  (+ SIM_SPH_HOLD_GAIN * global_stiffness * stiffness_tip with shape on) */
     float mu_dt;              /* viscosity * dt */
+    float sph_keep;           /* exp(-dt / SIM_SPH_SMOOTH_TIME) with shape on: share of the previous
+                                 step's SPH acceleration a step keeps (0 with shape off, and when
+                                 the backend has none: after a reset or a step without SPH) */
     float inv_rho0;           /* 1 / (rest_density * rest-pose mean density) */
     uint32_t ncolliders;      /* 0 when collisions are off */
     float friction;           /* contact friction (sim_params.friction) */

@@ -243,6 +243,7 @@ static core_status reset_state(sim_vk *s, core_err *err)
     if (st != CORE_OK) return st;
     s->prev_head = s->head;
     s->lists_valid = false;
+    s->sph_warm = false;
     memset(s->stats_buf.map, 0, 16);
     sim_stats zero;
     memset(&zero, 0, sizeof zero);
@@ -292,6 +293,8 @@ static core_status vk_step(void *self, core_err *err)
     const sim_groom_info gi = { s->ncolliders, s->colliders, s->has_sdf ? &s->sdf : NULL,
                                 s->rho_rest_valid ? s->rho_rest : 1.0f, s->sph_auto_h };
     sim_step_plan(&s->params, &gi, s->prev_head, s->head, &s->step);
+    if (!s->sph_warm) s->step.sph_keep = 0.0f; /* A holds no SPH acceleration to smooth */
+    s->sph_warm = sph;
     const sim_vk_frame_in in = { &s->params, &s->step, s->nv, s->max_segment };
     sim_vk_frame_fill(&in, sl->frame.map);
 

@@ -59,6 +59,7 @@ void sim_vk_frame_fill(const sim_vk_frame_in *in, void *out)
     f->cap = (uint32_t)p->neighbor_cap;
     f->drag_keep = d->drag_keep;
     f->friction = d->friction;
+    f->sph_keep = d->sph_keep;
     if (d->sdf) {
         f->sdf_dims[0] = d->sdf->dims[0], f->sdf_dims[1] = d->sdf->dims[1], f->sdf_dims[2] = d->sdf->dims[2];
         f->sdf_dims[3] = 1u;

@@ -210,7 +210,7 @@ typedef struct sim_vk_frame {
     float h2, inv_h2, inv_h, kp;
     float mu_dt, inv_step_dt, inv_rho0, grow;
     uint32_t substeps, ncolliders, flags, cap;
-    float drag_keep, friction, pad[2];
+    float drag_keep, friction, sph_keep, pad;
     sim_vk_gxf head[SIM_MAX_SUBSTEPS];
     sim_vk_gcollider col[SIM_MAX_SUBSTEPS * SIM_MAX_COLLIDERS];
     uint32_t sdf_dims[4];  /* w: 1 when the grid collides this step */
@@ -276,6 +276,7 @@ typedef struct sim_vk {
     uint32_t nbr_cap;     /* neighbour slots per particle NBR holds */
     float rho_rest;
     bool rho_rest_valid;
+    bool sph_warm;        /* A holds the previous step's SPH acceleration (its low-pass state) */
     bool lists_valid;     /* ORDER/NBR describe the current particles and may be reused */
     float max_segment;    /* longest rest segment */
     float sph_auto_h;     /* the groom's automatic SPH smoothing length (sim_sph_auto_radius) */
