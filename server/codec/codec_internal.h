@@ -1,5 +1,6 @@
-/* codec: format constants, residual tokens, context tables and predictors shared by the
- * encoder and the decoder (proto/CODEC.md is the normative description). */
+/* codec: format constants, residual tokens, context tables and predictors of the encoder and the
+ * decoder's host side (proto/CODEC.md is the normative description; the decode core,
+ * codec_core.c, is freestanding and states the constants it needs itself). */
 #ifndef CODEC_CODEC_INTERNAL_H
 #define CODEC_CODEC_INTERNAL_H
 
@@ -60,7 +61,7 @@ static inline int32_t codec_half(int32_t d)
     return (d + ((d >> 1) & 1)) >> 1;
 }
 
-/* Header layout helpers (little-endian). */
+/* Header writers (little-endian; the decode core, codec_core.c, has its own readers). */
 static inline void codec_put_u16(uint8_t *p, uint32_t v) { p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); }
 static inline void codec_put_u32(uint8_t *p, uint32_t v)
 {
@@ -69,15 +70,6 @@ static inline void codec_put_u32(uint8_t *p, uint32_t v)
 static inline void codec_put_u64(uint8_t *p, uint64_t v)
 {
     for (int k = 0; k < 8; k++) p[k] = (uint8_t)(v >> (8 * k));
-}
-static inline uint32_t codec_get_u16(const uint8_t *p) { return (uint32_t)p[0] | (uint32_t)p[1] << 8; }
-static inline uint32_t codec_get_u32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-static inline uint64_t codec_get_u64(const uint8_t *p)
-{
-    return (uint64_t)codec_get_u32(p) | (uint64_t)codec_get_u32(p + 4) << 32;
 }
 
 /* Header field offsets. */

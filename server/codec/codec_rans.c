@@ -1,4 +1,5 @@
-/* codec: rANS frequency tables (normalise, serialise, parse) and encoder symbol setup. */
+/* codec: the encoder's rANS frequency tables (normalise, serialise) and symbol setup (the decode
+ * core, codec_core.c, parses the tables). */
 #include <string.h>
 
 #ifdef __AVX2__
