@@ -10,6 +10,7 @@
 #include "codec_core.h"
 
 #include "codec_crc_table.h"
+#include "codec_internal.h"
 
 #if defined(__wasm_simd128__) && !defined(CODEC_CORE_PORTABLE)
 #define CORE_WASM 1
@@ -19,22 +20,21 @@
 #include <immintrin.h>
 #endif
 
-#define T_MODE 0
-#define T_ROOT 1
-#define T_FIRST 2
-#define T_BODY 3
-#define NTABLES 9
-#define NSYM 343
-#define SCALE 4096u
-#define LANES 8
-#define HEADER 68u
-#define MOTION_BYTES 48u
+#define T_MODE CODEC_T_MODE
+#define T_ROOT CODEC_T_ROOT
+#define T_FIRST CODEC_T_FIRST
+#define T_BODY CODEC_T_BODY
+#define NTABLES CODEC_NTABLES
+#define NSYM CODEC_NSYM
+#define SCALE CODEC_SCALE
+#define LANES CODEC_LANES
+#define HEADER CODEC_HEADER_SIZE
+#define MOTION_BYTES CODEC_MOTION_BYTES
 #define T_IDLE 9           /* the lanes past the last strand: keep their state, no raw bits */
 #define INFO_SLOW 512      /* an escaped axis */
 #define INFO_NEXT 0xf000   /* the next vertex's table << 12 */
 #define INFO_UNUSED 0x9fff /* every slot of an unused table: INFO_SLOW, next table T_IDLE */
-#define QMAX 67108863      /* |lattice coordinate| <= 2^26 - 1 */
-#define MAX_VERTICES (1u << 24)
+#define QMAX (CODEC_MAX_QUANT - 1) /* |lattice coordinate| <= 2^26 - 1 */
 
 _Static_assert(__builtin_offsetof(codec_core, key) == 64, "codec.js reads key at 64");
 _Static_assert(__builtin_offsetof(codec_core, error) == 128, "codec.js reads error at 128");
@@ -434,34 +434,36 @@ static inline float as_f32(uint32_t u)
 int codec_core_header(codec_core_info *h, codec_core_error *e, const uint8_t *p, size_t len)
 {
     if (len < HEADER) return fail_at(e, CODEC_E_SHORT_HEADER, 0, 0, len, HEADER);
-    if (p[0] != 0x53 || p[1] != 0x43 || p[2] != 0x46 || p[3] != 0x31) return fail_at(e, CODEC_E_MAGIC, 0, 0, 0, 0);
-    const uint32_t version = get16(p + 4), flags = p[7];
-    if (version != 2) return fail_at(e, CODEC_E_VERSION, 4, 0, version, 2);
-    if (p[6] != 1) return fail_at(e, CODEC_E_CODEC, 6, 0, p[6], 0);
-    if (flags & ~1u) return fail_at(e, CODEC_E_FLAGS, 7, 0, flags, 0);
-    const uint64_t time_bits = get64(p + 24);
-    h->keyframe = flags & 1u;
-    h->seq = get64(p + 8);
-    h->ref_seq = get64(p + 16);
+    if (p[0] != CODEC_MAGIC[0] || p[1] != CODEC_MAGIC[1] || p[2] != CODEC_MAGIC[2] || p[3] != CODEC_MAGIC[3])
+        return fail_at(e, CODEC_E_MAGIC, 0, 0, 0, 0);
+    const uint32_t version = get16(p + CODEC_OFF_VERSION), flags = p[CODEC_OFF_FLAGS];
+    if (version != CODEC_VERSION) return fail_at(e, CODEC_E_VERSION, CODEC_OFF_VERSION, 0, version, CODEC_VERSION);
+    if (p[CODEC_OFF_CODEC] != CODEC_ID_STRAND) return fail_at(e, CODEC_E_CODEC, CODEC_OFF_CODEC, 0, p[CODEC_OFF_CODEC], 0);
+    if (flags & ~CODEC_FLAG_KEY) return fail_at(e, CODEC_E_FLAGS, CODEC_OFF_FLAGS, 0, flags, 0);
+    const uint64_t time_bits = get64(p + CODEC_OFF_TIME);
+    h->keyframe = flags & CODEC_FLAG_KEY;
+    h->seq = get64(p + CODEC_OFF_SEQ);
+    h->ref_seq = get64(p + CODEC_OFF_REF);
     h->sim_time = as_f64(time_bits);
-    h->step = as_f64(get64(p + 32));
-    h->max_error_m = as_f32(get32(p + 40));
-    h->nstrands_total = get32(p + 44);
-    h->nstrands_sent = get32(p + 48);
-    h->nverts = get32(p + 52);
-    h->stride = get32(p + 56);
-    h->payload_len = get32(p + 60);
+    h->step = as_f64(get64(p + CODEC_OFF_STEP));
+    h->max_error_m = as_f32(get32(p + CODEC_OFF_BOUND));
+    h->nstrands_total = get32(p + CODEC_OFF_TOTAL);
+    h->nstrands_sent = get32(p + CODEC_OFF_SENT);
+    h->nverts = get32(p + CODEC_OFF_NVERTS);
+    h->stride = get32(p + CODEC_OFF_STRIDE);
+    h->payload_len = get32(p + CODEC_OFF_PAYLOAD);
     h->pad = 0;
-    if (h->keyframe ? h->ref_seq != h->seq : h->ref_seq >= h->seq) return fail_at(e, CODEC_E_REF, 16, 0, 0, 0);
-    if ((time_bits >> 52 & 0x7ffu) == 0x7ffu) return fail_at(e, CODEC_E_TIME, 24, 0, 0, 0);
-    if (!(h->max_error_m >= 1e-5f && h->max_error_m <= 0.1f)) return fail_at(e, CODEC_E_BOUND, 40, 0, 0, 0);
-    if (!(h->step > 0.0 && h->step <= 2.0 * (double)h->max_error_m)) return fail_at(e, CODEC_E_STEP, 32, 0, 0, 0);
-    if (h->nverts < 2 || h->nverts > CODEC_CORE_MAX_NVERTS) return fail_at(e, CODEC_E_NVERTS, 52, 0, 0, 0);
-    if (h->stride < 1 || h->nstrands_total < 1) return fail_at(e, CODEC_E_COUNTS, h->stride < 1 ? 56 : 44, 0, 0, 0);
+    if (h->keyframe ? h->ref_seq != h->seq : h->ref_seq >= h->seq) return fail_at(e, CODEC_E_REF, CODEC_OFF_REF, 0, 0, 0);
+    if ((time_bits >> 52 & 0x7ffu) == 0x7ffu) return fail_at(e, CODEC_E_TIME, CODEC_OFF_TIME, 0, 0, 0);
+    if (!(h->max_error_m >= 1e-5f && h->max_error_m <= 0.1f)) return fail_at(e, CODEC_E_BOUND, CODEC_OFF_BOUND, 0, 0, 0);
+    if (!(h->step > 0.0 && h->step <= 2.0 * (double)h->max_error_m)) return fail_at(e, CODEC_E_STEP, CODEC_OFF_STEP, 0, 0, 0);
+    if (h->nverts < 2 || h->nverts > CODEC_MAX_NVERTS) return fail_at(e, CODEC_E_NVERTS, CODEC_OFF_NVERTS, 0, 0, 0);
+    if (h->stride < 1 || h->nstrands_total < 1) return fail_at(e, CODEC_E_COUNTS, h->stride < 1 ? CODEC_OFF_STRIDE : CODEC_OFF_TOTAL, 0, 0, 0);
     const uint64_t sent = ((uint64_t)h->nstrands_total + h->stride - 1u) / h->stride;
-    if (h->nstrands_sent != sent) return fail_at(e, CODEC_E_SENT, 48, 0, sent, 0);
-    if ((uint64_t)h->nstrands_sent * h->nverts > MAX_VERTICES) return fail_at(e, CODEC_E_TOO_MANY, 48, 0, 0, 0);
-    if ((uint64_t)len != (uint64_t)HEADER + h->payload_len) return fail_at(e, CODEC_E_LENGTH, 60, 0, len, 0);
+    if (h->nstrands_sent != sent) return fail_at(e, CODEC_E_SENT, CODEC_OFF_SENT, 0, sent, 0);
+    if ((uint64_t)h->nstrands_sent * h->nverts > CODEC_MAX_VERTICES)
+        return fail_at(e, CODEC_E_TOO_MANY, CODEC_OFF_SENT, 0, 0, 0);
+    if ((uint64_t)len != (uint64_t)HEADER + h->payload_len) return fail_at(e, CODEC_E_LENGTH, CODEC_OFF_PAYLOAD, 0, len, 0);
     return 0;
 }
 
@@ -472,12 +474,12 @@ static int read_motion(codec_core *k, const uint8_t *p, size_t at)
 {
     for (uint32_t i = 0; i < 9; i++) {
         const int32_t r = (int16_t)get16(p + 2 * i);
-        if (r < -16384 || r > 16384) return fail(k, CODEC_E_ROTATION, at + 2 * i, i, (uint64_t)(int64_t)r, 0);
+        if (r < -CODEC_RHO_ONE || r > CODEC_RHO_ONE) return fail(k, CODEC_E_ROTATION, at + 2 * i, i, (uint64_t)(int64_t)r, 0);
         k->motion[i] = r;
     }
     for (uint32_t i = 0; i < 3; i++) {
         const int32_t t = (int32_t)get32(p + 20 + 4 * i);
-        if (t < -(1 << 28) || t > (1 << 28)) return fail(k, CODEC_E_TRANSLATION, at + 20 + 4 * i, i, (uint64_t)(int64_t)t, 0);
+        if (t < -CODEC_T_MAX || t > CODEC_T_MAX) return fail(k, CODEC_E_TRANSLATION, at + 20 + 4 * i, i, (uint64_t)(int64_t)t, 0);
         k->motion[9 + i] = t;
     }
     for (uint32_t i = 18; i < MOTION_BYTES; i++) {
@@ -581,7 +583,7 @@ __attribute__((noinline)) static int64_t slow_symbol(const codec_core *k, uint32
         } else {
             /* escape: e - 5 (5 bits), the sign, then the e bits of m below its leading one */
             uint32_t e = (uint32_t)(w & 31);
-            if (e > 24) return -2;
+            if (e > CODEC_ESC_MAX) return -2;
             e += 5;
             uint32_t neg = (uint32_t)(w >> 5) & 1;
             bp += 6;
@@ -612,7 +614,7 @@ static inline __attribute__((always_inline)) int64_t key_slow_symbol(const codec
         uint32_t m = (1u << e) | ((uint32_t)(w >> 6) & ((1u << e) - 1));
         uint32_t neg = 0u - ((uint32_t)(w >> 5) & 1);
         int32_t ve = (int32_t)((m ^ neg) - neg), vc = k->res[(c << 5) | lo];
-        bad |= esc & (lo > 24);
+        bad |= esc & (lo > CODEC_ESC_MAX);
         r[ax] = esc ? ve : vc;
         bp += esc ? 6 + e : c;
     }
@@ -1041,7 +1043,7 @@ static int decode_groups(codec_core *k, const uint8_t *p, const uint8_t *wpos, c
     }
     if (rd.rp != wend) return fail(k, CODEC_E_END, (size_t)(rd.rp - p), 0, 0, 0);
     for (int l = 0; l < 8; l++)
-        if (k->state[l] != 65536) return fail(k, CODEC_E_END, (size_t)(wend - p), (uint32_t)l, 0, 0);
+        if ((uint32_t)k->state[l] != CODEC_RANS_L) return fail(k, CODEC_E_END, (size_t)(wend - p), (uint32_t)l, 0, 0);
     if (bavail - rd.bp >= 8) return fail(k, CODEC_E_BITS, (size_t)(wend - p), 0, bavail, rd.bp);
     return 0;
 }
@@ -1051,14 +1053,14 @@ int codec_core_check(codec_core *k, const uint8_t *p, size_t len)
     int rc = codec_core_header(&k->info, &k->error, p, len);
     if (rc) return rc;
     const codec_core_info *h = &k->info;
-    if (codec_core_crc32(codec_core_crc32(0, p, 64), p + HEADER, h->payload_len) != get32(p + 64))
-        return fail(k, CODEC_E_CRC, 64, 0, 0, 0);
+    if (codec_core_crc32(codec_core_crc32(0, p, CODEC_OFF_CRC), p + HEADER, h->payload_len) != get32(p + CODEC_OFF_CRC))
+        return fail(k, CODEC_E_CRC, CODEC_OFF_CRC, 0, 0, 0);
     if (!h->keyframe) {
         const codec_core_info *key = &k->key;
-        if (!k->key_valid || key->seq != h->ref_seq) return fail(k, CODEC_E_NO_KEY, 16, 0, 0, 0);
+        if (!k->key_valid || key->seq != h->ref_seq) return fail(k, CODEC_E_NO_KEY, CODEC_OFF_REF, 0, 0, 0);
         if (key->nstrands_total != h->nstrands_total || key->nverts != h->nverts || key->stride != h->stride ||
             key->step != h->step)
-            return fail(k, CODEC_E_KEY_LAYOUT, 32, 0, 0, 0);
+            return fail(k, CODEC_E_KEY_LAYOUT, CODEC_OFF_STEP, 0, 0, 0);
     }
     return 0;
 }
@@ -1079,17 +1081,17 @@ int codec_core_decode(codec_core *k, const uint8_t *p, size_t len, float *out)
     if (len - pos < 4) return fail(k, CODEC_E_NO_STREAM, pos, 0, 0, 0);
     const uint32_t rans_len = get32(p + pos);
     pos += 4;
-    if (rans_len < 4u * LANES || rans_len % 2u || rans_len > len - pos)
+    if (rans_len < CODEC_RANS_HEAD || rans_len % 2u || rans_len > len - pos)
         return fail(k, CODEC_E_STREAM_LEN, pos - 4, 0, rans_len, len - pos);
     for (uint32_t l = 0; l < LANES; l++) {
         const uint32_t x = get32(p + pos + 4 * l);
-        if (x < 65536u) return fail(k, CODEC_E_STATE, pos + 4 * l, l, x, 0);
+        if (x < CODEC_RANS_L) return fail(k, CODEC_E_STATE, pos + 4 * l, l, x, 0);
         k->state[l] = (int32_t)x;
     }
     const size_t rend = pos + rans_len;
     if (len - rend > (0xffffffffu - (1u << 20)) / 8u) /* more raw bits than any frame uses */
         return fail(k, CODEC_E_BITS, rend, 0, (uint64_t)(len - rend) * 8u, 0);
-    rc = decode_groups(k, p, p + pos + 4u * LANES, p + rend, (uint32_t)(len - rend) * 8u, out);
+    rc = decode_groups(k, p, p + pos + CODEC_RANS_HEAD, p + rend, (uint32_t)(len - rend) * 8u, out);
     if (rc) return rc;
     if (h->keyframe) {
         k->key_slot ^= 1u;

@@ -10,7 +10,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define CODEC_CORE_MAX_NVERTS 4096
+#include "codec.h"
+
 /* Readable bytes a frame needs after its end: a corrupt group may read up to 120 bytes per vertex
  * of a strand, plus 64, before the checks after the group refuse it. */
 #define CODEC_CORE_SLACK (1u << 19)
@@ -102,9 +103,9 @@ typedef struct codec_core {
     int32_t mode[8];        /* the current group's modes (8 for lanes past the last strand) */
     int32_t root[24];       /* a delta group's roots, axis-major, lane-minor */
     int32_t zero[8];        /* zeros (the first keyframe strand's missing neighbour) */
-    uint32_t sym[8 * CODEC_CORE_MAX_NVERTS]; /* a group's vertex symbols: raw bits << 25 | entry */
-    float dump[4 * CODEC_CORE_MAX_NVERTS];   /* where lanes past the last strand write */
-    _Alignas(16) int32_t r[CODEC_CORE_MAX_NVERTS * 32]; /* a group's residuals */
+    uint32_t sym[8 * CODEC_MAX_NVERTS]; /* a group's vertex symbols: raw bits << 25 | entry */
+    float dump[4 * CODEC_MAX_NVERTS];   /* where lanes past the last strand write */
+    _Alignas(16) int32_t r[CODEC_MAX_NVERTS * 32]; /* a group's residuals */
 } codec_core;
 
 /* sizeof(codec_core) (for the WebAssembly host). */
