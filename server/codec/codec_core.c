@@ -39,6 +39,7 @@
 _Static_assert(__builtin_offsetof(codec_core, key) == 64, "codec.js reads key at 64");
 _Static_assert(__builtin_offsetof(codec_core, error) == 128, "codec.js reads error at 128");
 _Static_assert(__builtin_offsetof(codec_core, key_valid) == 160, "codec.js reads key_valid at 160");
+_Static_assert(__builtin_offsetof(codec_core, key_slot) == 164, "codec.js reads key_slot at 164");
 _Static_assert(sizeof(codec_core_info) == 64 && sizeof(codec_core_error) == 32, "fixed layouts");
 
 /* ---- 4 x int32 vectors ---- */

@@ -84,8 +84,8 @@ typedef struct codec_core_error {
     uint64_t a, b; /* 16, 24: values (per code; signed values as their two's complement) */
 } codec_core_error;
 
-/* The decoder's state. The hosts read info, key, error and key_valid at fixed offsets (0, 64,
- * 128, 160); the rest is the core's. */
+/* The decoder's state. The hosts read info, key, error, key_valid and key_slot at fixed offsets
+ * (0, 64, 128, 160, 164); the rest is the core's. */
 typedef struct codec_core {
     codec_core_info info;   /* the header of the last frame parsed (in part when it failed) */
     codec_core_info key;    /* the held keyframe's header */
