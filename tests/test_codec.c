@@ -622,10 +622,10 @@ static void test_v2_rejections(void **state)
         memcpy(c, f.key.data, f.key.len);
         const char *want = "entropy";
         switch (k) {
-        case 0: c[4] = 1; want = "unsupported format version"; break;
-        case 1: put32(c + rl + 4 + 12, 0xffffu); want = "state"; break;   /* x[3] below 2^16 */
+        case 0: c[4] = 1; want = "unsupported format version 1 (this decoder reads 2) [version, byte 4]"; break;
+        case 1: put32(c + rl + 4 + 12, 0xffffu); want = "state 65535 in lane 3"; break; /* x[3] below 2^16 */
         case 2: put32(c + rl + 4, 0); want = "state"; break;             /* x[0] = 0 */
-        case 3: put32(c + rl, rans_len - 1u); break;                     /* odd */
+        case 3: put32(c + rl, rans_len - 1u); want = "[rans_len, byte"; break; /* odd */
         case 4: put32(c + rl, 30); break;                                /* shorter than the states */
         case 5: put32(c + rl, rans_len - 2u); want = "codec: "; break;   /* a word short */
         case 6: put32(c + rl, rans_len + 2u); want = "codec: "; break;   /* an unused word */

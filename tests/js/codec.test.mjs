@@ -219,7 +219,7 @@ test('version 1 frames are refused', () => {
   assert.throws(() => peekHeader(c), /unsupported format version 1/);
   const dec = new StrandDecoder();
   dec.decode(keyBytes());
-  rejects(dec, c, /^Error: codec: unsupported format version 1/);
+  rejects(dec, c, /^Error: codec: unsupported format version 1 \(this decoder reads 2\) \[version, byte 4\]$/);
 });
 
 test('a delta whose rigid motion is out of range or badly padded is refused', () => {
@@ -571,7 +571,7 @@ test('a larger frame that fails keeps the held keyframe while the heap grows', (
 test('a group that reads as far as a corrupt frame can is refused with a codec error', () => {
   // 8 strands of 4096 vertices whose every residual is an escape of exponent 28 (34 raw bits an
   // axis); then the same frame with its raw bits cut to 8 bytes: the first group reads on past
-  // the cut (through zeros, or the whole frame's bits left in the kernel's memory) until an
+  // the cut (through zeros, or the whole frame's bits left in the core's memory) until an
   // escape field or the check after the group refuses the frame (a read outside the memory
   // would be a RuntimeError; coreLayout's READ_SLACK is checked below)
   const ns = 8, nverts = 4096, x = (1 << 26) - 1;
