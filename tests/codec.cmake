@@ -22,3 +22,12 @@ add_test(NAME bench_codec_sim_smoke
            --none "r => r.js_bit_exact === false"
            -- $<TARGET_FILE:strandbench> codec --seconds 1 --js-frames 10 --json)
 set_tests_properties(bench_codec_sim_smoke PROPERTIES TIMEOUT 300 LABELS no_asan)
+# The decode core's portable path (server/codec/codec_core.c built with CODEC_CORE_PORTABLE: the
+# path of targets with neither AVX2 nor WebAssembly SIMD) on the codec tests: the same bits.
+file(GLOB STRANDCAST_CODEC_SOURCES CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/server/codec/*.c)
+add_executable(test_codec_portable ${CMAKE_CURRENT_SOURCE_DIR}/test_codec.c ${STRANDCAST_CODEC_SOURCES})
+target_compile_definitions(test_codec_portable PRIVATE CODEC_CORE_PORTABLE)
+target_link_libraries(test_codec_portable PRIVATE strandcast PkgConfig::CMOCKA)
+add_test(NAME test_codec_portable COMMAND test_codec_portable)
+set_tests_properties(test_codec_portable PROPERTIES
+  ENVIRONMENT "STRANDCAST_SOURCE_DIR=${PROJECT_SOURCE_DIR}" TIMEOUT 900)

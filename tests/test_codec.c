@@ -622,10 +622,10 @@ static void test_v2_rejections(void **state)
         memcpy(c, f.key.data, f.key.len);
         const char *want = "entropy";
         switch (k) {
-        case 0: c[4] = 1; want = "unsupported format version"; break;
-        case 1: put32(c + rl + 4 + 12, 0xffffu); want = "state"; break;   /* x[3] below 2^16 */
+        case 0: c[4] = 1; want = "unsupported format version 1 (this decoder reads 2) [version, byte 4]"; break;
+        case 1: put32(c + rl + 4 + 12, 0xffffu); want = "state 65535 in lane 3"; break; /* x[3] below 2^16 */
         case 2: put32(c + rl + 4, 0); want = "state"; break;             /* x[0] = 0 */
-        case 3: put32(c + rl, rans_len - 1u); break;                     /* odd */
+        case 3: put32(c + rl, rans_len - 1u); want = "[rans_len, byte"; break; /* odd */
         case 4: put32(c + rl, 30); break;                                /* shorter than the states */
         case 5: put32(c + rl, rans_len - 2u); want = "codec: "; break;   /* a word short */
         case 6: put32(c + rl, rans_len + 2u); want = "codec: "; break;   /* an unused word */
@@ -847,11 +847,44 @@ static void test_vectors_decode(void **state)
     }
 }
 
+/* The modes vectors (proto/vectors/modes_*, made by the reference encoder tests/js/codec_encode.mjs
+ * from proto/CODEC.md; tests/js/mode_vectors.mjs lists them): every prediction mode, delta mode 3
+ * (which this encoder never writes) included, partial groups and escapes, decoded in stream order
+ * bit for bit. */
+static void test_mode_vectors(void **state)
+{
+    (void)state;
+    static const uint32_t shapes[][2] = { { 1, 2 }, { 3, 3 }, { 8, 4 }, { 13, 9 }, { 17, 33 } };
+    const char *src = getenv("STRANDCAST_SOURCE_DIR");
+    char dir[900], name[64];
+    snprintf(dir, sizeof dir, "%s/proto/vectors", src ? src : STRANDCAST_SOURCE_DIR);
+    for (size_t s = 0; s < sizeof shapes / sizeof shapes[0]; s++) {
+        codec_decoder dec;
+        codec_decoder_init(&dec);
+        snprintf(name, sizeof name, "modes_%ux%u", shapes[s][0], shapes[s][1]);
+        for (int f = 0; f < 5; f++) {
+            size_t len, olen;
+            uint8_t *bin = slurp(vpath(dir, name, f, "bin"), &len);
+            uint8_t *want = slurp(vpath(dir, name, f, "out.f32"), &olen);
+            assert_int_equal(olen, (size_t)shapes[s][0] * shapes[s][1] * 3u * sizeof(float));
+            float *out = malloc(olen);
+            core_err err;
+            if (codec_decode(&dec, bin, len, out, olen / sizeof(float), NULL, &err)) fail_msg("%s_%d: %s", name, f, err.msg);
+            assert_memory_equal(out, want, olen);
+            free(out);
+            free(bin);
+            free(want);
+        }
+        codec_decoder_free(&dec);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_vectors),
         cmocka_unit_test(test_vectors_decode),
+        cmocka_unit_test(test_mode_vectors),
         cmocka_unit_test(test_bound_all_styles),
         cmocka_unit_test(test_bound_resets),
         cmocka_unit_test(test_bound_magnitudes),

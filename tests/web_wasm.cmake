@@ -1,5 +1,5 @@
 # web wasm: the WebAssembly decode kernel committed as web/codec_kernel_wasm.js must be what
-# web/wasm/build.sh makes from web/wasm/codec_kernel.c (clang + wasm-ld), so that the source and
+# web/wasm/build.sh makes from server/codec/codec_core.c (clang + wasm-ld), so that the source and
 # the binary the page runs cannot drift apart.
 find_program(STRANDCAST_CLANG clang)
 find_program(STRANDCAST_WASM_LD wasm-ld)

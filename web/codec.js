@@ -1,4 +1,6 @@
-// Strand frame decoder (proto/CODEC.md), bit-exact with server/codec; browser, Worker or Node.
+// Strand frame decoder (proto/CODEC.md); browser, Worker or Node. The decoding is the decode core
+// of the daemon (server/codec/codec_core.c, compiled to WebAssembly by web/wasm/build.sh): this
+// module loads it, gives it memory and turns its failures into messages.
 
 import { KERNEL_WASM } from './codec_kernel_wasm.js';
 
@@ -7,146 +9,161 @@ export const FORMAT_VERSION = 2;
 export const CODEC_ID_STRAND = 1;
 export const FLAG_KEY = 1;
 
-const MAGIC = [0x53, 0x43, 0x46, 0x31]; // "SCF1"
-const SCALE_BITS = 12;
-const SCALE = 1 << SCALE_BITS;
-const RANS_L = 1 << 16;
-const LANES = 8;
-const NCLASS = 7;
-const ESCAPE = 6;
-const NSYM = NCLASS * NCLASS * NCLASS;
-const NBODY = 6;
-const T_MODE = 0;
-const T_ROOT = 1;
-const T_FIRST = 2;
-const T_BODY = 3;
-const NTABLES = T_BODY + NBODY;
-const MAX_VERTICES = 1 << 24;
-const MAX_NVERTS = 4096;
-const MOTION_BYTES = 48;
-const ROT_ONE = 1 << 14;
-const MAX_SHIFT = 1 << 28;
+// Readable bytes a frame needs after it in the core's memory (CODEC_CORE_SLACK).
+export const READ_SLACK = 1 << 19;
+// The core's state (struct codec_core): its header record, the held keyframe's, its last failure
+// (struct codec_core_error) and whether a keyframe is held, at these offsets.
+const INFO = 0, KEY = 64, ERROR = 128, KEY_VALID = 160, KEY_SLOT = 164;
+const PAGE = 65536;
 
-// The WebAssembly kernel (web/wasm/codec_kernel.c): compiled once, on first use, synchronously
-// (workers and Node allow that for a module this small); one instance per memory.
-let kernelModule = null;
-function kernelInstance(memory) {
-  if (!kernelModule) {
+// The core's failures (enum codec_core_code), in order from 1.
+const E = Object.freeze({
+  SHORT_HEADER: 1, MAGIC: 2, VERSION: 3, CODEC: 4, FLAGS: 5, REF: 6, TIME: 7, BOUND: 8, STEP: 9, NVERTS: 10,
+  COUNTS: 11, SENT: 12, TOO_MANY: 13, LENGTH: 14, CRC: 15, NO_KEY: 16, KEY_LAYOUT: 17, NO_MOTION: 18,
+  ROTATION: 19, TRANSLATION: 20, PADDING: 21, TABLE_SHORT: 22, TABLE_VARINT: 23, TABLE_COUNT: 24,
+  TABLE_SYMBOL: 25, TABLE_FREQ: 26, TABLE_SUM: 27, NO_STREAM: 28, STREAM_LEN: 29, STATE: 30, SYMBOL: 31,
+  MODE: 32, OVERRUN: 33, ESCAPE: 34, VALUE: 35, BITS: 36, END: 37,
+});
+
+// The header field each failure is about (the table, strand and motion ones say it themselves).
+const FIELDS = new Map([
+  [E.SHORT_HEADER, 'header'], [E.MAGIC, 'magic'], [E.VERSION, 'version'], [E.CODEC, 'codec'], [E.FLAGS, 'flags'],
+  [E.REF, 'ref_seq'], [E.TIME, 'sim_time'], [E.BOUND, 'max_error_m'], [E.STEP, 'step'], [E.NVERTS, 'nverts'],
+  [E.COUNTS, 'stride / nstrands_total'], [E.SENT, 'nstrands_sent'], [E.TOO_MANY, 'nstrands_sent'],
+  [E.LENGTH, 'payload_len'], [E.CRC, 'crc32'], [E.NO_KEY, 'ref_seq'], [E.KEY_LAYOUT, 'step'],
+  [E.NO_MOTION, 'motion'], [E.ROTATION, 'motion'], [E.TRANSLATION, 'motion'], [E.PADDING, 'motion'],
+  [E.NO_STREAM, 'rans_len'], [E.STREAM_LEN, 'rans_len'], [E.STATE, 'rans states'], [E.BITS, 'raw bits'],
+  [E.END, 'rans'],
+]);
+
+// The messages, as server/codec/codec_decode.c words them: (h header record, e failure, len
+// frame length) -> text.
+const MESSAGES = new Map([
+  [E.SHORT_HEADER, (h, e, len) => `truncated header (${len} bytes, need ${HEADER_SIZE})`],
+  [E.MAGIC, () => 'bad magic (not a strand frame)'],
+  [E.VERSION, (h, e) => `unsupported format version ${e.a} (this decoder reads ${FORMAT_VERSION})`],
+  [E.CODEC, (h, e) => `unknown codec id ${e.a}`],
+  [E.FLAGS, (h, e) => `unknown flags 0x${e.a.toString(16).padStart(2, '0')}`],
+  [E.REF, (h) => `reference sequence ${h.refSeq} invalid for ${h.keyframe ? 'keyframe' : 'delta frame'} ${h.seq}`],
+  [E.TIME, () => 'sim time is not finite'],
+  [E.BOUND, (h) => `error bound ${h.maxError} m outside [1e-5, 0.1]`],
+  [E.STEP, (h) => `quantization step ${h.step} m does not meet bound ${h.maxError} m`],
+  [E.NVERTS, (h) => `${h.nverts} vertices per strand outside [2, 4096]`],
+  [E.COUNTS, (h) => `stride ${h.stride} / strand count ${h.nstrandsTotal} must be positive`],
+  [E.SENT, (h, e) => `${h.nstrandsSent} strands sent but ${h.nstrandsTotal} strands at stride ${h.stride} give ${e.a}`],
+  [E.TOO_MANY, (h) => `${h.nstrandsSent} x ${h.nverts} vertices exceed the limit ${1 << 24}`],
+  [E.LENGTH, (h, e, len) => `frame is ${len} bytes but its header says ${HEADER_SIZE + h.payloadLen} (${len < HEADER_SIZE + h.payloadLen ? 'truncated' : 'trailing bytes'})`],
+  [E.CRC, (h) => `CRC mismatch (frame ${h.seq} corrupted)`],
+  [E.NO_KEY, (h) => `frame ${h.seq} needs keyframe ${h.refSeq}, which is not held`],
+  [E.KEY_LAYOUT, (h) => `frame ${h.seq} does not match its keyframe's layout or step`],
+  [E.NO_MOTION, () => 'truncated payload (no motion)'],
+  [E.ROTATION, (h, e) => `invalid rigid motion (rotation entry ${e.index} is ${e.signedA}, outside [-16384, 16384])`],
+  [E.TRANSLATION, (h, e) => `invalid rigid motion (translation ${e.index} is ${e.signedA}, outside [-2^28, 2^28])`],
+  [E.PADDING, (h, e) => `invalid rigid motion (padding byte ${e.index} is not zero)`],
+  [E.TABLE_SHORT, () => 'truncated probability tables'],
+  [E.TABLE_VARINT, () => 'oversized value in probability tables'],
+  [E.TABLE_COUNT, (h, e) => `table ${e.index} lists ${e.a} symbols (max 343)`],
+  [E.TABLE_SYMBOL, (h, e) => `table ${e.index} names a symbol beyond 342`],
+  [E.TABLE_FREQ, (h, e) => `table ${e.index} frequency ${e.a} invalid (sum must be 4096)`],
+  [E.TABLE_SUM, (h, e) => `table ${e.index} frequencies sum to ${e.a}, not 4096`],
+  [E.NO_STREAM, () => 'truncated payload (no stream length)'],
+  [E.STREAM_LEN, (h, e) => `entropy stream length ${e.a} invalid (even, at least 32, at most the ${e.b} payload bytes left)`],
+  [E.STATE, (h, e) => `invalid entropy coder state ${e.a} in lane ${e.index} (below 2^16)`],
+  [E.SYMBOL, () => 'corrupt entropy-coded data (a symbol from an unused probability table)'],
+  [E.MODE, () => 'corrupt entropy-coded data (prediction mode out of range)'],
+  [E.OVERRUN, () => 'corrupt entropy-coded data (rANS stream overrun)'],
+  [E.ESCAPE, () => 'corrupt raw bits (escape exponent above 24)'],
+  [E.VALUE, () => 'corrupt frame (decoded coordinate out of range)'],
+  [E.BITS, (h, e) => `raw bit stream is ${e.a} bits, frame used ${e.b}`],
+  [E.END, () => 'entropy stream does not end in the initial states with every word read'],
+]);
+
+const fail = (msg) => { throw new Error('codec: ' + msg); };
+
+// The module, compiled once, on first use, synchronously (workers and Node allow that for a module
+// this small); one instance per memory.
+let coreModule = null;
+function instantiate(memory) {
+  if (!coreModule) {
     const text = atob(KERNEL_WASM);
     const bytes = new Uint8Array(text.length);
     for (let i = 0; i < text.length; i++) bytes[i] = text.charCodeAt(i);
     try {
-      kernelModule = new WebAssembly.Module(bytes);
+      coreModule = new WebAssembly.Module(bytes);
     } catch (e) {
-      fail(`this engine cannot compile the WebAssembly SIMD decode kernel (${e.message})`);
+      fail(`this engine cannot compile the WebAssembly SIMD decode core (${e.message})`);
     }
   }
-  return new WebAssembly.Instance(kernelModule, { env: { memory } }).exports;
+  return new WebAssembly.Instance(coreModule, { env: { memory } }).exports;
 }
-
-// Kernel result codes (codec_kernel.c).
-const K_BAD_SYMBOL = -1, K_BAD_MODE = -2, K_OVERRUN = -3, K_BAD_ESCAPE = -4, K_BAD_VALUE = -5;
-const K_BITS_SHORT = -6, K_BAD_END = -7, K_BITS_LEFT = -8;
-// INFO entries (codec_kernel.c, kern.info): an escaped axis; every slot of an unused table (an
-// escape, next table T_IDLE, classes no vertex symbol has).
-const INFO_SLOW = 1 << 9;
-const INFO_UNUSED = 0x9fff;
-// Where the kernel's state (struct kern) lies in its memory: above the module's own stack
-// (build.sh: 64 KiB, first).
-export const KERN_BASE = 65536;
-// Bytes after a frame that a corrupt frame's group may read before the kernel refuses it (at
-// most 120 per vertex of a strand, plus 64).
-const READ_SLACK = 1 << 19;
 
 /**
- * Byte offsets, in the kernel's memory, of the regions for frames of nq lattice coordinates (of
- * strands of at most 4096 vertices) whose bytes need frameCap bytes, after the kernel's state of
- * kernSize bytes: the held keyframe's and the current frame's lattice (Int32), two outputs
- * (Float32), the held keyframe's and the current frame's clamped segments (Int16, 4 per vertex,
- * in groups of 8 strands, padded), the frame's bytes (READ_SLACK readable bytes after them),
- * and the memory's size in 64 KiB pages.
+ * A core in a memory of its own: `base` its state (struct codec_core), `heap` the first byte after
+ * it. Grown by grow(bytes) (the views are made again); used as is by peekHeader and crc32.
  */
-export function kernelLayout(nq, frameCap, kernSize) {
-  const key = (KERN_BASE + kernSize + 15) & ~15, cur = key + 4 * nq, out = cur + 4 * nq, out2 = out + 4 * nq;
-  const seg = ((8 * nq) / 3 + 8 * 7 * 4096 + 15) & ~15;
-  const dkey = out2 + 4 * nq, dcur = dkey + seg, bytes = dcur + seg;
-  const pages = Math.ceil((bytes + frameCap + 16 + READ_SLACK) / 65536);
-  return { key, cur, out, out2, dkey, dcur, bytes, pages };
-}
+class CoreMemory {
+  constructor(extra) {
+    const probe = instantiate(new WebAssembly.Memory({ initial: 2 }));
+    this.base = (probe.__heap_base.value + 63) & ~63;
+    this.heap = (this.base + probe.codec_core_size() + 63) & ~63;
+    this.memory = new WebAssembly.Memory({ initial: Math.ceil((this.heap + extra) / PAGE) });
+    this.x = instantiate(this.memory);
+    this.x.codec_core_init(this.base);
+    this._views();
+  }
 
-// Per vertex symbol: its kernel INFO entry (codec_kernel.c) in a vertex table (1..8): the
-// classes c0 | c1 << 3 | c2 << 6, INFO_SLOW when an axis is escaped, the next vertex's body
-// table << 12. In the root table the next table is T_FIRST instead.
-const SYM_INFO = new Uint16Array(NSYM);
-for (let s = 0; s < NSYM; s++) {
-  const c0 = s % NCLASS, c1 = Math.floor(s / NCLASS) % NCLASS, c2 = Math.floor(s / (NCLASS * NCLASS));
-  const esc = c0 === ESCAPE || c1 === ESCAPE || c2 === ESCAPE;
-  SYM_INFO[s] = c0 | (c1 << 3) | (c2 << 6) | (esc ? INFO_SLOW : 0) |
-    ((T_BODY + Math.min(Math.max(c0, c1, c2), NBODY - 1)) << 12);
-}
+  // Makes the memory hold at least bytes bytes past heap.
+  grow(bytes) {
+    const need = Math.ceil((this.heap + bytes) / PAGE) - this.memory.buffer.byteLength / PAGE;
+    if (need > 0) {
+      this.memory.grow(need);
+      this._views();
+    }
+  }
 
-// The kernel's error codes, as messages.
-const KERNEL_ERRORS = new Map([
-  [K_BAD_SYMBOL, 'corrupt entropy-coded data (a symbol from an unused probability table)'],
-  [K_BAD_MODE, 'corrupt entropy-coded data (prediction mode out of range)'],
-  [K_OVERRUN, 'corrupt entropy-coded data (rANS stream overrun)'],
-  [K_BAD_ESCAPE, 'corrupt raw bits (escape exponent above 24)'],
-  [K_BAD_VALUE, 'corrupt frame (decoded coordinate out of range)'],
-  [K_BITS_SHORT, 'corrupt raw bits (raw bit stream overrun)'],
-  [K_BAD_END, 'entropy stream does not end in the initial states with every word read'],
-  [K_BITS_LEFT, 'raw bit stream is longer than the frame uses'],
-]);
-
-// CRC-32 (zlib polynomial), slicing by 8: CRC_TABLE[t * 256 + n] is the CRC of byte n followed
-// by t zero bytes.
-const CRC_TABLE = new Int32Array(256 * 8);
-for (let n = 0; n < 256; n++) {
-  let c = n;
-  for (let k = 0; k < 8; k++) c = c & 1 ? 0xedb88320 ^ (c >>> 1) : c >>> 1;
-  CRC_TABLE[n] = c;
-}
-for (let n = 0; n < 256; n++) {
-  for (let t = 1; t < 8; t++) {
-    const p = CRC_TABLE[(t - 1) * 256 + n];
-    CRC_TABLE[t * 256 + n] = CRC_TABLE[p & 0xff] ^ (p >>> 8);
+  _views() {
+    this.u8 = new Uint8Array(this.memory.buffer);
+    this.dv = new DataView(this.memory.buffer);
   }
 }
 
-/** zlib CRC-32 of bytes[from, to) (a Uint8Array), continuing from crc (0 to start). */
-export function crc32(bytes, from, to, crc) {
-  const mid = from + ((to - from) & ~7);
-  return ~crcTail(bytes, mid, to, crcBlocks(bytes, from, mid, ~crc)) >>> 0;
+// The core that peekHeader and crc32 use, made on first use.
+let scratch = null;
+function scratchCore(bytes) {
+  if (!scratch) scratch = new CoreMemory(PAGE);
+  scratch.grow(bytes);
+  return scratch;
 }
 
-// The CRC state c (inverted) after bytes[from, to), to - from a multiple of 8. A function of
-// its own, apart from crcTail, so that nothing the compiler has not seen run follows its loop.
-function crcBlocks(bytes, from, to, c) {
-  const T = CRC_TABLE;
-  for (let i = from; i < to; i += 8) {
-    c ^= bytes[i] | (bytes[i + 1] << 8) | (bytes[i + 2] << 16) | (bytes[i + 3] << 24);
-    const d = bytes[i + 4] | (bytes[i + 5] << 8) | (bytes[i + 6] << 16) | (bytes[i + 7] << 24);
-    c = T[1792 + (c & 0xff)] ^ T[1536 + ((c >>> 8) & 0xff)] ^ T[1280 + ((c >>> 16) & 0xff)] ^ T[1024 + (c >>> 24)] ^
-        T[768 + (d & 0xff)] ^ T[512 + ((d >>> 8) & 0xff)] ^ T[256 + ((d >>> 16) & 0xff)] ^ T[d >>> 24];
-  }
-  return c;
+function u64(dv, at) { return dv.getUint32(at, true) + dv.getUint32(at + 4, true) * 4294967296; } // exact below 2^53
+
+// The header record at dv[at] (struct codec_core_info) into info.
+function readInfo(dv, at, info) {
+  info.seq = u64(dv, at); info.refSeq = u64(dv, at + 8); info.simTime = dv.getFloat64(at + 16, true);
+  info.step = dv.getFloat64(at + 24, true); info.maxError = dv.getFloat32(at + 32, true);
+  info.keyframe = dv.getUint32(at + 36, true) !== 0; info.nstrandsTotal = dv.getUint32(at + 40, true);
+  info.nstrandsSent = dv.getUint32(at + 44, true); info.nverts = dv.getUint32(at + 48, true);
+  info.stride = dv.getUint32(at + 52, true); info.payloadLen = dv.getUint32(at + 56, true);
+  info.frameLen = HEADER_SIZE + info.payloadLen;
+  return info;
 }
 
-// The CRC state c (inverted) after bytes[from, to), one byte at a time.
-function crcTail(bytes, from, to, c) {
-  for (let i = from; i < to; i++) c = CRC_TABLE[(c ^ bytes[i]) & 0xff] ^ (c >>> 8);
-  return c;
+// Throws the failure recorded at dv[at] (struct codec_core_error) of a frame of len bytes whose
+// header record (as far as it was read) is at dv[hat].
+function throwFailure(dv, at, hat, len) {
+  const e = {
+    code: dv.getInt32(at, true), byte: dv.getUint32(at + 4, true), index: dv.getUint32(at + 8, true),
+    a: u64(dv, at + 16), b: u64(dv, at + 24), signedA: Number(dv.getBigInt64(at + 16, true)),
+  };
+  const h = readInfo(dv, hat, newFrameInfo());
+  const text = MESSAGES.get(e.code) ?? (() => `decode core failure ${e.code}`);
+  let where;
+  if (e.code >= E.TABLE_SHORT && e.code <= E.TABLE_SUM) where = `table ${e.index}, byte ${e.byte}`;
+  else if (e.code >= E.SYMBOL && e.code <= E.VALUE) {
+    where = `strands ${e.index}-${Math.min(e.index + 7, h.nstrandsSent - 1)}, byte ${e.byte}`;
+  } else where = `${FIELDS.get(e.code) ?? 'frame'}, byte ${e.byte}`;
+  fail(`${text(h, e, len)} [${where}]`);
 }
-
-function u16(b, o) { return b[o] | (b[o + 1] << 8); }
-function u32(b, o) { return (b[o] | (b[o + 1] << 8) | (b[o + 2] << 16) | (b[o + 3] << 24)) >>> 0; }
-function u64(b, o) { return u32(b, o) + u32(b, o + 4) * 4294967296; } // exact below 2^53
-
-const fail = (msg) => { throw new Error('codec: ' + msg); };
-
-// Scratch for reading IEEE fields without allocating per frame.
-const SCRATCH = new DataView(new ArrayBuffer(8));
-function f64(b, o) { for (let k = 0; k < 8; k++) SCRATCH.setUint8(k, b[o + k]); return SCRATCH.getFloat64(0, true); }
-function f32(b, o) { for (let k = 0; k < 4; k++) SCRATCH.setUint8(k, b[o + k]); return SCRATCH.getFloat32(0, true); }
 
 /** A fresh header record (fields as in codec_frame_info). */
 export function newFrameInfo() {
@@ -163,37 +180,31 @@ export function newFrameInfo() {
  */
 export function peekHeader(bytes, info = newFrameInfo()) {
   if (!(bytes instanceof Uint8Array)) fail('frame must be a Uint8Array');
-  const len = bytes.length;
-  if (len < HEADER_SIZE) fail(`truncated header (${len} bytes, need ${HEADER_SIZE})`);
-  for (let k = 0; k < 4; k++) if (bytes[k] !== MAGIC[k]) fail('bad magic (not a strand frame)');
-  const version = u16(bytes, 4);
-  if (version !== FORMAT_VERSION) fail(`unsupported format version ${version} (this decoder reads ${FORMAT_VERSION})`);
-  if (bytes[6] !== CODEC_ID_STRAND) fail(`unknown codec id ${bytes[6]}`);
-  const flags = bytes[7];
-  if (flags & ~FLAG_KEY) fail(`unknown flags 0x${flags.toString(16)}`);
-  const keyframe = (flags & FLAG_KEY) !== 0;
-  const seqLo = u32(bytes, 8), seqHi = u32(bytes, 12), refLo = u32(bytes, 16), refHi = u32(bytes, 20);
-  const refValid = keyframe ? seqLo === refLo && seqHi === refHi
-    : refHi < seqHi || (refHi === seqHi && refLo < seqLo);
-  const seq = u64(bytes, 8), refSeq = u64(bytes, 16);
-  if (!refValid) fail(`reference sequence ${refSeq} invalid for ${keyframe ? 'keyframe' : 'delta frame'} ${seq}`);
-  const simTime = f64(bytes, 24), step = f64(bytes, 32), maxError = f32(bytes, 40);
-  if (!Number.isFinite(simTime)) fail('sim time is not finite');
-  if (!(maxError >= Math.fround(1e-5) && maxError <= Math.fround(0.1))) fail(`error bound ${maxError} m outside [1e-5, 0.1]`);
-  if (!(step > 0 && step <= 2 * maxError)) fail(`quantization step ${step} m does not meet bound ${maxError} m`);
-  const total = u32(bytes, 44), sent = u32(bytes, 48), nverts = u32(bytes, 52), stride = u32(bytes, 56);
-  const payloadLen = u32(bytes, 60);
-  if (nverts < 2 || nverts > MAX_NVERTS) fail(`${nverts} vertices per strand outside [2, ${MAX_NVERTS}]`);
-  if (stride < 1 || total < 1) fail(`stride ${stride} / strand count ${total} must be positive`);
-  const expect = Math.floor((total + stride - 1) / stride);
-  if (sent !== expect) fail(`${sent} strands sent but ${total} strands at stride ${stride} give ${expect}`);
-  if (sent * nverts > MAX_VERTICES) fail(`${sent} x ${nverts} vertices exceed the limit ${MAX_VERTICES}`);
-  const frameLen = HEADER_SIZE + payloadLen;
-  if (len !== frameLen) fail(`frame is ${len} bytes but its header says ${frameLen} (${len < frameLen ? 'truncated' : 'trailing bytes'})`);
-  info.seq = seq; info.refSeq = refSeq; info.simTime = simTime; info.step = step; info.maxError = maxError;
-  info.keyframe = keyframe; info.nstrandsTotal = total; info.nstrandsSent = sent; info.nverts = nverts;
-  info.stride = stride; info.payloadLen = payloadLen; info.frameLen = frameLen;
-  return info;
+  const c = scratchCore(128 + HEADER_SIZE), hat = c.heap, eat = c.heap + 64, at = c.heap + 128;
+  c.u8.fill(0, hat, at);
+  c.u8.set(bytes.subarray(0, HEADER_SIZE), at);
+  if (c.x.codec_core_header(hat, eat, at, bytes.length) !== 0) throwFailure(c.dv, eat, hat, bytes.length);
+  return readInfo(c.dv, hat, info);
+}
+
+/** zlib CRC-32 of bytes[from, to) (a Uint8Array), continuing from crc (0 to start): the core's. */
+export function crc32(bytes, from, to, crc) {
+  const c = scratchCore(to - from);
+  c.u8.set(bytes.subarray(from, to), c.heap);
+  return c.x.codec_core_crc32(crc | 0, c.heap, to - from) >>> 0;
+}
+
+/**
+ * Byte offsets, past heap (where the core's state ends), of the regions of a decoder for frames of
+ * nq lattice coordinates whose clamped segments take seg int16 and whose bytes take frameCap: two
+ * lattice slots (Int32), two segment slots (Int16), two outputs (Float32), the frame's bytes
+ * (READ_SLACK readable bytes after them), and the bytes in all.
+ */
+export function coreLayout(heap, nq, seg, frameCap) {
+  const q0 = heap, q1 = q0 + 4 * nq, segBytes = (2 * seg + 15) & ~15;
+  const d0 = (q1 + 4 * nq + 15) & ~15, d1 = d0 + segBytes, out0 = d1 + segBytes, out1 = out0 + 4 * nq;
+  const bytes = out1 + 4 * nq;
+  return { q: [q0, q1], d: [d0, d1], out: [out0, out1], bytes, end: bytes + frameCap + 16 + READ_SLACK };
 }
 
 /**
@@ -210,216 +221,80 @@ export class StrandDecoder {
   constructor() {
     this.info = newFrameInfo();
     this.info.positions = new Float32Array(0);
-    this._hdr = newFrameInfo();
-    this._key = newFrameInfo();
-    this._keyValid = false;
-    // the kernel's memory (codec_kernel.c), grown to the largest frame seen, and its instance
-    this._memory = null;
-    this._kernel = null;
-    this._kernSize = 0;   // its state's size (struct kern)
-    this._state = 0;      // its lane states (Int32 index)
-    this._motion = 0;     // its motion (Int32 index)
-    this._list = 0;       // its table list (Int32 index)
-    this._nqCap = 0;      // lattice coordinates its regions hold
-    this._bytesCap = 0;   // frame bytes it holds
-    this._keyOff = 0;     // the held keyframe's lattice (Int32)
-    this._curOff = 0;     // the lattice being decoded (Int32)
-    this._dkeyOff = 0;    // the held keyframe's clamped segments (Int16)
-    this._dcurOff = 0;    // the clamped segments of the keyframe being decoded (Int16)
-    this._segBytes = 0;   // the bytes of a clamped segments region
-    this._outOffs = [0, 0]; // the two output regions (Float32): positions alternate between them
-    this._outViews = [null, null]; // their Float32Array views as returned
-    this._next = 0;       // the output region the next frame is decoded into
-    this._bytesOff = 0;   // the frame being decoded
-    this._u8 = null;
-    this._i32 = null;
+    this._hdr = newFrameInfo(); // the header of the frame being decoded
+    this._core = null;     // a CoreMemory, replaced when the regions grow
+    this._nqCap = 0;       // lattice coordinates its regions hold
+    this._segCap = 0;      // clamped segments (int16) its segment slots hold
+    this._bytesCap = 0;    // frame bytes it holds
+    this._lay = null;      // coreLayout of its regions
+    this._outViews = [null, null]; // the outputs' Float32Array views as returned
+    this._next = 0;        // the output the next frame is decoded into
   }
 
   /** True when a keyframe is held (deltas against it can be decoded). */
-  get hasKeyframe() { return this._keyValid; }
+  get hasKeyframe() { return this._core !== null && this._core.dv.getUint32(this._core.base + KEY_VALID, true) !== 0; }
 
   /** Sequence number of the held keyframe (-1 when none). */
-  get keySeq() { return this._keyValid ? this._key.seq : -1; }
+  get keySeq() { return this.hasKeyframe ? u64(this._core.dv, this._core.base + KEY) : -1; }
 
   /** Forgets the held keyframe (e.g. after a reconnect). */
-  reset() { this._keyValid = false; }
+  reset() { if (this._core) this._core.x.codec_core_reset(this._core.base); }
 
-  // Makes the kernel's memory hold nq coordinates and a frame of frameLen bytes, keeping the held
-  // keyframe (a new memory and instance when it grows).
-  _reserve(nq, frameLen) {
-    if (this._memory && nq <= this._nqCap && frameLen <= this._bytesCap) {
-      return;
+  // Makes the regions hold nq coordinates, seg segments and a frame of frameLen bytes, keeping the
+  // held keyframe (a new memory and instance when they grow: the state and the held slots move).
+  _reserve(nq, seg, frameLen) {
+    if (this._core && nq <= this._nqCap && seg <= this._segCap && frameLen <= this._bytesCap) return;
+    const nqCap = Math.max(nq, this._nqCap), segCap = Math.max(seg, this._segCap);
+    const bytesCap = Math.max(frameLen + (frameLen >> 2), this._bytesCap, PAGE);
+    const probe = this._core ?? new CoreMemory(0);
+    const lay = coreLayout(probe.heap, nqCap, segCap, bytesCap);
+    const core = new CoreMemory(lay.end - probe.heap);
+    const old = this._core;
+    if (old) {
+      core.u8.set(old.u8.subarray(old.base, old.heap), core.base);
+      const s = old.dv.getUint32(old.base + KEY_SLOT, true), kq = this._nqCap, ks = this._segCap;
+      core.u8.set(old.u8.subarray(this._lay.q[s], this._lay.q[s] + 4 * kq), lay.q[s]);
+      core.u8.set(old.u8.subarray(this._lay.d[s], this._lay.d[s] + 2 * ks), lay.d[s]);
     }
-    const nqCap = Math.max(nq, this._nqCap);
-    const bytesCap = Math.max(frameLen + (frameLen >> 2), this._bytesCap, 1 << 16);
-    let kernSize = this._kernSize;
-    if (!kernSize) {
-      kernSize = kernelInstance(new WebAssembly.Memory({ initial: 2 })).kern_offset(3);
-    }
-    const lay = kernelLayout(nqCap, bytesCap, kernSize);
-    const memory = new WebAssembly.Memory({ initial: lay.pages });
-    const kernel = kernelInstance(memory);
-    const heap = memory.buffer;
-    if (this._keyValid) {
-      const kq = this._key.nstrandsSent * this._key.nverts * 3;
-      new Int32Array(heap, lay.key, kq).set(new Int32Array(this._memory.buffer, this._keyOff, kq));
-      new Uint8Array(heap, lay.dkey, this._segBytes).set(new Uint8Array(this._memory.buffer, this._dkeyOff, this._segBytes));
-    }
-    kernel.kern_init(KERN_BASE);
-    this._memory = memory;
-    this._kernel = kernel;
-    this._kernSize = kernSize;
-    this._state = (KERN_BASE + kernel.kern_offset(1)) >> 2;
-    this._motion = (KERN_BASE + kernel.kern_offset(2)) >> 2;
-    this._list = (KERN_BASE + kernel.kern_offset(0)) >> 2;
+    core.x.codec_core_regions(core.base, lay.q[0], lay.q[1], lay.d[0], lay.d[1]);
+    this._core = core;
+    this._lay = lay;
     this._nqCap = nqCap;
+    this._segCap = segCap;
     this._bytesCap = bytesCap;
-    this._keyOff = lay.key;
-    this._curOff = lay.cur;
-    this._dkeyOff = lay.dkey;
-    this._dcurOff = lay.dcur;
-    this._segBytes = lay.dcur - lay.dkey;
-    this._outOffs = [lay.out, lay.out2];
     this._outViews = [null, null];
-    this._bytesOff = lay.bytes;
-    this._u8 = new Uint8Array(heap);
-    this._i32 = new Int32Array(heap);
+  }
+
+  // Copies the frame into the core's memory, zeros after it; returns its offset.
+  _place(bytes) {
+    const c = this._core, at = this._lay.bytes;
+    c.u8.set(bytes, at);
+    c.u8.fill(0, at + bytes.length, at + bytes.length + 16);
+    return at;
   }
 
   /** Decodes one frame (a Uint8Array holding exactly the frame). */
   decode(bytes) {
-    const h = peekHeader(bytes, this._hdr);
-    const crc = u32(bytes, 64);
-    let c = crc32(bytes, 0, 64, 0);
-    c = crc32(bytes, HEADER_SIZE, bytes.length, c);
-    if (c !== crc) fail(`CRC mismatch (frame ${h.seq} corrupted)`);
-    if (!h.keyframe) {
-      const k = this._key;
-      if (!this._keyValid || k.seq !== h.refSeq) fail(`frame ${h.seq} needs keyframe ${h.refSeq}, which is not held`);
-      if (k.nstrandsTotal !== h.nstrandsTotal || k.nverts !== h.nverts || k.stride !== h.stride || k.step !== h.step) {
-        fail(`frame ${h.seq} does not match its keyframe's layout or step`);
-      }
+    if (!(bytes instanceof Uint8Array)) fail('frame must be a Uint8Array');
+    const len = bytes.length;
+    // the header, the CRC and the reference are checked before the regions grow to the counts
+    this._reserve(this._nqCap, this._segCap, len);
+    let c = this._core, at = this._place(bytes);
+    if (c.x.codec_core_check(c.base, at, len) !== 0) throwFailure(c.dv, c.base + ERROR, c.base + INFO, len);
+    const h = readInfo(c.dv, c.base + INFO, this._hdr);
+    const nq = h.nstrandsSent * h.nverts * 3, seg = c.x.codec_core_seg_len(h.nstrandsSent, h.nverts);
+    if (nq > this._nqCap || seg > this._segCap) {
+      this._reserve(nq, seg, len);
+      c = this._core;
+      at = this._place(bytes);
+      if (c.x.codec_core_check(c.base, at, len) !== 0) throwFailure(c.dv, c.base + ERROR, c.base + INFO, len);
     }
-    const nq = h.nstrandsSent * h.nverts * 3, end = bytes.length;
-    this._reserve(nq, end);
-    let pos = HEADER_SIZE;
-    if (!h.keyframe) {
-      if (end - pos < MOTION_BYTES) fail('truncated payload (no motion)');
-      readMotion(bytes, pos, this._i32, this._motion);
-      pos += MOTION_BYTES;
-    }
-    pos = readTables(bytes, pos, end, this._i32, this._list, this._kernel);
-    if (end - pos < 4) fail('truncated payload (no stream length)');
-    const ransLen = u32(bytes, pos);
-    pos += 4;
-    if (ransLen < 4 * LANES || ransLen % 2 !== 0 || ransLen > end - pos) {
-      fail(`entropy stream length ${ransLen} invalid (even, at least ${4 * LANES}, at most the ${end - pos} payload bytes left)`);
-    }
-    const lane = this._state;
-    for (let l = 0; l < LANES; l++) {
-      const x = u32(bytes, pos + 4 * l);
-      if (x < RANS_L) fail(`invalid entropy coder state ${x} in lane ${l} (below 2^16)`);
-      this._i32[lane + l] = x | 0;
-    }
-    const rend = pos + ransLen, avail = (end - rend) * 8;
-    if (avail > 0x7fffffff) fail(`raw bit stream of ${avail} bits is longer than any frame uses`);
-    // the frame goes to the kernel's memory, zeros after it
-    const b0 = this._bytesOff;
-    this._u8.set(bytes, b0);
-    this._u8.fill(0, b0 + end, b0 + end + 16);
-    const rc = this._kernel.kern_frame(KERN_BASE, h.keyframe ? 1 : 0, h.nstrandsSent, h.nverts, b0 + pos + 4 * LANES,
-      b0 + rend, b0 + rend, avail, this._keyOff, this._curOff, this._outOffs[this._next], this._dkeyOff, this._dcurOff,
-      h.step);
-    if (rc !== 0) {
-      const used = this._i32[this._state + 9] >>> 0;
-      if (rc === K_BITS_SHORT || rc === K_BITS_LEFT) fail(`raw bit stream is ${avail} bits, frame used ${used}`);
-      fail(KERNEL_ERRORS.get(rc) ?? `kernel error ${rc}`);
-    }
-
-    const info = this.info;
-    const k = this._next, view = this._outViews[k];
-    info.positions = view && view.length === nq ? view : (this._outViews[k] = new Float32Array(this._memory.buffer, this._outOffs[k], nq));
+    const k = this._next, out = this._lay.out[k];
+    if (c.x.codec_core_decode(c.base, at, len, out) !== 0) throwFailure(c.dv, c.base + ERROR, c.base + INFO, len);
+    const info = this.info, view = this._outViews[k];
+    info.positions = view && view.length === nq ? view : (this._outViews[k] = new Float32Array(c.memory.buffer, out, nq));
     this._next = k ^ 1;
-    if (h.keyframe) {
-      let t = this._keyOff;
-      this._keyOff = this._curOff;
-      this._curOff = t;
-      t = this._dkeyOff;
-      this._dkeyOff = this._dcurOff;
-      this._dcurOff = t;
-      Object.assign(this._key, h);
-      this._keyValid = true;
-    }
-    info.seq = h.seq; info.refSeq = h.refSeq; info.simTime = h.simTime; info.step = h.step; info.maxError = h.maxError;
-    info.keyframe = h.keyframe; info.nstrandsTotal = h.nstrandsTotal; info.nstrandsSent = h.nstrandsSent;
-    info.nverts = h.nverts; info.stride = h.stride; info.payloadLen = h.payloadLen; info.frameLen = h.frameLen;
+    readInfo(c.dv, c.base + INFO, info);
     return info;
   }
-}
-
-// Reads and checks a delta's rigid motion at bytes[pos, pos + 48) into the kernel's motion at
-// i32[mo] (rho_0..rho_8, then t_0..t_2).
-function readMotion(bytes, pos, i32, mo) {
-  for (let k = 0; k < 9; k++) {
-    const r = (u16(bytes, pos + 2 * k) << 16) >> 16;
-    if (r < -ROT_ONE || r > ROT_ONE) fail(`invalid rigid motion (rotation entry ${k} is ${r}, outside [-16384, 16384])`);
-    i32[mo + k] = r;
-  }
-  for (let k = 0; k < 3; k++) {
-    const t = u32(bytes, pos + 20 + 4 * k) | 0;
-    if (t < -MAX_SHIFT || t > MAX_SHIFT) fail(`invalid rigid motion (translation ${k} is ${t}, outside [-2^28, 2^28])`);
-    i32[mo + 9 + k] = t;
-  }
-  for (const k of [18, 19, 32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43, 44, 45, 46, 47]) {
-    if (bytes[pos + k] !== 0) fail(`invalid rigid motion (padding byte ${k} is not zero)`);
-  }
-}
-
-// LEB128 value of at most 2 bytes at bytes[pos] (pos < end checked); returns value << 16 | bytes.
-function varint(bytes, pos, end) {
-  if (pos >= end) fail('truncated probability tables');
-  const b0 = bytes[pos];
-  if (!(b0 & 0x80)) return (b0 << 16) | 1;
-  if (pos + 1 >= end) fail('truncated probability tables');
-  const b1 = bytes[pos + 1];
-  if (b1 & 0x80) fail('oversized value in probability tables');
-  return (((b0 & 0x7f) | (b1 << 7)) << 16) | 2;
-}
-
-// Reads the nine probability tables at bytes[pos, end) and has the kernel build its per-slot
-// lookups from them (codec_kernel.c, kern_tables(): a list at i32[list] of entries
-// table << 16 | INFO entry, freq << 12 | start). Returns the position after them.
-function readTables(bytes, pos, end, i32, list, kernel) {
-  let li = list;
-  for (let t = 0; t < NTABLES; t++) {
-    let vb = varint(bytes, pos, end);
-    pos += vb & 3;
-    const used = vb >> 16;
-    if (used > NSYM) fail(`table ${t} lists ${used} symbols (max ${NSYM})`);
-    if (used === 0) {
-      i32[li++] = (t << 16) | INFO_UNUSED;
-      i32[li++] = SCALE << SCALE_BITS;
-      continue;
-    }
-    let st = 0, next = 0;
-    for (let k = 0; k < used; k++) {
-      vb = varint(bytes, pos, end);
-      pos += vb & 3;
-      const gap = vb >> 16;
-      vb = varint(bytes, pos, end);
-      pos += vb & 3;
-      const f = vb >> 16;
-      if (gap >= NSYM - next) fail(`table ${t} names a symbol beyond ${NSYM - 1}`);
-      const s = next + gap;
-      if (f === 0 || f > SCALE - st) fail(`table ${t} frequency ${f} invalid (sum must be ${SCALE})`);
-      const v = t === T_MODE ? s : t === T_ROOT ? (SYM_INFO[s] & ~(15 << 12)) | (T_FIRST << 12) : SYM_INFO[s];
-      i32[li++] = (t << 16) | v;
-      i32[li++] = (f << SCALE_BITS) | st;
-      st += f;
-      next = s + 1;
-    }
-    if (st !== SCALE) fail(`table ${t} frequencies sum to ${st}, not ${SCALE}`);
-  }
-  kernel.kern_tables(KERN_BASE, (li - list) >> 1);
-  return pos;
 }

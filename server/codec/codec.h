@@ -76,18 +76,15 @@ typedef struct codec_encoder {
     size_t nsyms_max, bits_cap, rans_cap;
 } codec_encoder;
 
-/* Decoder state: holds the integer reconstruction of the last keyframe decoded. */
+/* Decoder state: the decode core's (codec_core.h) and the memory it works in. */
 typedef struct codec_decoder {
-    bool key_valid;
-    codec_frame_info key;  /* header of the held keyframe */
-    int32_t *key_g;        /* the keyframe as deltas use it: per group of 8 strands its roots and
-                              clamped segments (codec_kref_group) */
-    int32_t *cur_q;        /* this frame, strand-major */
-    size_t cap, key_cap;   /* int32 capacity of cur_q and of key_g */
-    uint16_t *slots;       /* rANS slot -> symbol lookup, one 4096-entry table per context */
-    int32_t *res;          /* residuals of one group of 8 strands */
-    int32_t *key_m;        /* one group's reference: moved roots and moved segments (deltas) */
-    uint32_t res_cap;      /* vertices per strand res and key_m hold */
+    struct codec_core *core; /* the core's state: the held keyframe's header, the frame's tables */
+    int32_t *q[2];           /* lattice slots: the held keyframe's and the next keyframe's */
+    int16_t *d[2];           /* their clamped segments */
+    float *out;              /* a frame's positions, copied to the caller's once it decoded */
+    uint8_t *frame;          /* a copy of the frame with CODEC_CORE_SLACK bytes after it */
+    size_t q_cap, d_cap;     /* elements each q slot (and out) and each d slot hold */
+    size_t frame_cap;        /* bytes frame holds */
 } codec_decoder;
 
 /* Releases buf's memory and zeroes it. Safe on a zeroed buf. */

@@ -1,6 +1,6 @@
 /* codec: the encoder's kernels on groups of 8 strands held side by side (one strand per vector
- * lane; the same lanes as the format's rANS states): quantise, motion-compensate (the decoder
- * uses this one too), estimate the mode costs, tokenise, emit; each kernel has a portable path
+ * lane; the same lanes as the format's rANS states): quantise, motion-compensate, estimate the
+ * mode costs, tokenise, emit; each kernel has a portable path
  * and, when built with __AVX2__, a vector path that gives exactly the same results. */
 #ifndef CODEC_CODEC_ENC_H
 #define CODEC_CODEC_ENC_H

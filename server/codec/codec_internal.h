@@ -1,5 +1,6 @@
-/* codec: format constants, residual tokens, context tables and predictors shared by the
- * encoder and the decoder (proto/CODEC.md is the normative description). */
+/* codec: format constants, residual tokens, context tables and predictors of the encoder and the
+ * decoder's host side (proto/CODEC.md is the normative description; the decode core,
+ * codec_core.c, is freestanding and states the constants it needs itself). */
 #ifndef CODEC_CODEC_INTERNAL_H
 #define CODEC_CODEC_INTERNAL_H
 
@@ -60,14 +61,7 @@ static inline int32_t codec_half(int32_t d)
     return (d + ((d >> 1) & 1)) >> 1;
 }
 
-/* Smooth linear prediction at coordinate index i (vertex >= 3): the previous vertex plus the
- * mean of the two previous segments (less amplification of quantisation noise than 2a - b). */
-static inline int32_t codec_smooth(const int32_t *P, uint32_t i)
-{
-    return P[i - 3u] + codec_half(P[i - 3u] - P[i - 9u]);
-}
-
-/* Header layout helpers (little-endian). */
+/* Header writers (little-endian; the decode core, codec_core.c, has its own readers). */
 static inline void codec_put_u16(uint8_t *p, uint32_t v) { p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); }
 static inline void codec_put_u32(uint8_t *p, uint32_t v)
 {
@@ -76,15 +70,6 @@ static inline void codec_put_u32(uint8_t *p, uint32_t v)
 static inline void codec_put_u64(uint8_t *p, uint64_t v)
 {
     for (int k = 0; k < 8; k++) p[k] = (uint8_t)(v >> (8 * k));
-}
-static inline uint32_t codec_get_u16(const uint8_t *p) { return (uint32_t)p[0] | (uint32_t)p[1] << 8; }
-static inline uint32_t codec_get_u32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-static inline uint64_t codec_get_u64(const uint8_t *p)
-{
-    return (uint64_t)codec_get_u32(p) | (uint64_t)codec_get_u32(p + 4) << 32;
 }
 
 /* Header field offsets. */
@@ -119,9 +104,6 @@ void codec_motion_identity(codec_motion *m);
 
 /* The 48 bytes of m at p (m must be in range). */
 void codec_motion_write(uint8_t *p, const codec_motion *m);
-
-/* Parses the 48 bytes at p; false when an entry is out of range or the padding is not zero. */
-bool codec_motion_read(const uint8_t *p, codec_motion *m);
 
 /* Least-squares rigid motion taking the keyframe's roots to this frame's (lattice units, root j
  * at key[3 j .. 3 j + 2], cur[3 j .. 3 j + 2]; the roots j = 0, step, 2 step, ... below
@@ -158,9 +140,6 @@ void codec_header_write(uint8_t *p, const codec_frame_info *info);
 
 /* Grows buf to hold at least cap bytes. */
 core_status codec_buf_reserve(codec_buf *buf, size_t cap, core_err *err);
-
-/* zlib's crc32(crc, p, n) (CRC-32, reflected polynomial 0xEDB88320; crc 0 to start). */
-uint32_t codec_crc32(uint32_t crc, const uint8_t *p, size_t n);
 
 /* CRC-32 (zlib) of a frame: header bytes 0..63, then the payload. */
 uint32_t codec_frame_crc(const uint8_t *frame, size_t payload_len);

@@ -22,21 +22,6 @@ void codec_motion_write(uint8_t *p, const codec_motion *m)
     for (int k = 0; k < 3; k++) codec_put_u32(p + 20 + 4 * k, (uint32_t)m->t[k]);
 }
 
-bool codec_motion_read(const uint8_t *p, codec_motion *m)
-{
-    for (int k = 0; k < 9; k++) {
-        m->rho[k] = (int16_t)codec_get_u16(p + 2 * k);
-        if (m->rho[k] < -CODEC_RHO_ONE || m->rho[k] > CODEC_RHO_ONE) return false;
-    }
-    for (int k = 0; k < 3; k++) {
-        m->t[k] = (int32_t)codec_get_u32(p + 20 + 4 * k);
-        if (m->t[k] < -CODEC_T_MAX || m->t[k] > CODEC_T_MAX) return false;
-    }
-    uint32_t pad = p[18] | p[19];
-    for (uint32_t i = 32; i < CODEC_MOTION_BYTES; i++) pad |= p[i];
-    return pad == 0;
-}
-
 static double det3(const double a[9])
 {
     return a[0] * (a[4] * a[8] - a[5] * a[7]) - a[1] * (a[3] * a[8] - a[5] * a[6]) + a[2] * (a[3] * a[7] - a[4] * a[6]);

@@ -1,4 +1,5 @@
-/* codec: rANS frequency tables (normalise, serialise, parse) and encoder symbol setup. */
+/* codec: the encoder's rANS frequency tables (normalise, serialise) and symbol setup (the decode
+ * core, codec_core.c, parses the tables). */
 #include <string.h>
 
 #ifdef __AVX2__
@@ -82,63 +83,6 @@ uint8_t *codec_rans_write_table(uint8_t *p, const uint16_t *freq, uint32_t nsym)
         next = i + 1u;
     }
     return p;
-}
-
-/* Reads a LEB128 value of at most two bytes (values below 2^14). */
-static core_status get_varint(const uint8_t *data, size_t len, size_t *pos, uint32_t *out, core_err *err)
-{
-    uint32_t v = 0;
-    for (uint32_t k = 0; k < 2; k++) {
-        if (*pos >= len) return core_fail(err, CORE_EFORMAT, "codec: truncated probability tables");
-        uint8_t b = data[(*pos)++];
-        v |= (uint32_t)(b & 0x7fu) << (7u * k);
-        if (!(b & 0x80u)) {
-            *out = v;
-            return CORE_OK;
-        }
-    }
-    return core_fail(err, CORE_EFORMAT, "codec: oversized value in probability tables");
-}
-
-core_status codec_rans_read_tables(const uint8_t *data, size_t len, size_t *pos, codec_rans_tables *tabs,
-                                   uint16_t *slots, core_err *err)
-{
-    for (uint32_t t = 0; t < CODEC_NTABLES; t++) {
-        uint32_t used = 0;
-        core_status st = get_varint(data, len, pos, &used, err);
-        if (st) return st;
-        if (used > CODEC_NSYM)
-            return core_fail(err, CORE_EFORMAT, "codec: table %u lists %u symbols (max %u)", t, used, CODEC_NSYM);
-        uint16_t *lut = slots + (size_t)t * CODEC_SCALE;
-        tabs->nsym[t] = used;
-        if (used == 0) {
-            for (uint32_t i = 0; i < CODEC_SCALE; i++) lut[i] = 0xffffu;
-            continue;
-        }
-        uint32_t start = 0, next = 0;
-        for (uint32_t k = 0; k < used; k++) {
-            uint32_t gap = 0, f = 0;
-            st = get_varint(data, len, pos, &gap, err);
-            if (st) return st;
-            st = get_varint(data, len, pos, &f, err);
-            if (st) return st;
-            if (gap >= CODEC_NSYM - next)
-                return core_fail(err, CORE_EFORMAT, "codec: table %u names a symbol beyond %u", t, CODEC_NSYM - 1u);
-            uint32_t s = next + gap;
-            if (f == 0 || f > CODEC_SCALE - start)
-                return core_fail(err, CORE_EFORMAT, "codec: table %u frequency %u invalid (sum must be %u)", t, f,
-                                 CODEC_SCALE);
-            tabs->freq[t][s] = (uint16_t)f;
-            tabs->start[t][s] = (uint16_t)start;
-            for (uint32_t i = 0; i < f; i++) lut[start + i] = (uint16_t)s;
-            start += f;
-            next = s + 1u;
-        }
-        if (start != CODEC_SCALE)
-            return core_fail(err, CORE_EFORMAT, "codec: table %u frequencies sum to %u, not %u", t, start,
-                             CODEC_SCALE);
-    }
-    return CORE_OK;
 }
 
 /* floor(x / freq) for x < freq * 2^20 (codec_rans_sym_init); exact. */

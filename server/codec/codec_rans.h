@@ -15,13 +15,6 @@ typedef struct codec_rans_sym {
     uint32_t cmpl_freq; /* SCALE - freq */
 } codec_rans_sym;
 
-/* Decoder side of all tables of a frame. */
-typedef struct codec_rans_tables {
-    uint16_t freq[CODEC_NTABLES][CODEC_NSYM];
-    uint16_t start[CODEC_NTABLES][CODEC_NSYM];
-    uint32_t nsym[CODEC_NTABLES];
-} codec_rans_tables;
-
 /* Scales counts[0..n) to frequencies summing to CODEC_SCALE, every used symbol at least 1.
  * Returns the used alphabet size (last nonzero + 1; 0 when all counts are zero). */
 uint32_t codec_rans_normalize(const uint32_t *counts, uint32_t n, uint16_t *freq);
@@ -42,11 +35,6 @@ void codec_rans_sym_init(codec_rans_sym *s, codec_rans_vsym *vs, uint32_t start,
  * gap from the previous used symbol and its frequency); returns the new end. The caller
  * reserves 5 * (CODEC_NSYM + 1) bytes per table. */
 uint8_t *codec_rans_write_table(uint8_t *p, const uint16_t *freq, uint32_t nsym);
-
-/* Parses every table at data[*pos..len), fills tabs and the slot lookup (CODEC_NTABLES x
- * CODEC_SCALE entries; 0xffff marks an empty table). */
-core_status codec_rans_read_tables(const uint8_t *data, size_t len, size_t *pos, codec_rans_tables *tabs,
-                                   uint16_t *slots, core_err *err);
 
 /* Encodes the symbols of a frame (indices table * CODEC_NSYM + symbol into rs) last first:
  * syms[0..nfull) have lane i % CODEC_LANES, the ntail after them lane (i - nfull) % tail_lanes

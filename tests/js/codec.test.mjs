@@ -1,18 +1,20 @@
-// Tests for web/codec.js (frame format version 2): bit-exact decoding of proto/vectors, frame
-// skipping, frames of every mode, escape and group shape built by a reference encoder written
-// from CODEC.md (codec_encode.mjs), every rejection of CODEC.md (truncated, bit-flipped, version
-// 1, bad states, stream lengths, motion, tables, escapes, coordinates), each leaving the decoder
-// unchanged, a worst-case overrun refused inside the kernel's memory; the CRC, the kernel's
-// memory layout (codec.js, web/wasm/codec_kernel.c) (run with `node --test`).
+// Tests for web/codec.js, the loader of the decode core (server/codec/codec_core.c as WebAssembly;
+// frame format version 2): bit-exact decoding of proto/vectors, frame skipping, frames of every
+// mode, escape and group shape built by the reference encoder written from CODEC.md
+// (codec_encode.mjs; the modes vectors are its frames, stored for the C build too), every
+// rejection of CODEC.md (truncated, bit-flipped, version 1, bad states, stream lengths, motion,
+// tables, escapes, coordinates), each leaving the decoder unchanged, a worst-case overrun refused
+// inside the core's memory; the CRC, the decoder's memory layout (run with `node --test`).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { readFileSync } from 'node:fs';
+import { readFileSync, writeFileSync } from 'node:fs';
 import { dirname, join } from 'node:path';
 import { fileURLToPath } from 'node:url';
 
-import { StrandDecoder, peekHeader, crc32 as codecCrc32, HEADER_SIZE, kernelLayout, KERN_BASE } from '../../web/codec.js';
+import { StrandDecoder, peekHeader, crc32 as codecCrc32, HEADER_SIZE, coreLayout, READ_SLACK } from '../../web/codec.js';
 import { KERNEL_WASM } from '../../web/codec_kernel_wasm.js';
 import { encodeFrame, stampCrc } from './codec_encode.mjs';
+import { MODE_SHAPES, MODE_STEP, modeStream } from './mode_vectors.mjs';
 
 const here = dirname(fileURLToPath(import.meta.url));
 const vdir = join(here, '..', '..', 'proto', 'vectors');
@@ -217,7 +219,7 @@ test('version 1 frames are refused', () => {
   assert.throws(() => peekHeader(c), /unsupported format version 1/);
   const dec = new StrandDecoder();
   dec.decode(keyBytes());
-  rejects(dec, c, /^Error: codec: unsupported format version 1/);
+  rejects(dec, c, /^Error: codec: unsupported format version 1 \(this decoder reads 2\) \[version, byte 4\]$/);
 });
 
 test('a delta whose rigid motion is out of range or badly padded is refused', () => {
@@ -497,6 +499,23 @@ test('malformed probability tables are refused', () => {
   assert.throws(() => dec.decode(wide.bytes), (e) => !/probability tables|table \d/.test(e.message));
 });
 
+test('the modes vectors are what the reference encoder makes and decode to float32(q step)', () => {
+  const write = process.env.STRANDCAST_WRITE_VECTORS === '1';
+  for (const [ns, nv] of MODE_SHAPES) {
+    const dec = new StrandDecoder();
+    for (const f of modeStream(ns, nv)) {
+      const want = Float32Array.from(f.q, (q) => q * MODE_STEP);
+      const wantBytes = new Uint8Array(want.buffer);
+      if (write) {
+        writeFileSync(join(vdir, f.name + '.bin'), f.bytes);
+        writeFileSync(join(vdir, f.name + '.out.f32'), wantBytes);
+      }
+      assert.deepEqual(load(f.name + '.bin'), f.bytes, `${f.name}.bin differs from what the reference encoder makes`);
+      sameBits(dec.decode(f.bytes).positions, f.name + '.out.f32');
+    }
+  }
+});
+
 test('peekHeader reads the fixed header', () => {
   const h = peekHeader(keyBytes());
   assert.equal(h.keyframe, true);
@@ -552,9 +571,9 @@ test('a larger frame that fails keeps the held keyframe while the heap grows', (
 test('a group that reads as far as a corrupt frame can is refused with a codec error', () => {
   // 8 strands of 4096 vertices whose every residual is an escape of exponent 28 (34 raw bits an
   // axis); then the same frame with its raw bits cut to 8 bytes: the first group reads on past
-  // the cut (through zeros, or the whole frame's bits left in the kernel's memory) until an
+  // the cut (through zeros, or the whole frame's bits left in the core's memory) until an
   // escape field or the check after the group refuses the frame (a read outside the memory
-  // would be a RuntimeError; kernelLayout's READ_SLACK is checked below)
+  // would be a RuntimeError; coreLayout's READ_SLACK is checked below)
   const ns = 8, nverts = 4096, x = (1 << 26) - 1;
   const q = new Int32Array(ns * nverts * 3);
   for (let i = 0; i < q.length; i++) q[i] = (Math.floor(i / 3) % nverts) % 2 ? x : -x;
@@ -569,25 +588,26 @@ test('a group that reads as far as a corrupt frame can is refused with a codec e
   rejects(new StrandDecoder(), cut, /^Error: codec: raw bit stream is 64 bits, frame used \d+/);
 });
 
-test('kernel memory regions are disjoint and leave the read slack after the frame', () => {
-  for (const [nq, cap] of [[6, 1], [864, 65536], [393216, 120000], [3 << 20, 1 << 20], [3 << 24, 1 << 26]]) {
-    const l = kernelLayout(nq, cap, 1 << 20);
-    assert.ok(l.key >= KERN_BASE + (1 << 20) && l.key % 16 === 0);
-    assert.ok(l.cur === l.key + 4 * nq && l.out === l.cur + 4 * nq && l.out2 === l.out + 4 * nq);
-    // clamped segments: 4 Int16 per vertex, 8 strands a group (at most 7 strands of 4096 padding)
-    const seg = (8 * nq) / 3 + 8 * 7 * 4096;
-    assert.ok(l.dkey >= l.out2 + 4 * nq && l.dcur >= l.dkey + seg && l.bytes >= l.dcur + seg && l.dkey % 16 === 0);
-    assert.ok(l.pages * 65536 >= l.bytes + cap + 16 + 120 * 4096 + 64 && l.pages <= 65536, `pages ${l.pages}`);
+test('the decoder\'s memory regions are disjoint and leave the read slack after the frame', () => {
+  for (const [ns, nverts, cap] of [[1, 2, 1], [24, 12, 65536], [4096, 32, 120000], [32768, 32, 1 << 20], [4097, 4096, 1 << 26]]) {
+    const nq = 3 * ns * nverts, seg = Math.ceil(ns / 8) * 32 * nverts, heap = 1 << 20;
+    const l = coreLayout(heap, nq, seg, cap);
+    assert.ok(l.q[0] >= heap && l.q[1] === l.q[0] + 4 * nq && l.d[0] >= l.q[1] + 4 * nq && l.d[0] % 16 === 0);
+    assert.ok(l.d[1] >= l.d[0] + 2 * seg && l.out[0] >= l.d[1] + 2 * seg && l.out[1] === l.out[0] + 4 * nq);
+    assert.ok(l.bytes === l.out[1] + 4 * nq && l.end >= l.bytes + cap + 16 + 120 * 4096 + 64);
+    assert.ok(READ_SLACK >= 120 * 4096 + 64);
   }
 });
 
-test('the kernel module imports only its memory and keeps its own stack below KERN_BASE', () => {
+test('the core module imports only its memory and exports the core', () => {
   const bytes = Uint8Array.from(atob(KERNEL_WASM), (c) => c.charCodeAt(0));
   const mod = new WebAssembly.Module(bytes);
   assert.deepEqual(WebAssembly.Module.imports(mod), [{ module: 'env', name: 'memory', kind: 'memory' }]);
   const names = WebAssembly.Module.exports(mod).map((e) => e.name).sort();
-  assert.deepEqual(names, ['__heap_base', 'kern_frame', 'kern_init', 'kern_offset', 'kern_tables']);
+  assert.deepEqual(names, ['__heap_base', 'codec_core_check', 'codec_core_crc32', 'codec_core_decode',
+    'codec_core_header', 'codec_core_init', 'codec_core_regions', 'codec_core_reset', 'codec_core_seg_len',
+    'codec_core_size']);
   const k = new WebAssembly.Instance(mod, { env: { memory: new WebAssembly.Memory({ initial: 2 }) } }).exports;
-  assert.ok(k.__heap_base.value <= KERN_BASE, `heap base ${k.__heap_base.value}`);
-  assert.equal(k.kern_offset(0) % 4, 0);
+  assert.ok(k.__heap_base.value >= 65536 && k.__heap_base.value < 2 * 65536, `heap base ${k.__heap_base.value}`);
+  assert.equal(k.codec_core_seg_len(9, 3), 2 * 32 * 3);
 });
