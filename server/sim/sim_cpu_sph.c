@@ -14,7 +14,7 @@
  * (1 + SPH_SKIN) h and are kept while every particle stays within SPH_SKIN h / 2 of where the
  * head's rigid motion since the build carried it: then no pair outside a list has come within
  * h (the kernels are zero beyond h), unless its list was full. */
-#define SPH_SKIN 0.25f
+#define SPH_SKIN 0.2f
 /* Elements of padding after the sorted SoA arrays and scan buffers (two AVX2 vectors). */
 #define SPH_PAD 16
 /* Shares of the per-particle and per-cell passes, taken by whichever worker is free. */
