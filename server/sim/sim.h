@@ -28,7 +28,6 @@ typedef struct sim_params {
     float sph_radius;         /* SPH smoothing length h, m */
     float rest_density;       /* SPH rest density as a multiple of the groom's rest-pose mean */
     int32_t neighbor_cap;     /* SPH neighbours kept per particle (nearest first), <= SIM_MAX_NEIGHBOR_CAP */
-    int32_t neighbor_rebuild; /* steps between SPH neighbour-list rebuilds */
     bool shape;               /* global + local shape constraints on */
     bool sph;                 /* hair-hair interaction on */
     bool collisions;          /* character colliders on */

@@ -137,14 +137,13 @@ static core_status cpu_step(void *self, core_err *err)
     if (sph) {
         if (!c->rho_rest_valid) {
             double mean;
-            core_status st = sim_cpu_sph_pass(c, c->rest, NULL, dt, true, &mean, err);
+            core_status st = sim_cpu_sph_pass(c, c->rest, NULL, dt, core_xform_identity(), &mean, err);
             if (st != CORE_OK) return st;
             c->rho_rest = (float)mean;
             c->rho_rest_valid = true;
             c->step.inv_rho0 = 1.0f / (c->params.rest_density * c->rho_rest);
         }
-        bool rebuild = c->stats.steps % (uint64_t)c->params.neighbor_rebuild == 0;
-        core_status st = sim_cpu_sph_pass(c, c->x, c->v, dt, rebuild, NULL, err);
+        core_status st = sim_cpu_sph_pass(c, c->x, c->v, dt, c->prev_head, NULL, err);
         if (st != CORE_OK) return st;
         t1 = core_now_ns();
     }

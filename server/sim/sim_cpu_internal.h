@@ -15,15 +15,18 @@ typedef struct sim_cpu_sph {
     size_t n;                /* particles the per-particle arrays hold */
     size_t cells_cap;        /* cells the per-cell arrays hold */
     int cap;                 /* neighbour slots per particle the arrays hold */
-    bool lists_valid;        /* order/nbr describe the current particles (may be reused) */
+    bool lists_valid;        /* order/nbr describe the particles as of the last build, at
+                                build_head (kept while no particle strays, see sim_cpu_sph.c) */
     bool scalar;             /* use the scalar kernels even where AVX2 ones exist */
+    core_xform build_head;   /* the head the particles moved with when the lists were built */
     uint32_t *cell;          /* hash bucket of each particle, original order */
     uint32_t *order;         /* sorted slot -> original particle index */
     uint32_t *strand;        /* sorted slot -> strand index */
     float *sp, *sv;          /* sorted (x, y, z, density) and (vx, vy, vz, pressure) */
-    float *sx, *sy, *sz;     /* sorted positions again as SoA, for the vectorized scan */
-    uint32_t *nbr;           /* per sorted slot: neighbour_cap sorted slots */
-    uint8_t *nnbr;           /* per sorted slot: neighbours kept */
+    float *sx, *sy, *sz;     /* sorted positions as SoA at the last build (the scan's input) */
+    uint32_t *nbr;           /* per sorted slot: neighbour_cap sorted slots, the nearest within
+                                the skin radius at the last build (those beyond h add nothing) */
+    uint8_t *nnbr;           /* per sorted slot: entries of its nbr row */
     uint32_t *cell_start;    /* buckets + 1: first sorted slot of each bucket */
     uint32_t *hist;          /* nthreads x cells: counts, then scatter cursors */
     size_t tsum[257];        /* per-thread partial sums of the prefix scan */
@@ -59,9 +62,10 @@ typedef struct sim_cpu {
 } sim_cpu;
 
 /* Computes SPH accelerations into c->a from c->x, c->v (positions `pos` may be c->rest for the
- * rest-density pass, with vel NULL and out_mean_rho set). Unless rebuild, the neighbour lists
- * of the previous pass are reused (distances recomputed). Sim thread; uses the pool. */
-core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt, bool rebuild,
+ * rest-density pass, with vel NULL and out_mean_rho set). The particles move with head `frame`
+ * (the head the positions were last placed under). The neighbours are those within h now,
+ * whether the skin lists of the previous pass are kept or rebuilt. Sim thread; uses the pool. */
+core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt, core_xform frame,
                              double *out_mean_rho, core_err *err);
 void sim_cpu_sph_free(sim_cpu_sph *s);
 

@@ -8,9 +8,13 @@
 
 #include "sim_cpu_internal.h"
 
-/* Reference frame time of the pressure scale: accelerations are h / (1/60 s)^2 per unit. */
-/* Candidates within h kept per particle before the nearest neighbour_cap are selected. */
+/* Candidates within the skin radius kept per particle before the nearest are selected. */
 #define SPH_MAX_CANDIDATES 1024
+/* Verlet skin, in units of h: the lists hold the neighbour_cap nearest particles within
+ * (1 + SPH_SKIN) h and are kept while every particle stays within SPH_SKIN h / 2 of where the
+ * head's rigid motion since the build carried it: then no pair outside a list has come within
+ * h (the kernels are zero beyond h), unless its list was full. */
+#define SPH_SKIN 0.2f
 /* Elements of padding after the sorted SoA arrays and scan buffers (two AVX2 vectors). */
 #define SPH_PAD 16
 /* Shares of the per-particle and per-cell passes, taken by whichever worker is free. */
@@ -23,6 +27,11 @@ typedef struct sph_ctx {
     float *const *pos;
     float *const *vel;
     float dt;
+    bool pressure;          /* the selection pass also sets the pressure (not in the rest pass) */
+    float carry[12];        /* rows (m0 m1 m2 t): the head's rigid motion since the lists' build */
+    float stray2;           /* (SPH_SKIN h / 2)^2: a particle farther than this from its carried
+                               build position voids the lists */
+    bool strayed[SPH_PARTS]; /* per part of the regather pass: some particle strayed */
     float bmin[256][3], bmax[256][3];
 } sph_ctx;
 
@@ -388,14 +397,35 @@ static inline float density_sum(const sim_cpu_sph *s, const float *r2, size_t m,
     return rho;
 }
 
-/* Neighbour search and density for every particle of the cells in this worker's range. */
-static void density_job(void *vctx, int tid, int nt)
+/* Keeps the k nearest of the m candidates (r2s[], idx[]) by (r2, slot), in place; keys is
+ * scratch of m entries. Returns min(m, k). */
+static size_t keep_nearest(float *r2s, uint32_t *idx, size_t m, size_t k, uint64_t *keys)
+{
+    if (m <= k) return m;
+    for (size_t j = 0; j < m; j++) { /* key (r2 bits, slot) orders like (r2, slot) */
+        uint32_t bits;
+        memcpy(&bits, &r2s[j], sizeof bits);
+        keys[j] = (uint64_t)bits << 32 | idx[j];
+    }
+    select_smallest(keys, m, k);
+    for (size_t j = 0; j < k; j++) {
+        uint32_t bits = (uint32_t)(keys[j] >> 32);
+        memcpy(&r2s[j], &bits, sizeof bits);
+        idx[j] = (uint32_t)keys[j];
+    }
+    return k;
+}
+
+/* Neighbour search for every particle of the cells in this worker's range: its list, the
+ * neighbour_cap nearest particles of other strands within the skin radius (1 + SPH_SKIN) h,
+ * in slot order while they fit. */
+static void search_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     sim_cpu_sph *s = &c->sph;
-    const float h = c->step.sph_h, h2 = h * h, inv_h2 = 1.0f / h2;
-    const int cap = c->params.neighbor_cap;
+    const float hs = c->step.sph_h * (1.0f + SPH_SKIN), hs2 = hs * hs;
+    const size_t cap = (size_t)c->params.neighbor_cap;
     size_t b, e;
     sim_pool_range(s->ncells, tid, nt, 1, &b, &e);
     uint64_t keys[SPH_MAX_CANDIDATES + SPH_PAD];
@@ -415,42 +445,16 @@ static void density_job(void *vctx, int tid, int nt)
                 ccx = cx, ccy = cy, ccz = cz;
                 nr = neighbour_ranges(s, cx, cy, cz, rlo, rhi);
             }
-            /* candidates within h of another strand, in slot order */
             size_t m = 0;
             for (int r = 0; r < nr; r++) {
                 const uint32_t rb = s->cell_start[rlo[r]], re = s->cell_start[rhi[r] + 1];
-                m = scan_run(s, rb, re, xi, yi, zi, h2, si, r2s, idx, m);
+                m = scan_run(s, rb, re, xi, yi, zi, hs2, si, r2s, idx, m);
             }
-            if (m > (size_t)cap) { /* keep the cap nearest: key (r2 bits, slot) orders like (r2, slot) */
-                for (size_t k = 0; k < m; k++) {
-                    uint32_t bits;
-                    memcpy(&bits, &r2s[k], sizeof bits);
-                    keys[k] = (uint64_t)bits << 32 | idx[k];
-                }
-                select_smallest(keys, m, (size_t)cap);
-                m = (size_t)cap;
-                for (size_t k = 0; k < m; k++) {
-                    uint32_t bits = (uint32_t)(keys[k] >> 32);
-                    memcpy(&r2s[k], &bits, sizeof bits);
-                    idx[k] = (uint32_t)keys[k];
-                }
-            }
-            memcpy(s->nbr + (size_t)i * (size_t)cap, idx, m * sizeof *idx);
+            m = keep_nearest(r2s, idx, m, cap, keys);
+            memcpy(s->nbr + (size_t)i * cap, idx, m * sizeof *idx);
             s->nnbr[i] = (uint8_t)m;
-            s->sp[4 * (size_t)i + 3] = density_sum(s, r2s, m, inv_h2);
         }
     }
-}
-
-static void pressure_job(void *vctx, int tid, int nt)
-{
-    sph_ctx *ctx = vctx;
-    sim_cpu *c = ctx->c;
-    sim_cpu_sph *s = &c->sph;
-    size_t b, e;
-    sim_pool_range(c->n, tid, nt, 64, &b, &e);
-    const float inv_rho0 = c->step.inv_rho0;
-    for (size_t i = b; i < e; i++) s->sv[4 * i + 3] = MAX0(s->sp[4 * i + 3] * inv_rho0 - 1.0f);
 }
 
 /* The per-particle constants of the force pass. */
@@ -703,10 +707,11 @@ static void force_job(void *vctx, int tid, int nt)
     for (; i < e; i++) force_one(c, &fc, i);
 }
 
-/* Copies positions and velocities (zero without vel) into the sorted slots given by order;
- * with soa, also the SoA positions the neighbour search scans (not needed when lists are reused). */
-static void gather_sorted(sph_ctx *ctx, int tid, int nt, bool soa)
+/* Copies positions and velocities (zero without vel) into the sorted slots given by order,
+ * and the positions again into the SoA arrays the neighbour search scans. */
+static void gather_job(void *vctx, int tid, int nt)
 {
+    sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     sim_cpu_sph *s = &c->sph;
     size_t b, e;
@@ -717,22 +722,44 @@ static void gather_sorted(sph_ctx *ctx, int tid, int nt, bool soa)
             s->sp[4 * slot + k] = ctx->pos[k][i];
             s->sv[4 * slot + k] = ctx->vel ? ctx->vel[k][i] : 0.0f;
         }
-        if (soa) s->sx[slot] = ctx->pos[0][i], s->sy[slot] = ctx->pos[1][i], s->sz[slot] = ctx->pos[2][i];
+        s->sx[slot] = ctx->pos[0][i], s->sy[slot] = ctx->pos[1][i], s->sz[slot] = ctx->pos[2][i];
     }
 }
 
-static void gather_job(void *vctx, int tid, int nt) { gather_sorted(vctx, tid, nt, true); }
-
-/* Reused lists: refresh the sorted copies from the current state (same slot order). */
-static void regather_job(void *vctx, int tid, int nt) { gather_sorted(vctx, tid, nt, false); }
-
-/* Reused lists: density over the kept neighbours at their current distances. */
-static void density_reuse_job(void *vctx, int tid, int nt)
+/* Kept lists: refreshes the sorted copies from the current state (same slot order) and sets
+ * ctx->strayed[tid] when a particle is farther than the skin allows from its build position
+ * carried by the head's motion (or not finite). */
+static void regather_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     sim_cpu_sph *s = &c->sph;
-    const float inv_h2 = 1.0f / (c->step.sph_h * c->step.sph_h);
+    const float *m = ctx->carry;
+    size_t b, e;
+    sim_pool_range(c->n, tid, nt, 64, &b, &e);
+    bool strayed = false;
+    for (size_t slot = b; slot < e; slot++) {
+        const uint32_t i = s->order[slot];
+        const float x = ctx->pos[0][i], y = ctx->pos[1][i], z = ctx->pos[2][i];
+        s->sp[4 * slot] = x, s->sp[4 * slot + 1] = y, s->sp[4 * slot + 2] = z;
+        s->sv[4 * slot] = ctx->vel[0][i], s->sv[4 * slot + 1] = ctx->vel[1][i], s->sv[4 * slot + 2] = ctx->vel[2][i];
+        const float bx = s->sx[slot], by = s->sy[slot], bz = s->sz[slot];
+        const float dx = x - (m[0] * bx + m[1] * by + m[2] * bz + m[3]);
+        const float dy = y - (m[4] * bx + m[5] * by + m[6] * bz + m[7]);
+        const float dz = z - (m[8] * bx + m[9] * by + m[10] * bz + m[11]);
+        strayed |= !((dx * dx + dy * dy) + dz * dz <= ctx->stray2);
+    }
+    ctx->strayed[tid] = strayed;
+}
+
+/* Density over the listed neighbours at their current distances (those beyond h add 0) for
+ * every particle in this worker's range and, with ctx->pressure, its pressure. */
+static void density_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu *c = ctx->c;
+    sim_cpu_sph *s = &c->sph;
+    const float inv_h2 = 1.0f / (c->step.sph_h * c->step.sph_h), inv_rho0 = c->step.inv_rho0;
     const int cap = c->params.neighbor_cap;
     size_t b, e;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
@@ -761,29 +788,48 @@ static void density_reuse_job(void *vctx, int tid, int nt)
             float dx = pj[0] - pi[0], dy = pj[1] - pi[1], dz = pj[2] - pi[2];
             r2[k] = (dx * dx + dy * dy) + dz * dz;
         }
-        s->sp[4 * i + 3] = density_sum(s, r2, (size_t)n, inv_h2);
+        const float rho = density_sum(s, r2, (size_t)n, inv_h2);
+        s->sp[4 * i + 3] = rho;
+        if (ctx->pressure) s->sv[4 * i + 3] = MAX0(rho * inv_rho0 - 1.0f);
     }
 }
 
-core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt, bool rebuild,
-                             double *out_mean_rho, core_err *err)
+/* The rows (m0 m1 m2 t) of the rigid motion from head a to head b: p -> Rb Ra^T (p - ta) + tb. */
+static void head_motion(core_xform a, core_xform b, float out[12])
 {
-    sph_ctx *ctx = calloc(1, sizeof *ctx);
-    if (!ctx) return core_fail(err, CORE_ENOMEM, "out of memory");
-    ctx->c = c;
-    ctx->pos = pos;
-    ctx->vel = vel;
-    ctx->dt = dt;
-    sim_cpu_sph *s = &c->sph;
-    if (!rebuild && s->lists_valid && vel) {
-        sim_pool_run_parts(&c->pool, regather_job, ctx, SPH_PARTS);
-        sim_pool_run_parts(&c->pool, density_reuse_job, ctx, SPH_PARTS);
-        sim_pool_run_parts(&c->pool, pressure_job, ctx, SPH_PARTS);
-        sim_pool_run_parts(&c->pool, force_job, ctx, SPH_PARTS);
-        free(ctx);
-        return CORE_OK;
+    const core_quat q = core_q_mul(b.rot, core_q_conj(a.rot));
+    const core_vec3 col[3] = { core_q_rotate(q, core_v3(1, 0, 0)), core_q_rotate(q, core_v3(0, 1, 0)),
+                               core_q_rotate(q, core_v3(0, 0, 1)) };
+    const core_vec3 t = core_v3_sub(b.pos, core_q_rotate(q, a.pos));
+    const float tt[3] = { t.x, t.y, t.z };
+    for (int r = 0; r < 3; r++) {
+        out[4 * r] = (&col[0].x)[r], out[4 * r + 1] = (&col[1].x)[r], out[4 * r + 2] = (&col[2].x)[r];
+        out[4 * r + 3] = tt[r];
     }
-    int nt = c->pool.nthreads;
+}
+
+/* True when the skin lists of the last build still hold every pair within h: no particle has
+ * strayed from its build position carried by the head's motion since (frame: the head now).
+ * Refreshes the sorted copies either way. */
+static bool lists_hold(sph_ctx *ctx, core_xform frame)
+{
+    sim_cpu *c = ctx->c;
+    const float half_skin = 0.5f * SPH_SKIN * c->step.sph_h;
+    head_motion(c->sph.build_head, frame, ctx->carry);
+    ctx->stray2 = half_skin * half_skin;
+    sim_pool_run_parts(&c->pool, regather_job, ctx, SPH_PARTS);
+    for (int p = 0; p < SPH_PARTS; p++)
+        if (ctx->strayed[p]) return false;
+    return true;
+}
+
+/* Sorts the particles into the hash grid of cells of twice the skin radius and builds the
+ * skin lists (the sorted copies are gathered on the way). */
+static core_status rebuild_lists(sph_ctx *ctx, core_err *err)
+{
+    sim_cpu *c = ctx->c;
+    sim_cpu_sph *s = &c->sph;
+    const int nt = c->pool.nthreads;
     sim_pool_run(&c->pool, bounds_job, ctx);
     float lo[3], hi[3];
     for (int k = 0; k < 3; k++) {
@@ -791,9 +837,10 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
         for (int t = 1; t < nt; t++) lo[k] = fminf(lo[k], ctx->bmin[t][k]), hi[k] = fmaxf(hi[k], ctx->bmax[t][k]);
         if (!isfinite(lo[k]) || !isfinite(hi[k])) lo[k] = hi[k] = 0.0f; /* non-finite strands are reset after */
     }
-    /* cells of size 2h hashed into a power-of-two table of at least 2n buckets; the points
-     * within h of a particle lie in the 2x2x2 cells on its side of its own cell */
-    s->cell_size = 2.0f * c->step.sph_h;
+    /* cells of twice the skin radius hashed into a power-of-two table of at least 2n buckets;
+     * the points within the skin radius of a particle lie in the 2x2x2 cells on its side of
+     * its own cell */
+    s->cell_size = 2.0f * c->step.sph_h * (1.0f + SPH_SKIN);
     s->inv_cell = 1.0f / s->cell_size;
     s->ncells = 4096;
     while (s->ncells < 2 * c->n) s->ncells *= 2;
@@ -803,25 +850,34 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
         s->dims[k] = cells < 1048576.0 ? (uint32_t)cells : 1048576u;
     }
     core_status st = sph_reserve(s, c->n, c->params.neighbor_cap, s->ncells, nt, err);
-    if (st != CORE_OK) {
-        free(ctx);
-        return st;
-    }
+    if (st != CORE_OK) return st;
     sim_pool_run(&c->pool, count_job, ctx);
     sim_pool_run(&c->pool, scan_sum_job, ctx);
     sim_pool_run(&c->pool, scan_fill_job, ctx);
     sim_pool_run(&c->pool, scatter_job, ctx);
     sim_pool_run_parts(&c->pool, gather_job, ctx, SPH_PARTS);
-    sim_pool_run_parts(&c->pool, density_job, ctx, SPH_PARTS);
-    s->lists_valid = out_mean_rho == NULL; /* lists of the rest pose are not reused */
+    sim_pool_run_parts(&c->pool, search_job, ctx, SPH_PARTS);
+    return CORE_OK;
+}
+
+core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt, core_xform frame,
+                             double *out_mean_rho, core_err *err)
+{
+    sph_ctx ctx = { .c = c, .pos = pos, .vel = vel, .dt = dt, .pressure = out_mean_rho == NULL };
+    sim_cpu_sph *s = &c->sph;
+    if (!(s->lists_valid && vel && lists_hold(&ctx, frame))) {
+        core_status st = rebuild_lists(&ctx, err);
+        if (st != CORE_OK) return st;
+        s->build_head = frame;
+        s->lists_valid = out_mean_rho == NULL; /* lists of the rest pose are not reused */
+    }
+    sim_pool_run_parts(&c->pool, density_job, &ctx, SPH_PARTS);
     if (out_mean_rho) {
         double sum = 0.0; /* serial, in sorted order: the same bits for any thread count */
         for (size_t i = 0; i < c->n; i++) sum += s->sp[4 * i + 3];
         *out_mean_rho = sum / (double)c->n;
-    } else {
-        sim_pool_run_parts(&c->pool, pressure_job, ctx, SPH_PARTS);
-        sim_pool_run_parts(&c->pool, force_job, ctx, SPH_PARTS);
+        return CORE_OK;
     }
-    free(ctx);
+    sim_pool_run_parts(&c->pool, force_job, &ctx, SPH_PARTS);
     return CORE_OK;
 }

@@ -33,7 +33,6 @@ static const core_param_info table[] = {
     F(sph_radius, 0.0, 0.05, 0.0, "m", "SPH smoothing length h (also the hash-grid cell size). 0 = automatic: 1.75 x the groom's mean root spacing (distance from a root to the nearest other root), 3 mm on the default 4,096-strand groom, so it follows the strand count. Values below 1 mm are taken as 1 mm. Up: more volume."),
     F(rest_density, 0.1, 10.0, 0.25, "", "SPH rest density rho0 as a multiple of the groom's mean rest-pose density; vertices denser than this push apart. Below 1 the authored pose is denser than rho0, so SPH adds volume to a style the shape springs hold (at 1 it adds almost none). Up: less volume."),
     I(neighbor_cap, 12, SIM_MAX_NEIGHBOR_CAP, 24, "", "SPH neighbours kept per particle, nearest first. At least 12: with fewer, the nearest few switch between candidates at nearly equal distances from step to step and the pressure never lets the hair rest."),
-    I(neighbor_rebuild, 1, 8, 2, "steps", "SPH neighbour lists are rebuilt every this many steps; in between they are kept and only the distances are recomputed."),
     B(shape, 1, "Global and local shape constraints."),
     B(sph, 1, "Hair-hair interaction (SPH pressure and viscosity)."),
     B(collisions, 1, "Collisions with the character's colliders."),

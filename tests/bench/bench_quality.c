@@ -17,7 +17,7 @@
 /* The parameters that act on hair-hair interaction: their scenarios also measure nn_gain
  * (the table's "sph" row switched off for the comparison run). */
 static const char *const sph_param_names[] = { "sph", "repulsion", "viscosity", "sph_radius",
-                                               "rest_density", "neighbor_cap", "neighbor_rebuild" };
+                                               "rest_density", "neighbor_cap" };
 
 static bool is_sph_param(const char *name)
 {

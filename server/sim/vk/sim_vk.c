@@ -242,7 +242,6 @@ static core_status reset_state(sim_vk *s, core_err *err)
     core_status st = upload_state(s, s->host_tmp, NULL, true, err);
     if (st != CORE_OK) return st;
     s->prev_head = s->head;
-    s->lists_valid = false;
     s->sph_warm = false;
     memset(s->stats_buf.map, 0, 16);
     sim_stats zero;
@@ -271,7 +270,6 @@ static core_status compute_rho_rest(sim_vk *s, int slot, core_err *err)
     for (size_t i = 0; i < s->n; i++) sum += rho[i];
     s->rho_rest = (float)(sum / (double)s->n);
     s->rho_rest_valid = true;
-    s->lists_valid = false; /* the rest pose's lists are not reused */
     return CORE_OK;
 }
 
@@ -312,10 +310,7 @@ static core_status vk_step(void *self, core_err *err)
     }
     sim_vk_barrier(cmd); /* after the previous step and any transfer */
     if (sph) {
-        /* the lists are rebuilt every neighbor_rebuild steps (counted since create or reset) */
-        bool rebuild = !s->lists_valid || s->stats.steps % (uint64_t)s->params.neighbor_rebuild == 0;
-        sim_vk_record_sph(s, cmd, s->pipes.sets[f], rebuild ? SIM_VK_SPH_REBUILD : SIM_VK_SPH_REUSE, sl->queries);
-        s->lists_valid = true;
+        sim_vk_record_sph(s, cmd, s->pipes.sets[f], SIM_VK_SPH_STEP, sl->queries);
     } else if (sl->queries) {
         for (uint32_t k = SIM_VK_S_GRID; k <= SIM_VK_S_FORCE; k++)
             vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, sl->queries, k + 1);
@@ -380,7 +375,6 @@ static core_status vk_write_state(void *self, const float *xyz, const float *vel
     to_level_major(s, xyz, s->host_tmp);
     st = upload_state(s, s->host_tmp, vtmp, false, err);
     free(vtmp);
-    if (st == CORE_OK) s->lists_valid = false;
     return st;
 }
 
@@ -412,10 +406,7 @@ static core_status vk_set_params(void *self, const sim_params *p, core_err *err)
         if (st == CORE_OK) st = make_nbr(s, (uint32_t)p->neighbor_cap, err);
         if (st != CORE_OK) return st;
     }
-    if (p->sph_radius != s->params.sph_radius || p->neighbor_cap != s->params.neighbor_cap) {
-        s->rho_rest_valid = false;
-        s->lists_valid = false;
-    }
+    if (p->sph_radius != s->params.sph_radius || p->neighbor_cap != s->params.neighbor_cap) s->rho_rest_valid = false;
     s->params = *p;
     return CORE_OK;
 }

@@ -132,8 +132,6 @@ typedef enum sim_vk_pipe_id {
     SIM_VK_P_SPH_CELLSORT,
     SIM_VK_P_SPH_DENSITY,
     SIM_VK_P_SPH_FORCE,
-    SIM_VK_P_SPH_REGATHER,
-    SIM_VK_P_SPH_REUSE,
     SIM_VK_NPIPES
 } sim_vk_pipe_id;
 
@@ -277,7 +275,6 @@ typedef struct sim_vk {
     float rho_rest;
     bool rho_rest_valid;
     bool sph_warm;        /* A holds the previous step's SPH acceleration (its low-pass state) */
-    bool lists_valid;     /* ORDER/NBR describe the current particles and may be reused */
     float max_segment;    /* longest rest segment */
     float sph_auto_h;     /* the groom's automatic SPH smoothing length (sim_sph_auto_radius) */
     sim_vk_buf x, v, a, rest_buf, strand, grid, count, start, block, cell_of, order, sx, sv, rho, press, nbr, nnbr;
@@ -295,8 +292,9 @@ typedef struct sim_vk {
 /* How an SPH pass gets its neighbours. */
 typedef enum sim_vk_sph_mode {
     SIM_VK_SPH_REST,    /* rest-density pass: grid, sort, search on REST with zero velocities */
-    SIM_VK_SPH_REBUILD, /* grid, sort, search on the current state, then forces */
-    SIM_VK_SPH_REUSE    /* the last lists at the current distances, then forces */
+    SIM_VK_SPH_STEP     /* grid, sort, search on the current state, then forces: every step, so
+                           the neighbours are those within h now, as the C backend's skin lists
+                           give them */
 } sim_vk_sph_mode;
 
 /* Records an SPH pass into cmd with descriptor set `set`. Timestamps go to queries (may be

@@ -28,8 +28,6 @@ static pipe_src source_of(sim_vk_pipe_id id, sim_vk_chain strategy)
         [SIM_VK_P_SPH_CELLSORT] = SRC(sim_sph_cellsort),
         [SIM_VK_P_SPH_DENSITY] = SRC(sim_sph_density),
         [SIM_VK_P_SPH_FORCE] = SRC(sim_sph_force),
-        [SIM_VK_P_SPH_REGATHER] = SRC(sim_sph_regather),
-        [SIM_VK_P_SPH_REUSE] = SRC(sim_sph_reuse),
     };
     if (id == SIM_VK_P_CHAIN) return strategy == SIM_VK_CHAIN_GROUP ? chain_group : chain_level;
     return table[id];

@@ -33,16 +33,6 @@ void sim_vk_record_sph(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set, sim_
 {
     const uint32_t rest = mode == SIM_VK_SPH_REST ? 1u : 0u, cells = (uint32_t)s->cells_cap;
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s->pipes.layout, 0, 1, &set, 0, NULL);
-    if (mode == SIM_VK_SPH_REUSE) {
-        pass_n(s, cmd, SIM_VK_P_SPH_REGATHER, rest, cells);
-        stamp(s, cmd, queries, SIM_VK_S_GRID + 1);
-        stamp(s, cmd, queries, SIM_VK_S_SORT + 1);
-        pass_n(s, cmd, SIM_VK_P_SPH_REUSE, rest, cells);
-        stamp(s, cmd, queries, SIM_VK_S_DENSITY + 1);
-        pass_n(s, cmd, SIM_VK_P_SPH_FORCE, rest, cells);
-        stamp(s, cmd, queries, SIM_VK_S_FORCE + 1);
-        return;
-    }
     /* empty bounding box: min = all ones, max = 0 in the order-preserving encoding */
     vkCmdFillBuffer(cmd, s->grid.buf, 0, 12, 0xffffffffu);
     vkCmdFillBuffer(cmd, s->grid.buf, 12, 12, 0u);
