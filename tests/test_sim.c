@@ -314,7 +314,7 @@ static void test_scalar_kernels_match(void **state)
         float *ref = NULL;
         for (int scalar = 1; scalar >= 0; scalar--) { /* the scalar run first: it gives ref */
             fixture f;
-            sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = 2, .scalar_only = scalar };
+            sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = 2, .portable = scalar };
             make_desc(&f, GROOM_CURLY, 1024, 16, &p, &d, true);
             shake_and_match(&f, &p, 30, &ref);
             drop(&f);

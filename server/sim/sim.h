@@ -61,7 +61,7 @@ typedef struct sim_desc {
     int threads;              /* CPU worker threads; 0 = number of online cores */
     int device;               /* Vulkan device: 0 = automatic (discrete, integrated, virtual, then
                                  CPU); N >= 1 = physical device N-1 (vulkaninfo's GPU<N-1>) */
-    bool scalar_only;         /* CPU backend: portable scalar kernels only, no AVX2 intrinsics
+    bool portable;            /* CPU backend: portable scalar kernels only, no AVX2 intrinsics
                                  (the two give the same bits; tests compare them) */
 } sim_desc;
 

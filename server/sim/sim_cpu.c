@@ -104,7 +104,7 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
         }
     }
     c->sph_auto_h = sim_sph_auto_radius(g);
-    c->sph.scalar = desc && desc->scalar_only;
+    c->sph.portable = desc && desc->portable;
     core_status st = sim_pool_init(&c->pool, desc ? desc->threads : 0, err);
     if (st != CORE_OK) {
         cpu_destroy(c);

@@ -17,7 +17,7 @@ typedef struct sim_cpu_sph {
     int cap;                 /* neighbour slots per particle the arrays hold */
     bool lists_valid;        /* order/nbr describe the particles as of the last build, at
                                 build_head (kept while no particle strays, see sim_cpu_sph.c) */
-    bool scalar;             /* use the scalar kernels even where AVX2 ones exist */
+    bool portable;           /* use the portable scalar kernels even where AVX2 ones exist */
     core_xform build_head;   /* the head the particles moved with when the lists were built */
     uint32_t *cell;          /* hash bucket of each particle, original order */
     uint32_t *order;         /* sorted slot -> original particle index */

@@ -49,9 +49,9 @@ void sim_cpu_sph_free(sim_cpu_sph *s)
     free(s->nnbr);
     free(s->cell_start);
     free(s->hist);
-    const bool scalar = s->scalar;
+    const bool portable = s->portable;
     memset(s, 0, sizeof *s);
-    s->scalar = scalar;
+    s->portable = portable;
 }
 
 static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, int nthreads, core_err *err)
@@ -238,7 +238,7 @@ static size_t scan_run(const sim_cpu_sph *s, uint32_t rb, uint32_t re, float x, 
                        uint32_t si, float *r2s, uint32_t *idx, size_t m)
 {
 #ifdef __AVX2__
-    if (!s->scalar) {
+    if (!s->portable) {
         const __m256 vx = _mm256_set1_ps(x), vy = _mm256_set1_ps(y), vz = _mm256_set1_ps(z), vh2 = _mm256_set1_ps(h2);
         const __m256i vsi = _mm256_set1_epi32((int)si);
         const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
@@ -384,7 +384,7 @@ static inline float density_sum(const sim_cpu_sph *s, const float *r2, size_t m,
 #ifdef __AVX2__
     const __m256 vinv = _mm256_set1_ps(inv_h2);
     const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-    for (; !s->scalar && k0 < m; k0 += 8) {
+    for (; !s->portable && k0 < m; k0 += 8) {
         const __m256 live = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32((int)(m - k0)), lanes));
         rho += tree_sum8(_mm256_and_ps(density_term8(_mm256_loadu_ps(r2 + k0), vinv), live));
     }
@@ -697,7 +697,7 @@ static void force_job(void *vctx, int tid, int nt)
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     i = b;
 #ifdef __AVX2__
-    if (!c->sph.scalar)
+    if (!c->sph.portable)
         for (; i + 8 <= e; i += 8) {
             __m256 rows[8];
             for (int l = 0; l < 8; l++) rows[l] = force_sums_vec(c, &fc, i + (size_t)l);
@@ -772,7 +772,7 @@ static void density_job(void *vctx, int tid, int nt)
 #ifdef __AVX2__
         const __m256 pix = _mm256_set1_ps(pi[0]), piy = _mm256_set1_ps(pi[1]), piz = _mm256_set1_ps(pi[2]);
         const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-        for (; !s->scalar && k < n; k += 8) { /* rows are padded; lanes past n read slot 0 */
+        for (; !s->portable && k < n; k += 8) { /* rows are padded; lanes past n read slot 0 */
             const __m256i live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n - k), lanes);
             uint32_t j[8];
             _mm256_storeu_si256((__m256i *)j, _mm256_and_si256(_mm256_loadu_si256((const __m256i *)(nb + k)), live));
