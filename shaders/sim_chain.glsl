@@ -227,8 +227,7 @@ struct Chain {
     vec3 o;    // previous level's position at the substep start
     vec3 pr;   // previous level's rest position
     vec4 q;    // previous level's frame
-    vec3 pv;   // damped velocity (without the DFTL correction) of the last finalised level (the
-               // root's, then level l - 2's)
+    vec3 pv;   // final velocity of the last finalised level (the root's, then level l - 2's)
     bool bad;  // a non-finite value was seen
 };
 
@@ -312,10 +311,9 @@ void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred
     }
     if (live && l > 1u) {
         uint j = i - NS;
-        // internal damping toward the parent's damped velocity, then the DFTL correction (not
-        // passed down the chain; finalize_kernel of sim_cpu_chain.c)
-        ch.pv = ch.pv + F.accel.w * ((ch.p - ch.o) * F.inv_dt_k - ch.pv);
-        stV(j, ch.pv - F.dftl * delta * F.inv_dt_k);
+        vec3 v = (ch.p - ch.o) * F.inv_dt_k - F.dftl * delta * F.inv_dt_k;
+        ch.pv = ch.pv + F.accel.w * (v - ch.pv); // internal damping toward the parent's velocity
+        stV(j, ch.pv);
         stX(j, ch.p);
     }
     // carry the frame: rotate the rest direction onto the solved one

@@ -110,7 +110,6 @@ typedef struct chunk_tmp {
     float bx[CHUNK], by[CHUNK], bz[CHUNK], nx[CHUNK], ny[CHUNK], nz[CHUNK], mx[CHUNK], my[CHUNK], mz[CHUNK];
     float dv[CHUNK]; /* a vertex's sampled grid distance after its push (+inf outside the grid) */
     float dvx[CHUNK], dvy[CHUNK], dvz[CHUNK]; /* where dv was sampled */
-    float ux[CHUNK], uy[CHUNK], uz[CHUNK];    /* the last finalised level's damped velocity (finalize_kernel) */
 } chunk_tmp;
 
 
@@ -166,39 +165,36 @@ static inline __attribute__((always_inline)) void level_constraints(const chain_
     }
 }
 
-/* Writes a level: internal damping keeps the share keep of its velocity relative to its
- * parent's damped velocity U (U is updated to this level's), then the DFTL correction (eq. 14:
- * sd times the correction d of the level after it; sd = 0 for the tip) is taken off. The
- * correction is not passed down the chain: a vertex held still (by a contact, or at rest under
- * gravity) has a DFTL velocity, and damping its children toward it would drag them.
- * restrict parameters (not locals) so the compiler can vectorize without alias checks. */
-static void finalize_kernel(size_t n, float inv_dt, float sd, float keep, float *restrict UX, float *restrict UY,
-                            float *restrict UZ, float *restrict X, float *restrict Y, float *restrict Z,
-                            float *restrict VX, float *restrict VY, float *restrict VZ, const float *restrict px,
-                            const float *restrict py, const float *restrict pz, const float *restrict ox,
-                            const float *restrict oy, const float *restrict oz, const float *restrict dx,
-                            const float *restrict dy, const float *restrict dz)
+/* Writes a level: its velocity with the DFTL correction (eq. 14: sd times the correction d of
+ * the level after it; sd = 0 for the tip), then internal damping: the share keep of its velocity
+ * relative to its parent's final velocity PV is kept. restrict parameters (not locals) so the
+ * compiler can vectorize without alias checks. */
+static void finalize_kernel(size_t n, float inv_dt, float sd, float keep, const float *restrict PVX,
+                            const float *restrict PVY, const float *restrict PVZ, float *restrict X, float *restrict Y,
+                            float *restrict Z, float *restrict VX, float *restrict VY, float *restrict VZ,
+                            const float *restrict px, const float *restrict py, const float *restrict pz,
+                            const float *restrict ox, const float *restrict oy, const float *restrict oz,
+                            const float *restrict dx, const float *restrict dy, const float *restrict dz)
 {
     for (size_t s = 0; s < n; s++) {
-        const float ux = UX[s] + keep * ((px[s] - ox[s]) * inv_dt - UX[s]);
-        const float uy = UY[s] + keep * ((py[s] - oy[s]) * inv_dt - UY[s]);
-        const float uz = UZ[s] + keep * ((pz[s] - oz[s]) * inv_dt - UZ[s]);
-        VX[s] = ux - sd * dx[s] * inv_dt;
-        VY[s] = uy - sd * dy[s] * inv_dt;
-        VZ[s] = uz - sd * dz[s] * inv_dt;
-        UX[s] = ux, UY[s] = uy, UZ[s] = uz;
+        const float vx = (px[s] - ox[s]) * inv_dt - sd * dx[s] * inv_dt;
+        const float vy = (py[s] - oy[s]) * inv_dt - sd * dy[s] * inv_dt;
+        const float vz = (pz[s] - oz[s]) * inv_dt - sd * dz[s] * inv_dt;
+        VX[s] = PVX[s] + keep * (vx - PVX[s]);
+        VY[s] = PVY[s] + keep * (vy - PVY[s]);
+        VZ[s] = PVZ[s] + keep * (vz - PVZ[s]);
         X[s] = px[s], Y[s] = py[s], Z[s] = pz[s];
     }
 }
 
 /* Finalises level op (>= 1) of the chunk from the chain temporaries (the "previous" slots). */
-static void level_finalize_prev(const chain_ctx *ctx, chunk_tmp *t, size_t op, size_t s0, size_t cnt, float sd)
+static void level_finalize_prev(const chain_ctx *ctx, const chunk_tmp *t, size_t op, size_t s0, size_t cnt, float sd)
 {
     sim_cpu *c = ctx->c;
-    const size_t i = s0 + op;
-    finalize_kernel(cnt, 1.0f / ctx->dt, sd, c->step.keep, t->ux, t->uy, t->uz, c->x[0] + i, c->x[1] + i,
-                    c->x[2] + i, c->v[0] + i, c->v[1] + i, c->v[2] + i, t->px, t->py, t->pz, t->ox, t->oy, t->oz,
-                    t->dx, t->dy, t->dz);
+    const size_t i = s0 + op, pi = i - c->ns;
+    finalize_kernel(cnt, 1.0f / ctx->dt, sd, c->step.keep, c->v[0] + pi, c->v[1] + pi, c->v[2] + pi, c->x[0] + i,
+                    c->x[1] + i, c->x[2] + i, c->v[0] + i, c->v[1] + i, c->v[2] + i, t->px, t->py, t->pz, t->ox,
+                    t->oy, t->oz, t->dx, t->dy, t->dz);
 }
 
 /* Carries each frame along the chain (rotate the rest direction onto the current one) and
@@ -420,8 +416,8 @@ static bool contact_pushes(const chain_ctx *ctx, chunk_tmp *restrict t, size_t c
  * vertex's displacement over the substep relative to the colliders (its start position carried
  * by their rigid motion), in the tangent plane of the push n, is cancelled while it is at most
  * friction |n|, else shortened by that much. Taken after the slide, it judges where the
- * constraints leave the vertex: a vertex the slide would only move back along its segment is not
- * made to slip, so static friction holds hair that lies still. */
+ * constraints leave the vertex, not the prediction that the slide moves back along the segment,
+ * so static friction holds hair that lies still. */
 static void contact_friction(const chain_ctx *ctx, chunk_tmp *restrict t, size_t cnt)
 {
     const float *C = ctx->carry, mu = ctx->friction;
@@ -548,7 +544,6 @@ static void chain_chunk(const chain_ctx *ctx, chunk_tmp *restrict t, size_t s0, 
         QROT(hqx, hqy, hqz, hqw, RX[s], RY[s], RZ[s], px, py, pz);
         px += ht.x, py += ht.y, pz += ht.z;
         VX[s] = (px - X[s]) * inv_dt, VY[s] = (py - Y[s]) * inv_dt, VZ[s] = (pz - Z[s]) * inv_dt;
-        t->ux[s] = VX[s], t->uy[s] = VY[s], t->uz[s] = VZ[s];
         X[s] = px, Y[s] = py, Z[s] = pz;
         t->px[s] = px, t->py[s] = py, t->pz[s] = pz;
         t->prx[s] = RX[s], t->pry[s] = RY[s], t->prz[s] = RZ[s];
@@ -566,8 +561,14 @@ static void chain_chunk(const chain_ctx *ctx, chunk_tmp *restrict t, size_t s0, 
         level_advance(ctx, t, o, s0, cnt);
     }
     const size_t ol = (size_t)(c->nv - 1) * ns;
-    finalize_kernel(cnt, inv_dt, 0.0f, c->step.keep, t->ux, t->uy, t->uz, X + ol, Y + ol, Z + ol, VX + ol, VY + ol,
-                    VZ + ol, t->px, t->py, t->pz, t->ox, t->oy, t->oz, t->dx, t->dy, t->dz);
+    const float kp = c->step.keep;
+    for (size_t s = 0; s < cnt; s++) { /* the tip: no level after it, so no DFTL correction */
+        const size_t i = ol + s, pi = i - ns;
+        VX[i] = VX[pi] + kp * ((t->px[s] - t->ox[s]) * inv_dt - VX[pi]);
+        VY[i] = VY[pi] + kp * ((t->py[s] - t->oy[s]) * inv_dt - VY[pi]);
+        VZ[i] = VZ[pi] + kp * ((t->pz[s] - t->oz[s]) * inv_dt - VZ[pi]);
+        X[i] = t->px[s], Y[i] = t->py[s], Z[i] = t->pz[s];
+    }
     for (size_t s = 0; s < cnt; s++) {
         if (t->bad[s] != 0.0f) { /* NaN or inf somewhere along the strand */
             restore_strand(c, s0 + s, ctx->head);
