@@ -225,6 +225,8 @@ uint chunk_colliders(bool live, vec3 c, vec3 p, uint k, uint b, uint next, out u
 struct Chain {
     vec3 p;    // previous level's final position
     vec3 o;    // previous level's position at the substep start
+    vec3 gp;   // the level before it: final position
+    vec3 go;   // and position at the substep start
     vec3 pr;   // previous level's rest position
     vec4 q;    // previous level's frame
     vec3 pv;   // final velocity of the last finalised level (the root's, then level l - 2's)
@@ -239,15 +241,39 @@ Chain chain_root(bool live, uint s, uint k)
     ch.pr = live ? ldRest(s) : vec3(0.0);
     ch.p = xf_point(hd, ch.pr);
     ch.pv = vec3(0.0);
+    ch.o = ch.p;
     if (live) {
-        ch.pv = (ch.p - ldX(s)) * F.inv_dt_k;
+        ch.o = ldX(s);
+        ch.pv = (ch.p - ch.o) * F.inv_dt_k;
         stV(s, ch.pv);
         stX(s, ch.p);
     }
-    ch.o = ch.p;
+    ch.gp = vec3(0.0);
+    ch.go = vec3(0.0);
     ch.q = hd.rot;
     ch.bad = !finite3(ch.p);
     return ch;
+}
+
+// x carried by the head's (the colliders') rigid motion over substep k.
+vec3 carry_point(vec3 x, uint k)
+{
+    vec4 c0 = F.sub[k].carry[0], c1 = F.sub[k].carry[1], c2 = F.sub[k].carry[2];
+    return vec3(c0.x * x.x + c0.y * x.y + c0.z * x.z + c0.w, c1.x * x.x + c1.y * x.y + c1.z * x.z + c1.w,
+                c2.x * x.x + c2.y * x.y + c2.z * x.z + c2.w);
+}
+
+// segment_carry of sim_cpu_chain.c: x carried rigidly by the parent's segment over the substep.
+vec3 segment_carry(Chain ch, vec3 x)
+{
+    vec3 a = ch.o - ch.go, b = ch.p - ch.gp;
+    a = a * (1.0 / sqrt(max(a.x * a.x + a.y * a.y + a.z * a.z, 1e-30)));
+    b = b * (1.0 / sqrt(max(b.x * b.x + b.y * b.y + b.z * b.z, 1e-30)));
+    vec3 kk = vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+    float co = a.x * b.x + a.y * b.y + a.z * b.z;
+    vec3 v = x - ch.o;
+    float kv = (kk.x * v.x + kk.y * v.y + kk.z * v.z) / max(1.0 + co, 1e-6);
+    return ch.p + v * co + vec3(kk.y * v.z - kk.z * v.y, kk.z * v.x - kk.x * v.z, kk.x * v.y - kk.y * v.x) + kk * kv;
 }
 
 // Predicted position of particle i (eq. 1), in the C backend's operation order.
@@ -268,17 +294,21 @@ void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred
 {
     Xf hd = F.head[k];
     uint i = l * NS + s;
-    vec2 sgl = F.stiff[l];
+    vec4 w = F.stiff[l];
     vec3 rl = live ? ldRest(i) : vec3(0.0);
     vec3 xo = live ? ldX(i) : vec3(0.0);
     vec3 xs = pred;
-    xs += sgl.x * ((qrot(hd.rot, rl) + hd.pos.xyz) - xs);
+    // each shape spring pulls toward its target, its damper toward the start carried by the
+    // target's frame (level_constraints of sim_cpu_chain.c)
+    vec3 hc = carry_point(xo, k);
+    xs += w.x * ((qrot(hd.rot, rl) + hd.pos.xyz) - xs) + w.y * (hc - xs);
     // the DFTL correction carries the local-shape and inextensibility corrections (not the
     // global pull, whose reaction is the head's) to the parent
     vec3 xg = xs;
     vec3 r = rl - ch.pr;
     vec3 tgt = ch.p + qrot(ch.q, r);
-    xs += sgl.y * (tgt - xs);
+    vec3 lc = l > 1u ? segment_carry(ch, xo) : hc;
+    xs += w.z * (tgt - xs) + w.w * (lc - xs);
     float L = v3len(r);
     vec3 dd = ch.p - xs;
     float len = v3len(dd);
@@ -301,8 +331,11 @@ void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred
                     xs = collide_mid(ch.p, xs, ~0u, k);
                 }
                 n = n + (xs - s0);
-                if (it == 0u) xs = contact_friction(xs, n, xo, k);
                 xs = contact_slide(ch.p, xs, r, n);
+                if (it == 0u) {
+                    xs = contact_friction(xs, n, xo, k);
+                    xs = contact_slide(ch.p, xs, r, n);
+                }
             }
         }
     }
@@ -323,6 +356,8 @@ void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred
     vec4 nq = qmul(ch.q, rq);
     ch.q = nq * (1.0 / sqrt(max(nq.x * nq.x + nq.y * nq.y + nq.z * nq.z + nq.w * nq.w, 1e-30)));
     ch.bad = ch.bad || !finite3(xs) || !finite3(delta) || !finite3(xo);
+    ch.gp = ch.p;
+    ch.go = ch.o;
     ch.p = xs;
     ch.o = xo;
     ch.pr = rl;

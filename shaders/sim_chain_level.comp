@@ -1,5 +1,6 @@
 // shaders: the chain pass with particle-level parallelism: one dispatch per level l >= 1, one
-// thread per strand; the chain state (position, frame, NaN flag) is carried in STRAND.
+// thread per strand; the chain state (position, frame, NaN flag, velocity, the level before's
+// positions) is carried in STRAND, 5 vec4 per strand.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "sim_common.glsl"
@@ -17,11 +18,13 @@ void main()
         ch = chain_root(live, s, k);
     } else if (live) {
         uint j = (l - 1u) * NS + s; // level l - 1 is written by this pass: its x is still old
-        vec4 pb = STRAND.d[3u * s];
+        vec4 pb = STRAND.d[5u * s];
         ch.p = pb.xyz;
         ch.bad = pb.w != 0.0;
-        ch.q = STRAND.d[3u * s + 1u];
-        ch.pv = STRAND.d[3u * s + 2u].xyz;
+        ch.q = STRAND.d[5u * s + 1u];
+        ch.pv = STRAND.d[5u * s + 2u].xyz;
+        ch.gp = STRAND.d[5u * s + 3u].xyz;
+        ch.go = STRAND.d[5u * s + 4u].xyz;
         ch.o = ldX(j);
         ch.pr = ldRest(j);
     } else {
@@ -36,8 +39,10 @@ void main()
     if (l == NV - 1u) {
         chain_finish(s, k, ch);
     } else {
-        STRAND.d[3u * s] = vec4(ch.p, ch.bad ? 1.0 : 0.0);
-        STRAND.d[3u * s + 1u] = ch.q;
-        STRAND.d[3u * s + 2u] = vec4(ch.pv, 0.0);
+        STRAND.d[5u * s] = vec4(ch.p, ch.bad ? 1.0 : 0.0);
+        STRAND.d[5u * s + 1u] = ch.q;
+        STRAND.d[5u * s + 2u] = vec4(ch.pv, 0.0);
+        STRAND.d[5u * s + 3u] = vec4(ch.gp, 0.0);
+        STRAND.d[5u * s + 4u] = vec4(ch.go, 0.0);
     }
 }

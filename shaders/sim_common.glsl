@@ -70,7 +70,7 @@ layout(std430, set = 0, binding = 0) restrict readonly buffer FrameBuf {
     uvec4 sdf_dims;    // xyz: samples per axis of the distance grid; w: 1 when it collides
     vec4 sdf_origin;   // xyz: position of sample (0,0,0), head frame; w: cell
     Sub sub[MAX_SUBSTEPS];
-    vec2 stiff[];      // (s_g, s_l) per level
+    vec4 stiff[];      // shape weights per level (sim_shape_weights: g, gd, l, ld)
 } F;
 
 // Particle arrays, level-major (i = level * NS + strand), 3 packed floats per particle.

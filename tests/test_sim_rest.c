@@ -1,6 +1,7 @@
 /* tests: how the hair behaves as a technical artist judges it (C backend): it comes to rest
- * after motion at every parameter's extremes, damping is monotonic, stiffness and damping mean
- * the same at any dt and substep count, and Ratboy's mohawk keeps its style. */
+ * after motion at every parameter's extremes (shape off too, held by contact friction; Ratboy at
+ * the shortest substeps), damping is monotonic, stiffness and damping mean the same at any dt and substep count, and Ratboy's
+ * mohawk keeps its style. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -17,6 +18,11 @@
 
 /* Rest bound: the 99.9th percentile of per-frame vertex displacement, metres. */
 #define REST_P999 1e-5
+/* Shape off with SPH on: the hair that only gravity and the contacts hold is still spread by the
+ * SPH pressure 3 s after the motion (0.012 mm per frame, decaying; 0.044 and growing before
+ * friction was judged after the contact slide). With repulsion 0 it is at rest, see
+ * test_shape_off_rest. */
+#define SHAPE_OFF_SPH_P999 1.5e-5
 
 static int cmp_float(const void *a, const void *b)
 {
@@ -99,7 +105,7 @@ static double motion_then_rest(run *r, float dt, double moving, double still, do
 
 /* Every parameter at its minimum and maximum (the others at default) comes to rest within 3 s
  * of violent motion stopping, on a procedural groom with its colliders and SPH on (shape off is
- * the one known exception, see below). */
+ * held to SHAPE_OFF_SPH_P999). */
 static void test_rest_at_extremes(void **state)
 {
     (void)state;
@@ -121,15 +127,36 @@ static void test_rest_at_extremes(void **state)
             double settle;
             const double rest = motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
             printf("%-18s = %-10g rest p99.9 %.2e mm/frame, settled after %.2f s\n", t[i].name, v, rest * 1e3, settle);
-            /* known gap (issue 13): with shape off, hair lying on the colliders still creeps on them
-             * (0.029 mm/frame after 3 s with Coulomb contact friction at 0.3, 0.055 without); it
-             * is measured and printed, not yet held to the bound */
-            const bool known_gap = strcmp(t[i].name, "shape") == 0 && v == 0.0;
-            if (!(rest <= REST_P999) && !known_gap) failures++;
+            const bool shape_off = strcmp(t[i].name, "shape") == 0 && v == 0.0;
+            if (!(rest <= (shape_off ? SHAPE_OFF_SPH_P999 : REST_P999))) failures++;
             run_close(&r);
         }
     }
     assert_int_equal(failures, 0);
+}
+
+/* Shape off, no SPH pressure: hair draped over the colliders comes to rest within 3 s of violent
+ * motion, held by static contact friction (at its default and at its maximum). */
+static void test_shape_off_rest(void **state)
+{
+    (void)state;
+    const float friction[] = { 0.15f, 1.0f };
+    for (size_t i = 0; i < sizeof friction / sizeof friction[0]; i++) {
+        sim_params p;
+        sim_params_default(&p);
+        p.shape = false;
+        p.repulsion = 0.0f;
+        p.friction = friction[i];
+        run r = { 0 };
+        simcheck_groom(&r.groom, GROOM_WAVY, 96, 16, 11);
+        run_open(&r, &p);
+        double settle;
+        const double rest = motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+        printf("shape off, repulsion 0, friction %.2f: rest p99.9 %.2e mm/frame, settled after %.2f s\n",
+               (double)friction[i], rest * 1e3, settle);
+        assert_true(rest <= REST_P999);
+        run_close(&r);
+    }
 }
 
 /* More damping never decays slower: the time to rest after the same motion does not grow. */
@@ -198,7 +225,8 @@ static void sag_and_decay(float dt, int substeps, double *sag, double *decay)
 }
 
 /* Stiffness and damping are per unit of time: settled sag and decay time agree within 10% at
- * (1/60 s, 4 substeps), (1/60 s, 8) and (1/30 s, 8). */
+ * (1/60 s, 4 substeps), (1/60 s, 8) and (1/30 s, 8) (the decay 13% apart before the shape
+ * springs carried their damper, SIM_SHAPE_DAMPING_STEP). */
 static void test_dt_independence(void **state)
 {
     (void)state;
@@ -212,7 +240,31 @@ static void test_dt_independence(void **state)
     assert_true(sag[0] > 1e-3); /* the cantilever does bend */
     for (int i = 1; i < 3; i++) {
         assert_true(fabs(sag[i] / sag[0] - 1.0) <= 0.10);
-        assert_true(fabs(decay[i] - decay[0]) <= 0.10 * decay[0] + 1.0 / 30.0); /* one frame of 1/30 s */
+        assert_true(fabs(decay[i] - decay[0]) <= 0.10 * decay[0]);
+    }
+}
+
+/* Ratboy (its fitted head) at the shortest substeps the table allows, dt at its minimum and
+ * substeps at their maximum, comes to rest within 3 s of the motion: its soft tips fluttered
+ * there (0.039 and 0.011 mm/frame) before the shape springs carried their damper. */
+static void test_ratboy_short_substeps(void **state)
+{
+    (void)state;
+    const struct { float dt; int k; } cases[] = { { 0.008f, 4 }, { 1.0f / 60.0f, 8 } };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        run r = { 0 };
+        if (!simcheck_ratboy(&r.groom, false)) skip();
+        sim_params p;
+        sim_params_default(&p);
+        p.dt = cases[i].dt;
+        p.substeps = cases[i].k;
+        run_open(&r, &p);
+        double settle;
+        const double rest = motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+        printf("Ratboy, dt %.4f s, %d substeps: rest p99.9 %.2e mm/frame, settled after %.2f s\n", (double)p.dt, p.substeps,
+               rest * 1e3, settle);
+        assert_true(rest <= REST_P999);
+        run_close(&r);
     }
 }
 
@@ -263,8 +315,10 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_rest_at_extremes),
+        cmocka_unit_test(test_shape_off_rest),
         cmocka_unit_test(test_damping_monotonic),
         cmocka_unit_test(test_dt_independence),
+        cmocka_unit_test(test_ratboy_short_substeps),
         cmocka_unit_test(test_ratboy_style),
         cmocka_unit_test(test_ratboy_style_sdf),
     };

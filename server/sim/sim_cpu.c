@@ -9,7 +9,7 @@
 
 static void update_stiffness(sim_cpu *c)
 {
-    for (uint32_t l = 0; l < c->nv; l++) sim_step_stiffness(&c->params, l, c->nv, &c->sg[l], &c->sl[l]);
+    for (uint32_t l = 0; l < c->nv; l++) sim_step_stiffness(&c->params, l, c->nv, &c->sw[l]);
 }
 
 static void cpu_reset(void *self)
@@ -42,9 +42,8 @@ static void cpu_destroy(void *self)
         free(c->a[k]);
         free(c->rest[k]);
     }
-    free(c->sg);
+    free(c->sw);
     free(c->perm);
-    free(c->sl);
     core_sdf_free(&c->sdf);
     free(c);
 }
@@ -85,9 +84,8 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
         c->rest[k] = malloc(bytes);
         ok = ok && c->x[k] && c->v[k] && c->a[k] && c->rest[k];
     }
-    c->sg = malloc(c->nv * sizeof(float));
-    c->sl = malloc(c->nv * sizeof(float));
-    if (!ok || !c->sg || !c->sl || sim_strand_order(g, &c->perm, err) != CORE_OK) {
+    c->sw = malloc(c->nv * sizeof *c->sw);
+    if (!ok || !c->sw || sim_strand_order(g, &c->perm, err) != CORE_OK) {
         cpu_destroy(c);
         return core_fail(err, CORE_ENOMEM, "out of memory for %zu particles", n);
     }

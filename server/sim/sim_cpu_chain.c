@@ -98,8 +98,9 @@ static void restore_strand(sim_cpu *c, size_t s, core_xform head)
 }
 
 /* Per-chunk temporaries: p = previous level's final position, o = its position at the step
- * start, pr = its rest position, q = its frame; c = this level's position, co = its start
- * position, d = the sum of this level's constraint corrections. */
+ * start, pr = its rest position, q = its frame, gp and go = the final and start positions of the
+ * level before it; c = this level's position, co = its start position, d = the sum of this
+ * level's constraint corrections. */
 typedef struct chunk_tmp {
     float px[CHUNK], py[CHUNK], pz[CHUNK], ox[CHUNK], oy[CHUNK], oz[CHUNK];
     float prx[CHUNK], pry[CHUNK], prz[CHUNK], qx[CHUNK], qy[CHUNK], qz[CHUNK], qw[CHUNK];
@@ -110,10 +111,34 @@ typedef struct chunk_tmp {
     float bx[CHUNK], by[CHUNK], bz[CHUNK], nx[CHUNK], ny[CHUNK], nz[CHUNK], mx[CHUNK], my[CHUNK], mz[CHUNK];
     float dv[CHUNK]; /* a vertex's sampled grid distance after its push (+inf outside the grid) */
     float dvx[CHUNK], dvy[CHUNK], dvz[CHUNK]; /* where dv was sampled */
+    float gpx[CHUNK], gpy[CHUNK], gpz[CHUNK], gox[CHUNK], goy[CHUNK], goz[CHUNK];
 } chunk_tmp;
 
 
-/* Predict (eq. 1), global shape (11), local shape (12) and follow-the-leader (13) for one level. */
+/* Where a vertex that started at (x,y,z) would be if the parent's segment had carried it
+ * rigidly over the substep: the minimal rotation from the segment's start direction
+ * (o - go) to its final one (p - gp), about the parent, then the parent's move o -> p. */
+static inline __attribute__((always_inline)) void segment_carry(const chunk_tmp *t, size_t s, float x, float y,
+                                                                float z, float *ox, float *oy, float *oz)
+{
+    float ax = t->ox[s] - t->gox[s], ay = t->oy[s] - t->goy[s], az = t->oz[s] - t->goz[s];
+    float bx = t->px[s] - t->gpx[s], by = t->py[s] - t->gpy[s], bz = t->pz[s] - t->gpz[s];
+    const float ia = 1.0f / sqrtf(MAXF(ax * ax + ay * ay + az * az, 1e-30f));
+    const float ib = 1.0f / sqrtf(MAXF(bx * bx + by * by + bz * bz, 1e-30f));
+    ax *= ia, ay *= ia, az *= ia, bx *= ib, by *= ib, bz *= ib;
+    const float kx = ay * bz - az * by, ky = az * bx - ax * bz, kz = ax * by - ay * bx;
+    const float co = ax * bx + ay * by + az * bz;
+    const float vx = x - t->ox[s], vy = y - t->oy[s], vz = z - t->oz[s];
+    const float kv = (kx * vx + ky * vy + kz * vz) / MAXF(1.0f + co, 1e-6f);
+    *ox = t->px[s] + vx * co + (ky * vz - kz * vy) + kx * kv;
+    *oy = t->py[s] + vy * co + (kz * vx - kx * vz) + ky * kv;
+    *oz = t->pz[s] + vz * co + (kx * vy - ky * vx) + kz * kv;
+}
+
+/* Predict (eq. 1), global shape (11), local shape (12) and follow-the-leader (13) for one level.
+ * Each shape spring pulls toward its target and its damper toward the vertex's start carried
+ * by the target's frame (the head's motion; for the local spring, the parent segment's, or the
+ * head's at level 1): sim_step_stiffness. */
 static inline __attribute__((always_inline)) void level_constraints(const chain_ctx *ctx, chunk_tmp *restrict t,
                                                                     size_t o, size_t s0, size_t cnt, uint32_t l,
                                                                     const bool use_a)
@@ -123,7 +148,8 @@ static inline __attribute__((always_inline)) void level_constraints(const chain_
     const float gx = c->step.accel[0], gy = c->step.accel[1], gz = c->step.accel[2];
     const float hqx = ctx->head.rot.x, hqy = ctx->head.rot.y, hqz = ctx->head.rot.z, hqw = ctx->head.rot.w;
     const float htx = ctx->head.pos.x, hty = ctx->head.pos.y, htz = ctx->head.pos.z;
-    const float sg = c->sg[l], sl = c->sl[l];
+    const sim_shape_weights w = c->sw[l];
+    const float *C = ctx->carry;
     const float *restrict X = c->x[0] + s0 + o, *restrict Y = c->x[1] + s0 + o, *restrict Z = c->x[2] + s0 + o;
     const float *restrict VX = c->v[0] + s0 + o, *restrict VY = c->v[1] + s0 + o, *restrict VZ = c->v[2] + s0 + o;
     const float *restrict AX = c->a[0] + s0 + o, *restrict AY = c->a[1] + s0 + o, *restrict AZ = c->a[2] + s0 + o;
@@ -139,7 +165,12 @@ static inline __attribute__((always_inline)) void level_constraints(const chain_
         /* global shape: toward the rest position in the root (head) frame */
         float gpx, gpy, gpz;
         QROT(hqx, hqy, hqz, hqw, RX[s], RY[s], RZ[s], gpx, gpy, gpz);
-        sx += sg * (gpx + htx - sx), sy += sg * (gpy + hty - sy), sz += sg * (gpz + htz - sz);
+        const float hx = C[0] * xo + C[1] * yo + C[2] * zo + C[3];
+        const float hy = C[4] * xo + C[5] * yo + C[6] * zo + C[7];
+        const float hz = C[8] * xo + C[9] * yo + C[10] * zo + C[11];
+        sx += w.g * (gpx + htx - sx) + w.gd * (hx - sx);
+        sy += w.g * (gpy + hty - sy) + w.gd * (hy - sy);
+        sz += w.g * (gpz + htz - sz) + w.gd * (hz - sz);
         /* the DFTL correction (eq. 14) carries the local-shape and inextensibility corrections to
          * the parent; the global pull holds the vertex to the head, so its reaction is not the
          * parent's */
@@ -149,7 +180,11 @@ static inline __attribute__((always_inline)) void level_constraints(const chain_
         float rrx, rry, rrz;
         QROT(t->qx[s], t->qy[s], t->qz[s], t->qw[s], rx, ry, rz, rrx, rry, rrz);
         const float tx = t->px[s] + rrx, ty = t->py[s] + rry, tz = t->pz[s] + rrz;
-        sx += sl * (tx - sx), sy += sl * (ty - sy), sz += sl * (tz - sz);
+        float lx = hx, ly = hy, lz = hz;
+        if (l > 1) segment_carry(t, s, xo, yo, zo, &lx, &ly, &lz);
+        sx += w.l * (tx - sx) + w.ld * (lx - sx);
+        sy += w.l * (ty - sy) + w.ld * (ly - sy);
+        sz += w.l * (tz - sz) + w.ld * (lz - sz);
         /* inextensibility: follow the leader at the rest length */
         const float L = sqrtf(rx * rx + ry * ry + rz * rz);
         const float ddx = t->px[s] - sx, ddy = t->py[s] - sy, ddz = t->pz[s] - sz;
@@ -198,7 +233,7 @@ static void level_finalize_prev(const chain_ctx *ctx, const chunk_tmp *t, size_t
 }
 
 /* Carries each frame along the chain (rotate the rest direction onto the current one) and
- * shifts this level into the "previous" slots. */
+ * shifts this level into the "previous" slots (and the previous level into the ones before). */
 static void level_advance(const chain_ctx *ctx, chunk_tmp *restrict t, size_t o, size_t s0, size_t cnt)
 {
     const sim_cpu *c = ctx->c;
@@ -227,6 +262,8 @@ static void level_advance(const chain_ctx *ctx, chunk_tmp *restrict t, size_t o,
         t->bad[s] += (t->cx[s] - t->cx[s]) + (t->cy[s] - t->cy[s]) + (t->cz[s] - t->cz[s]) + (t->dx[s] - t->dx[s]) +
                      (t->dy[s] - t->dy[s]) + (t->dz[s] - t->dz[s]) + (t->cox[s] - t->cox[s]) +
                      (t->coy[s] - t->coy[s]) + (t->coz[s] - t->coz[s]);
+        t->gpx[s] = t->px[s], t->gpy[s] = t->py[s], t->gpz[s] = t->pz[s];
+        t->gox[s] = t->ox[s], t->goy[s] = t->oy[s], t->goz[s] = t->oz[s];
         t->px[s] = t->cx[s], t->py[s] = t->cy[s], t->pz[s] = t->cz[s];
         t->ox[s] = t->cox[s], t->oy[s] = t->coy[s], t->oz[s] = t->coz[s];
         t->prx[s] = RX[s], t->pry[s] = RY[s], t->prz[s] = RZ[s];
@@ -412,10 +449,12 @@ static bool contact_pushes(const chain_ctx *ctx, chunk_tmp *restrict t, size_t c
     return moved != 0.0f;
 }
 
-/* Coulomb-like friction at the contacts of the first round: the vertex's displacement over the
- * substep relative to the colliders (its start position carried by their rigid motion), in the
- * tangent plane of the push n, is cancelled while it is at most friction |n|, else shortened by
- * that much. */
+/* Coulomb-like friction at the contacts of the first round, after its rest-length slide: the
+ * vertex's displacement over the substep relative to the colliders (its start position carried
+ * by their rigid motion), in the tangent plane of the push n, is cancelled while it is at most
+ * friction |n|, else shortened by that much. Taken after the slide, it judges where the
+ * constraints leave the vertex, not the prediction that the slide moves back along the segment,
+ * so static friction holds hair that lies still. */
 static void contact_friction(const chain_ctx *ctx, chunk_tmp *restrict t, size_t cnt)
 {
     const float *C = ctx->carry, mu = ctx->friction;
@@ -469,9 +508,9 @@ static void contact_slide(const chain_ctx *ctx, chunk_tmp *restrict t, size_t o,
 }
 
 /* Contacts of one level: SIM_COLLISION_ITERATIONS rounds of pushes out of the colliders and the
- * grid (contact_pushes; friction after the first), each followed by the rest-length projection
- * along the contact's tangent plane (contact_slide), so a vertex ends on the surface at its rest
- * length.
+ * grid (contact_pushes), each followed by the rest-length projection along the contact's tangent
+ * plane (contact_slide), so a vertex ends on the surface at its rest length; the first round then
+ * takes friction (contact_friction) and slides again.
  * Culling: the colliders (and the grid) whose box meets the chunk's box (this level and its
  * parents, grown by the longest segment: the rest-length projection stays within that) are
  * processed; a push can still carry a point into a collider that was skipped, so the final
@@ -501,8 +540,11 @@ static void collide_level(const chain_ctx *ctx, chunk_tmp *t, size_t o, size_t s
         for (int it = 0; it < SIM_COLLISION_ITERATIONS; it++) {
             /* a round that pushes nothing leaves the chunk as it is (the slides are done) */
             if (!contact_pushes(ctx, t, cnt, hit, nhit, sdf)) break;
-            if (first && it == 0) contact_friction(ctx, t, cnt);
             contact_slide(ctx, t, o, s0, cnt);
+            if (first && it == 0) {
+                contact_friction(ctx, t, cnt);
+                contact_slide(ctx, t, o, s0, cnt);
+            }
         }
         float flo[3], fhi[3];
         level_bounds(t, cnt, flo, fhi);
@@ -539,6 +581,7 @@ static void chain_chunk(const chain_ctx *ctx, chunk_tmp *restrict t, size_t s0, 
         QROT(hqx, hqy, hqz, hqw, RX[s], RY[s], RZ[s], px, py, pz);
         px += ht.x, py += ht.y, pz += ht.z;
         VX[s] = (px - X[s]) * inv_dt, VY[s] = (py - Y[s]) * inv_dt, VZ[s] = (pz - Z[s]) * inv_dt;
+        t->ox[s] = X[s], t->oy[s] = Y[s], t->oz[s] = Z[s];
         X[s] = px, Y[s] = py, Z[s] = pz;
         t->px[s] = px, t->py[s] = py, t->pz[s] = pz;
         t->prx[s] = RX[s], t->pry[s] = RY[s], t->prz[s] = RZ[s];

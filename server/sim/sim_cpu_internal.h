@@ -43,7 +43,7 @@ typedef struct sim_cpu {
     sim_pool pool;
     /* level-major SoA: index = level * ns + strand */
     float *x[3], *v[3], *a[3], *rest[3];
-    float *sg, *sl;          /* per-level shape projections (sim_step_stiffness) */
+    sim_shape_weights *sw;   /* per-level shape weights (sim_step_stiffness) */
     float max_segment;       /* longest rest segment */
     uint32_t *perm;          /* internal strand -> groom strand (roots in Morton order, so
                                 neighbouring strands are near each other) */

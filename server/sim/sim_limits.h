@@ -11,6 +11,13 @@
 #define SIM_MAX_NEIGHBOR_CAP 64
 /* Strands solved together: a CPU task and a Vulkan workgroup; collider culling is per chunk. */
 #define SIM_CHUNK 64
+/* The shape springs' own damping, as a substep length: a spring of stiffness k carries a damper
+ * of k times half this (stiffness-proportional damping; toward the motion of its target's frame).
+ * The implicit step of a spring damps like that damper at half its substep, and that damping
+ * used to fall with the substep: shorter substeps left the stiff tips of a groom fluttering and
+ * decayed more slowly. The damper adds what a substep shorter than this lacks, so the damping
+ * is the same for any dt and substep count up to this substep (1/120 s). */
+#define SIM_SHAPE_DAMPING_STEP 0.00833333333333333333
 /* Contact rounds per vertex and level: push out of the colliders (vertex, then the segment's
  * midpoint), then the rest-length projection sliding along the contact's tangent plane. */
 #define SIM_COLLISION_ITERATIONS 3

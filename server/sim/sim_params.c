@@ -16,7 +16,7 @@
     { #field, CORE_PARAM_BOOL, offsetof(sim_params, field), 0, 1, d, "", help, CORE_PARAM_LINEAR }
 
 static const core_param_info table[] = {
-    F(dt, 0.008, 0.05, 1.0 / 60.0, "s", "Simulated time per step (the paper uses 0.016 s). Below about 1/120 s the serial local-shape chain can flutter, so the range stops there."),
+    F(dt, 0.008, 0.05, 1.0 / 60.0, "s", "Simulated time per step (the paper uses 0.016 s). Stiffness and damping are per unit of time, so they mean the same at any step."),
     I(substeps, 1, SIM_MAX_SUBSTEPS, 4, "", "Solver substeps per step; roots and colliders are interpolated across them. Stiffness and damping are per unit of time, so they mean the same at any substep count."),
     F(gravity, 0.0, 50.0, 9.81, "m/s^2", "Gravity along -y."),
     F(wind_x, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, x component."),

@@ -84,14 +84,18 @@ static void world_sdf(const core_sdf *s, core_xform head, sim_wsdf *out)
     for (int a = 0; a < 3; a++) out->lo[a] -= s->cell, out->hi[a] += s->cell; /* rounding of the rotation */
 }
 
-void sim_step_stiffness(const sim_params *p, uint32_t l, uint32_t nv, float *sg, float *sl)
+void sim_step_stiffness(const sim_params *p, uint32_t l, uint32_t nv, sim_shape_weights *out)
 {
     const float h = p->dt / (float)p->substeps, h2 = h * h;
     const float t = nv > 1 ? (float)l / (float)(nv - 1) : 0.0f;
     const float fade = 1.0f + (p->stiffness_tip - 1.0f) * t;
-    const float wg = p->global_stiffness * fade * h2, wl = p->local_stiffness * fade * h2;
-    *sg = p->shape ? wg / (1.0f + wg) : 0.0f;
-    *sl = p->shape ? wl / (1.0f + wl) : 0.0f;
+    const float b = 0.5f * MAXF((float)SIM_SHAPE_DAMPING_STEP - h, 0.0f);
+    const float kg = p->global_stiffness * fade, kl = p->local_stiffness * fade;
+    const float wg = kg * h2, cg = kg * h * b, wl = kl * h2, cl = kl * h * b;
+    memset(out, 0, sizeof *out);
+    if (!p->shape) return;
+    out->g = wg / (1.0f + wg + cg), out->gd = cg / (1.0f + wg + cg);
+    out->l = wl / (1.0f + wl + cl), out->ld = cl / (1.0f + wl + cl);
 }
 
 void sim_step_plan(const sim_params *p, const sim_groom_info *g, core_xform prev_head, core_xform head,

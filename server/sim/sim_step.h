@@ -86,11 +86,20 @@ bool sim_step_sph_on(const sim_params *p);
 void sim_step_plan(const sim_params *p, const sim_groom_info *g, core_xform prev_head, core_xform head,
                    sim_step_desc *out);
 
-/* The shape projections of level l of nv: *sg, *sl are the fractions of the way to the global
- * and local targets a substep moves a vertex, from the stiffnesses k (1/s^2) faded linearly to
- * stiffness_tip at the tip: k h^2 / (1 + k h^2), so that a vertex held against an acceleration
- * g settles g / k from its target whatever dt and substeps are (0 with shape off). Pure. */
-void sim_step_stiffness(const sim_params *p, uint32_t l, uint32_t nv, float *sg, float *sl);
+/* The shape weights of one level for one substep: a vertex at s moves by
+ * g (global target - s) + gd (its start carried by the head - s), then by
+ * l (local target - s) + ld (its start carried by the parent's segment - s). */
+typedef struct sim_shape_weights {
+    float g, gd, l, ld;
+} sim_shape_weights;
+
+/* The shape weights of level l of nv, from the stiffnesses k (1/s^2) faded linearly to
+ * stiffness_tip at the tip: with w = k h^2 for the spring and c = k h b for its damper
+ * (b = max(SIM_SHAPE_DAMPING_STEP - h, 0) / 2), the spring's weight is w / (1 + w + c) and the
+ * damper's c / (1 + w + c) (the implicit step of both). A vertex held against an acceleration g
+ * settles g / k from its target whatever dt and substeps are, and the springs damp the same up
+ * to SIM_SHAPE_DAMPING_STEP (all 0 with shape off). Pure. */
+void sim_step_stiffness(const sim_params *p, uint32_t l, uint32_t nv, sim_shape_weights *out);
 
 /* One collider moved by head into world space. Pure. */
 void sim_world_collider(const core_collider *in, core_xform head, sim_wcollider *out);

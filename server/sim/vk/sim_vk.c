@@ -94,7 +94,7 @@ static core_status make_buffers(sim_vk *s, core_err *err)
         { &s->v, p3, SIM_VK_B_V, xfer, "velocities" },
         { &s->a, p3, SIM_VK_B_A, xfer, "sph accelerations" },
         { &s->rest_buf, p3, SIM_VK_B_REST, xfer, "rest positions" },
-        { &s->strand, (size_t)s->ns * 12 * sizeof(float), SIM_VK_B_STRAND, 0, "chain state" },
+        { &s->strand, (size_t)s->ns * 20 * sizeof(float), SIM_VK_B_STRAND, 0, "chain state" },
         { &s->grid, 128, SIM_VK_B_GRID, xfer, "sph grid" },
         { &s->count, cells * sizeof(uint32_t), SIM_VK_B_COUNT, xfer, "sph cell counts" },
         { &s->start, (cells + 1) * sizeof(uint32_t), SIM_VK_B_START, 0, "sph cell starts" },

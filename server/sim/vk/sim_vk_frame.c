@@ -11,9 +11,10 @@ _Static_assert(sizeof(sim_vk_gcollider) == 160, "collider layout must match sim_
 _Static_assert(sizeof(sim_vk_gsub) == 192, "substep layout must match sim_common.glsl");
 _Static_assert(offsetof(sim_vk_frame, sdf_dims) == 96 + 32 * SIM_MAX_SUBSTEPS + 160 * SIM_MAX_SUBSTEPS * SIM_MAX_COLLIDERS,
                "frame layout must match sim_common.glsl");
-_Static_assert(sizeof(sim_vk_frame) % 8 == 0, "stiffness pairs follow the frame");
+_Static_assert(sizeof(sim_vk_frame) % 16 == 0, "the shape weights (vec4 per level) follow the frame");
+_Static_assert(sizeof(sim_shape_weights) == 4 * sizeof(float), "one vec4 of shape weights per level");
 
-size_t sim_vk_frame_size(uint32_t nv) { return sizeof(sim_vk_frame) + (size_t)nv * 2 * sizeof(float); }
+size_t sim_vk_frame_size(uint32_t nv) { return sizeof(sim_vk_frame) + (size_t)nv * sizeof(sim_shape_weights); }
 
 static void put4(float *dst, float x, float y, float z, float w)
 {
@@ -80,6 +81,6 @@ void sim_vk_frame_fill(const sim_vk_frame_in *in, void *out)
         put4(u->lo, w->lo[0], w->lo[1], w->lo[2], 0.0f);
         put4(u->hi, w->hi[0], w->hi[1], w->hi[2], 0.0f);
     }
-    float *stiff = (float *)((char *)out + sizeof *f);
-    for (uint32_t l = 0; l < in->nv; l++) sim_step_stiffness(p, l, in->nv, &stiff[2 * l], &stiff[2 * l + 1]);
+    sim_shape_weights *sw = (sim_shape_weights *)((char *)out + sizeof *f);
+    for (uint32_t l = 0; l < in->nv; l++) sim_step_stiffness(p, l, in->nv, &sw[l]);
 }
