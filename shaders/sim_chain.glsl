@@ -1,4 +1,4 @@
-// shaders: the chain along a strand (port of sim_cpu_chain.c), shared by both chain strategies.
+// shaders: the chain along a strand (port of sim_cpu_chain.c), run a level at a time by sim_chain_level.comp.
 // A workgroup is a chunk of CHUNK consecutive strands, as the C backend's, so that collider
 // culling (per chunk and level) picks the same colliders in the same order.
 

@@ -25,12 +25,11 @@ typedef struct pair {
     double strand_len;
 } pair;
 
-static void make_vk(sim *s, const core_groom *g, const sim_params *p, sim_vk_chain chain)
+static void make_vk(sim *s, const core_groom *g, const sim_params *p)
 {
     core_err err;
     sim_desc d = { .backend = SIM_BACKEND_VULKAN };
-    sim_vk_options o = { .chain = chain };
-    if (sim_vk_create(s, &d, &o, g, p, &err) != CORE_OK) fail_msg("vulkan sim: %s", err.msg);
+    if (sim_vk_create(s, &d, NULL, g, p, &err) != CORE_OK) fail_msg("vulkan sim: %s", err.msg);
 }
 
 /* A distance grid of a sphere around the head's centre, 12 mm larger than the head ellipsoid's
@@ -61,7 +60,7 @@ static void make_pair_sdf(pair *t, groom_style style, uint32_t ns, uint32_t nv, 
     if (sdf) attach_sphere_sdf(&t->groom);
     sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = 2 };
     if (sim_create(&t->cpu, &d, &t->groom, p, &err) != CORE_OK) fail_msg("cpu sim: %s", err.msg);
-    make_vk(&t->vk, &t->groom, p, SIM_VK_CHAIN_DEFAULT);
+    make_vk(&t->vk, &t->groom, p);
     t->n = (size_t)ns * nv;
     t->xc = malloc(3 * t->n * sizeof(float));
     t->xv = malloc(3 * t->n * sizeof(float));
@@ -233,7 +232,7 @@ static void test_params_take_effect(void **state)
     simcheck_groom(&g, GROOM_STRAIGHT, 64, 12, 11);
     g.ncolliders = 0;
     sim s;
-    make_vk(&s, &g, &p, SIM_VK_CHAIN_DEFAULT);
+    make_vk(&s, &g, &p);
     size_t n = 64 * 12;
     float *x = malloc(3 * n * sizeof(float));
     assert_non_null(x);
@@ -264,40 +263,6 @@ static void test_params_take_effect(void **state)
     free(x);
 }
 
-/* Both chain strategies compute the same thing. */
-static void test_chain_strategies_agree(void **state)
-{
-    (void)state;
-    sim_params p;
-    sim_params_default(&p);
-    core_groom g;
-    simcheck_groom(&g, GROOM_CURLY, 100, 10, 11);
-    sim a, b;
-    make_vk(&a, &g, &p, SIM_VK_CHAIN_LEVEL);
-    make_vk(&b, &g, &p, SIM_VK_CHAIN_GROUP);
-    assert_int_equal(sim_vk_chain_used(&a), SIM_VK_CHAIN_LEVEL);
-    assert_int_equal(sim_vk_chain_used(&b), SIM_VK_CHAIN_GROUP);
-    size_t n = 100 * 10;
-    float *xa = malloc(3 * n * sizeof(float)), *xb = malloc(3 * n * sizeof(float));
-    assert_non_null(xa);
-    assert_non_null(xb);
-    core_err err;
-    for (int i = 0; i < 10; i++) {
-        sim_set_motion(&a, simcheck_head_motion(i * p.dt, 2.0));
-        sim_set_motion(&b, simcheck_head_motion(i * p.dt, 2.0));
-        assert_int_equal(sim_step(&a, &err), CORE_OK);
-        assert_int_equal(sim_step(&b, &err), CORE_OK);
-    }
-    assert_int_equal(sim_read_positions(&a, xa, &err), CORE_OK);
-    assert_int_equal(sim_read_positions(&b, xb, &err), CORE_OK);
-    assert_memory_equal(xa, xb, 3 * n * sizeof(float));
-    sim_destroy(&a);
-    sim_destroy(&b);
-    core_groom_free(&g);
-    free(xa);
-    free(xb);
-}
-
 /* A non-finite blow-up is contained on the GPU as on the CPU: restored and counted. */
 static void test_nan_guard(void **state)
 {
@@ -308,7 +273,7 @@ static void test_nan_guard(void **state)
     core_groom g;
     simcheck_groom(&g, GROOM_STRAIGHT, 32, 8, 11);
     sim s;
-    make_vk(&s, &g, &p, SIM_VK_CHAIN_DEFAULT);
+    make_vk(&s, &g, &p);
     size_t n = 32 * 8;
     float *x = malloc(3 * n * sizeof(float)), *v = calloc(3 * n, sizeof(float));
     assert_non_null(x);
@@ -348,7 +313,7 @@ static void test_stage_timestamps(void **state)
     core_groom g;
     simcheck_groom(&g, GROOM_STRAIGHT, 256, 16, 11);
     sim s;
-    make_vk(&s, &g, &p, SIM_VK_CHAIN_DEFAULT);
+    make_vk(&s, &g, &p);
     core_err err;
     for (int i = 0; i < 3; i++) assert_int_equal(sim_step(&s, &err), CORE_OK);
     sim_stats st;
@@ -432,7 +397,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_one_step_matches_cpu), cmocka_unit_test(test_one_step_matches_cpu_sdf),
         cmocka_unit_test(test_300_steps_track_cpu),
-        cmocka_unit_test(test_params_take_effect),   cmocka_unit_test(test_chain_strategies_agree),
+        cmocka_unit_test(test_params_take_effect),
         cmocka_unit_test(test_nan_guard),            cmocka_unit_test(test_stage_timestamps),
         cmocka_unit_test(test_backend_choice),       cmocka_unit_test(test_bad_input),
     };

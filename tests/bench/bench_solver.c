@@ -30,7 +30,7 @@ static const char *feature_names[] = { "dftl", "dftl+shape", "dftl+shape+sph" };
 static void usage(void)
 {
     puts("usage: strandbench [solver] [--backend cpu|vulkan|both] [--case SxV]... [--features dftl,dftl+shape,dftl+shape+sph]\n"
-         "                  [--groom FILE] [--steps N] [--threads N] [--device N] [--vk-chain level|group]\n"
+         "                  [--groom FILE] [--steps N] [--threads N] [--device N]\n"
          "                  [--substeps N] [--animate PRESET[,PRESET...]] [--json]\n"
          "Runs the solver on procedural grooms of each case (default: the paper's Table 2 sizes and\n"
          "Table 1 scenes) with each feature set, one step = one 1/60 s frame with one substep (the\n"
@@ -39,7 +39,6 @@ static void usage(void)
          "--backend both runs each case on the C and the Vulkan backend and prints them side by side\n"
          "with the ratio; Vulkan rows carry the per-stage GPU time of the last step (timestamps).\n"
          "--device N picks the Vulkan device (0 = automatic, N >= 1 = vulkaninfo's GPU<N-1>);\n"
-         "--vk-chain picks the Vulkan chain strategy (default: the faster one as measured).\n"
          "The SPH smoothing length is automatic (sph_radius 0: 1.75 x the groom's mean root spacing).\n"
          "--substeps N sets the solver substeps (default 1, the paper's; the daemon's default is 4).\n"
          "--animate runs each case once per head-motion preset (none, nod, shake, circle, headbang,\n"
@@ -62,7 +61,6 @@ static double step_bytes(size_t n, int feat, int substeps)
 typedef struct bench_opts {
     int threads, device, substeps;
     int preset;               /* app_preset, or -1 for the default slow turn */
-    sim_vk_chain chain;
     bool json;
     double bandwidth;
 } bench_opts;
@@ -88,10 +86,9 @@ static int measure(const core_groom *g, int feat, sim_backend_kind backend, cons
     r->substeps = p.substeps;
     r->sph_radius = sim_sph_auto_radius(g);
     sim_desc d = { .backend = backend, .threads = o->threads, .device = o->device };
-    sim_vk_options vo = { .chain = o->chain };
     sim s;
     core_err err;
-    core_status st = backend == SIM_BACKEND_VULKAN ? sim_vk_create(&s, &d, &vo, g, &p, &err) : sim_create(&s, &d, g, &p, &err);
+    core_status st = backend == SIM_BACKEND_VULKAN ? sim_vk_create(&s, &d, NULL, g, &p, &err) : sim_create(&s, &d, g, &p, &err);
     if (st != CORE_OK) {
         fprintf(stderr, "strandbench: %ux%u %s: %s\n", g->nstrands, g->nverts, feature_names[feat], err.msg);
         return 1;
@@ -176,7 +173,6 @@ int bench_solver_main(int argc, char **argv)
 {
     bench_case cases[MAX_CASES];
     int ncases = 0, steps = 0, threads = 0, device = 0;
-    sim_vk_chain chain = SIM_VK_CHAIN_DEFAULT;
     bool json = false, feats[3] = { false, false, false }, any_feat = false;
     int substeps = 1, presets[APP_PRESET_COUNT], npresets = 0;
     const char *groom_file = NULL;
@@ -216,14 +212,6 @@ int bench_solver_main(int argc, char **argv)
             else if (strcmp(v, "both") == 0) backend = SIM_BACKEND_AUTO;
             else {
                 fprintf(stderr, "strandbench: --backend wants cpu, vulkan or both, got '%s'\n", v);
-                return 2;
-            }
-            i++;
-        } else if (v && strcmp(a, "--vk-chain") == 0) {
-            if (strcmp(v, "level") == 0) chain = SIM_VK_CHAIN_LEVEL;
-            else if (strcmp(v, "group") == 0) chain = SIM_VK_CHAIN_GROUP;
-            else {
-                fprintf(stderr, "strandbench: --vk-chain wants level or group, got '%s'\n", v);
                 return 2;
             }
             i++;
@@ -315,7 +303,7 @@ int bench_solver_main(int argc, char **argv)
         for (int f = 0; f < 3; f++) {
             if (!feats[f]) continue;
             for (int k = 0; k < npresets; k++) {
-                const bench_opts opts = { threads, device, substeps, presets[k], chain, json, bandwidth };
+                const bench_opts opts = { threads, device, substeps, presets[k], json, bandwidth };
                 rc |= run_case(&g, f, backend, &opts, nsteps);
             }
         }

@@ -441,18 +441,6 @@ static core_status upload_sdf(sim_vk *s, const core_sdf *sdf, core_err *err)
     return st;
 }
 
-/* Chooses the chain strategy: GROUP needs a chunk's predictions in shared memory. */
-static sim_vk_chain_cfg choose_chain(const sim_vk_ctx *c, sim_vk_chain want, uint32_t nv)
-{
-    /* LEVEL measured 2.4-2.9x faster than GROUP on lavapipe (BENCHMARKS.md) */
-    sim_vk_chain_cfg cfg = { want == SIM_VK_CHAIN_DEFAULT ? SIM_VK_CHAIN_LEVEL : want };
-    /* pred[3 * CHUNK * nv] floats + the three chunk boxes (18 + 3 uints), rounded up */
-    uint64_t need = 12ull * SIM_CHUNK * nv + 128;
-    if (cfg.strategy == SIM_VK_CHAIN_GROUP && need > c->props.limits.maxComputeSharedMemorySize)
-        cfg.strategy = SIM_VK_CHAIN_LEVEL;
-    return cfg;
-}
-
 static core_status create_impl(const sim_desc *desc, const sim_vk_options *opt, const core_groom *g,
                                const sim_params *params, sim_vk **out, core_err *err)
 {
@@ -508,8 +496,7 @@ static core_status create_impl(const sim_desc *desc, const sim_vk_options *opt, 
                            s->n, maxg);
     }
     if (st == CORE_OK) {
-        s->chain = choose_chain(&s->ctx, opt ? opt->chain : SIM_VK_CHAIN_DEFAULT, s->nv);
-        st = sim_vk_pipes_init(&s->ctx, &s->pipes, s->ns, s->nv, &s->chain, err);
+        st = sim_vk_pipes_init(&s->ctx, &s->pipes, s->ns, s->nv, err);
     }
     if (st == CORE_OK) st = make_buffers(s, err);
     if (st == CORE_OK) st = make_slots(s, err);
@@ -575,12 +562,6 @@ core_status sim_vk_create(sim *out, const sim_desc *desc, const sim_vk_options *
     out->nstrands = groom->nstrands;
     out->nverts = groom->nverts;
     return CORE_OK;
-}
-
-sim_vk_chain sim_vk_chain_used(const sim *s)
-{
-    if (!s || s->vt != &vk_vtable) return SIM_VK_CHAIN_DEFAULT;
-    return ((const sim_vk *)s->self)->chain.strategy;
 }
 
 uint32_t sim_vk_validation_errors(const sim *s, bool *enabled)

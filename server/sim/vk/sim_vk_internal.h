@@ -121,7 +121,7 @@ typedef enum sim_vk_binding {
 
 /* The compute pipelines, one per shader entry. */
 typedef enum sim_vk_pipe_id {
-    SIM_VK_P_CHAIN = 0,     /* the chain pass (strategy chosen at create) */
+    SIM_VK_P_CHAIN = 0,     /* the chain pass, one level per dispatch */
     SIM_VK_P_SPH_BOUNDS,
     SIM_VK_P_SPH_GRID,
     SIM_VK_P_SPH_COUNT,
@@ -159,17 +159,9 @@ typedef struct sim_vk_pipes {
     uint32_t wg[SIM_VK_NPIPES]; /* workgroup size of each pipeline */
 } sim_vk_pipes;
 
-/* Strands per chain workgroup: the C backend's chunk (collider culling is per chunk). */
-
-/* Chain-pass strategy (see sim_vk.h). */
-typedef struct sim_vk_chain_cfg {
-    sim_vk_chain strategy;
-} sim_vk_chain_cfg;
-
 /* Creates the set layout, pipeline layout, descriptor pool and sets, and every pipeline with
  * the sizes of this solver. Sim thread. */
-core_status sim_vk_pipes_init(sim_vk_ctx *c, sim_vk_pipes *p, uint32_t ns, uint32_t nv, const sim_vk_chain_cfg *chain,
-                              core_err *err);
+core_status sim_vk_pipes_init(sim_vk_ctx *c, sim_vk_pipes *p, uint32_t ns, uint32_t nv, core_err *err);
 /* Points binding b of every set (or only of set `frame` when frame >= 0) at buffer buf. */
 void sim_vk_pipes_bind(sim_vk_ctx *c, sim_vk_pipes *p, int frame, sim_vk_binding b, const sim_vk_buf *buf);
 void sim_vk_pipes_destroy(sim_vk_ctx *c, sim_vk_pipes *p);
@@ -256,7 +248,6 @@ typedef struct sim_vk_slot {
 typedef struct sim_vk {
     sim_vk_ctx ctx;
     sim_vk_pipes pipes;
-    sim_vk_chain_cfg chain;
     sim_step_desc step;   /* the step being recorded (sim_step_plan) */
     uint32_t ns, nv;
     size_t n;

@@ -14,9 +14,9 @@ typedef struct pipe_src {
 
 #define SRC(n) { #n, sim_vk_spv_##n, &sim_vk_spv_##n##_size }
 
-static pipe_src source_of(sim_vk_pipe_id id, sim_vk_chain strategy)
+static pipe_src source_of(sim_vk_pipe_id id)
 {
-    static const pipe_src chain_level = SRC(sim_chain_level), chain_group = SRC(sim_chain_group);
+    static const pipe_src chain_level = SRC(sim_chain_level);
     static const pipe_src table[SIM_VK_NPIPES] = {
         [SIM_VK_P_SPH_BOUNDS] = SRC(sim_sph_bounds),
         [SIM_VK_P_SPH_GRID] = SRC(sim_sph_grid),
@@ -29,7 +29,7 @@ static pipe_src source_of(sim_vk_pipe_id id, sim_vk_chain strategy)
         [SIM_VK_P_SPH_DENSITY] = SRC(sim_sph_density),
         [SIM_VK_P_SPH_FORCE] = SRC(sim_sph_force),
     };
-    if (id == SIM_VK_P_CHAIN) return strategy == SIM_VK_CHAIN_GROUP ? chain_group : chain_level;
+    if (id == SIM_VK_P_CHAIN) return chain_level;
     return table[id];
 }
 
@@ -101,9 +101,9 @@ static core_status create_layouts(sim_vk_ctx *c, sim_vk_pipes *p, core_err *err)
 }
 
 static core_status create_pipeline(sim_vk_ctx *c, sim_vk_pipes *p, sim_vk_pipe_id id, const sim_vk_spec *spec,
-                                   sim_vk_chain strategy, core_err *err)
+                                   core_err *err)
 {
-    pipe_src src = source_of(id, strategy);
+    pipe_src src = source_of(id);
     uint32_t *code = NULL;
     size_t words = 0;
     core_status st = sim_vk_spirv_exact(src.code, *src.size / 4, &code, &words, err);
@@ -143,15 +143,14 @@ static core_status create_pipeline(sim_vk_ctx *c, sim_vk_pipes *p, sim_vk_pipe_i
     return st;
 }
 
-core_status sim_vk_pipes_init(sim_vk_ctx *c, sim_vk_pipes *p, uint32_t ns, uint32_t nv, const sim_vk_chain_cfg *chain,
-                              core_err *err)
+core_status sim_vk_pipes_init(sim_vk_ctx *c, sim_vk_pipes *p, uint32_t ns, uint32_t nv, core_err *err)
 {
     memset(p, 0, sizeof *p);
     core_status st = create_layouts(c, p, err);
     for (int id = 0; id < SIM_VK_NPIPES && st == CORE_OK; id++) {
         sim_vk_spec spec = { wg_of((sim_vk_pipe_id)id), ns, nv };
         p->wg[id] = spec.wg;
-        st = create_pipeline(c, p, (sim_vk_pipe_id)id, &spec, chain->strategy, err);
+        st = create_pipeline(c, p, (sim_vk_pipe_id)id, &spec, err);
     }
     if (st != CORE_OK) sim_vk_pipes_destroy(c, p);
     return st;

@@ -78,12 +78,6 @@ void sim_vk_record_chain(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set)
     bind(s, cmd, SIM_VK_P_CHAIN);
     const uint32_t K = (uint32_t)s->params.substeps, chunks = groups(s->ns, SIM_CHUNK);
     for (uint32_t k = 0; k < K; k++) {
-        if (s->chain.strategy == SIM_VK_CHAIN_GROUP) {
-            push(s, cmd, k, 0, 0, 0);
-            vkCmdDispatch(cmd, chunks, 1, 1);
-            sim_vk_barrier(cmd);
-            continue;
-        }
         for (uint32_t l = 1; l < s->nv; l++) {
             push(s, cmd, k, l, 0, 0);
             vkCmdDispatch(cmd, chunks, 1, 1);
