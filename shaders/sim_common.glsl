@@ -1,5 +1,5 @@
 // shaders: buffers, frame parameters and math shared by the solver's compute shaders.
-// Layouts mirror server/sim/vk/sim_vk_internal.h and sim_vk_frame.h; the math mirrors
+// Layouts mirror server/sim/vk/sim_vk_internal.h (sim_vk_frame.c checks them); the math mirrors
 // server/core/math3.h and the C backend (server/sim/sim_cpu*.c) operation for operation.
 
 #include "sim_limits.h"
