@@ -61,6 +61,19 @@ static core_status cpu_set_params(void *self, const sim_params *p, core_err *err
     return CORE_OK;
 }
 
+/* The mean SPH density of the rest pose (the reference rest_density scales), once per groom and
+ * smoothing length; c->step must be planned with the current parameters. */
+static core_status rest_density(sim_cpu *c, core_err *err)
+{
+    if (c->rho_rest_valid) return CORE_OK;
+    double mean;
+    core_status st = sim_cpu_sph_pass(c, c->rest, NULL, c->params.dt, core_xform_identity(), &mean, err);
+    if (st != CORE_OK) return st;
+    c->rho_rest = (float)mean;
+    c->rho_rest_valid = true;
+    return CORE_OK;
+}
+
 static core_status cpu_create(const sim_desc *desc, const core_groom *g, const sim_params *params, void **out,
                               core_err *err)
 {
@@ -111,6 +124,14 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
     c->params = *params;
     update_stiffness(c);
     cpu_reset(c);
+    /* the rest density now, not in the first step: whoever creates the sim (the daemon's loader
+     * thread on a groom change) pays for it, not the first step's frame */
+    const sim_groom_info gi = { c->ncolliders, c->colliders, c->sdf.d ? &c->sdf : NULL, 1.0f, c->sph_auto_h };
+    sim_step_plan(&c->params, &gi, c->head, c->head, &c->step);
+    if (c->step.sph && (st = rest_density(c, err)) != CORE_OK) {
+        cpu_destroy(c);
+        return st;
+    }
     *out = c;
     return CORE_OK;
 }
@@ -133,15 +154,10 @@ static core_status cpu_step(void *self, core_err *err)
     if (!c->sph_warm) c->step.sph_keep = 0.0f; /* a holds no SPH acceleration to smooth */
     const bool sph = c->step.sph;
     if (sph) {
-        if (!c->rho_rest_valid) {
-            double mean;
-            core_status st = sim_cpu_sph_pass(c, c->rest, NULL, dt, core_xform_identity(), &mean, err);
-            if (st != CORE_OK) return st;
-            c->rho_rest = (float)mean;
-            c->rho_rest_valid = true;
-            c->step.inv_rho0 = 1.0f / (c->params.rest_density * c->rho_rest);
-        }
-        core_status st = sim_cpu_sph_pass(c, c->x, c->v, dt, c->prev_head, NULL, err);
+        core_status st = rest_density(c, err);
+        if (st != CORE_OK) return st;
+        c->step.inv_rho0 = 1.0f / (c->params.rest_density * c->rho_rest);
+        st = sim_cpu_sph_pass(c, c->x, c->v, dt, c->prev_head, NULL, err);
         if (st != CORE_OK) return st;
         t1 = core_now_ns();
     }
