@@ -262,10 +262,10 @@ static int apply(int opt, const char *flag, const char *v, app_desc *d, extra_ar
 /* Returns 0 and fills d, or an exit status (help/version print and return -1). */
 static int parse_args(int argc, char **argv, app_desc *d, extra_args *x)
 {
-    opterr = 0;
-    int opt, index;
-    while ((opt = getopt_long(argc, argv, ":h", options, &index)) != -1) {
-        if (opt == '?' || opt == ':') return core_cli_getopt_error(PROG, opt, argv);
+    core_cli_begin();
+    char flag[64];
+    int opt, status;
+    while ((opt = core_cli_next(PROG, argc, argv, options, flag, sizeof flag, &status)) > 0) {
         if (opt == 'h') {
             usage(stdout);
             return -1;
@@ -274,13 +274,10 @@ static int parse_args(int argc, char **argv, app_desc *d, extra_args *x)
             printf("strandcastd %s (protocol %s)\n", STRANDCAST_VERSION, PROTO_SUBPROTOCOL);
             return -1;
         }
-        char flag[64];
-        snprintf(flag, sizeof flag, "--%s", options[index].name);
         int rc = apply(opt, flag, optarg, d, x);
         if (rc) return rc;
     }
-    if (optind < argc) return bad(argv[optind], NULL, "unexpected argument (flags start with --)");
-    return 0;
+    return status;
 }
 
 int main(int argc, char **argv)

@@ -88,16 +88,14 @@ static int parse_args(int argc, char **argv, cli_desc *d)
     d->port = NET_DEFAULT_PORT;
     d->frames = 10;
     d->seconds = 10.0;
-    opterr = 0;
-    int opt, index;
-    while ((opt = getopt_long(argc, argv, ":h", options, &index)) != -1) {
-        if (opt == '?' || opt == ':') return core_cli_getopt_error(PROG, opt, argv);
+    core_cli_begin();
+    char flag[64];
+    int opt, status;
+    while ((opt = core_cli_next(PROG, argc, argv, options, flag, sizeof flag, &status)) > 0) {
         if (opt == 'h') {
             fputs(USAGE, stdout);
             return -1;
         }
-        char flag[64];
-        snprintf(flag, sizeof flag, "--%s", options[index].name);
         const char *v = optarg;
         unsigned long long u = 0;
         int rc = 0;
@@ -122,8 +120,7 @@ static int parse_args(int argc, char **argv, cli_desc *d)
         }
         if (rc) return rc;
     }
-    if (optind < argc) return core_cli_bad(PROG, argv[optind], NULL, "unexpected argument (flags start with --)");
-    return 0;
+    return status;
 }
 
 /* Marks the recording failed with errno's reason (the first failure is kept). */

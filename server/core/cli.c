@@ -24,6 +24,31 @@ int core_cli_getopt_error(const char *prog, int opt, char *const argv[])
     return core_cli_bad(prog, flag, NULL, "unknown option");
 }
 
+void core_cli_begin(void)
+{
+    optind = 1;
+    opterr = 0;
+}
+
+int core_cli_next(const char *prog, int argc, char *argv[], const struct option *opts, char *flag, size_t cap,
+                  int *status)
+{
+    int index = 0;
+    int opt = getopt_long(argc, argv, ":h", opts, &index);
+    *status = 0;
+    if (opt == -1) {
+        if (optind >= argc) return -1;
+        *status = core_cli_bad(prog, argv[optind], NULL, "unexpected argument (flags start with --)");
+        return 0;
+    }
+    if (opt == '?' || opt == ':') {
+        *status = core_cli_getopt_error(prog, opt, argv);
+        return 0;
+    }
+    snprintf(flag, cap, "--%s", opt == 'h' ? "help" : opts[index].name);
+    return opt;
+}
+
 int core_cli_u64(const char *prog, const char *flag, const char *v, unsigned long long lo, unsigned long long hi,
                  unsigned long long *out)
 {

@@ -170,17 +170,14 @@ static int parse_opts(int argc, char **argv, fanout_opts *o)
     o->seconds = 5;
     o->warmup = 6;
     o->max_rate = 30;
-    optind = 1;
-    opterr = 0;
-    int opt, index;
-    while ((opt = getopt_long(argc, argv, ":h", fanout_options, &index)) != -1) {
-        if (opt == '?' || opt == ':') return core_cli_getopt_error(PROG, opt, argv);
+    core_cli_begin();
+    char flag[32];
+    int opt, status;
+    while ((opt = core_cli_next(PROG, argc, argv, fanout_options, flag, sizeof flag, &status)) > 0) {
         if (opt == 'h') {
             puts(FANOUT_USAGE);
             return 1;
         }
-        char flag[32];
-        snprintf(flag, sizeof flag, "--%s", fanout_options[index].name);
         const char *v = optarg;
         unsigned long long u = 0;
         int rc = 0;
@@ -210,7 +207,7 @@ static int parse_opts(int argc, char **argv, fanout_opts *o)
         }
         if (rc) return rc;
     }
-    if (optind < argc) return core_cli_bad(PROG, argv[optind], NULL, "unexpected argument (flags start with --)");
+    if (status) return status;
     if (!o->ncases) {
         o->clients[0] = 1, o->clients[1] = 10, o->clients[2] = 100;
         o->ncases = 3;

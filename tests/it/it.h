@@ -109,6 +109,9 @@ void wait_frames(fixture *fx, view *v, uint64_t n);
 void wait_sim_time(fixture *fx, view *v, double t);
 /* Mean y of the strand tips of v's last frame. */
 double mean_tip_y(const view *v);
+/* Sends the raw HTTP request and checks the reply's status and that its body holds needle (NULL:
+ * not checked); fails the test otherwise. */
+void expect_http(fixture *fx, const char *request, int status, const char *needle, int timeout_ms);
 /* Monotonic seconds. */
 double now_s(void);
 /* The value of a /metrics line name (NAN when absent). */

@@ -108,20 +108,12 @@ void test_origin_refused(void **state)
         "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n"
         "Sec-WebSocket-Protocol: " SUBPROTOCOL "\r\n%s\r\n";
     char buf[512];
-    http_reply r;
     snprintf(buf, sizeof buf, req, "Origin: https://evil.example\r\n");
-    assert_int_equal(http_exchange(fx->d.port, buf, &r, 3000), 0);
-    assert_int_equal(r.status, 403);
-    assert_non_null(strstr(r.body, "https://evil.example"));
-    http_reply_free(&r);
+    expect_http(fx, buf, 403, "https://evil.example", 3000);
     snprintf(buf, sizeof buf, req, "Origin: https://good.example\r\n");
-    assert_int_equal(http_exchange(fx->d.port, buf, &r, 300), 0);
-    assert_int_equal(r.status, 101);
-    http_reply_free(&r);
+    expect_http(fx, buf, 101, NULL, 300);
     snprintf(buf, sizeof buf, req, "");
-    assert_int_equal(http_exchange(fx->d.port, buf, &r, 300), 0);
-    assert_int_equal(r.status, 101);
-    http_reply_free(&r);
+    expect_http(fx, buf, 101, NULL, 300);
 }
 
 /* --tls-cert/--tls-key: the daemon speaks wss (hello and decodable frames over TLS); a plain

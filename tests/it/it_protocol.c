@@ -322,26 +322,16 @@ void test_subprotocol_refused(void **state)
         "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
         "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n%s\r\n";
     char buf[512];
-    http_reply r;
     snprintf(buf, sizeof buf, req, "Sec-WebSocket-Protocol: strandcast.v1\r\n");
-    assert_int_equal(http_exchange(fx->d.port, buf, &r, 3000), 0);
-    assert_int_equal(r.status, 400);
-    assert_non_null(strstr(r.body, "strandcast.v2"));
-    assert_non_null(strstr(r.body, "strandcast.v1"));
-    http_reply_free(&r);
+    expect_http(fx, buf, 400, "strandcast.v2", 3000);
+    expect_http(fx, buf, 400, "strandcast.v1", 3000);
     snprintf(buf, sizeof buf, req, "");
-    assert_int_equal(http_exchange(fx->d.port, buf, &r, 3000), 0);
-    assert_int_equal(r.status, 400);
-    assert_non_null(strstr(r.body, "strandcast.v2"));
-    http_reply_free(&r);
+    expect_http(fx, buf, 400, "strandcast.v2", 3000);
     /* the Upgrade token is case-insensitive (RFC 7230): "WebSocket" is checked like "websocket" */
     static const char *const caps =
         "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: WebSocket\r\nConnection: Upgrade\r\n"
         "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n";
-    assert_int_equal(http_exchange(fx->d.port, caps, &r, 3000), 0);
-    assert_int_equal(r.status, 400);
-    assert_non_null(strstr(r.body, "strandcast.v2"));
-    http_reply_free(&r);
+    expect_http(fx, caps, 400, "strandcast.v2", 3000);
     /* RFC 6455: version 13 only (426 otherwise, or when missing), and a Host header */
     static const char *const versioned =
         "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
@@ -349,23 +339,15 @@ void test_subprotocol_refused(void **state)
     static const char *const versions[] = { "Sec-WebSocket-Version: 8\r\n", "" };
     for (int i = 0; i < 2; i++) {
         snprintf(buf, sizeof buf, versioned, versions[i]);
-        assert_int_equal(http_exchange(fx->d.port, buf, &r, 3000), 0);
-        assert_int_equal(r.status, 426);
-        assert_non_null(strstr(r.body, "13"));
-        http_reply_free(&r);
+        expect_http(fx, buf, 426, "13", 3000);
     }
     static const char *const hostless =
         "GET / HTTP/1.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
         "Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: " SUBPROTOCOL "\r\n\r\n";
-    assert_int_equal(http_exchange(fx->d.port, hostless, &r, 3000), 0);
-    assert_int_equal(r.status, 400);
-    assert_non_null(strstr(r.body, "Host"));
-    http_reply_free(&r);
+    expect_http(fx, hostless, 400, "Host", 3000);
     /* the right name in a list is accepted */
     snprintf(buf, sizeof buf, req, "Sec-WebSocket-Protocol: chat, strandcast.v2\r\n");
-    assert_int_equal(http_exchange(fx->d.port, buf, &r, 300), 0);
-    assert_int_equal(r.status, 101);
-    http_reply_free(&r);
+    expect_http(fx, buf, 101, NULL, 300);
     /* a real client asking for another subprotocol fails to connect */
     wsc_conn *c = wsc_connect(fx->w, fx->d.port, "other.v9", NULL, NULL);
     assert_false(wsc_wait_open(fx->w, c, WAIT_MS));

@@ -282,3 +282,13 @@ bool frame_shape(void *arg)
     count_arg *a = arg;
     return a->v->ok && a->v->info.nstrands_total == a->strands && a->v->info.nverts == a->verts;
 }
+
+void expect_http(fixture *fx, const char *request, int status, const char *needle, int timeout_ms)
+{
+    http_reply r;
+    assert_int_equal(http_exchange(fx->d.port, request, &r, timeout_ms), 0);
+    if (r.status != status || (needle && (!r.body || !strstr(r.body, needle))))
+        fail_msg("HTTP %d (want %d%s%s): %s", r.status, status, needle ? " with " : "", needle ? needle : "",
+                 r.body ? r.body : "");
+    http_reply_free(&r);
+}
