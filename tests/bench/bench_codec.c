@@ -13,6 +13,7 @@
 #include "bench.h"
 #include "codec/codec.h"
 #include "codec_synth.h"
+#include "core/cli.h"
 #include "core/math3.h"
 #include "groom/groom.h"
 #include "sim/sim.h"
@@ -256,6 +257,26 @@ static void usage(void)
          "     clock (for a host that other jobs load).");
 }
 
+#define PROG "strandbench codec"
+
+enum { OPT_JSON = 256, OPT_CPU_TIME, OPT_SYNTHETIC, OPT_SAVE_FRAMES, OPT_FRAMES, OPT_SECONDS, OPT_FPS, OPT_STRANDS, OPT_VERTS,
+       OPT_JS_FRAMES };
+
+static const struct option codec_options[] = {
+    { "json", no_argument, NULL, OPT_JSON },
+    { "cpu-time", no_argument, NULL, OPT_CPU_TIME },
+    { "synthetic", no_argument, NULL, OPT_SYNTHETIC },
+    { "save-frames", required_argument, NULL, OPT_SAVE_FRAMES },
+    { "frames", required_argument, NULL, OPT_FRAMES },
+    { "seconds", required_argument, NULL, OPT_SECONDS },
+    { "fps", required_argument, NULL, OPT_FPS },
+    { "strands", required_argument, NULL, OPT_STRANDS },
+    { "verts", required_argument, NULL, OPT_VERTS },
+    { "js-frames", required_argument, NULL, OPT_JS_FRAMES },
+    { "help", no_argument, NULL, 'h' },
+    { NULL, 0, NULL, 0 },
+};
+
 int bench_codec_main(int argc, char **argv)
 {
     int json = 0, cpu_time = 0;
@@ -264,24 +285,35 @@ int bench_codec_main(int argc, char **argv)
     frame_src src = { .nstrands = 4096, .nverts = 32, .fps = 60.0 };
     uint32_t js_frames = 30;
     const char *save = NULL;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int more = i + 1 < argc;
-        if (strcmp(a, "--json") == 0) json = 1;
-        else if (strcmp(a, "--cpu-time") == 0) cpu_time = 1;
-        else if (strcmp(a, "--synthetic") == 0) src.synthetic = 1;
-        else if (strcmp(a, "--save-frames") == 0 && more) save = argv[++i];
-        else if (strcmp(a, "--frames") == 0 && more) path = argv[++i];
-        else if (strcmp(a, "--seconds") == 0 && more) seconds = atof(argv[++i]);
-        else if (strcmp(a, "--fps") == 0 && more) src.fps = atof(argv[++i]);
-        else if (strcmp(a, "--strands") == 0 && more) src.nstrands = (uint32_t)atoi(argv[++i]);
-        else if (strcmp(a, "--verts") == 0 && more) src.nverts = (uint32_t)atoi(argv[++i]);
-        else if (strcmp(a, "--js-frames") == 0 && more) js_frames = (uint32_t)atoi(argv[++i]);
-        else {
-            usage();
-            return strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0 ? 0 : 2;
+    core_cli_begin();
+    char flag[32];
+    int opt, status;
+    while ((opt = core_cli_next(PROG, argc, argv, codec_options, flag, sizeof flag, &status)) > 0) {
+        const char *v = optarg;
+        unsigned long long u = 0;
+        int rc = 0;
+        switch (opt) {
+        case 'h': usage(); return 0;
+        case OPT_JSON: json = 1; break;
+        case OPT_CPU_TIME: cpu_time = 1; break;
+        case OPT_SYNTHETIC: src.synthetic = 1; break;
+        case OPT_SAVE_FRAMES: save = v; break;
+        case OPT_FRAMES: path = v; break;
+        case OPT_SECONDS: rc = core_cli_f64(PROG, flag, v, 0.01, 3600.0, &seconds); break;
+        case OPT_FPS: rc = core_cli_f64(PROG, flag, v, 1.0, 1000.0, &src.fps); break;
+        case OPT_STRANDS:
+            if (!(rc = core_cli_u64(PROG, flag, v, 1, 1u << 20, &u))) src.nstrands = (uint32_t)u;
+            break;
+        case OPT_VERTS:
+            if (!(rc = core_cli_u64(PROG, flag, v, 2, 1024, &u))) src.nverts = (uint32_t)u;
+            break;
+        case OPT_JS_FRAMES:
+            if (!(rc = core_cli_u64(PROG, flag, v, 0, 1000000, &u))) js_frames = (uint32_t)u;
+            break;
         }
+        if (rc) return rc;
     }
+    if (status) return status;
     if (path) {
         if (src_open_file(&src, path)) return 1;
     } else if (!src.synthetic) {

@@ -6,6 +6,7 @@
 
 #include "bench.h"
 #include "bench_quality.h"
+#include "core/cli.h"
 #include "groom/groom.h"
 #include "support/quality.h"
 
@@ -303,77 +304,75 @@ static int run_groom(const bq_opts *o, const core_groom *g, const char *gname)
     return rc;
 }
 
-static bool parse_num(const char *flag, const char *v, double lo, double hi, double *out)
-{
-    char *end;
-    double x = strtod(v, &end);
-    if (*end || !(x >= lo && x <= hi)) {
-        fprintf(stderr, "strandbench quality: %s wants a number in [%g, %g], got '%s'\n", flag, lo, hi, v);
-        return false;
-    }
-    *out = x;
-    return true;
-}
+#define PROG "strandbench quality"
+
+enum { OPT_JSON = 256, OPT_NN, OPT_FULL, OPT_BACKEND, OPT_GROOM, OPT_PARAM, OPT_GROOM_FILE, OPT_COLLIDER_FILE, OPT_PRESET,
+       OPT_STRANDS, OPT_VERTS, OPT_THREADS, OPT_SECONDS_MOTION, OPT_SECONDS_REST };
+
+static const struct option quality_options[] = {
+    { "json", no_argument, NULL, OPT_JSON },
+    { "nn", no_argument, NULL, OPT_NN },
+    { "full", no_argument, NULL, OPT_FULL },
+    { "backend", required_argument, NULL, OPT_BACKEND },
+    { "groom", required_argument, NULL, OPT_GROOM },
+    { "param", required_argument, NULL, OPT_PARAM },
+    { "groom-file", required_argument, NULL, OPT_GROOM_FILE },
+    { "collider-file", required_argument, NULL, OPT_COLLIDER_FILE },
+    { "preset", required_argument, NULL, OPT_PRESET },
+    { "strands", required_argument, NULL, OPT_STRANDS },
+    { "verts", required_argument, NULL, OPT_VERTS },
+    { "threads", required_argument, NULL, OPT_THREADS },
+    { "seconds-motion", required_argument, NULL, OPT_SECONDS_MOTION },
+    { "seconds-rest", required_argument, NULL, OPT_SECONDS_REST },
+    { "help", no_argument, NULL, 'h' },
+    { NULL, 0, NULL, 0 },
+};
 
 /* Parses argv into *o; returns -1 to go on, else the exit code. */
 static int parse_args(int argc, char **argv, bq_opts *o)
 {
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-        double x;
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            usage();
-            return 0;
-        } else if (strcmp(a, "--json") == 0) {
-            o->json = true;
-        } else if (strcmp(a, "--nn") == 0) {
-            o->nn = true;
-        } else if (strcmp(a, "--full") == 0) {
-            o->full = true;
-        } else if (v && strcmp(a, "--backend") == 0) {
+    core_cli_begin();
+    char flag[32];
+    int opt, status;
+    while ((opt = core_cli_next(PROG, argc, argv, quality_options, flag, sizeof flag, &status)) > 0) {
+        const char *v = optarg;
+        unsigned long long u = 0;
+        int rc = 0;
+        switch (opt) {
+        case 'h': usage(); return 0;
+        case OPT_JSON: o->json = true; break;
+        case OPT_NN: o->nn = true; break;
+        case OPT_FULL: o->full = true; break;
+        case OPT_BACKEND:
             if (strcmp(v, "cpu") == 0) o->backend = SIM_BACKEND_CPU;
             else if (strcmp(v, "vulkan") == 0) o->backend = SIM_BACKEND_VULKAN;
-            else {
-                fprintf(stderr, "strandbench quality: --backend wants cpu or vulkan, got '%s'\n", v);
-                return 2;
-            }
-            i++;
-        } else if (v && strcmp(a, "--groom") == 0) {
-            o->groom = argv[++i];
-        } else if (v && strcmp(a, "--param") == 0) {
-            o->param = argv[++i];
-        } else if (v && strcmp(a, "--groom-file") == 0) {
-            o->groom_file = argv[++i];
-        } else if (v && strcmp(a, "--collider-file") == 0) {
-            o->collider_file = argv[++i];
-        } else if (v && strcmp(a, "--preset") == 0) {
+            else return core_cli_bad(PROG, flag, v, "expected cpu or vulkan");
+            break;
+        case OPT_GROOM: o->groom = v; break;
+        case OPT_PARAM: o->param = v; break;
+        case OPT_GROOM_FILE: o->groom_file = v; break;
+        case OPT_COLLIDER_FILE: o->collider_file = v; break;
+        case OPT_PRESET:
             o->preset = -1;
             for (int p = 0; p < APP_PRESET_COUNT; p++)
                 if (strcmp(v, app_preset_names[p]) == 0) o->preset = p;
-            if (o->preset < 0) {
-                fprintf(stderr, "strandbench quality: unknown preset '%s' (none, nod, shake, circle, headbang, sway)\n", v);
-                return 2;
-            }
-            i++;
-        } else if (v && (strcmp(a, "--strands") == 0 || strcmp(a, "--verts") == 0 || strcmp(a, "--threads") == 0)) {
-            if (!parse_num(a, v, a[2] == 'v' ? 2 : 1, a[2] == 't' && a[3] == 'h' ? 1024 : GROOM_MAX_STRANDS, &x) ||
-                x != floor(x))
-                return 2;
-            if (a[2] == 's') o->strands = (uint32_t)x;
-            else if (a[2] == 'v') o->verts = (uint32_t)x;
-            else o->threads = (int)x;
-            i++;
-        } else if (v && (strcmp(a, "--seconds-motion") == 0 || strcmp(a, "--seconds-rest") == 0)) {
-            if (!parse_num(a, v, a[10] == 'm' ? 0.0 : 0.05, 3600.0, &x)) return 2;
-            if (a[10] == 'm') o->seconds_motion = x;
-            else o->seconds_rest = x;
-            i++;
-        } else {
-            fprintf(stderr, "strandbench quality: unknown or incomplete option '%s' (see --help)\n", a);
-            return 2;
+            if (o->preset < 0) return core_cli_bad(PROG, flag, v, "expected none, nod, shake, circle, headbang or sway");
+            break;
+        case OPT_STRANDS:
+            if (!(rc = core_cli_u64(PROG, flag, v, 1, GROOM_MAX_STRANDS, &u))) o->strands = (uint32_t)u;
+            break;
+        case OPT_VERTS:
+            if (!(rc = core_cli_u64(PROG, flag, v, 2, GROOM_MAX_STRANDS, &u))) o->verts = (uint32_t)u;
+            break;
+        case OPT_THREADS:
+            if (!(rc = core_cli_u64(PROG, flag, v, 1, 1024, &u))) o->threads = (int)u;
+            break;
+        case OPT_SECONDS_MOTION: rc = core_cli_f64(PROG, flag, v, 0.0, 3600.0, &o->seconds_motion); break;
+        case OPT_SECONDS_REST: rc = core_cli_f64(PROG, flag, v, 0.05, 3600.0, &o->seconds_rest); break;
         }
+        if (rc) return rc;
     }
-    return -1;
+    return status ? status : -1;
 }
 
 /* Gives g the collision mesh at path and its distance grid over groom_collider_region. */

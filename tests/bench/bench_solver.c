@@ -8,6 +8,7 @@
 
 #include "app/app_anim.h"
 #include "bench.h"
+#include "core/cli.h"
 #include "groom/groom.h"
 #include "sim/sim.h"
 #include "sim/sim_step.h"
@@ -169,6 +170,35 @@ static int run_case(const core_groom *g, int feat, sim_backend_kind backend, con
     return 0;
 }
 
+#define PROG "strandbench"
+
+enum { OPT_JSON = 256, OPT_CASE, OPT_FEATURES, OPT_BACKEND, OPT_DEVICE, OPT_SUBSTEPS, OPT_ANIMATE, OPT_GROOM, OPT_STEPS,
+       OPT_THREADS };
+
+static const struct option solver_options[] = {
+    { "json", no_argument, NULL, OPT_JSON },         { "case", required_argument, NULL, OPT_CASE },
+    { "features", required_argument, NULL, OPT_FEATURES }, { "backend", required_argument, NULL, OPT_BACKEND },
+    { "device", required_argument, NULL, OPT_DEVICE },     { "substeps", required_argument, NULL, OPT_SUBSTEPS },
+    { "animate", required_argument, NULL, OPT_ANIMATE },   { "groom", required_argument, NULL, OPT_GROOM },
+    { "steps", required_argument, NULL, OPT_STEPS },       { "threads", required_argument, NULL, OPT_THREADS },
+    { "help", no_argument, NULL, 'h' },                    { NULL, 0, NULL, 0 },
+};
+
+/* Each comma-separated name of v found in names[0, n) into out (at most cap); 0 or the bad-flag status. */
+static int parse_names(const char *flag, const char *v, const char *const *names, int n, int *out, int *count, int cap,
+                       const char *expected)
+{
+    char buf[256];
+    snprintf(buf, sizeof buf, "%s", v);
+    for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ",")) {
+        int k = 0;
+        while (k < n && strcmp(tok, names[k]) != 0) k++;
+        if (k == n || *count == cap) return core_cli_bad(PROG, flag, tok, expected);
+        out[(*count)++] = k;
+    }
+    return 0;
+}
+
 int bench_solver_main(int argc, char **argv)
 {
     bench_case cases[MAX_CASES];
@@ -177,93 +207,55 @@ int bench_solver_main(int argc, char **argv)
     int substeps = 1, presets[APP_PRESET_COUNT], npresets = 0;
     const char *groom_file = NULL;
     sim_backend_kind backend = SIM_BACKEND_CPU; /* AUTO here means both, side by side */
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            usage();
-            return 0;
-        } else if (strcmp(a, "--json") == 0) {
-            json = true;
-        } else if (v && strcmp(a, "--case") == 0) {
+    core_cli_begin();
+    char flag[32];
+    int opt, status;
+    while ((opt = core_cli_next(PROG, argc, argv, solver_options, flag, sizeof flag, &status)) > 0) {
+        const char *v = optarg;
+        unsigned long long u = 0;
+        int rc = 0, fs[8], nf = 0;
+        switch (opt) {
+        case 'h': usage(); return 0;
+        case OPT_JSON: json = true; break;
+        case OPT_CASE: {
             unsigned s, n;
             char tail;
-            if (ncases == MAX_CASES || sscanf(v, "%ux%u%c", &s, &n, &tail) != 2 || s == 0 || n < 2) {
-                fprintf(stderr, "strandbench: --case wants STRANDSxVERTS (e.g. 16384x64), got '%s'\n", v);
-                return 2;
-            }
+            if (ncases == MAX_CASES || sscanf(v, "%ux%u%c", &s, &n, &tail) != 2 || s == 0 || n < 2)
+                return core_cli_bad(PROG, flag, v, "expected STRANDSxVERTS, e.g. 16384x64");
             cases[ncases++] = (bench_case){ s, n };
-            i++;
-        } else if (v && strcmp(a, "--features") == 0) {
-            char buf[256];
-            snprintf(buf, sizeof buf, "%s", v);
-            for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ",")) {
-                int k = 0;
-                while (k < 3 && strcmp(tok, feature_names[k]) != 0) k++;
-                if (k == 3) {
-                    fprintf(stderr, "strandbench: unknown feature set '%s' (dftl, dftl+shape, dftl+shape+sph)\n", tok);
-                    return 2;
-                }
-                feats[k] = any_feat = true;
-            }
-            i++;
-        } else if (v && strcmp(a, "--backend") == 0) {
+            break;
+        }
+        case OPT_FEATURES:
+            rc = parse_names(flag, v, feature_names, 3, fs, &nf, 8, "expected dftl, dftl+shape or dftl+shape+sph");
+            for (int k = 0; k < nf; k++) feats[fs[k]] = any_feat = true;
+            break;
+        case OPT_BACKEND:
             if (strcmp(v, "cpu") == 0) backend = SIM_BACKEND_CPU;
             else if (strcmp(v, "vulkan") == 0) backend = SIM_BACKEND_VULKAN;
             else if (strcmp(v, "both") == 0) backend = SIM_BACKEND_AUTO;
-            else {
-                fprintf(stderr, "strandbench: --backend wants cpu, vulkan or both, got '%s'\n", v);
-                return 2;
-            }
-            i++;
-        } else if (v && strcmp(a, "--device") == 0) {
-            char *end;
-            long x = strtol(v, &end, 10);
-            if (*end || x < 0 || x > 64) {
-                fprintf(stderr, "strandbench: --device wants 0..64, got '%s'\n", v);
-                return 2;
-            }
-            device = (int)x;
-            i++;
-        } else if (v && strcmp(a, "--substeps") == 0) {
-            char *end;
-            long x = strtol(v, &end, 10);
-            if (*end || x < 1 || x > SIM_MAX_SUBSTEPS) {
-                fprintf(stderr, "strandbench: --substeps wants 1..%d, got '%s'\n", SIM_MAX_SUBSTEPS, v);
-                return 2;
-            }
-            substeps = (int)x;
-            i++;
-        } else if (v && strcmp(a, "--animate") == 0) {
-            char buf[256];
-            snprintf(buf, sizeof buf, "%s", v);
-            for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ",")) {
-                int k = 0;
-                while (k < APP_PRESET_COUNT && strcmp(tok, app_preset_names[k]) != 0) k++;
-                if (k == APP_PRESET_COUNT || npresets == APP_PRESET_COUNT) {
-                    fprintf(stderr, "strandbench: --animate wants presets (none, nod, shake, circle, headbang, sway), got '%s'\n", tok);
-                    return 2;
-                }
-                presets[npresets++] = k;
-            }
-            i++;
-        } else if (v && strcmp(a, "--groom") == 0) {
-            groom_file = v;
-            i++;
-        } else if (v && (strcmp(a, "--steps") == 0 || strcmp(a, "--threads") == 0)) {
-            char *end;
-            long x = strtol(v, &end, 10);
-            if (*end || x < 1 || x > 1000000) {
-                fprintf(stderr, "strandbench: %s wants a positive integer, got '%s'\n", a, v);
-                return 2;
-            }
-            if (a[2] == 's') steps = (int)x;
-            else threads = (int)x;
-            i++;
-        } else {
-            fprintf(stderr, "strandbench: unknown or incomplete option '%s' (see --help)\n", a);
-            return 2;
+            else return core_cli_bad(PROG, flag, v, "expected cpu, vulkan or both");
+            break;
+        case OPT_DEVICE:
+            if (!(rc = core_cli_u64(PROG, flag, v, 0, 64, &u))) device = (int)u;
+            break;
+        case OPT_SUBSTEPS:
+            if (!(rc = core_cli_u64(PROG, flag, v, 1, SIM_MAX_SUBSTEPS, &u))) substeps = (int)u;
+            break;
+        case OPT_ANIMATE:
+            rc = parse_names(flag, v, app_preset_names, APP_PRESET_COUNT, presets, &npresets, APP_PRESET_COUNT,
+                             "expected presets: none, nod, shake, circle, headbang, sway");
+            break;
+        case OPT_GROOM: groom_file = v; break;
+        case OPT_STEPS:
+            if (!(rc = core_cli_u64(PROG, flag, v, 1, 1000000, &u))) steps = (int)u;
+            break;
+        case OPT_THREADS:
+            if (!(rc = core_cli_u64(PROG, flag, v, 1, 1000000, &u))) threads = (int)u;
+            break;
         }
+        if (rc) return rc;
     }
+    if (status) return status;
     if (threads == 0) {
         long nc = sysconf(_SC_NPROCESSORS_ONLN);
         threads = nc > 0 ? (int)nc : 1;
