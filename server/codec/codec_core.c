@@ -456,7 +456,7 @@ int codec_core_header(codec_core_info *h, codec_core_error *e, const uint8_t *p,
     h->pad = 0;
     if (h->keyframe ? h->ref_seq != h->seq : h->ref_seq >= h->seq) return fail_at(e, CODEC_E_REF, CODEC_OFF_REF, 0, 0, 0);
     if ((time_bits >> 52 & 0x7ffu) == 0x7ffu) return fail_at(e, CODEC_E_TIME, CODEC_OFF_TIME, 0, 0, 0);
-    if (!(h->max_error_m >= 1e-5f && h->max_error_m <= 0.1f)) return fail_at(e, CODEC_E_BOUND, CODEC_OFF_BOUND, 0, 0, 0);
+    if (!(h->max_error_m >= CODEC_MIN_ERROR && h->max_error_m <= CODEC_MAX_ERROR)) return fail_at(e, CODEC_E_BOUND, CODEC_OFF_BOUND, 0, 0, 0);
     if (!(h->step > 0.0 && h->step <= 2.0 * (double)h->max_error_m)) return fail_at(e, CODEC_E_STEP, CODEC_OFF_STEP, 0, 0, 0);
     if (h->nverts < 2 || h->nverts > CODEC_MAX_NVERTS) return fail_at(e, CODEC_E_NVERTS, CODEC_OFF_NVERTS, 0, 0, 0);
     if (h->stride < 1 || h->nstrands_total < 1) return fail_at(e, CODEC_E_COUNTS, h->stride < 1 ? CODEC_OFF_STRIDE : CODEC_OFF_TOTAL, 0, 0, 0);

@@ -73,7 +73,8 @@ static core_status report(const codec_core_error *e, const codec_core_info *h, s
                          h->keyframe ? "keyframe" : "delta frame", seq, at);
     case CODEC_E_TIME: return core_fail(err, st, "codec: sim time is not finite [%s]", at);
     case CODEC_E_BOUND:
-        return core_fail(err, st, "codec: error bound %g m outside [1e-5, 0.1] [%s]", (double)h->max_error_m, at);
+        return core_fail(err, st, "codec: error bound %g m outside [%g, %g] [%s]", (double)h->max_error_m,
+                         (double)CODEC_MIN_ERROR, (double)CODEC_MAX_ERROR, at);
     case CODEC_E_STEP:
         return core_fail(err, st, "codec: quantization step %g m does not meet bound %g m [%s]", h->step,
                          (double)h->max_error_m, at);

@@ -48,8 +48,9 @@ core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint3
     if (d.max_error_m == 0.0f) d.max_error_m = CODEC_DEFAULT_MAX_ERROR;
     if (d.key_interval == 0) d.key_interval = CODEC_DEFAULT_KEY_INTERVAL;
     if (d.stride == 0) d.stride = 1;
-    if (!(d.max_error_m >= 1e-5f && d.max_error_m <= 0.1f))
-        return core_fail(err, CORE_EINVAL, "codec: max_error_m %g outside [1e-5, 0.1] m", (double)d.max_error_m);
+    if (!(d.max_error_m >= CODEC_MIN_ERROR && d.max_error_m <= CODEC_MAX_ERROR))
+        return core_fail(err, CORE_EINVAL, "codec: max_error_m %g outside [%g, %g] m", (double)d.max_error_m,
+                         (double)CODEC_MIN_ERROR, (double)CODEC_MAX_ERROR);
     if (nstrands < 1) return core_fail(err, CORE_EINVAL, "codec: no strands");
     if (nverts < 2 || nverts > CODEC_MAX_NVERTS)
         return core_fail(err, CORE_EINVAL, "codec: %u vertices per strand outside [2, %u]", nverts,

@@ -12,6 +12,8 @@
 
 /* rANS: 12-bit probabilities, 16-bit renormalisation, states in [2^16, 2^32), one state per lane
  * of a group of CODEC_LANES strands. */
+#define CODEC_MIN_ERROR 1e-5f /* the per-axis error bound a frame may carry, m */
+#define CODEC_MAX_ERROR 0.1f
 #define CODEC_SCALE_BITS 12u
 #define CODEC_SCALE (1u << CODEC_SCALE_BITS)
 #define CODEC_RANS_L (1u << 16)
