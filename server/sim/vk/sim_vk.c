@@ -483,10 +483,10 @@ static core_status create_impl(const sim_desc *desc, const sim_vk_options *opt, 
         s->sdf.cell = g->sdf->cell;
     }
     s->sph_auto_h = sim_sph_auto_radius(g);
+    /* Debug builds always validate */
+    bool validation = opt && opt->validation;
 #ifdef STRANDCAST_VK_DEBUG
-    const bool validation = true;
-#else
-    const bool validation = opt && opt->validation;
+    validation = true;
 #endif
     st = sim_vk_ctx_init(&s->ctx, desc ? desc->device : 0, validation, err);
     if (st == CORE_OK) {
