@@ -37,8 +37,8 @@ static void publish(app_world *w)
     sim_stats ss;
     sim_get_stats(&w->sim, &ss);
     app_publish_result r = app_streams_publish(&w->streams, w->xyz, ss.sim_time);
-    for (int i = 0; i < NET_MAX_STREAMS; i++)
-        if (r.began_failing & (1u << i)) app_cmd_tell_failure(w, i, NET_ALL);
+    for (uint32_t m = r.began_failing; m; m &= m - 1) /* usually none: no loop per frame */
+        app_cmd_tell_failure(w, __builtin_ctz(m), NET_ALL);
     if (!w->out->net) return;
     pthread_mutex_lock(&w->board->mu);
     w->board->s.frames_encoded += r.frames;
