@@ -117,8 +117,8 @@ void sim_step_plan(const sim_params *p, const sim_groom_info *g, core_xform prev
     /* the pressure term through the stiffness holding a vertex (sim_limits.h); times
      * rest_density, so that the pressure is k (rho - rho0) / mean rest density: a lower rest
      * density adds a bounded pressure, not one that grows as 1 / rho0 */
-    const float hold = (float)SIM_SPH_ACCEL_SCALE +
-                       (p->shape ? (float)SIM_SPH_HOLD_GAIN * p->global_stiffness * p->stiffness_tip : 0.0f);
+    const float spring = MINF(p->global_stiffness, (float)SIM_SPH_HOLD_LOCAL_SHARE * p->local_stiffness);
+    const float hold = (float)SIM_SPH_ACCEL_SCALE + (p->shape ? (float)SIM_SPH_HOLD_GAIN * spring * p->stiffness_tip : 0.0f);
     out->kp = p->repulsion * p->rest_density * out->sph_h * hold;
     out->mu_dt = p->viscosity * p->dt;
     out->sph_keep = p->shape ? expf(-p->dt / (float)SIM_SPH_SMOOTH_TIME) : 0.0f; /* sim_limits.h */
