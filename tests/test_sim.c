@@ -11,6 +11,7 @@
 
 #include "groom/groom.h"
 #include "sim/sim.h"
+#include "sim/sim_step.h"
 #include "support/quality.h"
 #include "support/sim_check.h"
 
@@ -425,6 +426,46 @@ static void test_roots_follow_head(void **state)
     drop(&f);
 }
 
+/* SPH is evaluated at SIM_SPH_RATE in whole steps with shape on (every second step at 1/60 s,
+ * every fourth at 0.008 s, every step at 1/30 s), every step with shape off; an evaluation
+ * keeps exp(-elapsed / SIM_SPH_SMOOTH_TIME) of the held acceleration (none when cold), and
+ * turning SPH off leaves the backend cold. */
+static void test_sph_clock(void **state)
+{
+    (void)state;
+    const struct { float dt; bool shape; const char *pattern; } cases[] = {
+        { 1.0f / 60.0f, true, "YnYnYnYn" }, { 0.008f, true, "YnnnYnnnY" },
+        { 1.0f / 30.0f, true, "YYYY" },     { 1.0f / 60.0f, false, "YYYY" },
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        sim_params p;
+        sim_params_default(&p);
+        p.dt = cases[c].dt;
+        p.shape = cases[c].shape;
+        sim_sph_clock clk = { 0 };
+        for (size_t k = 0; cases[c].pattern[k]; k++) {
+            sim_step_desc d = { .sph = true };
+            sim_step_sph_clock(&p, &clk, &d);
+            assert_int_equal(d.sph_eval, cases[c].pattern[k] == 'Y');
+            const uint32_t every = cases[c].shape ? (uint32_t)(strchr(cases[c].pattern + 1, 'Y') - cases[c].pattern) : 1;
+            const double keep = k == 0 || !d.sph_eval || !cases[c].shape ? 0.0 : exp(-every * (double)p.dt / SIM_SPH_SMOOTH_TIME);
+            assert_float_equal(d.sph_keep, keep, 1e-6);
+        }
+    }
+    sim_params p;
+    sim_params_default(&p);
+    sim_sph_clock clk = { 0 };
+    sim_step_desc d = { .sph = true };
+    sim_step_sph_clock(&p, &clk, &d);
+    d = (sim_step_desc){ .sph = false };
+    sim_step_sph_clock(&p, &clk, &d);
+    assert_false(d.sph_eval);
+    d = (sim_step_desc){ .sph = true };
+    sim_step_sph_clock(&p, &clk, &d);
+    assert_true(d.sph_eval);
+    assert_float_equal(d.sph_keep, 0.0, 0.0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -434,6 +475,7 @@ int main(void)
         cmocka_unit_test(test_param_validation),  cmocka_unit_test(test_param_changes),
         cmocka_unit_test(test_nan_guard),         cmocka_unit_test(test_roots_follow_head),
         cmocka_unit_test(test_scalar_kernels_match), cmocka_unit_test(test_kept_lists_match_search),
+        cmocka_unit_test(test_sph_clock),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

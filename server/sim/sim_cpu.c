@@ -23,7 +23,7 @@ static void cpu_reset(void *self)
     }
     c->prev_head = c->head;
     c->sph.lists_valid = false;
-    c->sph_warm = false;
+    c->sph_clock = (sim_sph_clock){ 0 };
     memset(c->nan_per_thread, 0, sizeof c->nan_per_thread);
     c->stats.steps = 0;
     c->stats.sim_time = 0.0;
@@ -151,9 +151,8 @@ static core_status cpu_step(void *self, core_err *err)
     const sim_groom_info gi = { c->ncolliders, c->colliders, c->sdf.d ? &c->sdf : NULL,
                                 c->rho_rest_valid ? c->rho_rest : 1.0f, c->sph_auto_h };
     sim_step_plan(&c->params, &gi, c->prev_head, c->head, &c->step);
-    if (!c->sph_warm) c->step.sph_keep = 0.0f; /* a holds no SPH acceleration to smooth */
-    const bool sph = c->step.sph;
-    if (sph) {
+    sim_step_sph_clock(&c->params, &c->sph_clock, &c->step);
+    if (c->step.sph_eval) {
         core_status st = rest_density(c, err);
         if (st != CORE_OK) return st;
         c->step.inv_rho0 = 1.0f / (c->params.rest_density * c->rho_rest);
@@ -161,7 +160,6 @@ static core_status cpu_step(void *self, core_err *err)
         if (st != CORE_OK) return st;
         t1 = core_now_ns();
     }
-    c->sph_warm = sph;
     for (int k = 0; k < c->step.substeps; k++) sim_cpu_chain_pass(c, k);
     c->prev_head = c->head;
     unsigned long long t2 = core_now_ns();

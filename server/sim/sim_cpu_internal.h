@@ -55,7 +55,7 @@ typedef struct sim_cpu {
     sim_cpu_sph sph;
     float rho_rest;          /* mean rest-pose SPH density (for the current h, cap) */
     bool rho_rest_valid;
-    bool sph_warm;           /* a holds the previous step's SPH acceleration (its low-pass state) */
+    sim_sph_clock sph_clock; /* whether a holds an SPH acceleration (its low-pass state), and its age */
     float sph_auto_h;        /* the groom's automatic smoothing length (sim_sph_auto_radius) */
     uint64_t nan_per_thread[256];
     sim_stats stats;

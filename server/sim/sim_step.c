@@ -121,7 +121,6 @@ void sim_step_plan(const sim_params *p, const sim_groom_info *g, core_xform prev
     const float hold = (float)SIM_SPH_ACCEL_SCALE + (p->shape ? (float)SIM_SPH_HOLD_GAIN * spring * p->stiffness_tip : 0.0f);
     out->kp = p->repulsion * p->rest_density * out->sph_h * hold;
     out->mu_dt = p->viscosity * p->dt;
-    out->sph_keep = p->shape ? expf(-p->dt / (float)SIM_SPH_SMOOTH_TIME) : 0.0f; /* sim_limits.h */
     out->inv_rho0 = 1.0f / (p->rest_density * g->rho_rest);
     out->ncolliders = p->collisions ? g->ncolliders : 0;
     out->friction = p->friction;
@@ -132,6 +131,26 @@ void sim_step_plan(const sim_params *p, const sim_groom_info *g, core_xform prev
         carry_rows(k ? out->head[k - 1] : prev_head, out->head[k], out->carry[k]);
         if (out->sdf) world_sdf(out->sdf, out->head[k], &out->wsdf[k]);
     }
+}
+
+void sim_step_sph_clock(const sim_params *p, sim_sph_clock *clk, sim_step_desc *out)
+{
+    out->sph_eval = false;
+    out->sph_keep = 0.0f;
+    if (!out->sph) {
+        *clk = (sim_sph_clock){ 0 };
+        return;
+    }
+    /* whole steps per evaluation: the most that keep the rate (the small margin absorbs the
+     * rounding of dt = 1 / 60 in float) */
+    const float per = p->shape ? floorf(1.0f / (p->dt * (float)SIM_SPH_RATE) + 1e-3f) : 1.0f;
+    const uint32_t every = per < 1.0f ? 1u : (uint32_t)per;
+    const uint32_t elapsed = clk->age + 1u;
+    out->sph_eval = !clk->warm || elapsed >= every;
+    if (out->sph_eval && clk->warm && p->shape)
+        out->sph_keep = expf(-(float)elapsed * p->dt / (float)SIM_SPH_SMOOTH_TIME); /* sim_limits.h */
+    clk->age = out->sph_eval ? 0u : elapsed;
+    clk->warm = true;
 }
 
 core_status sim_groom_check(const core_groom *g, core_err *err)

@@ -52,11 +52,15 @@ typedef struct sim_step_desc {
     bool shape, sph, collisions;
     float sph_h;              /* smoothing length (sim_sph_radius) */
     float kp;                 /* repulsion * rest_density * h * hold, hold = SIM_SPH_ACCEL_SCALE
-                                 (+ SIM_SPH_HOLD_GAIN * global_stiffness * stiffness_tip with shape on) */
+                                 (+ SIM_SPH_HOLD_GAIN * min(global_stiffness, SIM_SPH_HOLD_LOCAL_SHARE
+                                 * local_stiffness) * stiffness_tip with shape on) */
     float mu_dt;              /* viscosity * dt */
-    float sph_keep;           /* exp(-dt / SIM_SPH_SMOOTH_TIME) with shape on: share of the previous
-                                 step's SPH acceleration a step keeps (0 with shape off, and when
-                                 the backend has none: after a reset or a step without SPH) */
+    bool sph_eval;            /* this step evaluates SPH (sim_step_sph_clock); when false and sph,
+                                 the held acceleration acts again */
+    float sph_keep;           /* exp(-elapsed / SIM_SPH_SMOOTH_TIME) with shape on, elapsed the time
+                                 since the last evaluation: share of the held SPH acceleration an
+                                 evaluation keeps (0 with shape off, and when the backend has none:
+                                 after a reset or a step without SPH) */
     float inv_rho0;           /* 1 / (rest_density * rest-pose mean density) */
     uint32_t ncolliders;      /* 0 when collisions are off */
     float friction;           /* contact friction (sim_params.friction) */
@@ -86,6 +90,18 @@ bool sim_step_sph_on(const sim_params *p);
 void sim_step_plan(const sim_params *p, const sim_groom_info *g, core_xform prev_head, core_xform head,
                    sim_step_desc *out);
 
+/* A backend's SPH evaluation clock: whether it holds an SPH acceleration and how many steps
+ * have passed since it was evaluated. Zero = holds none. */
+typedef struct sim_sph_clock {
+    bool warm;
+    uint32_t age;
+} sim_sph_clock;
+/* After sim_step_plan: decides whether this step evaluates SPH (out->sph_eval: when the
+ * backend holds no acceleration, with shape off, or once 1 / SIM_SPH_RATE has passed since the
+ * last evaluation, counted in whole steps) and sets out->sph_keep for the time since the last
+ * one; advances clk (reset to zero when SPH is off). Pure apart from clk; the backend's step
+ * thread. */
+void sim_step_sph_clock(const sim_params *p, sim_sph_clock *clk, sim_step_desc *out);
 /* The shape weights of one level for one substep: a vertex at s moves by
  * g (global target - s) + gd (its start carried by the head - s), then by
  * l (local target - s) + ld (its start carried by the parent's segment - s). */

@@ -242,7 +242,7 @@ static core_status reset_state(sim_vk *s, core_err *err)
     core_status st = upload_state(s, s->host_tmp, NULL, true, err);
     if (st != CORE_OK) return st;
     s->prev_head = s->head;
-    s->sph_warm = false;
+    s->sph_clock = (sim_sph_clock){ 0 };
     memset(s->stats_buf.map, 0, 16);
     sim_stats zero;
     memset(&zero, 0, sizeof zero);
@@ -291,8 +291,7 @@ static core_status vk_step(void *self, core_err *err)
     const sim_groom_info gi = { s->ncolliders, s->colliders, s->has_sdf ? &s->sdf : NULL,
                                 s->rho_rest_valid ? s->rho_rest : 1.0f, s->sph_auto_h };
     sim_step_plan(&s->params, &gi, s->prev_head, s->head, &s->step);
-    if (!s->sph_warm) s->step.sph_keep = 0.0f; /* A holds no SPH acceleration to smooth */
-    s->sph_warm = sph;
+    sim_step_sph_clock(&s->params, &s->sph_clock, &s->step);
     const sim_vk_frame_in in = { &s->params, &s->step, s->nv, s->max_segment };
     sim_vk_frame_fill(&in, sl->frame.map);
 
@@ -309,7 +308,7 @@ static core_status vk_step(void *self, core_err *err)
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, sl->queries, 0);
     }
     sim_vk_barrier(cmd); /* after the previous step and any transfer */
-    if (sph) {
+    if (s->step.sph_eval) {
         sim_vk_record_sph(s, cmd, s->pipes.sets[f], SIM_VK_SPH_STEP, sl->queries);
     } else if (sl->queries) {
         for (uint32_t k = SIM_VK_S_GRID; k <= SIM_VK_S_FORCE; k++)

@@ -265,7 +265,7 @@ typedef struct sim_vk {
     uint32_t nbr_cap;     /* neighbour slots per particle NBR holds */
     float rho_rest;
     bool rho_rest_valid;
-    bool sph_warm;        /* A holds the previous step's SPH acceleration (its low-pass state) */
+    sim_sph_clock sph_clock; /* whether A holds an SPH acceleration (its low-pass state), and its age */
     float max_segment;    /* longest rest segment */
     float sph_auto_h;     /* the groom's automatic SPH smoothing length (sim_sph_auto_radius) */
     sim_vk_buf x, v, a, rest_buf, strand, grid, count, start, block, cell_of, order, sx, sv, rho, press, nbr, nnbr;
