@@ -11,6 +11,8 @@
 #include <stdio.h>
 #include <string.h>
 
+#include <cjson/cJSON.h>
+
 #include "scen/scen.h"
 
 /* 2 strands x 3 vertices: strand 0 rest segment 3 cm from (0, 0.1, 0), strand 1 1 cm from
@@ -78,6 +80,12 @@ static void test_world_reads_hello(void **state)
     assert_int_equal(w.verts, 4);
     assert_int_equal(w.ncolliders, 0);
     assert_true(w.rest_lengths[0] == 0.5f);
+    const cJSON *gv = scen_world_value(&w, "groom", "groom.verts");
+    assert_true(gv && cJSON_IsNumber(gv) && gv->valuedouble == 4);
+    gv = scen_world_value(&w, "params", "wind_x");
+    assert_true(gv && cJSON_IsNumber(gv) && gv->valuedouble == 1);
+    gv = scen_world_value(&w, "state", "paused");
+    assert_true(gv && cJSON_IsTrue(gv));
     codec_frame_info f = frame_info(1, 1.0);
     assert_true(scen_world_frame_step(&w, &f) == 50.0); /* 1 s at dt 0.02 */
     scen_world_free(&w);

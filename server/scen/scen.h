@@ -73,6 +73,7 @@ typedef struct scen_world {
     void *hello;  /* cJSON: the hello message */
     void *params; /* cJSON: every parameter's current value (hello.params.values + announcements) */
     void *state;  /* cJSON: the latest state (hello.state, then each state message) */
+    void *groom;  /* cJSON: {groom, colliders, collider_mesh} of the hello, then of each groom message */
     uint32_t strands, verts;
     float *rest_lengths; /* per strand */
     float *roots;        /* rest roots, head frame, 3 per strand */
@@ -108,7 +109,7 @@ double scen_world_frame_step(const scen_world *w, const codec_frame_info *info);
 /* Whether collisions are on (the "collisions" parameter; true when absent). */
 bool scen_world_collisions_on(const scen_world *w);
 /* The value at a dotted path ("values.gravity", "groom.roots.0") in what ("hello", "params",
- * "state"); NULL when absent. Owned by w, valid until the next scen_world_* call. */
+ * "state", "groom"); NULL when absent. Owned by w, valid until the next scen_world_* call. */
 const void *scen_world_value(const scen_world *w, const char *what, const char *path);
 void scen_world_free(scen_world *w);
 
@@ -155,7 +156,7 @@ typedef struct scen_step {
     char field[96];         /* reply: expected error field (with error; "" not checked) */
     bool field_given;
     double count;           /* frames: how many; until_*: target; sleep: ms; check: frames */
-    char what[16];          /* expect: hello, params or state */
+    char what[16];          /* expect: hello, params, state or groom */
     char path[128];         /* expect: dotted path */
     char *equals;           /* expect: the expected JSON value as text (owned; NULL: none) */
     double tolerance, min, max; /* expect: numbers (min/max NaN when not given) */
@@ -176,7 +177,7 @@ typedef struct scen_script {
  * JSON, an unknown step kind or field, wrong types and non-finite numbers. On failure s holds
  * nothing to free. Pure. */
 core_status scen_script_parse(scen_script *s, const char *text, size_t len, core_err *err);
-/* Reads and parses a script file. */
+/* Reads and parses a script file (at most 16 MiB); err does not repeat the path. */
 core_status scen_script_load(scen_script *s, const char *path, core_err *err);
 void scen_script_free(scen_script *s);
 /* The step kind's name as scripts spell it ("send", "reply", ...). Static. */

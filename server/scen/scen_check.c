@@ -81,32 +81,32 @@ static const char *collider_name(scen_collider_kind k)
     return k == SCEN_SPHERE ? "sphere" : k == SCEN_CAPSULE ? "capsule" : "ellipsoid";
 }
 
-/* Which candidate head pose puts every root on its rest root (within tol): its index, or -1
- * with the worst root of candidate 0 measured. */
+/* Which candidate head pose puts every root on its rest root (within tol), newest first: its
+ * index, or -1. The worst root of the matching candidate (of candidate 0 when none) is measured. */
 static int check_roots(scen_check *c, const scen_world *w, const codec_frame_info *info, const float *xyz,
                        const core_xform *heads, int nheads, double tol)
 {
-    for (int h = nheads - 1; h >= 0; h--) {
-        double worst = 0;
-        uint32_t ws = 0;
+    double worst[SCEN_MAX_HEADS] = { 0 };
+    uint32_t ws[SCEN_MAX_HEADS] = { 0 };
+    int match = -1;
+    for (int h = 0; h < nheads && match < 0; h++) {
         for (uint32_t k = 0; k < info->nstrands_sent; k++) {
             uint32_t s = k * info->stride;
             const float *r = w->roots + 3 * (size_t)s;
             core_vec3 want = core_xform_point(heads[h], core_v3(r[0], r[1], r[2]));
             double dist = core_v3_len(core_v3_sub(vertex_at(xyz, info, k, 0), want));
-            if (!(dist <= worst)) {
-                worst = dist;
-                ws = s;
+            if (!(dist <= worst[h])) {
+                worst[h] = dist;
+                ws[h] = s;
             }
         }
-        if (worst <= tol && h > 0) return h;
-        if (h == 0) {
-            char what[96];
-            snprintf(what, sizeof what, "root %.3f mm from the head-transformed rest root", worst * 1e3);
-            return measure(&c->worst[SCEN_INV_ROOT], info, ws, 0, worst, tol, what) ? -1 : 0;
-        }
+        if (worst[h] <= tol) match = h;
     }
-    return -1;
+    int m = match < 0 ? 0 : match;
+    char what[96];
+    snprintf(what, sizeof what, "root %.3f mm from the head-transformed rest root", worst[m] * 1e3);
+    measure(&c->worst[SCEN_INV_ROOT], info, ws[m], 0, worst[m], tol, what);
+    return match;
 }
 
 void scen_check_frame(scen_check *c, scen_world *w, const codec_frame_info *info, const float *xyz,

@@ -115,7 +115,9 @@ int scen_cli_run(int argc, char **argv)
     scen_run_desc d = { 0 };
     bool help = false;
     for (int i = 1; i < argc; i++) help |= !strcmp(argv[i], "--help") || !strcmp(argv[i], "-h");
-    if (!help && (argc < 2 || argv[argc - 1][0] == '-'))
+    /* the last argument is the script unless it is a flag or the value of one */
+    bool value = argc >= 3 && (!strcmp(argv[argc - 2], "--host") || !strcmp(argv[argc - 2], "--port"));
+    if (!help && (argc < 2 || argv[argc - 1][0] == '-' || value))
         return core_cli_bad(prog, "SCRIPT.json", NULL, "missing: give the script as the last argument");
     int rc = parse(prog, RUN_USAGE, help ? argc : argc - 1, argv, &d, NULL);
     if (rc) return rc < 0 ? 0 : rc;

@@ -192,8 +192,8 @@ static core_status read_step(const cJSON *o, scen_step *st, size_t i, double tim
         return CORE_OK;
     case SCEN_EXPECT: {
         if (!cJSON_IsString(v) || (strcmp(v->valuestring, "hello") && strcmp(v->valuestring, "params") &&
-                                   strcmp(v->valuestring, "state")))
-            return bad(err, i, k, "expect", "must be \"hello\", \"params\" or \"state\"");
+                                   strcmp(v->valuestring, "state") && strcmp(v->valuestring, "groom")))
+            return bad(err, i, k, "expect", "must be \"hello\", \"params\", \"state\" or \"groom\"");
         snprintf(st->what, sizeof st->what, "%s", v->valuestring);
         if (!cJSON_GetObjectItemCaseSensitive(o, "path")) return bad(err, i, k, "path", "is required");
         st->tolerance = 0.0;
@@ -288,15 +288,15 @@ core_status scen_script_load(scen_script *s, const char *path, core_err *err)
 {
     memset(s, 0, sizeof *s);
     FILE *fp = fopen(path, "rb");
-    if (!fp) return core_fail(err, CORE_EIO, "%s: %s", path, strerror(errno));
+    if (!fp) return core_fail(err, CORE_EIO, "cannot open: %s", strerror(errno));
     char *buf = malloc(SCEN_MAX_SCRIPT + 1);
     size_t n = buf ? fread(buf, 1, SCEN_MAX_SCRIPT + 1, fp) : 0;
     bool read_error = ferror(fp) != 0;
     fclose(fp);
-    if (!buf) return core_fail(err, CORE_ENOMEM, "out of memory reading %s", path);
+    if (!buf) return core_fail(err, CORE_ENOMEM, "out of memory reading it");
     core_status st;
-    if (read_error) st = core_fail(err, CORE_EIO, "%s: read error", path);
-    else if (n > SCEN_MAX_SCRIPT) st = core_fail(err, CORE_EFORMAT, "%s: over 16 MiB", path);
+    if (read_error) st = core_fail(err, CORE_EIO, "read error");
+    else if (n > SCEN_MAX_SCRIPT) st = core_fail(err, CORE_EFORMAT, "over 16 MiB");
     else st = scen_script_parse(s, buf, n, err);
     free(buf);
     return st;

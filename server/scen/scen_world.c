@@ -162,6 +162,14 @@ core_status scen_world_hello(scen_world *w, const char *text, size_t len, core_e
     const cJSON *params = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(root, "params"), "values");
     keep(&w->params, cJSON_IsObject(params) ? params : NULL);
     keep(&w->state, cJSON_GetObjectItemCaseSensitive(root, "state"));
+    w->groom = cJSON_CreateObject();
+    if (w->groom) {
+        const char *parts[] = { "groom", "colliders", "collider_mesh" };
+        for (int i = 0; i < 3; i++) {
+            cJSON *v = cJSON_Duplicate(cJSON_GetObjectItemCaseSensitive(root, parts[i]), true);
+            if (v) cJSON_AddItemToObject(w->groom, parts[i], v);
+        }
+    }
     const cJSON *stime = cJSON_GetObjectItemCaseSensitive(w->state, "sim_time");
     w->last_state_time = cJSON_IsNumber(stime) ? stime->valuedouble : 0.0;
     w->hello = root;
@@ -219,6 +227,8 @@ void scen_world_text(scen_world *w, const char *text)
     } else if (strcmp(t->valuestring, "groom") == 0) {
         core_err err;
         read_groom(w, cJSON_GetObjectItemCaseSensitive(m, "groom"), cJSON_GetObjectItemCaseSensitive(m, "colliders"), &err);
+        cJSON_DeleteItemFromObjectCaseSensitive(m, "type");
+        keep(&w->groom, m);
     }
 out:
     cJSON_Delete(m);
@@ -272,7 +282,10 @@ bool scen_world_collisions_on(const scen_world *w)
 
 const void *scen_world_value(const scen_world *w, const char *what, const char *path)
 {
-    const cJSON *v = strcmp(what, "hello") == 0 ? w->hello : strcmp(what, "params") == 0 ? w->params : w->state;
+    const cJSON *v = !strcmp(what, "hello")    ? w->hello
+                     : !strcmp(what, "params") ? w->params
+                     : !strcmp(what, "groom")  ? w->groom
+                                               : w->state;
     char part[128];
     for (const char *p = path; v && *p;) {
         size_t n = strcspn(p, ".");
@@ -296,6 +309,7 @@ void scen_world_free(scen_world *w)
     cJSON_Delete(w->hello);
     cJSON_Delete(w->params);
     cJSON_Delete(w->state);
+    cJSON_Delete(w->groom);
     free(w->rest_lengths);
     free(w->roots);
     memset(w, 0, sizeof *w);
