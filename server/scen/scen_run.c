@@ -88,8 +88,8 @@ static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user
 {
     (void)conn;
     runner *r = user;
-    if (!r->have_world || r->frame_error[0]) return;
-    drain_texts(r);
+    if (r->frame_error[0]) return;
+    if (r->have_world) drain_texts(r);
     codec_frame_info info;
     core_err err;
     if (codec_peek_header(data, len, &info, &err) != CORE_OK) goto bad;
@@ -103,7 +103,9 @@ static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user
         r->xyz = x;
         r->cap = need;
     }
+    /* frames that come while the hello is read are decoded too: the decoder keeps their keyframe */
     if (codec_decode(&r->dec, data, len, r->xyz, r->cap, &info, &err) != CORE_OK) goto bad;
+    if (!r->have_world) return;
     r->last = info;
     r->have_frame = true;
     r->frames++;
