@@ -41,7 +41,7 @@ strandcast_scenario_test(scenario_bad_json --exit 2 --expect "not valid JSON (li
 strandcast_scenario_test(scenario_no_script --exit 2 --expect "SCRIPT.json"
   -- $<TARGET_FILE:strandcastc> run --port {port})
 strandcast_scenario_test(check_holds --expect "\"kind\":\"check\",\"ok\":true" --expect "\"root\":{\"frames_failed\":0"
-  -- $<TARGET_FILE:strandcastc> check --port {port} --frames 60 --json)
+  -- $<TARGET_FILE:strandcastc> check --port {port} --frames 60 --max-gap-ms 5000 --json)
 strandcast_scenario_test(check_fails_rate --exit 1 --expect "frame rate: "
   -- $<TARGET_FILE:strandcastc> check --port {port} --frames 10 --min-fps 100000)
 strandcast_scenario_test(check_bad_flag --exit 2 --expect "--max-depth x"
