@@ -98,19 +98,22 @@ core_status scen_world_hello(scen_world *w, const char *text, size_t len, core_e
 void scen_world_text(scen_world *w, const char *text);
 /* Tells w that this client sent msg (a JSON object as text): a motion moves the head. */
 void scen_world_sent(scen_world *w, const char *msg);
-/* The poses the head may have had when the frame was made, into out (SCEN_MAX_HEADS); the count,
- * 0 when unknown (a preset running or blending, a pose never seen). The one place the head pose
- * of a frame is decided. */
+/* The poses the head may have had when the frame was made, into out (SCEN_MAX_HEADS), newest
+ * first; the count, 0 when unknown (a preset running or blending, a pose never seen). The one
+ * place the head pose of a frame is decided: once frames carry the head transform, it returns
+ * that one pose. */
 int scen_world_head(const scen_world *w, const codec_frame_info *info, core_xform *out);
 /* The frame's roots matched candidate k of scen_world_head: older candidates are dropped. */
 void scen_world_head_matched(scen_world *w, int k);
-/* The simulation step a frame shows (sim_time over the current dt). */
+/* The simulation step a frame shows: sim_time over the current dt (once frames carry their
+ * step, that step). */
 double scen_world_frame_step(const scen_world *w, const codec_frame_info *info);
 /* Whether collisions are on (the "collisions" parameter; true when absent). */
 bool scen_world_collisions_on(const scen_world *w);
 /* The value at a dotted path ("values.gravity", "groom.roots.0") in what ("hello", "params",
  * "state", "groom"); NULL when absent. Owned by w, valid until the next scen_world_* call. */
 const void *scen_world_value(const scen_world *w, const char *what, const char *path);
+/* Frees what w holds and zeroes it (a zeroed w is fine). */
 void scen_world_free(scen_world *w);
 
 /* Starts a check with desc d (NULL: all defaults). */
@@ -179,6 +182,7 @@ typedef struct scen_script {
 core_status scen_script_parse(scen_script *s, const char *text, size_t len, core_err *err);
 /* Reads and parses a script file (at most 16 MiB); err does not repeat the path. */
 core_status scen_script_load(scen_script *s, const char *path, core_err *err);
+/* Frees the steps and zeroes s (a zeroed s is fine). */
 void scen_script_free(scen_script *s);
 /* The step kind's name as scripts spell it ("send", "reply", ...). Static. */
 const char *scen_kind_name(scen_kind k);
