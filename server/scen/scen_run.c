@@ -383,6 +383,10 @@ static bool run_check(runner *r, const scen_step *st)
             snprintf(r->detail, sizeof r->detail, "%lu of %g frames in %g ms", chk.frames, st->count, timeout);
         return false;
     }
+    if (chk.frames == 0) {
+        snprintf(r->detail, sizeof r->detail, "no frame in %g s", st->seconds);
+        return false;
+    }
     char *buf = NULL;
     size_t len = 0;
     FILE *mem = open_memstream(&buf, &len);
