@@ -23,7 +23,7 @@ strandcast_scenario_test(scenario_fails_expect --exit 1
   --expect "FAIL step 2 expect" --expect "step 2 (expect) failed: params.gravity = 2 (want 3)"
   -- $<TARGET_FILE:strandcastc> run --port {port} ${fail}/expect_fails.json)
 strandcast_scenario_test(scenario_fails_reply --exit 1
-  --expect "step 1 (reply) failed: reply to id \"x\": error out_of_range, field values.gravity (want error bad_field"
+  --expect "step 1 (reply) failed: reply to id \"x\": error out_of_range, field \"values.gravity\" (want error bad_field, field \"values.gravity\")"
   -- $<TARGET_FILE:strandcastc> run --port {port} ${fail}/reply_fails.json)
 strandcast_scenario_test(scenario_fails_check --exit 1
   --expect "\"step\":1,\"kind\":\"check\",\"ok\":false" --expect "frame rate: " --expect "\"failed_step\":1"

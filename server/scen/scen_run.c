@@ -292,20 +292,22 @@ static bool run_reply(runner *r, const scen_step *st)
     cJSON *j = cJSON_Parse(m->text);
     const cJSON *code = cJSON_GetObjectItemCaseSensitive(j, "code"), *field = cJSON_GetObjectItemCaseSensitive(j, "field");
     const char *c = cJSON_IsString(code) ? code->valuestring : "", *f = cJSON_IsString(field) ? field->valuestring : "";
+    char got[192], want[192];
+    if (!strcmp(m->type, "error")) snprintf(got, sizeof got, "error %.40s, field \"%.96s\"", c, f);
+    else snprintf(got, sizeof got, "%s", m->type);
     bool ok;
     if (st->error[0]) {
         ok = !strcmp(m->type, "error") && !strcmp(c, st->error) && (!st->field_given || !strcmp(f, st->field));
-        snprintf(r->detail, sizeof r->detail, "reply %s: %s%s%s%s%s (want error %s%s%s%s)", id, m->type, c[0] ? " " : "", c,
-                 c[0] ? ", field " : "", c[0] ? f : "", st->error, st->field_given ? ", field \"" : "",
-                 st->field_given ? st->field : "", st->field_given ? "\"" : "");
+        int n = snprintf(want, sizeof want, "error %s", st->error);
+        if (st->field_given) snprintf(want + n, sizeof want - (size_t)n, ", field \"%.96s\"", st->field);
     } else if (st->reply_type[0]) {
         ok = !strcmp(m->type, st->reply_type);
-        snprintf(r->detail, sizeof r->detail, "reply %s: %s%s%s (want %s)", id, m->type, c[0] ? " " : "", c, st->reply_type);
+        snprintf(want, sizeof want, "%s", st->reply_type);
     } else {
         ok = strcmp(m->type, "error") != 0;
-        snprintf(r->detail, sizeof r->detail, "reply %s: %s%s%s%s", id, m->type, c[0] ? " " : "", c,
-                 ok ? "" : " (want any reply but an error)");
+        snprintf(want, sizeof want, "any reply but an error");
     }
+    snprintf(r->detail, sizeof r->detail, "reply %s: %s%s%s%s", id, got, ok ? "" : " (want ", ok ? "" : want, ok ? "" : ")");
     cJSON_Delete(j);
     return ok;
 }
