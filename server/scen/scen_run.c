@@ -394,7 +394,12 @@ static bool run_check(runner *r, const scen_step *st)
     FILE *mem = open_memstream(&buf, &len);
     bool ok = scen_check_end(&chk, mem, "; ");
     if (mem) fclose(mem);
-    for (char *nl = buf ? strchr(buf, '\n') : NULL; nl; nl = strchr(nl, '\n')) *nl = ' '; /* one line per step */
+    if (buf) { /* one line per step: the lines' ends go, each starts with "; " */
+        char *o = buf;
+        for (const char *p = buf; *p; p++)
+            if (*p != '\n') *o++ = *p;
+        *o = '\0';
+    }
     double fps;
     scen_check_fps_ok(&chk, &fps);
     snprintf(r->detail, sizeof r->detail, "%lu frames, %.1f frames/s, longest gap %.1f ms%s%.700s", chk.frames, fps,
