@@ -95,6 +95,21 @@ static void test_world_reads_hello(void **state)
     core_err err;
     assert_int_equal(scen_world_hello(&w, bad, strlen(bad), &err), CORE_EFORMAT);
     assert_non_null(strstr(err.msg, "rest_lengths"));
+    /* a collider with a zero radius, and more colliders than the client takes */
+    const char *flat = "{\"type\":\"hello\",\"groom\":{\"strands\":1,\"verts\":2,\"rest_lengths\":[1],\"roots\":[0,0,0]},"
+                       "\"colliders\":[{\"kind\":\"ellipsoid\",\"center\":[0,0,0],\"radii\":[1,0,1]}],"
+                       "\"head\":{\"position\":[0,0,0],\"orientation\":[0,0,0,1]}}";
+    assert_int_equal(scen_world_hello(&w, flat, strlen(flat), &err), CORE_EFORMAT);
+    assert_non_null(strstr(err.msg, "colliders[0]"));
+    char many[8192];
+    int n = snprintf(many, sizeof many, "{\"type\":\"hello\",\"groom\":{\"strands\":1,\"verts\":2,\"rest_lengths\":[1],"
+                                        "\"roots\":[0,0,0]},\"head\":{\"position\":[0,0,0],\"orientation\":[0,0,0,1]},"
+                                        "\"colliders\":[");
+    for (int i = 0; i <= SCEN_MAX_COLLIDERS; i++)
+        n += snprintf(many + n, sizeof many - (size_t)n, "%s{\"kind\":\"sphere\",\"center\":[0,0,0],\"radius\":1}", i ? "," : "");
+    snprintf(many + n, sizeof many - (size_t)n, "]}");
+    assert_int_equal(scen_world_hello(&w, many, strlen(many), &err), CORE_EFORMAT);
+    assert_non_null(strstr(err.msg, "colliders: more than 32"));
 }
 
 static void test_check_passes_rest_pose(void **state)

@@ -15,9 +15,10 @@
 
 #include "../codec/codec.h"
 #include "../core/core.h"
+#include "../core/groom_types.h"
 #include "../core/math3.h"
 
-#define SCEN_MAX_COLLIDERS 16
+#define SCEN_MAX_COLLIDERS CORE_MAX_COLLIDERS /* as many as a groom may have */
 #define SCEN_MAX_HEADS 2 /* candidate head poses for one frame */
 
 /* ---- frame invariants (scen_check.c) ---- */

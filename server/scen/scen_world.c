@@ -39,6 +39,8 @@ static bool doubles(const cJSON *a, double *out, int n)
     return true;
 }
 
+static bool positive(const cJSON *v) { return cJSON_IsNumber(v) && isfinite(v->valuedouble) && v->valuedouble > 0; }
+
 static core_quat quat_of(const double q[4])
 {
     core_quat r = { (float)q[0], (float)q[1], (float)q[2], (float)q[3] };
@@ -72,6 +74,11 @@ static core_status read_groom(scen_world *w, const cJSON *g, const cJSON *cols, 
     for (const cJSON *c = cJSON_IsArray(cols) ? cols->child : NULL; c; c = c->next) {
         const cJSON *kind = cJSON_GetObjectItemCaseSensitive(c, "kind");
         const char *k = cJSON_IsString(kind) ? kind->valuestring : "";
+        if (nc == SCEN_MAX_COLLIDERS) {
+            free(rest);
+            free(roots);
+            return core_fail(err, CORE_EFORMAT, "colliders: more than %d", SCEN_MAX_COLLIDERS);
+        }
         scen_collider *o = &cs[nc];
         memset(o, 0, sizeof *o);
         double q[4] = { 0, 0, 0, 1 };
@@ -79,29 +86,29 @@ static core_status read_groom(scen_world *w, const cJSON *g, const cJSON *cols, 
         if (strcmp(k, "sphere") == 0) {
             o->kind = SCEN_SPHERE;
             const cJSON *r = cJSON_GetObjectItemCaseSensitive(c, "radius");
-            ok = doubles(cJSON_GetObjectItemCaseSensitive(c, "center"), o->c, 3) && cJSON_IsNumber(r);
+            ok = doubles(cJSON_GetObjectItemCaseSensitive(c, "center"), o->c, 3) && positive(r);
             o->radius = ok ? r->valuedouble : 0;
         } else if (strcmp(k, "capsule") == 0) {
             o->kind = SCEN_CAPSULE;
             const cJSON *r = cJSON_GetObjectItemCaseSensitive(c, "radius");
             ok = doubles(cJSON_GetObjectItemCaseSensitive(c, "a"), o->c, 3) &&
-                 doubles(cJSON_GetObjectItemCaseSensitive(c, "b"), o->b, 3) && cJSON_IsNumber(r);
+                 doubles(cJSON_GetObjectItemCaseSensitive(c, "b"), o->b, 3) && positive(r);
             o->radius = ok ? r->valuedouble : 0;
         } else if (strcmp(k, "ellipsoid") == 0) {
             o->kind = SCEN_ELLIPSOID;
             ok = doubles(cJSON_GetObjectItemCaseSensitive(c, "center"), o->c, 3) &&
                  doubles(cJSON_GetObjectItemCaseSensitive(c, "radii"), o->radii, 3) &&
                  (!cJSON_GetObjectItemCaseSensitive(c, "rotation") ||
-                  doubles(cJSON_GetObjectItemCaseSensitive(c, "rotation"), q, 4));
+                  doubles(cJSON_GetObjectItemCaseSensitive(c, "rotation"), q, 4)) &&
+                 o->radii[0] > 0 && o->radii[1] > 0 && o->radii[2] > 0;
             o->rot = quat_of(q);
         } else {
             ok = false;
         }
-        if (!ok || nc == SCEN_MAX_COLLIDERS) {
+        if (!ok) {
             free(rest);
             free(roots);
-            return core_fail(err, CORE_EFORMAT, "colliders[%d]: %s", nc,
-                             ok ? "more colliders than this client takes" : "not a sphere, capsule or ellipsoid");
+            return core_fail(err, CORE_EFORMAT, "colliders[%d]: not a sphere, capsule or ellipsoid with finite fields and positive radii", nc);
         }
         nc++;
     }
