@@ -41,6 +41,7 @@ typedef struct runner {
     scen_msg *msgs;
     size_t nmsgs, cap_msgs;
     scen_check *check; /* the check in progress, or NULL */
+    cJSON *frame_json; /* the last frame's header as JSON, for expect "frame" (rebuilt when asked) */
     /* the step in progress: its result */
     char detail[1024];
     char *seen; /* JSON text of what was seen (owned), or NULL */
@@ -52,6 +53,16 @@ static bool is_reply_type(const char *t)
 {
     return !strcmp(t, "ok") || !strcmp(t, "error") || !strcmp(t, "params") || !strcmp(t, "state") ||
            !strcmp(t, "subscribed");
+}
+
+/* After a reset (a state whose sim time is below the last frame's) or a groom change, the last
+ * frame no longer tells the sim time or step: at_* and until_* wait for a frame that follows. */
+static void forget_stale_frame(runner *r, const char *type)
+{
+    if (!r->have_frame) return;
+    if (!strcmp(type, "groom")) r->have_frame = false;
+    const cJSON *t = strcmp(type, "state") ? NULL : scen_world_value(&r->world, "state", "sim_time");
+    if (cJSON_IsNumber(t) && t->valuedouble < r->last.sim_time) r->have_frame = false;
 }
 
 /* Takes the text messages received since the last call, in order: the world learns from them
@@ -68,6 +79,7 @@ static void drain_texts(runner *r)
         if (proto_read_envelope(text, strlen(text), type, sizeof type, &id) != CORE_OK) continue;
         if (strcmp(type, "stats") == 0) continue;
         scen_world_text(&r->world, text);
+        forget_stale_frame(r, type);
         if (!is_reply_type(type)) continue;
         if (r->nmsgs == r->cap_msgs) {
             size_t cap = r->cap_msgs ? 2 * r->cap_msgs : 64;
@@ -241,10 +253,31 @@ static bool json_close(const cJSON *a, const cJSON *b, double tol)
     return a && b && cJSON_Compare(a, b, true);
 }
 
+/* The value at path in what: the world's, or for "frame" the last frame's header (seq,
+ * sim_time, step, keyframe, strands, strands_total, verts, stride, max_error). */
+static const cJSON *value_of(runner *r, const char *what, const char *path)
+{
+    if (strcmp(what, "frame") != 0) return scen_world_value(&r->world, what, path);
+    if (!r->have_frame) return NULL;
+    cJSON_Delete(r->frame_json);
+    cJSON *o = r->frame_json = cJSON_CreateObject();
+    const codec_frame_info *f = &r->last;
+    cJSON_AddNumberToObject(o, "seq", (double)f->seq);
+    cJSON_AddNumberToObject(o, "sim_time", f->sim_time);
+    cJSON_AddNumberToObject(o, "step", scen_world_frame_step(&r->world, f));
+    cJSON_AddBoolToObject(o, "keyframe", f->keyframe);
+    cJSON_AddNumberToObject(o, "strands", f->nstrands_sent);
+    cJSON_AddNumberToObject(o, "strands_total", f->nstrands_total);
+    cJSON_AddNumberToObject(o, "verts", f->nverts);
+    cJSON_AddNumberToObject(o, "stride", f->stride);
+    cJSON_AddNumberToObject(o, "max_error", f->max_error_m);
+    return cJSON_GetObjectItemCaseSensitive(o, path);
+}
+
 static bool value_holds(runner *r, const scen_step *st, void *arg)
 {
     const cJSON *want = arg;
-    const cJSON *v = scen_world_value(&r->world, st->what, st->path);
+    const cJSON *v = value_of(r, st->what, st->path);
     if (!v) return false;
     if (want && !json_close(v, want, st->tolerance)) return false;
     if (!isnan(st->min) && !(cJSON_IsNumber(v) && v->valuedouble >= st->min)) return false;
@@ -347,7 +380,7 @@ static bool run_expect(runner *r, const scen_step *st)
 {
     cJSON *want = st->equals ? cJSON_Parse(st->equals) : NULL;
     bool ok = wait_until(r, st, value_holds, want, st->timeout_ms);
-    const cJSON *v = scen_world_value(&r->world, st->what, st->path);
+    const cJSON *v = value_of(r, st->what, st->path);
     char *seen = v ? cJSON_PrintUnformatted(v) : NULL;
     set_seen(r, seen);
     if (!r->detail[0]) {
@@ -510,5 +543,6 @@ done:
     free(r.xyz);
     free(r.msgs);
     free(r.seen);
+    cJSON_Delete(r.frame_json);
     return rc;
 }
