@@ -1,5 +1,6 @@
 /* strandcastc: a command-line client of strandcastd: sends control messages, decodes the strand
- * frames with the C decoder, prints them and records the positions (SCFR, as strandbench reads). */
+ * frames with the C decoder, prints them and records the positions (SCFR, as strandbench reads);
+ * `run` and `check` hand over to server/scen/ (scripted scenarios, frame invariants). */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -11,6 +12,7 @@
 #include "core/core.h"
 #include "net/net.h"
 #include "proto/proto.h"
+#include "scen/scen.h"
 #include "wsc/wsc.h"
 
 #define PROG "strandcastc"
@@ -20,6 +22,8 @@
 static const char *const USAGE =
     "usage: strandcastc [--host H] [--port N] [--send JSON]... [--frames N] [--seconds S]\n"
     "                   [--out FILE] [--json]\n"
+    "       strandcastc run [--host H] [--port N] [--json] SCRIPT.json   (a scripted scenario: run --help)\n"
+    "       strandcastc check [--host H] [--port N] [flags]             (frame invariants: check --help)\n"
     "Connects to a running strandcastd (subprotocol " PROTO_SUBPROTOCOL "), shows its hello, sends each\n"
     "--send message in order (replies and broadcasts are printed as they come; stats are not),\n"
     "then decodes the strand frames with the C decoder and prints one line per frame. Frames are\n"
@@ -367,6 +371,8 @@ done:
 
 int main(int argc, char **argv)
 {
+    if (argc > 1 && strcmp(argv[1], "run") == 0) return scen_cli_run(argc - 1, argv + 1);
+    if (argc > 1 && strcmp(argv[1], "check") == 0) return scen_cli_check(argc - 1, argv + 1);
     cli c;
     memset(&c, 0, sizeof c);
     int rc = parse_args(argc, argv, &c.d);

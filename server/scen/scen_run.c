@@ -1,0 +1,548 @@
+/* scen: runs a scenario script against a daemon over one WebSocket connection: sends messages at
+ * their time, matches replies by id, decodes frames, checks expectations and invariants. */
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../net/net.h"
+#include "../proto/proto.h"
+#include "../wsc/wsc.h"
+#include "scen.h"
+
+#define SCEN_CONNECT_MS 5000
+#define SCEN_SLICE_MS 20
+
+/* A received text message that may answer a request. */
+typedef struct scen_msg {
+    char *text; /* owned by the connection */
+    char type[32];
+    proto_id id;
+    bool used;
+} scen_msg;
+
+typedef struct runner {
+    const scen_run_desc *d;
+    FILE *out;
+    wsc *w;
+    wsc_conn *conn;
+    scen_world world;
+    bool have_world;
+    codec_decoder dec;
+    float *xyz;
+    size_t cap;
+    unsigned long long t0;
+    unsigned long frames;
+    codec_frame_info last; /* the last decoded frame */
+    bool have_frame;
+    char frame_error[CORE_ERR_MAX + 64];
+    size_t next_text;
+    scen_msg *msgs;
+    size_t nmsgs, cap_msgs;
+    scen_check *check; /* the check in progress, or NULL */
+    cJSON *frame_json; /* the last frame's header as JSON, for expect "frame" (rebuilt when asked) */
+    /* the step in progress: its result */
+    char detail[1024];
+    char *seen; /* JSON text of what was seen (owned), or NULL */
+} runner;
+
+static double elapsed_s(const runner *r) { return (double)(core_now_ns() - r->t0) / 1e9; }
+
+static bool is_reply_type(const char *t)
+{
+    return !strcmp(t, "ok") || !strcmp(t, "error") || !strcmp(t, "params") || !strcmp(t, "state") ||
+           !strcmp(t, "subscribed");
+}
+
+/* After a reset (a state whose sim time is below the last frame's) or a groom change, the last
+ * frame no longer tells the sim time or step: at_* and until_* wait for a frame that follows. */
+static void forget_stale_frame(runner *r, const char *type)
+{
+    if (!r->have_frame) return;
+    if (!strcmp(type, "groom")) r->have_frame = false;
+    const cJSON *t = strcmp(type, "state") ? NULL : scen_world_value(&r->world, "state", "sim_time");
+    if (cJSON_IsNumber(t) && t->valuedouble < r->last.sim_time) r->have_frame = false;
+}
+
+/* Takes the text messages received since the last call, in order: the world learns from them
+ * and the replies are kept for matching. Called before each frame is checked, so that a frame
+ * is judged with every message the server sent before it. */
+static void drain_texts(runner *r)
+{
+    size_t n;
+    char *const *t = wsc_texts(r->conn, &n);
+    for (; r->next_text < n; r->next_text++) {
+        const char *text = t[r->next_text];
+        char type[32];
+        proto_id id;
+        if (proto_read_envelope(text, strlen(text), type, sizeof type, &id) != CORE_OK) continue;
+        if (strcmp(type, "stats") == 0) continue;
+        scen_world_text(&r->world, text);
+        forget_stale_frame(r, type);
+        if (!is_reply_type(type)) continue;
+        if (r->nmsgs == r->cap_msgs) {
+            size_t cap = r->cap_msgs ? 2 * r->cap_msgs : 64;
+            scen_msg *m = realloc(r->msgs, cap * sizeof *m);
+            if (!m) continue;
+            r->msgs = m;
+            r->cap_msgs = cap;
+        }
+        scen_msg *m = &r->msgs[r->nmsgs++];
+        m->text = (char *)text;
+        snprintf(m->type, sizeof m->type, "%s", type);
+        m->id = id;
+        m->used = false;
+    }
+}
+
+static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user)
+{
+    (void)conn;
+    runner *r = user;
+    if (r->frame_error[0]) return;
+    if (r->have_world) drain_texts(r);
+    codec_frame_info info;
+    core_err err;
+    if (codec_peek_header(data, len, &info, &err) != CORE_OK) goto bad;
+    size_t need = 3u * (size_t)info.nstrands_sent * info.nverts;
+    if (need > r->cap) {
+        float *x = realloc(r->xyz, need * sizeof *x);
+        if (!x) {
+            core_fail(&err, CORE_ENOMEM, "out of memory for %zu positions", need);
+            goto bad;
+        }
+        r->xyz = x;
+        r->cap = need;
+    }
+    /* frames that come while the hello is read are decoded too: the decoder keeps their keyframe */
+    if (codec_decode(&r->dec, data, len, r->xyz, r->cap, &info, &err) != CORE_OK) goto bad;
+    if (!r->have_world) return;
+    r->last = info;
+    r->have_frame = true;
+    r->frames++;
+    if (r->check) scen_check_frame(r->check, &r->world, &info, r->xyz, core_now_ns());
+    return;
+bad:
+    snprintf(r->frame_error, sizeof r->frame_error, "frame %lu does not decode: %s", r->frames, err.msg);
+}
+
+/* A condition a step waits for. */
+typedef bool (*cond_fn)(runner *r, const scen_step *st, void *arg);
+
+typedef struct wait_arg {
+    runner *r;
+    const scen_step *st;
+    cond_fn cond;
+    void *arg;
+    bool met;
+} wait_arg;
+
+static bool poll_cond(void *p)
+{
+    wait_arg *a = p;
+    if (a->met) return true; /* a condition may consume what it found (a reply): asked once */
+    drain_texts(a->r);
+    a->met = a->cond(a->r, a->st, a->arg);
+    return a->met || !wsc_is_open(a->r->conn) || a->r->frame_error[0];
+}
+
+/* Runs the connection until cond holds (true), or timeout_ms passes, the connection closes or a
+ * frame fails to decode (false, with the reason in r->detail unless it timed out). */
+static bool wait_until(runner *r, const scen_step *st, cond_fn cond, void *arg, double timeout_ms)
+{
+    wait_arg a = { r, st, cond, arg, false };
+    unsigned long long end = core_now_ns() + (unsigned long long)(timeout_ms * 1e6);
+    for (;;) {
+        if (poll_cond(&a)) break;
+        unsigned long long now = core_now_ns();
+        if (now >= end) return false;
+        double left = (double)(end - now) / 1e6;
+        wsc_until(r->w, poll_cond, &a, left < SCEN_SLICE_MS ? (int)ceil(left) : SCEN_SLICE_MS);
+    }
+    if (a.met) return true;
+    if (r->frame_error[0]) snprintf(r->detail, sizeof r->detail, "%s", r->frame_error);
+    else
+        snprintf(r->detail, sizeof r->detail, "the server closed the connection (%d %s)", wsc_close_code(r->conn),
+                 wsc_close_reason(r->conn));
+    return false;
+}
+
+static void set_seen(runner *r, const char *text)
+{
+    free(r->seen);
+    r->seen = text ? strdup(text) : NULL;
+}
+
+/* ---- conditions ---- */
+
+static bool at_time(runner *r, const scen_step *st, void *arg)
+{
+    (void)arg;
+    if (st->at_ms >= 0) return elapsed_s(r) * 1e3 >= st->at_ms;
+    if (!r->have_frame) return false;
+    if (st->at_sim_time >= 0) return r->last.sim_time >= st->at_sim_time;
+    if (st->at_step >= 0) return scen_world_frame_step(&r->world, &r->last) >= st->at_step;
+    return true;
+}
+
+static bool id_matches(const scen_step *st, const proto_id *id)
+{
+    if (st->id_kind == 0) return id->kind == PROTO_ID_NONE;
+    if (st->id_kind == 1) return id->kind == PROTO_ID_NUMBER && id->num == st->id_num;
+    return id->kind == PROTO_ID_STRING && strcmp(id->str, st->id_str) == 0;
+}
+
+static bool got_reply(runner *r, const scen_step *st, void *arg)
+{
+    scen_msg **found = arg;
+    for (size_t i = 0; i < r->nmsgs; i++) {
+        scen_msg *m = &r->msgs[i];
+        if (m->used || !id_matches(st, &m->id)) continue;
+        /* without an id only ok, error and subscribed answer a request: params and state are broadcasts */
+        if (st->id_kind == 0 && (!strcmp(m->type, "params") || !strcmp(m->type, "state"))) continue;
+        m->used = true;
+        *found = m;
+        return true;
+    }
+    return false;
+}
+
+static bool frames_reached(runner *r, const scen_step *st, void *arg)
+{
+    (void)st;
+    return r->frames >= *(const unsigned long *)arg;
+}
+
+static bool sim_time_reached(runner *r, const scen_step *st, void *arg)
+{
+    (void)arg;
+    return r->have_frame && r->last.sim_time >= st->count;
+}
+
+static bool step_reached(runner *r, const scen_step *st, void *arg)
+{
+    (void)arg;
+    return r->have_frame && scen_world_frame_step(&r->world, &r->last) >= st->count;
+}
+
+static bool never(runner *r, const scen_step *st, void *arg)
+{
+    (void)r;
+    (void)st;
+    (void)arg;
+    return false;
+}
+
+/* Whether a and b are equal, numbers within tol (arrays and objects member by member). */
+static bool json_close(const cJSON *a, const cJSON *b, double tol)
+{
+    if (cJSON_IsNumber(a) && cJSON_IsNumber(b)) return fabs(a->valuedouble - b->valuedouble) <= tol;
+    if (cJSON_IsArray(a) && cJSON_IsArray(b)) {
+        if (cJSON_GetArraySize(a) != cJSON_GetArraySize(b)) return false;
+        for (const cJSON *x = a->child, *y = b->child; x && y; x = x->next, y = y->next)
+            if (!json_close(x, y, tol)) return false;
+        return true;
+    }
+    if (cJSON_IsObject(a) && cJSON_IsObject(b)) {
+        if (cJSON_GetArraySize(a) != cJSON_GetArraySize(b)) return false;
+        for (const cJSON *x = a->child; x; x = x->next)
+            if (!json_close(x, cJSON_GetObjectItemCaseSensitive(b, x->string), tol)) return false;
+        return true;
+    }
+    return a && b && cJSON_Compare(a, b, true);
+}
+
+/* The value at path in what: the world's, or for "frame" the last frame's header (seq,
+ * sim_time, step, keyframe, strands, strands_total, verts, stride, max_error). */
+static const cJSON *value_of(runner *r, const char *what, const char *path)
+{
+    if (strcmp(what, "frame") != 0) return scen_world_value(&r->world, what, path);
+    if (!r->have_frame) return NULL;
+    cJSON_Delete(r->frame_json);
+    cJSON *o = r->frame_json = cJSON_CreateObject();
+    const codec_frame_info *f = &r->last;
+    cJSON_AddNumberToObject(o, "seq", (double)f->seq);
+    cJSON_AddNumberToObject(o, "sim_time", f->sim_time);
+    cJSON_AddNumberToObject(o, "step", scen_world_frame_step(&r->world, f));
+    cJSON_AddBoolToObject(o, "keyframe", f->keyframe);
+    cJSON_AddNumberToObject(o, "strands", f->nstrands_sent);
+    cJSON_AddNumberToObject(o, "strands_total", f->nstrands_total);
+    cJSON_AddNumberToObject(o, "verts", f->nverts);
+    cJSON_AddNumberToObject(o, "stride", f->stride);
+    cJSON_AddNumberToObject(o, "max_error", f->max_error_m);
+    return cJSON_GetObjectItemCaseSensitive(o, path);
+}
+
+static bool value_holds(runner *r, const scen_step *st, void *arg)
+{
+    const cJSON *want = arg;
+    const cJSON *v = value_of(r, st->what, st->path);
+    if (!v) return false;
+    if (want && !json_close(v, want, st->tolerance)) return false;
+    if (!isnan(st->min) && !(cJSON_IsNumber(v) && v->valuedouble >= st->min)) return false;
+    if (!isnan(st->max) && !(cJSON_IsNumber(v) && v->valuedouble <= st->max)) return false;
+    return true;
+}
+
+static bool check_done(runner *r, const scen_step *st, void *arg)
+{
+    const unsigned long long *end_ns = arg;
+    if (st->seconds > 0) return core_now_ns() >= *end_ns;
+    return r->check->frames >= (unsigned long)st->count;
+}
+
+/* ---- steps ---- */
+
+static bool run_send(runner *r, const scen_step *st)
+{
+    double timeout = st->at_ms >= 0 ? st->at_ms + st->timeout_ms : st->timeout_ms;
+    if (!wait_until(r, st, at_time, NULL, timeout)) {
+        if (!r->detail[0])
+            snprintf(r->detail, sizeof r->detail, "the simulation did not reach %s %g in %g ms (last frame: sim_time %.4f)",
+                     st->at_sim_time >= 0 ? "sim_time" : "step", st->at_sim_time >= 0 ? st->at_sim_time : st->at_step,
+                     st->timeout_ms, r->have_frame ? r->last.sim_time : -1.0);
+        return false;
+    }
+    wsc_send_text(r->conn, st->text);
+    scen_world_sent(&r->world, st->text);
+    snprintf(r->detail, sizeof r->detail, "sent %.900s", st->text);
+    return true;
+}
+
+static bool run_reply(runner *r, const scen_step *st)
+{
+    scen_msg *m = NULL;
+    char id[80];
+    if (st->id_kind == 0) snprintf(id, sizeof id, "without an id");
+    else if (st->id_kind == 1) snprintf(id, sizeof id, "to id %g", st->id_num);
+    else snprintf(id, sizeof id, "to id \"%s\"", st->id_str);
+    if (!wait_until(r, st, got_reply, &m, st->timeout_ms)) {
+        if (!r->detail[0]) snprintf(r->detail, sizeof r->detail, "no reply %s in %g ms", id, st->timeout_ms);
+        return false;
+    }
+    set_seen(r, m->text);
+    cJSON *j = cJSON_Parse(m->text);
+    const cJSON *code = cJSON_GetObjectItemCaseSensitive(j, "code"), *field = cJSON_GetObjectItemCaseSensitive(j, "field");
+    const char *c = cJSON_IsString(code) ? code->valuestring : "", *f = cJSON_IsString(field) ? field->valuestring : "";
+    char got[192], want[192];
+    if (!strcmp(m->type, "error")) snprintf(got, sizeof got, "error %.40s, field \"%.96s\"", c, f);
+    else snprintf(got, sizeof got, "%s", m->type);
+    bool ok;
+    if (st->error[0]) {
+        ok = !strcmp(m->type, "error") && !strcmp(c, st->error) && (!st->field_given || !strcmp(f, st->field));
+        int n = snprintf(want, sizeof want, "error %s", st->error);
+        if (st->field_given) snprintf(want + n, sizeof want - (size_t)n, ", field \"%.96s\"", st->field);
+    } else if (st->reply_type[0]) {
+        ok = !strcmp(m->type, st->reply_type);
+        snprintf(want, sizeof want, "%s", st->reply_type);
+    } else {
+        ok = strcmp(m->type, "error") != 0;
+        snprintf(want, sizeof want, "any reply but an error");
+    }
+    snprintf(r->detail, sizeof r->detail, "reply %s: %s%s%s%s", id, got, ok ? "" : " (want ", ok ? "" : want, ok ? "" : ")");
+    cJSON_Delete(j);
+    return ok;
+}
+
+static bool run_wait(runner *r, const scen_step *st)
+{
+    bool ok;
+    switch (st->kind) {
+    case SCEN_FRAMES: {
+        unsigned long target = r->frames + (unsigned long)st->count;
+        ok = wait_until(r, st, frames_reached, &target, st->timeout_ms);
+        if (!r->detail[0])
+            snprintf(r->detail, sizeof r->detail, "%s %g frames (%lu in all)%s", ok ? "got" : "did not get", st->count,
+                     r->frames, ok ? "" : " in time");
+        return ok;
+    }
+    case SCEN_UNTIL_SIM_TIME:
+        ok = wait_until(r, st, sim_time_reached, NULL, st->timeout_ms);
+        break;
+    case SCEN_UNTIL_STEP:
+        ok = wait_until(r, st, step_reached, NULL, st->timeout_ms);
+        break;
+    default: /* SCEN_SLEEP: only a closed connection or a bad frame ends it early */
+        wait_until(r, st, never, NULL, st->count);
+        if (r->detail[0]) return false;
+        snprintf(r->detail, sizeof r->detail, "slept %g ms", st->count);
+        return true;
+    }
+    if (!r->detail[0])
+        snprintf(r->detail, sizeof r->detail, "%s (last frame: sim_time %.4f, step %.0f)",
+                 ok ? "reached" : "not reached in time", r->have_frame ? r->last.sim_time : -1.0,
+                 r->have_frame ? scen_world_frame_step(&r->world, &r->last) : -1.0);
+    return ok;
+}
+
+static bool run_expect(runner *r, const scen_step *st)
+{
+    cJSON *want = st->equals ? cJSON_Parse(st->equals) : NULL;
+    bool ok = wait_until(r, st, value_holds, want, st->timeout_ms);
+    const cJSON *v = value_of(r, st->what, st->path);
+    char *seen = v ? cJSON_PrintUnformatted(v) : NULL;
+    set_seen(r, seen);
+    if (!r->detail[0]) {
+        char wanted[512];
+        int n = snprintf(wanted, sizeof wanted, "%.300s", st->equals ? st->equals : "");
+        if (st->tolerance > 0) n += snprintf(wanted + n, sizeof wanted - (size_t)n, " within %g", st->tolerance);
+        if (!isnan(st->min) || !isnan(st->max))
+            snprintf(wanted + n, sizeof wanted - (size_t)n, "%sin [%g, %g]", n ? " " : "",
+                     isnan(st->min) ? -INFINITY : st->min, isnan(st->max) ? INFINITY : st->max);
+        snprintf(r->detail, sizeof r->detail, "%s.%s = %.300s (want %s)", st->what, st->path, seen ? seen : "(absent)",
+                 wanted);
+    }
+    cJSON_free(seen);
+    cJSON_Delete(want);
+    return ok;
+}
+
+static bool run_check(runner *r, const scen_step *st)
+{
+    scen_check chk;
+    scen_check_begin(&chk, &st->check);
+    r->check = &chk;
+    unsigned long long end_ns = core_now_ns() + (unsigned long long)(st->seconds * 1e9);
+    double timeout = st->seconds > 0 ? st->seconds * 1e3 + 1000.0 : st->timeout_ms;
+    bool done = wait_until(r, st, check_done, &end_ns, timeout);
+    r->check = NULL;
+    char figures[768];
+    scen_check_json(&chk, figures, sizeof figures);
+    char *seen = malloc(strlen(figures) + 3);
+    if (seen) sprintf(seen, "{%s}", figures);
+    free(r->seen);
+    r->seen = seen;
+    if (!done) {
+        if (!r->detail[0])
+            snprintf(r->detail, sizeof r->detail, "%lu of %g frames in %g ms", chk.frames, st->count, timeout);
+        return false;
+    }
+    if (chk.frames == 0) {
+        snprintf(r->detail, sizeof r->detail, "no frame in %g s", st->seconds);
+        return false;
+    }
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *mem = open_memstream(&buf, &len);
+    bool ok = scen_check_end(&chk, mem, "; ");
+    if (mem) fclose(mem);
+    if (buf) { /* one line per step: the lines' ends go, each starts with "; " */
+        char *o = buf;
+        for (const char *p = buf; *p; p++)
+            if (*p != '\n') *o++ = *p;
+        *o = '\0';
+    }
+    double fps;
+    scen_check_fps_ok(&chk, &fps);
+    snprintf(r->detail, sizeof r->detail, "%lu frames, %.1f frames/s, longest gap %.1f ms%s%.700s", chk.frames, fps,
+             (double)chk.max_gap_ns / 1e6, chk.roots_unchecked ? ", roots not checked on some (head pose unknown)" : "",
+             buf ? buf : "");
+    free(buf);
+    return ok;
+}
+
+/* Prints s as a JSON string. */
+static void put_json_string(FILE *fp, const char *s)
+{
+    fputc('"', fp);
+    for (; *s; s++) {
+        unsigned char ch = (unsigned char)*s;
+        if (ch == '"' || ch == '\\') fprintf(fp, "\\%c", ch);
+        else if (ch < 0x20) fprintf(fp, "\\u%04x", ch);
+        else fputc(ch, fp);
+    }
+    fputc('"', fp);
+}
+
+static void report(runner *r, size_t i, const scen_step *st, bool ok, double t)
+{
+    if (r->d->json) {
+        fprintf(r->out, "{\"step\":%zu,\"kind\":\"%s\",\"ok\":%s,\"t\":%.3f,\"frames\":%lu,\"sim_time\":%.4f,\"detail\":", i,
+                scen_kind_name(st->kind), ok ? "true" : "false", t, r->frames, r->have_frame ? r->last.sim_time : -1.0);
+        put_json_string(r->out, r->detail);
+        fprintf(r->out, ",\"seen\":%s}\n", r->seen ? r->seen : "null");
+    } else {
+        fprintf(r->out, "%s step %zu %-14s %8.3f s  %s\n", ok ? "ok  " : "FAIL", i, scen_kind_name(st->kind), t, r->detail);
+    }
+    fflush(r->out);
+}
+
+static bool run_step(runner *r, const scen_step *st)
+{
+    r->detail[0] = '\0';
+    set_seen(r, NULL);
+    switch (st->kind) {
+    case SCEN_SEND: return run_send(r, st);
+    case SCEN_REPLY: return run_reply(r, st);
+    case SCEN_EXPECT: return run_expect(r, st);
+    case SCEN_CHECK: return run_check(r, st);
+    default: return run_wait(r, st);
+    }
+}
+
+static bool connect_hello(runner *r, const char *host, int port)
+{
+    r->w = wsc_new();
+    r->conn = r->w ? wsc_connect_host(r->w, host, port, PROTO_SUBPROTOCOL, on_frame, r) : NULL;
+    if (!r->conn || !wsc_wait_open(r->w, r->conn, SCEN_CONNECT_MS)) {
+        fprintf(stderr, "strandcastc: cannot connect to ws://%s:%d/ with subprotocol %s\n", host, port, PROTO_SUBPROTOCOL);
+        return false;
+    }
+    const char *hello = wsc_next_of_type(r->w, r->conn, "hello", SCEN_CONNECT_MS);
+    core_err err;
+    if (!hello || scen_world_hello(&r->world, hello, strlen(hello), &err) != CORE_OK) {
+        fprintf(stderr, "strandcastc: no usable hello from the server%s%s\n", hello ? ": " : "", hello ? err.msg : "");
+        return false;
+    }
+    r->have_world = true;
+    size_t n;
+    char *const *t = wsc_texts(r->conn, &n);
+    while (r->next_text < n && t[r->next_text] != hello) r->next_text++;
+    r->next_text++; /* the hello itself is read */
+    return true;
+}
+
+int scen_run(const scen_run_desc *d, const scen_script *s)
+{
+    runner r;
+    memset(&r, 0, sizeof r);
+    r.d = d;
+    r.out = d->out ? d->out : stdout;
+    codec_decoder_init(&r.dec);
+    const char *host = d->host ? d->host : "127.0.0.1";
+    int port = d->port ? d->port : NET_DEFAULT_PORT;
+    int rc = 1;
+    if (!connect_hello(&r, host, port)) goto done;
+    r.t0 = core_now_ns();
+    if (!d->json)
+        fprintf(r.out, "strandcastc run: %s: ws://%s:%d/, groom %u x %u, %d colliders, %zu steps\n",
+                s->name[0] ? s->name : "script", host, port, r.world.strands, r.world.verts, r.world.ncolliders, s->nsteps);
+    size_t failed = s->nsteps;
+    for (size_t i = 0; i < s->nsteps && failed == s->nsteps; i++) {
+        bool ok = run_step(&r, &s->steps[i]);
+        report(&r, i, &s->steps[i], ok, elapsed_s(&r));
+        if (!ok) failed = i;
+    }
+    rc = failed < s->nsteps;
+    if (d->json) {
+        char f[32] = "null";
+        if (rc) snprintf(f, sizeof f, "%zu", failed);
+        fprintf(r.out, "{\"summary\":true,\"ok\":%s,\"steps\":%zu,\"failed_step\":%s,\"frames\":%lu,\"seconds\":%.3f}\n",
+                rc ? "false" : "true", s->nsteps, f, r.frames, elapsed_s(&r));
+    } else if (rc)
+        fprintf(r.out, "strandcastc run: %s: step %zu (%s) failed: %s\n", s->name[0] ? s->name : "script", failed,
+                scen_kind_name(s->steps[failed].kind), r.detail);
+    else
+        fprintf(r.out, "strandcastc run: %s: all %zu steps held (%lu frames in %.2f s)\n", s->name[0] ? s->name : "script",
+                s->nsteps, r.frames, elapsed_s(&r));
+done:
+    wsc_free(r.w);
+    if (r.have_world) scen_world_free(&r.world);
+    codec_decoder_free(&r.dec);
+    free(r.xyz);
+    free(r.msgs);
+    free(r.seen);
+    cJSON_Delete(r.frame_json);
+    return rc;
+}
