@@ -36,6 +36,11 @@ typedef struct runner {
     unsigned long frames;
     codec_frame_info last; /* the last decoded frame */
     bool have_frame;
+    /* a reset this client sent, until a frame of the restarted simulation arrives: frames sent
+     * before the reset took effect may come after its reply and its state announcement, so the
+     * first frame whose sim time is below every earlier one ends it (a reset restarts time) */
+    bool reset_pending;
+    double reset_max_time;
     char frame_error[CORE_ERR_MAX + 64];
     size_t next_text;
     scen_msg *msgs;
@@ -118,6 +123,13 @@ static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user
     /* frames that come while the hello is read are decoded too: the decoder keeps their keyframe */
     if (codec_decode(&r->dec, data, len, r->xyz, r->cap, &info, &err) != CORE_OK) goto bad;
     if (!r->have_world) return;
+    if (r->reset_pending) {
+        if (!(info.sim_time < r->reset_max_time)) {
+            r->reset_max_time = info.sim_time;
+            return;
+        }
+        r->reset_pending = false;
+    }
     r->last = info;
     r->have_frame = true;
     r->frames++;
@@ -294,6 +306,19 @@ static bool check_done(runner *r, const scen_step *st, void *arg)
 
 /* ---- steps ---- */
 
+/* A reset sent with frames seen: the last frame no longer tells the sim time or step, and
+ * frames from before the reset are told apart by their sim time (runner.reset_pending). */
+static void note_reset(runner *r, const char *text)
+{
+    char type[32];
+    proto_id id;
+    if (!r->have_frame || proto_read_envelope(text, strlen(text), type, sizeof type, &id) != CORE_OK) return;
+    if (strcmp(type, "reset") != 0) return;
+    r->reset_pending = true;
+    r->reset_max_time = r->last.sim_time;
+    r->have_frame = false;
+}
+
 static bool run_send(runner *r, const scen_step *st)
 {
     double timeout = st->at_ms >= 0 ? st->at_ms + st->timeout_ms : st->timeout_ms;
@@ -306,6 +331,7 @@ static bool run_send(runner *r, const scen_step *st)
     }
     wsc_send_text(r->conn, st->text);
     scen_world_sent(&r->world, st->text);
+    note_reset(r, st->text);
     snprintf(r->detail, sizeof r->detail, "sent %.900s", st->text);
     return true;
 }
