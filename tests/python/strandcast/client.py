@@ -114,8 +114,11 @@ class Client:
                     self._dispatch(json.loads(msg))
             self._failure = ConnectionError(f"{self.url}: connection closed ({self._ws.close_code} "
                                             f"{self._ws.close_reason!r})")
-        except Exception as e:  # a closed connection, a frame the decoder refused, bad JSON
+        except websockets.ConnectionClosed as e:
+            self._failure = ConnectionError(f"{self.url}: connection lost ({e})")
+        except Exception as e:  # a frame the decoder refused, a message that is not JSON
             self._failure = e
+            await self._ws.close(1002, "strandcast client: bad message")
         for fut in self._pending.values():
             if not fut.done():
                 fut.set_exception(self._failure)
