@@ -110,11 +110,15 @@ def test_subscribe_changes_the_frames(daemon):
 def test_closed_client_fails_requests(daemon):
     async def body():
         c = await strandcast.connect(daemon.url)
+        await c.frames(count=1).__anext__()
+        await asyncio.sleep(0.1)  # more frames and messages queue up: close() drops them
         await c.close()
         with pytest.raises(ConnectionError):
             await c.request({"type": "get_params"})
         with pytest.raises(ConnectionError):
             await c.frames(count=1).__anext__()
+        with pytest.raises(ConnectionError):
+            await c.next_message()
     run(body())
 
 

@@ -96,11 +96,16 @@ class Client:
         await self.close()
 
     async def close(self):
-        """Closes the connection (code 1000) and stops reading. Pending requests fail."""
+        """Closes the connection (code 1000) and stops reading. Pending requests fail, and so do
+        frames() and next_message() (what was queued is dropped)."""
         if self._ws is not None:
             await self._ws.close()
         if self._reader is not None:
             await self._reader
+            for queue in (self._frames, self._messages):
+                while not queue.empty():
+                    queue.get_nowait()
+                queue.put_nowait(_CLOSED)
         if self._decoder is not None:
             self._decoder.close()
 
