@@ -133,7 +133,8 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     n->listen = dup_or_null(listen);
     n->web_dir = dup_or_null(d->web_dir);
     n->subprotocol = dup_or_null(d->subprotocol);
-    if ((listen && !n->listen) || (d->web_dir && !n->web_dir) || !n->subprotocol) {
+    n->scratch = malloc(LWS_PRE + NET_FRAME_CHUNK);
+    if ((listen && !n->listen) || (d->web_dir && !n->web_dir) || !n->subprotocol || !n->scratch) {
         net_destroy(n);
         return core_fail(err, CORE_ENOMEM, "net: out of memory");
     }
@@ -260,6 +261,7 @@ void net_destroy(net *n)
     free(n->listen);
     free(n->web_dir);
     free(n->subprotocol);
+    free(n->scratch);
     free(n);
 }
 

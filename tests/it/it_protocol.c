@@ -40,8 +40,11 @@ void test_hello_and_frames(void **state)
     assert_true(num(get(get(h, "params"), "values"), "gravity") == 9.81);
     const cJSON *g = get(h, "groom");
     assert_true(num(g, "strands") == NSTRANDS && num(g, "verts") == NVERTS);
-    assert_int_equal(cJSON_GetArraySize(get(g, "roots")), 3 * NSTRANDS);
-    assert_int_equal(cJSON_GetArraySize(get(g, "rest_lengths")), NSTRANDS);
+    /* the per-strand data is a binary the hello names, not JSON: the hello stays small */
+    assert_null(cJSON_GetObjectItemCaseSensitive(g, "roots"));
+    assert_string_equal(str(g, "url"), "/groom.bin");
+    float *data = fetch_groom_data(fx, g), *roots = data + NSTRANDS;
+    for (int s = 0; s < NSTRANDS; s++) assert_true(data[s] > 0.0f && data[s] < 0.1f); /* rest lengths */
     assert_true(cJSON_GetArraySize(get(h, "colliders")) > 0);
     const cJSON *files = get(get(h, "grooms"), "files"); /* sorted */
     assert_int_equal(cJSON_GetArraySize(files), 2);
@@ -57,10 +60,9 @@ void test_hello_and_frames(void **state)
     assert_int_equal(v->info.nverts, NVERTS);
     for (size_t i = 0; i < 3 * NSTRANDS * NVERTS; i++) assert_true(isfinite(v->xyz[i]));
     /* roots sit where the hello says (head at rest) */
-    const cJSON *roots = get(g, "roots");
     for (int s = 0; s < NSTRANDS; s += 37)
-        for (int k = 0; k < 3; k++)
-            assert_true(fabs(v->xyz[3 * (size_t)s * NVERTS + k] - cJSON_GetArrayItem(roots, 3 * s + k)->valuedouble) < 2e-4);
+        for (int k = 0; k < 3; k++) assert_true(fabs(v->xyz[3 * (size_t)s * NVERTS + k] - roots[3 * s + k]) < 2e-4);
+    free(data);
     cJSON_Delete(h);
 }
 
@@ -141,7 +143,7 @@ void test_params_broadcast_and_physics(void **state)
 
 typedef struct roots_arg {
     view *v;
-    const cJSON *roots;
+    const float *roots;
     double rot90;  /* 1 = expect a +90 degree turn about y */
     double off[3];
 } roots_arg;
@@ -152,7 +154,7 @@ static bool roots_at(void *arg)
     if (!a->v->ok) return false;
     for (int s = 0; s < NSTRANDS; s += 17) {
         double r[3];
-        for (int k = 0; k < 3; k++) r[k] = cJSON_GetArrayItem(a->roots, 3 * s + k)->valuedouble;
+        for (int k = 0; k < 3; k++) r[k] = a->roots[3 * s + k];
         if (a->rot90 != 0) { /* (x, y, z) -> (z, y, -x) */
             double x = r[0];
             r[0] = r[2];
@@ -170,7 +172,7 @@ void test_motion_moves_roots(void **state)
     view *v;
     wsc_conn *c = connect_view(fx, &v);
     cJSON *h = expect_msg(fx, c, "hello");
-    const cJSON *roots = get(get(h, "groom"), "roots");
+    float *data = fetch_groom_data(fx, get(h, "groom")), *roots = data + NSTRANDS;
     wait_frames(fx, v, 2);
     wsc_send_text(c, "{\"type\":\"motion\",\"t\":1,\"position\":[0.05,0.1,-0.02],\"orientation\":[0,0,0,1]}");
     roots_arg a = { v, roots, 0, { 0.05, 0.1, -0.02 } };
@@ -218,6 +220,7 @@ void test_motion_moves_roots(void **state)
     cJSON *st2 = expect_msg(fx, c, "state");
     assert_string_equal(str(get(st2, "animation"), "preset"), "none");
     assert_int_equal(v->bad, 0);
+    free(data);
     cJSON_Delete(h);
     cJSON_Delete(ok);
     cJSON_Delete(st);
@@ -499,6 +502,7 @@ void test_pause_step_subscribe_groom(void **state)
     cJSON *g2 = expect_msg(fx, c2, "groom");
     assert_true(num(get(g2, "groom"), "strands") == 128 && num(get(g2, "groom"), "verts") == 12);
     assert_string_equal(str(get(g2, "groom"), "source"), "procedural:wavy");
+    free(fetch_groom_data(fx, get(g2, "groom"))); /* the binary changed with it (size, counts, tag) */
     count_arg ca = { v2, 128, 12 };
     assert_true(wsc_until(fx->w, frame_shape, &ca, WAIT_MS));
     /* one groom change at a time: a second sent right behind a large one is refused */
@@ -518,6 +522,7 @@ void test_pause_step_subscribe_groom(void **state)
     cJSON *g3 = expect_msg(fx, c2, "groom");
     assert_string_equal(str(get(g3, "groom"), "source"), "file:tiny.hair");
     assert_true(num(get(g3, "groom"), "strands") == 16);
+    free(fetch_groom_data(fx, get(g3, "groom")));
     count_arg cb = { v2, 16, 6 };
     assert_true(wsc_until(fx->w, frame_shape, &cb, WAIT_MS));
     assert_int_equal(v->bad + v2->bad, 0);
