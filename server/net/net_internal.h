@@ -125,6 +125,11 @@ struct net {
 int net_ws_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in, size_t len);
 int net_http_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in, size_t len);
 
+/* The raw-socket callbacks (RAW_RX, RAW_WRITEABLE, RAW_CLOSE) of a request whose method the
+ * server does not implement: answers 501 with the reason (400 for bytes that are no request
+ * line) and closes (net_method.c). */
+int net_method_callback(struct lws *wsi, enum lws_callback_reasons reason, net_http *h, void *in, size_t len);
+
 /* Checks desc.blobs and copies them into n->blobs. CORE_EINVAL for a bad path. */
 core_status net_blobs_init(net *n, core_err *err);
 /* Releases every blob body. */

@@ -261,6 +261,26 @@ static int session_writeable(net *n, net_session *s, struct lws *wsi)
     return 0;
 }
 
+/* The peer's close frame, before lws echoes it (RFC 6455 5.5.1, 7.4, 8.1): a 1-byte payload
+ * cannot hold a status code (close 1002) and a reason must be UTF-8 (close 1007); lws would
+ * echo either. Returning -1 from here makes lws send the close set by lws_close_reason (the
+ * connection is still open: lws marks it closing only after this callback). */
+static int peer_close(net *n, struct lws *wsi, const unsigned char *in, size_t len)
+{
+    const char *why = NULL;
+    enum lws_close_status code = LWS_CLOSE_STATUS_PROTOCOL_ERR;
+    if (len == 1) {
+        why = "a close payload of 1 byte: a status code takes 2";
+    } else if (len > 2 && !core_utf8_valid((const char *)in + 2, len - 2)) {
+        code = LWS_CLOSE_STATUS_INVALID_PAYLOAD;
+        why = "close reason is not valid UTF-8";
+    }
+    if (!why) return 0;
+    atomic_fetch_add(&n->protocol_closes, 1);
+    lws_close_reason(wsi, code, (unsigned char *)why, strlen(why));
+    return -1;
+}
+
 int net_ws_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in, size_t len)
 {
     net *n = net_of(wsi);
@@ -270,6 +290,7 @@ int net_ws_callback(struct lws *wsi, enum lws_callback_reasons reason, void *use
     case LWS_CALLBACK_ESTABLISHED: session_open(n, s, wsi); return 0;
     case LWS_CALLBACK_CLOSED: session_closed(n, s); return 0;
     case LWS_CALLBACK_RECEIVE: return session_receive(n, s, wsi, in, len);
+    case LWS_CALLBACK_WS_PEER_INITIATED_CLOSE: return peer_close(n, wsi, in, len);
     case LWS_CALLBACK_SERVER_WRITEABLE: return s->wsi ? session_writeable(n, s, wsi) : 0;
     case LWS_CALLBACK_TIMER:
         if (s->wsi) lws_callback_on_writable(wsi);

@@ -9,6 +9,8 @@
 int rawws_open(int port, const char *subprotocol);
 /* Sends one masked frame (opcode 1 text, 2 binary, 0 continuation). Returns 0 on success. */
 int rawws_send(int fd, int opcode, const void *payload, size_t len, bool fin);
+/* Writes bytes as they are (a hand-made frame, e.g. an unmasked one). Returns 0 on success. */
+int rawws_send_bytes(int fd, const void *bytes, size_t len);
 /* Reads frames until a close frame (returns its code, 1005 when it has none), EOF/error (0) or
  * timeout (-1). */
 int rawws_close_code(int fd, int timeout_ms);
