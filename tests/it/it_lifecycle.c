@@ -292,7 +292,8 @@ static double metric_now(fixture *fx, const char *name)
 void test_large_groom_hello_small(void **state)
 {
     fixture *fx = *state;
-    wsc_conn *c = wsc_connect(fx->w, fx->d.port, SUBPROTOCOL, NULL, NULL);
+    view *v;
+    wsc_conn *c = connect_view(fx, &v);
     const char *text = wsc_next_of_type(fx->w, c, "hello", 4 * WAIT_MS);
     assert_non_null(text);
     size_t hello_len = strlen(text);
@@ -306,6 +307,9 @@ void test_large_groom_hello_small(void **state)
     for (int s = 0; s < 65536; s++) assert_true(data[s] > 0.0f && isfinite(data[65536 + 3 * s]));
     free(data);
     cJSON_Delete(h);
+    /* its frames (a keyframe is hundreds of KB: sent in 16 KiB fragments) decode */
+    wait_frames(fx, v, 3);
+    assert_true(v->first_was_key && v->bad == 0 && v->info.nstrands_total == 65536);
 
     double rss0 = rss_mib(fx->d.pid);
     int fds[100];
@@ -323,4 +327,6 @@ void test_large_groom_hello_small(void **state)
     if (rss1 - rss0 > 64.0) fail_msg("100 idle clients took %.1f MiB", rss1 - rss0);
     if (queued > 100 * 8192.0) fail_msg("%.0f bytes of text queued for 100 idle clients", queued);
     for (int i = 0; i < 100; i++) rawws_free(fds[i]);
+    wait_frames(fx, v, v->ok + 3);
+    assert_int_equal(v->bad, 0);
 }
