@@ -20,10 +20,13 @@ static long long now_ms(void)
     return (long long)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
 }
 
-int rawws_open(int port, const char *subprotocol)
+int rawws_open(int port, const char *subprotocol) { return rawws_open_rcvbuf(port, subprotocol, 0); }
+
+int rawws_open_rcvbuf(int port, const char *subprotocol, int rcvbuf)
 {
     int fd = socket(AF_INET, SOCK_STREAM, 0);
     if (fd < 0) return -1;
+    if (rcvbuf > 0) setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
     struct sockaddr_in a = { 0 };
     a.sin_family = AF_INET;
     a.sin_port = htons((uint16_t)port);
