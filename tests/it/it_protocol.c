@@ -45,6 +45,15 @@ void test_hello_and_frames(void **state)
     assert_string_equal(str(g, "url"), "/groom.bin");
     float *data = fetch_groom_data(fx, g), *roots = data + NSTRANDS;
     for (int s = 0; s < NSTRANDS; s++) assert_true(data[s] > 0.0f && data[s] < 0.1f); /* rest lengths */
+    /* revalidation with the tag the hello gave: 304 without a body */
+    char req[256];
+    snprintf(req, sizeof req, "GET /groom.bin HTTP/1.1\r\nHost: 127.0.0.1\r\nIf-None-Match: \"%s\"\r\nConnection: close\r\n\r\n",
+             str(g, "etag"));
+    http_reply r;
+    assert_int_equal(http_exchange(fx->d.port, req, &r, 5000), 0);
+    assert_int_equal(r.status, 304);
+    assert_int_equal(r.body_len, 0);
+    http_reply_free(&r);
     assert_true(cJSON_GetArraySize(get(h, "colliders")) > 0);
     const cJSON *files = get(get(h, "grooms"), "files"); /* sorted */
     assert_int_equal(cJSON_GetArraySize(files), 2);
