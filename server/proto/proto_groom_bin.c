@@ -63,8 +63,8 @@ core_status proto_groom_bin_read(const unsigned char *bin, size_t len, uint32_t 
         return core_fail(err, CORE_EFORMAT, "groom data binary: %u strands of %u vertices (at least 1 of 2 expected)", ns, nv);
     uint64_t want = PROTO_GROOM_HEADER + 16ull * ns;
     if (want != len)
-        return core_fail(err, CORE_EFORMAT, "groom data binary: %u strands need %llu bytes, got %zu", ns, (unsigned long long)want,
-                         len);
+        return core_fail(err, CORE_EFORMAT, "groom data binary: %u strands need %llu bytes, got %zu", ns,
+                         (unsigned long long)want, len);
     const unsigned char *p = bin + PROTO_GROOM_HEADER;
     for (uint32_t s = 0; s < ns; s++, p += 4) {
         float f = get_f32(p);

@@ -299,7 +299,8 @@ float *fetch_groom_data(fixture *fx, const cJSON *g)
     assert_int_equal(http_get(fx->d.port, str(g, "url"), &r), 0);
     if (r.status != 200) fail_msg("GET %s: %d\n%.300s", str(g, "url"), r.status, r.raw);
     assert_string_equal(r.content_type, "application/octet-stream");
-    if (r.body_len != (size_t)num(g, "bytes")) fail_msg("GET %s: %zu bytes, the groom says %.0f", str(g, "url"), r.body_len, num(g, "bytes"));
+    if (r.body_len != (size_t)num(g, "bytes"))
+        fail_msg("GET %s: %zu bytes, the groom says %.0f", str(g, "url"), r.body_len, num(g, "bytes"));
     uint32_t ns, nv;
     core_err err;
     if (proto_groom_bin_read((const unsigned char *)r.body, r.body_len, &ns, &nv, &err) != CORE_OK) fail_msg("%s", err.msg);
