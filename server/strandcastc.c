@@ -161,19 +161,26 @@ static void print_frame(const cli *c, const codec_frame_info *info, size_t len)
             lo[k] = fminf(lo[k], c->xyz[3 * i + (size_t)k]);
             hi[k] = fmaxf(hi[k], c->xyz[3 * i + (size_t)k]);
         }
+    const codec_sim_info *s = &info->sim;
     if (c->d.json) {
         printf("{\"cli\":\"frame\",\"frame\":%lu,\"seq\":%llu,\"keyframe\":%s,\"ref_seq\":%llu,\"bytes\":%zu,"
-               "\"sim_time\":%.6f,\"strands\":%u,\"strands_total\":%u,\"verts\":%u,\"stride\":%u,\"max_error_m\":%g,"
-               "\"bytes_per_vertex\":%.4f,\"bounds\":[%g,%g,%g,%g,%g,%g]}\n",
+               "\"sim_time\":%.6f,\"sim_step\":%llu,\"head\":{\"position\":[%.9g,%.9g,%.9g],"
+               "\"orientation\":[%.9g,%.9g,%.9g,%.9g]},\"strands\":%u,\"strands_total\":%u,\"verts\":%u,\"stride\":%u,"
+               "\"max_error_m\":%g,\"bytes_per_vertex\":%.4f,\"bounds\":[%g,%g,%g,%g,%g,%g]}\n",
                c->frames, (unsigned long long)info->seq, info->keyframe ? "true" : "false",
-               (unsigned long long)info->ref_seq, len, info->sim_time, info->nstrands_sent, info->nstrands_total,
-               info->nverts, info->stride, (double)info->max_error_m, (double)len / (double)nv, lo[0], lo[1], lo[2],
-               hi[0], hi[1], hi[2]);
+               (unsigned long long)info->ref_seq, len, s->sim_time, (unsigned long long)s->sim_step,
+               (double)s->head_pos[0], (double)s->head_pos[1], (double)s->head_pos[2], (double)s->head_rot[0],
+               (double)s->head_rot[1], (double)s->head_rot[2], (double)s->head_rot[3], info->nstrands_sent,
+               info->nstrands_total, info->nverts, info->stride, (double)info->max_error_m, (double)len / (double)nv,
+               lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
     } else {
-        printf("%6lu %10llu %-5s %10llu %9zu %10.4f %7u x %-4u %8.4f  [%.3f %.3f %.3f]..[%.3f %.3f %.3f]\n", c->frames,
-               (unsigned long long)info->seq, info->keyframe ? "key" : "delta", (unsigned long long)info->ref_seq, len,
-               info->sim_time, info->nstrands_sent, info->nverts, (double)len / (double)nv, lo[0], lo[1], lo[2], hi[0],
-               hi[1], hi[2]);
+        printf("%6lu %10llu %-5s %10llu %9zu %10.4f %8llu %7u x %-4u %8.4f  [%.3f %.3f %.3f]..[%.3f %.3f %.3f]  "
+               "[%.3f %.3f %.3f] [%.3f %.3f %.3f %.3f]\n",
+               c->frames, (unsigned long long)info->seq, info->keyframe ? "key" : "delta",
+               (unsigned long long)info->ref_seq, len, s->sim_time, (unsigned long long)s->sim_step, info->nstrands_sent,
+               info->nverts, (double)len / (double)nv, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], (double)s->head_pos[0],
+               (double)s->head_pos[1], (double)s->head_pos[2], (double)s->head_rot[0], (double)s->head_rot[1],
+               (double)s->head_rot[2], (double)s->head_rot[3]);
     }
 }
 
@@ -265,8 +272,8 @@ static void print_hello(const cli *c, const proto_hello_info *h)
            "%g mm, %g of %g frames/s\n",
            c->d.host, c->d.port, PROTO_SUBPROTOCOL, h->server, h->version, h->protocol, h->client, h->source,
            h->strands, h->verts, h->stride, h->max_error * 1e3, h->frame_rate, h->rate);
-    printf("%6s %10s %-5s %10s %9s %10s %14s %8s  %s\n", "frame", "seq", "kind", "ref_seq", "bytes", "sim_time", "strands x verts",
-           "B/vertex", "bounds (m)");
+    printf("%6s %10s %-5s %10s %9s %10s %8s %14s %8s  %-39s  %s\n", "frame", "seq", "kind", "ref_seq", "bytes", "sim_time",
+           "sim_step", "strands x verts", "B/vertex", "bounds (m)", "head position (m), orientation [x y z w]");
 }
 
 typedef struct until_arg {
