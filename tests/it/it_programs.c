@@ -155,6 +155,10 @@ void test_cli_client(void **state)
     assert_true(strstr(first, "\"keyframe\":true") < strchr(first, '\n')); /* the new stream starts with a keyframe */
     if (count_of(out, "{\"cli\":\"frame\"") != 12 || count_of(out, "\"strands\":32,\"strands_total\":128,\"verts\":8,\"stride\":4,") != 12)
         fail_msg("want 12 frames of every 4th strand:\n%s", out);
+    /* each frame line reports its step and the head its header carries (at rest: the identity) */
+    if (count_of(out, "\"sim_step\":") != 12 ||
+        count_of(out, "\"head\":{\"position\":[0,0,0],\"orientation\":[0,0,0,1]},") != 12)
+        fail_msg("want sim_step and the head in every frame line:\n%s", out);
     if (!strstr(out, "\"frames\":12,") || !strstr(out, "\"recorded\":12,") || !strstr(out, "\"ok\":true}"))
         fail_msg("summary:\n%s", out);
     /* the recording: SCFR header, then 12 frames of 32 x 8 finite positions near the head */
