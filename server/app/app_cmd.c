@@ -177,15 +177,17 @@ static void handle_msg(app_world *w, uint32_t client, const proto_msg *m)
         w->paused = false;
         w->step_budget = 0;
         break;
-    case PROTO_STEP:
+    case PROTO_STEP: {
         if (!w->paused) {
             app_reply_fail(w->out, client, &m->id, PROTO_ERR_BAD_STATE, "", "step works while paused; send pause first");
             return;
         }
+        const int64_t first = next_step(w) + w->step_budget; /* after the steps still owed */
         w->step_budget += m->u.step.count;
         if (w->step_budget > PROTO_MAX_STEP) w->step_budget = PROTO_MAX_STEP;
-        app_reply_ok(w->out, client, m, next_step(w));
+        app_reply_ok(w->out, client, m, first);
         return; /* the state follows when the steps are done */
+    }
     case PROTO_SET_GROOM: app_cmd_set_groom(w, client, m); return; /* it drops grooms_pending */
     case PROTO_AUTH: return; /* answered on the net thread (app_net.c), never queued */
     case PROTO_SUBSCRIBE: subscribe(w, client, m); return;

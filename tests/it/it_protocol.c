@@ -495,9 +495,13 @@ void test_pause_step_subscribe_groom(void **state)
     double steps0 = num(st, "steps");
     wsc_send_text(c, "{\"type\":\"step\",\"count\":3,\"id\":1}");
     cJSON *ok = expect_msg(fx, c, "ok");
+    assert_true(num(ok, "step") == steps0 + 1); /* the first of the steps */
     cJSON *st2 = expect_msg(fx, c, "state");
     assert_true(num(st2, "steps") == steps0 + 3);
     assert_true(cJSON_IsTrue(get(st2, "paused")));
+    /* the newest frame is the last step's, and says so */
+    wsc_run(fx->w, 300);
+    assert_true((double)v->info.sim.sim_step == steps0 + 3);
     wsc_send_text(c, "{\"type\":\"resume\"}");
     cJSON *st3 = expect_msg(fx, c, "state");
     assert_true(cJSON_IsFalse(get(st3, "paused")));
@@ -532,6 +536,7 @@ void test_pause_step_subscribe_groom(void **state)
     uint64_t keys = v->keys, frames = v->ok;
     wsc_send_text(c, "{\"type\":\"keyframe\",\"id\":2}");
     cJSON *ok2 = expect_msg(fx, c, "ok");
+    assert_null(cJSON_GetObjectItemCaseSensitive(ok2, "step")); /* a keyframe changes no simulation */
     wsc_run(fx->w, 300);
     if (v->ok != frames + 1 || v->keys != keys + 1)
         fail_msg("after a keyframe request while paused: %llu frames, %llu keyframes (want 1, 1)",
@@ -543,6 +548,7 @@ void test_pause_step_subscribe_groom(void **state)
     wsc_send_text(c, "{\"type\":\"set_groom\",\"style\":\"wavy\",\"strands\":128,\"verts\":12,\"id\":3}");
     cJSON *ok3 = expect_msg(fx, c, "ok");
     assert_true(num(ok3, "id") == 3);
+    assert_true(num(ok3, "step") == 0); /* the new groom's simulation starts over */
     cJSON *g2 = expect_msg(fx, c2, "groom");
     assert_true(num(get(g2, "groom"), "strands") == 128 && num(get(g2, "groom"), "verts") == 12);
     assert_string_equal(str(get(g2, "groom"), "source"), "procedural:wavy");
