@@ -238,11 +238,10 @@ int bench_latency_main(int argc, char **argv)
         rc = measure(&o, w, conn, &rx, to_reply, to_frame);
     }
     wsc_free(w);
+    /* its exit status is the integration tests' business (a sanitizer build's leak report about
+       the Vulkan driver the automatic backend probe loads, say), not the measurement's */
     int drc = daemon_stop(&d, SIGTERM, 15000);
-    if (rc == 0 && drc != 0) {
-        fprintf(stderr, "%s: strandcastd exited with %d\n", PROG, drc);
-        rc = 1;
-    }
+    if (drc != 0) fprintf(stderr, "%s: strandcastd exited with %d\n", PROG, drc);
     if (rc == 0) {
         const size_t n = o.changes;
         const double p50 = quantile(to_frame, n, 0.5), p99 = quantile(to_frame, n, 0.99), max = to_frame[n - 1];
