@@ -86,21 +86,27 @@ static const char *find_daemon(const latency_opts *o, char *buf, size_t cap)
     return access(buf, X_OK) == 0 ? buf : NULL;
 }
 
-/* The client: its decoder, and the newest frame it decoded (its step and when). */
+/* The client: its decoder and, for the change being timed, when the first frame showing it was
+ * decoded. A frame counts when the reply had arrived before it (the text messages received
+ * before the frame, in the connection's order, include the reply) and its step reaches the
+ * reply's. */
 typedef struct latency_rx {
     codec_decoder dec;
     float *xyz;
     size_t cap;
     uint64_t frames, bad;
-    bool armed;                 /* a change's reply came: frames now count */
-    uint64_t want_step;         /* the reply's step */
-    unsigned long long shown_ns; /* when the first frame at or past want_step was decoded (0: not yet) */
+    size_t reply_at;             /* the reply's index among the received texts (SIZE_MAX: not yet) */
+    uint64_t want_step;          /* the reply's step */
+    unsigned long long shown_ns; /* when the first frame showing the change was decoded (0: not yet) */
+    uint64_t pending_step[64];   /* frames decoded while the reply was not yet read: step, */
+    size_t pending_texts[64];    /* texts received before each, */
+    unsigned long long pending_ns[64]; /* and when */
+    size_t npending;
     char error[CORE_ERR_MAX];
 } latency_rx;
 
 static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user)
 {
-    (void)conn;
     latency_rx *rx = user;
     codec_frame_info info;
     core_err err;
@@ -116,8 +122,19 @@ static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user
         rx->cap = need;
     }
     if (codec_decode(&rx->dec, data, len, rx->xyz, rx->cap, &info, &err) != CORE_OK) goto bad;
+    const unsigned long long t = core_now_ns();
     rx->frames++;
-    if (rx->armed && !rx->shown_ns && info.sim.sim_step >= rx->want_step) rx->shown_ns = core_now_ns();
+    size_t ntexts;
+    wsc_texts(conn, &ntexts);
+    if (rx->shown_ns) return;
+    if (rx->reply_at != SIZE_MAX) {
+        if (ntexts > rx->reply_at && info.sim.sim_step >= rx->want_step) rx->shown_ns = t;
+    } else if (rx->npending < sizeof rx->pending_ns / sizeof rx->pending_ns[0]) {
+        /* the reply may be among the texts already received but not yet read: decided once it is */
+        rx->pending_step[rx->npending] = info.sim.sim_step;
+        rx->pending_texts[rx->npending] = ntexts;
+        rx->pending_ns[rx->npending++] = t;
+    }
     return;
 bad:
     if (rx->bad++ == 0) snprintf(rx->error, sizeof rx->error, "%s", err.msg);
@@ -127,7 +144,7 @@ typedef struct until_reply {
     wsc_conn *conn;
     size_t next;       /* texts already looked at */
     double id;         /* the request's id */
-    const char *reply; /* its reply, once seen */
+    const char *reply; /* its reply, once seen (at index next) */
 } until_reply;
 
 static bool got_reply(void *arg)
@@ -177,7 +194,8 @@ static int measure(const latency_opts *o, wsc *w, wsc_conn *conn, latency_rx *rx
         char msg[128];
         snprintf(msg, sizeof msg, "{\"type\":\"set_params\",\"id\":%u,\"values\":{\"gravity\":%s}}", i + 1,
                  i % 2 ? "9.81" : "9.8");
-        rx->armed = false;
+        rx->reply_at = SIZE_MAX;
+        rx->npending = 0;
         rx->shown_ns = 0;
         u.id = i + 1;
         u.reply = NULL;
@@ -192,7 +210,9 @@ static int measure(const latency_opts *o, wsc *w, wsc_conn *conn, latency_rx *rx
             fprintf(stderr, "%s: change %u: the reply has no step: %s\n", PROG, i + 1, u.reply);
             return 1;
         }
-        rx->armed = true;
+        rx->reply_at = u.next;
+        for (size_t k = 0; k < rx->npending && !rx->shown_ns; k++) /* frames read in the same pass as the reply */
+            if (rx->pending_texts[k] > rx->reply_at && rx->pending_step[k] >= rx->want_step) rx->shown_ns = rx->pending_ns[k];
         if (!wsc_until(w, shown, rx, WAIT_MS) || rx->bad) {
             fprintf(stderr, "%s: change %u: no frame at step %llu in %d ms%s%s\n", PROG, i + 1,
                     (unsigned long long)rx->want_step, WAIT_MS, rx->bad ? ": " : "", rx->error);
