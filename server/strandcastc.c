@@ -1,5 +1,6 @@
 /* strandcastc: a command-line client of strandcastd: sends control messages, decodes the strand
- * frames with the C decoder, prints them and records the positions (SCFR, as strandbench reads). */
+ * frames with the C decoder, prints them and records the positions (SCFR, as strandbench reads)
+ * with each frame's step and head transform after them. */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -16,6 +17,7 @@
 #define PROG "strandcastc"
 #define CLI_MAX_SEND 32
 #define CLI_CONNECT_MS 5000
+#define CLI_META_BYTES 36u /* a recorded frame's u64 sim_step, float32 head position x3, orientation x4 */
 
 static const char *const USAGE =
     "usage: strandcastc [--host H] [--port N] [--send JSON]... [--frames N] [--seconds S]\n"
@@ -32,7 +34,9 @@ static const char *const USAGE =
     "  --seconds S   stop after S seconds in any case, 0.001..86400 (default 10)\n"
     "  --out FILE    write the decoded positions as SCFR: \"SCFR\", u32 strands, u32 vertices,\n"
     "                u32 frames, then the frames' float32 xyz, strand-major (strandbench codec\n"
-    "                --frames reads it); frames of another shape (a groom change) are not written\n"
+    "                --frames reads it), then \"SCFM\" and per frame its header's u64 sim_step and\n"
+    "                head transform (float32 position xyz, orientation xyzw), in the host's byte\n"
+    "                order as the rest; frames of another shape (a groom change) are not written\n"
     "  --json        one JSON object per line: {\"cli\":\"hello\"|\"frame\"|\"summary\",...}, and the\n"
     "                server's text messages as they are\n"
     "Exit status: 0 when the frames asked for were decoded (or, with --frames 0, at least one),\n"
@@ -57,6 +61,8 @@ typedef struct cli {
     size_t cap;
     FILE *fp;
     uint32_t rec_strands, rec_verts, rec_frames;
+    uint8_t *meta;       /* per recorded frame: CLI_META_BYTES of its step and head (the trailer) */
+    size_t meta_cap;
     proto_id pending[CLI_MAX_SEND]; /* ids of --send messages not answered yet */
     int npending;
     bool sent;           /* the hello is shown and the --send messages are out: frames count */
@@ -144,11 +150,26 @@ static void record(cli *c, const codec_frame_info *info)
                     (unsigned long long)info->seq, info->nstrands_sent, info->nverts, c->rec_strands, c->rec_verts);
         return;
     }
-    size_t n = 3u * (size_t)info->nstrands_sent * info->nverts;
+    size_t n = 3u * (size_t)info->nstrands_sent * info->nverts, at = (size_t)c->rec_frames * CLI_META_BYTES;
+    if (at + CLI_META_BYTES > c->meta_cap) {
+        size_t cap = c->meta_cap ? 2u * c->meta_cap : 64u * CLI_META_BYTES;
+        uint8_t *m = realloc(c->meta, cap);
+        if (!m) {
+            c->write_failed = true;
+            snprintf(c->error, sizeof c->error, "out of memory for the recording's frame steps");
+            return;
+        }
+        c->meta = m;
+        c->meta_cap = cap;
+    }
     if (fwrite(c->xyz, sizeof *c->xyz, n, c->fp) != n) {
         write_failed(c);
         return;
     }
+    uint8_t *m = c->meta + at;
+    memcpy(m, &info->sim.sim_step, 8);
+    memcpy(m + 8, info->sim.head_pos, 12);
+    memcpy(m + 20, info->sim.head_rot, 16);
     c->rec_frames++;
 }
 
@@ -288,10 +309,14 @@ static bool finished(void *arg)
            (u->c->d.frames && u->c->frames >= u->c->d.frames);
 }
 
-/* Rewrites the SCFR header with the frame count and closes the file. */
+/* Appends the frames' steps and heads, rewrites the SCFR header with the frame count and closes
+ * the file. */
 static void close_recording(cli *c)
 {
     if (!c->fp) return;
+    const size_t meta = (size_t)c->rec_frames * CLI_META_BYTES;
+    if (!c->write_failed && (fwrite("SCFM", 1, 4, c->fp) != 4 || (meta && fwrite(c->meta, 1, meta, c->fp) != meta)))
+        write_failed(c);
     uint32_t h[3] = { c->rec_strands, c->rec_verts, c->rec_frames };
     if (!c->write_failed && (fseek(c->fp, 4, SEEK_SET) != 0 || fwrite(h, sizeof h[0], 3, c->fp) != 3)) write_failed(c);
     if (fclose(c->fp) != 0) write_failed(c);
@@ -382,5 +407,6 @@ int main(int argc, char **argv)
     rc = run(&c);
     codec_decoder_free(&c.dec);
     free(c.xyz);
+    free(c.meta);
     return rc;
 }
