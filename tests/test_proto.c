@@ -382,7 +382,7 @@ static void test_hostile_inputs(void **state)
     /* unicode: escapes and raw UTF-8 in ids round-trip; lone surrogates are bad JSON */
     expect_ok("{\"type\":\"reset\",\"id\":\"h\\u00e9llo \\ud83d\\ude00 \xe2\x82\xac\"}", PROTO_RESET);
     assert_string_equal(msg.id.str, "h\xc3\xa9llo \xf0\x9f\x98\x80 \xe2\x82\xac");
-    cJSON *j = json(proto_build_ok(&msg.id, PROTO_RESET));
+    cJSON *j = json(proto_build_ok(&msg.id, PROTO_RESET, 0));
     assert_string_equal(str_of(j, "id"), "h\xc3\xa9llo \xf0\x9f\x98\x80 \xe2\x82\xac");
     cJSON_Delete(j);
     expect_err("{\"type\":\"reset\",\"id\":\"\\ud800\"}", PROTO_ERR_BAD_JSON, "");
@@ -424,10 +424,25 @@ static void test_build_error_and_ok(void **state)
     cJSON_Delete(j);
 
     proto_id none = { 0 };
-    j = json(proto_build_ok(&none, PROTO_SET_PARAMS));
+    j = json(proto_build_ok(&none, PROTO_SET_PARAMS, 123456789012));
     assert_string_equal(str_of(j, "type"), "ok");
     assert_string_equal(str_of(j, "request"), "set_params");
+    assert_true(num_of(j, "step") == 123456789012.0); /* where the change shows */
     assert_null(cJSON_GetObjectItemCaseSensitive(j, "id"));
+    cJSON_Delete(j);
+    char *text = proto_build_ok(&id, PROTO_RESET, 77);
+    uint64_t step = 0;
+    assert_int_equal(proto_read_ok_step(text, strlen(text), &step), CORE_OK);
+    assert_true(step == 77);
+    proto_free(text);
+    static const char *const no_step[] = { "{\"type\":\"ok\",\"request\":\"keyframe\"}",
+                                           "{\"type\":\"ok\",\"step\":-1}", "{\"type\":\"ok\",\"step\":1.5}",
+                                           "{\"type\":\"state\",\"step\":3}", "not json" };
+    for (size_t i = 0; i < sizeof no_step / sizeof no_step[0]; i++)
+        assert_int_equal(proto_read_ok_step(no_step[i], strlen(no_step[i]), &step), CORE_EFORMAT);
+    j = json(proto_build_ok(&id, PROTO_KEYFRAME, -1)); /* changes no simulation: no step */
+    assert_null(cJSON_GetObjectItemCaseSensitive(j, "step"));
+    assert_true(num_of(j, "id") == 42.0);
     cJSON_Delete(j);
 
     for (int c = PROTO_ERR_BAD_JSON; c <= PROTO_ERR_FAILED; c++) assert_string_not_equal(proto_code_name((proto_code)c), "unknown");

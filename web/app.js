@@ -255,7 +255,7 @@ export class App {
   _configureWorker() {
     if (!this.groom) return;
     this.guideConfig = null;
-    this.stream.configure(this.groom.strands, this.groom.verts, this.settings.segs, this.maxTexW, this.roots);
+    this.stream.configure(this.groom.strands, this.groom.verts, this.settings.segs, this.maxTexW);
   }
 
   _onConfigured(cfg) {
@@ -349,10 +349,8 @@ export class App {
         this.totals.uploadMs += dt;
         this.framesUploaded++;
         draw = true;
-        if (f.head) {
-          this.head.position.set(f.head.position);
-          this.head.orientation.set(f.head.orientation);
-        }
+        this.head.position.set(f.head.position); // where the simulation had the head (frame header)
+        this.head.orientation.set(f.head.orientation);
       }
       this.stream.recycle(f);
     }

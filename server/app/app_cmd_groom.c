@@ -105,7 +105,7 @@ static void swap_groom(app_world *w, app_loader *l)
     app_groom_free(&w->groom);
     w->groom = l->g;
     memset(&l->g, 0, sizeof l->g);
-    sim_set_motion(&w->sim, app_anim_pose(&w->anim));
+    app_world_set_head(w, app_anim_pose(&w->anim));
     app_world_reset(w);
     app_streams_regroom(&w->streams, w->groom.g.nstrands, w->groom.g.nverts);
     w->dirty = true;
@@ -131,7 +131,7 @@ void app_cmd_groom_poll(app_world *w)
                  client, w->groom.source, w->groom.g.nstrands, w->groom.g.nverts, l->groom_ms,
                  w->groom.collider[0] ? w->groom.collider : "none", w->groom.mesh_ms, w->groom.sdf_ms, l->sim_ms,
                  l->total_ms, (double)(core_now_ns() - t0) / 1e6);
-        app_reply_ok(w->out, client, m);
+        app_reply_ok(w->out, client, m, 0); /* the new groom's simulation starts at step 0 */
         app_send(w->out, NET_ALL, proto_build_groom(&w->groom.json), APP_ANNOUNCE_GROOM);
     }
     app_loader_clear(l);

@@ -124,7 +124,7 @@ static core_status setup_world(app *a, const core_param_info *ptable, size_t npa
     size_t n = (size_t)w->groom.g.nstrands * w->groom.g.nverts * 3;
     w->xyz = malloc(n * sizeof *w->xyz);
     if (!w->xyz) return core_fail(err, CORE_ENOMEM, "out of memory for %zu positions", n / 3);
-    sim_set_motion(&w->sim, app_anim_pose(&w->anim));
+    app_world_set_head(w, app_anim_pose(&w->anim));
     if ((st = sim_read_positions(&w->sim, w->xyz, err)) != CORE_OK) return st;
     core_log(CORE_LOG_INFO, "app", "groom %s: %u strands x %u vertices, %u colliders; backend %s", w->groom.source,
              w->groom.g.nstrands, w->groom.g.nverts, w->groom.g.ncolliders, w->sim.vt->name);

@@ -163,8 +163,9 @@ void proto_free(char *text);
 /* {"type":"error","id":..,"code":..,"field":..,"message":..} */
 char *proto_build_error(const proto_id *id, const proto_error *e);
 
-/* {"type":"ok","id":..,"request":"<type name>"} */
-char *proto_build_ok(const proto_id *id, proto_type request);
+/* {"type":"ok","id":..,"request":"<type name>","step":..}: step (the simulation step from which a
+ * change to the simulation shows, proto/PROTOCOL.md) only when step >= 0. */
+char *proto_build_ok(const proto_id *id, proto_type request, int64_t step);
 
 /* {"type":"params","id":..,"values":{..},"by":..}: values read from the struct at `values`
  * through the table offsets; only the entries with changed[i] set when changed is non-NULL.
@@ -322,6 +323,11 @@ core_status proto_read_envelope(const char *text, size_t len, char *type, size_t
 
 /* True when two ids are the same (kind and value). Pure. */
 bool proto_id_equal(const proto_id *a, const proto_id *b);
+
+/* The "step" of an ok reply (the simulation step from which the change shows) into *step.
+ * CORE_EFORMAT when text is not an ok or has no step that is a whole number in [0, 2^53]. Pure,
+ * any thread. */
+core_status proto_read_ok_step(const char *text, size_t len, uint64_t *step);
 
 /* What a client tool shows of a hello; numbers are NaN where the hello lacks them. */
 typedef struct proto_hello_info {

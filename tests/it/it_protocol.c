@@ -175,6 +175,33 @@ static bool roots_at(void *arg)
     return true;
 }
 
+/* The head a frame's header carries is (pos, rot) within 1e-6. */
+static bool header_head_is(const codec_sim_info *s, const float pos[3], const float rot[4])
+{
+    for (int k = 0; k < 3; k++)
+        if (fabsf(s->head_pos[k] - pos[k]) > 1e-6f) return false;
+    for (int k = 0; k < 4; k++)
+        if (fabsf(s->head_rot[k] - rot[k]) > 1e-6f) return false;
+    return true;
+}
+
+typedef struct header_arg {
+    view *v;
+    uint64_t step;         /* the step the change shows from (the reply's) */
+    const float *pos, *rot; /* the head from then on */
+    uint64_t early;        /* frames before that step already carrying it (must stay 0) */
+} header_arg;
+
+static bool header_at_step(void *arg)
+{
+    header_arg *a = arg;
+    if (!a->v->ok) return false;
+    const codec_sim_info *s = &a->v->info.sim;
+    if (s->sim_step >= a->step) return true;
+    if (header_head_is(s, a->pos, a->rot)) a->early++;
+    return false;
+}
+
 void test_motion_moves_roots(void **state)
 {
     fixture *fx = *state;
@@ -186,13 +213,33 @@ void test_motion_moves_roots(void **state)
     wsc_send_text(c, "{\"type\":\"motion\",\"t\":1,\"position\":[0.05,0.1,-0.02],\"orientation\":[0,0,0,1]}");
     roots_arg a = { v, roots, 0, { 0.05, 0.1, -0.02 } };
     if (!wsc_until(fx->w, roots_at, &a, WAIT_MS)) fail_msg("roots did not follow the head translation");
+    /* the frame's header carries the head the simulation used: the motion sent */
+    const float moved[3] = { 0.05f, 0.1f, -0.02f }, turned[4] = { 0.0f, 0.70710678f, 0.0f, 0.70710678f },
+                origin[3] = { 0.0f, 0.0f, 0.0f }, none[4] = { 0.0f, 0.0f, 0.0f, 1.0f };
+    if (!header_head_is(&v->info.sim, moved, none))
+        fail_msg("frame %llu (step %llu) carries head [%g %g %g] [%g %g %g %g], not the motion's",
+                 (unsigned long long)v->info.seq, (unsigned long long)v->info.sim.sim_step, (double)v->info.sim.head_pos[0],
+                 (double)v->info.sim.head_pos[1], (double)v->info.sim.head_pos[2], (double)v->info.sim.head_rot[0],
+                 (double)v->info.sim.head_rot[1], (double)v->info.sim.head_rot[2], (double)v->info.sim.head_rot[3]);
     /* a stale motion (older t) is ignored */
     wsc_send_text(c, "{\"type\":\"motion\",\"t\":0.5,\"position\":[0,0,0],\"orientation\":[0,0,0,1]}");
     wsc_send_text(c, "{\"type\":\"motion\",\"t\":2,\"position\":[0,0,0],\"orientation\":[0,0.70710678,0,0.70710678],\"id\":3}");
     cJSON *ok = expect_msg(fx, c, "ok");
     assert_true(num(ok, "id") == 3);
+    /* the reply names the step the turn takes effect at: frames before it carry the old head, the
+       first at or after it the new one, with roots turned accordingly */
+    const double step = num(ok, "step");
+    assert_true(step >= 1 && step == floor(step));
+    header_arg ha = { v, (uint64_t)step, origin, turned, 0 };
+    if (!wsc_until(fx->w, header_at_step, &ha, WAIT_MS)) fail_msg("no frame at step %g", step);
+    assert_int_equal(ha.early, 0);
+    if (!header_head_is(&v->info.sim, origin, turned))
+        fail_msg("frame at step %llu (the reply said %g) carries head [%g %g %g] [%g %g %g %g], not the turn sent",
+                 (unsigned long long)v->info.sim.sim_step, step, (double)v->info.sim.head_pos[0],
+                 (double)v->info.sim.head_pos[1], (double)v->info.sim.head_pos[2], (double)v->info.sim.head_rot[0],
+                 (double)v->info.sim.head_rot[1], (double)v->info.sim.head_rot[2], (double)v->info.sim.head_rot[3]);
     roots_arg b = { v, roots, 1, { 0, 0, 0 } };
-    if (!wsc_until(fx->w, roots_at, &b, WAIT_MS)) fail_msg("roots did not follow the head rotation");
+    if (!roots_at(&b)) fail_msg("the frame at the reply's step %g does not show the turn in its roots", step);
     /* a stale motion with an id is answered; motions with ids are never coalesced away */
     wsc_send_text(c, "{\"type\":\"motion\",\"t\":1.5,\"position\":[0,0,0],\"orientation\":[0,0,0,1],\"id\":\"old\"}");
     cJSON *stale = expect_msg(fx, c, "error");
@@ -460,9 +507,13 @@ void test_pause_step_subscribe_groom(void **state)
     double steps0 = num(st, "steps");
     wsc_send_text(c, "{\"type\":\"step\",\"count\":3,\"id\":1}");
     cJSON *ok = expect_msg(fx, c, "ok");
+    assert_true(num(ok, "step") == steps0 + 1); /* the first of the steps */
     cJSON *st2 = expect_msg(fx, c, "state");
     assert_true(num(st2, "steps") == steps0 + 3);
     assert_true(cJSON_IsTrue(get(st2, "paused")));
+    /* the newest frame is the last step's, and says so */
+    wsc_run(fx->w, 300);
+    assert_true((double)v->info.sim.sim_step == steps0 + 3);
     wsc_send_text(c, "{\"type\":\"resume\"}");
     cJSON *st3 = expect_msg(fx, c, "state");
     assert_true(cJSON_IsFalse(get(st3, "paused")));
@@ -497,6 +548,7 @@ void test_pause_step_subscribe_groom(void **state)
     uint64_t keys = v->keys, frames = v->ok;
     wsc_send_text(c, "{\"type\":\"keyframe\",\"id\":2}");
     cJSON *ok2 = expect_msg(fx, c, "ok");
+    assert_null(cJSON_GetObjectItemCaseSensitive(ok2, "step")); /* a keyframe changes no simulation */
     wsc_run(fx->w, 300);
     if (v->ok != frames + 1 || v->keys != keys + 1)
         fail_msg("after a keyframe request while paused: %llu frames, %llu keyframes (want 1, 1)",
@@ -508,6 +560,7 @@ void test_pause_step_subscribe_groom(void **state)
     wsc_send_text(c, "{\"type\":\"set_groom\",\"style\":\"wavy\",\"strands\":128,\"verts\":12,\"id\":3}");
     cJSON *ok3 = expect_msg(fx, c, "ok");
     assert_true(num(ok3, "id") == 3);
+    assert_true(num(ok3, "step") == 0); /* the new groom's simulation starts over */
     cJSON *g2 = expect_msg(fx, c2, "groom");
     assert_true(num(get(g2, "groom"), "strands") == 128 && num(get(g2, "groom"), "verts") == 12);
     assert_string_equal(str(get(g2, "groom"), "source"), "procedural:wavy");

@@ -251,13 +251,13 @@ void wait_frames(fixture *fx, view *v, uint64_t n)
 bool at_time(void *arg)
 {
     time_arg *a = arg;
-    return a->v->ok && fabs(a->v->info.sim_time - a->t) < 1e-3;
+    return a->v->ok && fabs(a->v->info.sim.sim_time - a->t) < 1e-3;
 }
 
 void wait_sim_time(fixture *fx, view *v, double t)
 {
     time_arg a = { v, t };
-    if (!wsc_until(fx->w, at_time, &a, WAIT_MS)) fail_msg("no frame at sim time %g (last %g)", t, v->info.sim_time);
+    if (!wsc_until(fx->w, at_time, &a, WAIT_MS)) fail_msg("no frame at sim time %g (last %g)", t, v->info.sim.sim_time);
 }
 
 /* Mean y of the last vertex of every decoded strand. */

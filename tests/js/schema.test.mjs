@@ -172,6 +172,13 @@ test('every server message validates against its schema', async () => {
       seen.add(m.type);
     }
     for (const t of ['hello', 'params', 'ok', 'error', 'state', 'groom', 'subscribed', 'stats']) assert.ok(seen.has(t), `no ${t} seen`);
+    // the replies to requests that change the simulation say from which step it shows, the others not
+    const oks = a.texts.filter((m) => m.type === 'ok');
+    for (const r of ['set_params', 'animate', 'reset', 'pause', 'resume', 'step']) {
+      assert.ok(oks.some((m) => m.request === r && Number.isInteger(m.step)), `ok of ${r} without step`);
+    }
+    assert.ok(oks.filter((m) => m.request === 'keyframe').every((m) => m.step === undefined), 'ok of keyframe with a step');
+    assert.ok(oks.some((m) => m.request === 'reset' && m.step === 0), 'reset does not show at step 0');
     // the stiffnesses span many decades: their schema entries ask for log sliders, the rest not
     const hello = a.texts.find((m) => m.type === 'hello');
     const logs = hello.params.schema.filter((e) => e.scale !== undefined).map((e) => `${e.name}:${e.scale}`);
