@@ -1,6 +1,7 @@
 /* strandcastc: a command-line client of strandcastd: sends control messages, decodes the strand
- * frames with the C decoder, prints them and records the positions (SCFR, as strandbench reads);
- * `run` and `check` hand over to server/scen/ (scripted scenarios, frame invariants). */
+ * frames with the C decoder, prints them and records the positions (SCFR, as strandbench reads)
+ * with each frame's step and head transform after them; `run` and `check` hand over to
+ * server/scen/ (scripted scenarios, frame invariants). */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -18,6 +19,7 @@
 #define PROG "strandcastc"
 #define CLI_MAX_SEND 32
 #define CLI_CONNECT_MS 5000
+#define CLI_META_BYTES 36u /* a recorded frame's u64 sim_step, float32 head position x3, orientation x4 */
 
 static const char *const USAGE =
     "usage: strandcastc [--host H] [--port N] [--send JSON]... [--frames N] [--seconds S]\n"
@@ -36,7 +38,9 @@ static const char *const USAGE =
     "  --seconds S   stop after S seconds in any case, 0.001..86400 (default 10)\n"
     "  --out FILE    write the decoded positions as SCFR: \"SCFR\", u32 strands, u32 vertices,\n"
     "                u32 frames, then the frames' float32 xyz, strand-major (strandbench codec\n"
-    "                --frames reads it); frames of another shape (a groom change) are not written\n"
+    "                --frames reads it), then \"SCFM\" and per frame its header's u64 sim_step and\n"
+    "                head transform (float32 position xyz, orientation xyzw), in the host's byte\n"
+    "                order as the rest; frames of another shape (a groom change) are not written\n"
     "  --json        one JSON object per line: {\"cli\":\"hello\"|\"frame\"|\"summary\",...}, and the\n"
     "                server's text messages as they are\n"
     "Exit status: 0 when the frames asked for were decoded (or, with --frames 0, at least one),\n"
@@ -61,6 +65,8 @@ typedef struct cli {
     size_t cap;
     FILE *fp;
     uint32_t rec_strands, rec_verts, rec_frames;
+    uint8_t *meta;       /* per recorded frame: CLI_META_BYTES of its step and head (the trailer) */
+    size_t meta_cap;
     proto_id pending[CLI_MAX_SEND]; /* ids of --send messages not answered yet */
     int npending;
     bool sent;           /* the hello is shown and the --send messages are out: frames count */
@@ -148,11 +154,26 @@ static void record(cli *c, const codec_frame_info *info)
                     (unsigned long long)info->seq, info->nstrands_sent, info->nverts, c->rec_strands, c->rec_verts);
         return;
     }
-    size_t n = 3u * (size_t)info->nstrands_sent * info->nverts;
+    size_t n = 3u * (size_t)info->nstrands_sent * info->nverts, at = (size_t)c->rec_frames * CLI_META_BYTES;
+    if (at + CLI_META_BYTES > c->meta_cap) {
+        size_t cap = c->meta_cap ? 2u * c->meta_cap : 64u * CLI_META_BYTES;
+        uint8_t *m = realloc(c->meta, cap);
+        if (!m) {
+            c->write_failed = true;
+            snprintf(c->error, sizeof c->error, "out of memory for the recording's frame steps");
+            return;
+        }
+        c->meta = m;
+        c->meta_cap = cap;
+    }
     if (fwrite(c->xyz, sizeof *c->xyz, n, c->fp) != n) {
         write_failed(c);
         return;
     }
+    uint8_t *m = c->meta + at;
+    memcpy(m, &info->sim.sim_step, 8);
+    memcpy(m + 8, info->sim.head_pos, 12);
+    memcpy(m + 20, info->sim.head_rot, 16);
     c->rec_frames++;
 }
 
@@ -165,19 +186,26 @@ static void print_frame(const cli *c, const codec_frame_info *info, size_t len)
             lo[k] = fminf(lo[k], c->xyz[3 * i + (size_t)k]);
             hi[k] = fmaxf(hi[k], c->xyz[3 * i + (size_t)k]);
         }
+    const codec_sim_info *s = &info->sim;
     if (c->d.json) {
         printf("{\"cli\":\"frame\",\"frame\":%lu,\"seq\":%llu,\"keyframe\":%s,\"ref_seq\":%llu,\"bytes\":%zu,"
-               "\"sim_time\":%.6f,\"strands\":%u,\"strands_total\":%u,\"verts\":%u,\"stride\":%u,\"max_error_m\":%g,"
-               "\"bytes_per_vertex\":%.4f,\"bounds\":[%g,%g,%g,%g,%g,%g]}\n",
+               "\"sim_time\":%.6f,\"sim_step\":%llu,\"head\":{\"position\":[%.9g,%.9g,%.9g],"
+               "\"orientation\":[%.9g,%.9g,%.9g,%.9g]},\"strands\":%u,\"strands_total\":%u,\"verts\":%u,\"stride\":%u,"
+               "\"max_error_m\":%g,\"bytes_per_vertex\":%.4f,\"bounds\":[%g,%g,%g,%g,%g,%g]}\n",
                c->frames, (unsigned long long)info->seq, info->keyframe ? "true" : "false",
-               (unsigned long long)info->ref_seq, len, info->sim_time, info->nstrands_sent, info->nstrands_total,
-               info->nverts, info->stride, (double)info->max_error_m, (double)len / (double)nv, lo[0], lo[1], lo[2],
-               hi[0], hi[1], hi[2]);
+               (unsigned long long)info->ref_seq, len, s->sim_time, (unsigned long long)s->sim_step,
+               (double)s->head_pos[0], (double)s->head_pos[1], (double)s->head_pos[2], (double)s->head_rot[0],
+               (double)s->head_rot[1], (double)s->head_rot[2], (double)s->head_rot[3], info->nstrands_sent,
+               info->nstrands_total, info->nverts, info->stride, (double)info->max_error_m, (double)len / (double)nv,
+               lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
     } else {
-        printf("%6lu %10llu %-5s %10llu %9zu %10.4f %7u x %-4u %8.4f  [%.3f %.3f %.3f]..[%.3f %.3f %.3f]\n", c->frames,
-               (unsigned long long)info->seq, info->keyframe ? "key" : "delta", (unsigned long long)info->ref_seq, len,
-               info->sim_time, info->nstrands_sent, info->nverts, (double)len / (double)nv, lo[0], lo[1], lo[2], hi[0],
-               hi[1], hi[2]);
+        printf("%6lu %10llu %-5s %10llu %9zu %10.4f %8llu %7u x %-4u %8.4f  [%.3f %.3f %.3f]..[%.3f %.3f %.3f]  "
+               "[%.3f %.3f %.3f] [%.3f %.3f %.3f %.3f]\n",
+               c->frames, (unsigned long long)info->seq, info->keyframe ? "key" : "delta",
+               (unsigned long long)info->ref_seq, len, s->sim_time, (unsigned long long)s->sim_step, info->nstrands_sent,
+               info->nverts, (double)len / (double)nv, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], (double)s->head_pos[0],
+               (double)s->head_pos[1], (double)s->head_pos[2], (double)s->head_rot[0], (double)s->head_rot[1],
+               (double)s->head_rot[2], (double)s->head_rot[3]);
     }
 }
 
@@ -269,8 +297,8 @@ static void print_hello(const cli *c, const proto_hello_info *h)
            "%g mm, %g of %g frames/s\n",
            c->d.host, c->d.port, PROTO_SUBPROTOCOL, h->server, h->version, h->protocol, h->client, h->source,
            h->strands, h->verts, h->stride, h->max_error * 1e3, h->frame_rate, h->rate);
-    printf("%6s %10s %-5s %10s %9s %10s %14s %8s  %s\n", "frame", "seq", "kind", "ref_seq", "bytes", "sim_time", "strands x verts",
-           "B/vertex", "bounds (m)");
+    printf("%6s %10s %-5s %10s %9s %10s %8s %14s %8s  %-39s  %s\n", "frame", "seq", "kind", "ref_seq", "bytes", "sim_time",
+           "sim_step", "strands x verts", "B/vertex", "bounds (m)", "head position (m), orientation [x y z w]");
 }
 
 typedef struct until_arg {
@@ -285,10 +313,14 @@ static bool finished(void *arg)
            (u->c->d.frames && u->c->frames >= u->c->d.frames);
 }
 
-/* Rewrites the SCFR header with the frame count and closes the file. */
+/* Appends the frames' steps and heads, rewrites the SCFR header with the frame count and closes
+ * the file. */
 static void close_recording(cli *c)
 {
     if (!c->fp) return;
+    const size_t meta = (size_t)c->rec_frames * CLI_META_BYTES;
+    if (!c->write_failed && (fwrite("SCFM", 1, 4, c->fp) != 4 || (meta && fwrite(c->meta, 1, meta, c->fp) != meta)))
+        write_failed(c);
     uint32_t h[3] = { c->rec_strands, c->rec_verts, c->rec_frames };
     if (!c->write_failed && (fseek(c->fp, 4, SEEK_SET) != 0 || fwrite(h, sizeof h[0], 3, c->fp) != 3)) write_failed(c);
     if (fclose(c->fp) != 0) write_failed(c);
@@ -381,5 +413,6 @@ int main(int argc, char **argv)
     rc = run(&c);
     codec_decoder_free(&c.dec);
     free(c.xyz);
+    free(c.meta);
     return rc;
 }

@@ -41,6 +41,13 @@ add_test(NAME bench_fanout_smoke
            --row "r => r.bench === 'fanout' && r.clients === 3 && r.min_frames_per_client_per_s >= 1"
            -- $<TARGET_FILE:strandbench> fanout --clients 3 --seconds 2 --warmup 1 --animate shake --json)
 set_tests_properties(bench_fanout_smoke PROPERTIES TIMEOUT 120 LABELS integration)
+# A short latency run: every change gets a reply with its step and a frame at that step; the
+# figures are only checked for sanity (a loaded machine is slow), strandbench latency measures.
+add_test(NAME bench_latency_smoke
+         COMMAND ${STRANDCAST_NODE} ${STRANDCAST_EXPECT_ROWS}
+           --row "r => r.bench === 'latency' && r.changes === 20 && r.p50_ms > 0 && r.p50_ms <= r.p99_ms && r.p99_ms <= r.max_ms && r.max_ms < 10000 && r.reply_p50_ms > 0 && r.reply_p50_ms <= r.p50_ms && r.frames >= 20"
+           -- $<TARGET_FILE:strandbench> latency --changes 20 --json)
+set_tests_properties(bench_latency_smoke PROPERTIES TIMEOUT 120 LABELS integration)
 # strandbench --help names every benchmark.
 add_test(NAME strandbench_help COMMAND strandbench --help)
 set_tests_properties(strandbench_help PROPERTIES TIMEOUT 30

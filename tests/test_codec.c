@@ -26,9 +26,9 @@ static uint32_t rng_next(uint64_t *s)
 static void restamp_crc(uint8_t *frame, size_t len)
 {
     uLong c = crc32(0L, Z_NULL, 0);
-    c = crc32(c, frame, 64);
+    c = crc32(c, frame, CODEC_HEADER_SIZE - 4u);
     c = crc32(c, frame + CODEC_HEADER_SIZE, (uInt)(len - CODEC_HEADER_SIZE));
-    for (int k = 0; k < 4; k++) frame[64 + k] = (uint8_t)(c >> (8 * k));
+    for (int k = 0; k < 4; k++) frame[CODEC_HEADER_SIZE - 4u + (unsigned)k] = (uint8_t)(c >> (8 * k));
 }
 
 static double max_abs_err(const float *a, const float *b, size_t n)
@@ -39,6 +39,20 @@ static double max_abs_err(const float *a, const float *b, size_t n)
         if (!(e <= m)) m = e;
     }
     return m;
+}
+
+/* A snapshot at sim time t (step 0, the gentle animation's head). */
+static codec_sim_info at_time(double t)
+{
+    return codec_synth_sim(t, 0, CODEC_SYNTH_GENTLE);
+}
+
+/* codec_encode with the snapshot at_time(t). */
+static core_status encode_at(codec_encoder *enc, const float *xyz, uint64_t seq, double t, bool force_key, codec_buf *out,
+                             core_err *err)
+{
+    const codec_sim_info snap = at_time(t);
+    return codec_encode(enc, xyz, seq, &snap, force_key, out, err);
 }
 
 /* The input positions of the strands a frame at `stride` sends. */
@@ -76,12 +90,15 @@ static void run_sequence(float bound, codec_synth_style style, uint32_t stride, 
         double t = f / 60.0;
         codec_synth_frame(nstrands, nverts, t, style, in);
         bool force = (rng_next(&seed) % 23u) == 0;
-        assert_int_equal(codec_encode(&enc, in, (uint64_t)f + 100u, t, force, &buf, &err), CORE_OK);
+        const codec_sim_info snap = codec_synth_sim(t, (uint64_t)f * 3u, style);
+        assert_int_equal(codec_encode(&enc, in, (uint64_t)f + 100u, &snap, force, &buf, &err), CORE_OK);
         gather(in, nstrands, nverts, stride, want);
         codec_frame_info ia, ib;
         core_status st = codec_decode(&all, buf.data, buf.len, outa, nsent, &ia, &err);
         if (st) fail_msg("decode frame %d: %s", f, err.msg);
-        assert_true(ia.seq == (uint64_t)f + 100u && ia.sim_time == t);
+        assert_true(ia.seq == (uint64_t)f + 100u && ia.sim.sim_time == t && ia.sim.sim_step == (uint64_t)f * 3u);
+        assert_memory_equal(ia.sim.head_pos, snap.head_pos, sizeof snap.head_pos); /* the header carries them */
+        assert_memory_equal(ia.sim.head_rot, snap.head_rot, sizeof snap.head_rot);
         assert_int_equal(ia.nstrands_sent, enc.nstrands_sent);
         keys += ia.keyframe;
         if (force) assert_true(ia.keyframe);
@@ -154,7 +171,7 @@ static void test_bound_resets(void **state)
     for (int f = 0; f < 40; f++) {
         double t = (f % 2) ? 0.0 : 7.3 + f;
         codec_synth_frame(ns, nv, t, (f % 3) ? CODEC_SYNTH_VIOLENT : CODEC_SYNTH_TELEPORT, in);
-        assert_int_equal(codec_encode(&enc, in, (uint64_t)f, t, false, &buf, &err), CORE_OK);
+        assert_int_equal(encode_at(&enc, in, (uint64_t)f, t, false, &buf, &err), CORE_OK);
         codec_frame_info info;
         assert_int_equal(codec_decode(&dec, buf.data, buf.len, out, n, &info, &err), CORE_OK);
         assert_true(info.keyframe == (f == 0));
@@ -185,7 +202,7 @@ static void test_bound_magnitudes(void **state)
             float scale = (float)(1u << (f % 4));
             for (size_t i = 0; i < n; i++)
                 in[i] = scale * ((float)rng_next(&seed) / 4294967296.0f - 0.5f) + (float)(i % 3) * 0.25f;
-            assert_int_equal(codec_encode(&enc, in, (uint64_t)f, 0.0, false, &buf, &err), CORE_OK);
+            assert_int_equal(encode_at(&enc, in, (uint64_t)f, 0.0, false, &buf, &err), CORE_OK);
             assert_int_equal(codec_decode(&dec, buf.data, buf.len, out, n, NULL, &err), CORE_OK);
             assert_true(max_abs_err(in, out, n) <= (double)bound);
         }
@@ -227,7 +244,7 @@ static void test_bound_long_segments(void **state)
             in[i + 1] = (float)(s * x + c * y - 0.002 * f);
             in[i + 2] = (float)(z + 1e-4 * sin(0.37 * (double)i + f));
         }
-        assert_int_equal(codec_encode(&enc, in, (uint64_t)f + 1u, 0.0, false, &buf, &err), CORE_OK);
+        assert_int_equal(encode_at(&enc, in, (uint64_t)f + 1u, 0.0, false, &buf, &err), CORE_OK);
         codec_frame_info info;
         assert_int_equal(codec_decode(&dec, buf.data, buf.len, out, n, &info, &err), CORE_OK);
         assert_true(info.keyframe == (f == 0));
@@ -254,7 +271,7 @@ static void test_bound_float32_reach(void **state)
     /* 3 m and 300 m are beyond the shortcut's 2^18 bound = 2.6 m but reachable */
     in[40] = 3.0f;
     in[41] = -300.0f;
-    assert_int_equal(codec_encode(&enc, in, 1, 0.0, false, &buf, &err), CORE_OK);
+    assert_int_equal(encode_at(&enc, in, 1, 0.0, false, &buf, &err), CORE_OK);
     assert_int_equal(codec_decode(&dec, buf.data, buf.len, out, ns * nv * 3u, NULL, &err), CORE_OK);
     assert_true(max_abs_err(in, out, ns * nv * 3u) <= (double)bound);
     /* at 200 m float32's spacing is 1.5e-5 m: a value about halfway between two lattice points
@@ -263,7 +280,7 @@ static void test_bound_float32_reach(void **state)
     const int tries = 3000;
     for (int k = 0; k < tries; k++) {
         in[40] = nextafterf(in[40] == 3.0f ? 200.0f : in[40], 30.0f); /* consecutive float32 values */
-        core_status st = codec_encode(&enc, in, 2u + (uint64_t)k, 0.0, false, &buf, &err);
+        core_status st = encode_at(&enc, in, 2u + (uint64_t)k, 0.0, false, &buf, &err);
         if (st != CORE_OK) {
             assert_int_equal(st, CORE_EINVAL);
             assert_non_null(strstr(err.msg, "cannot be held"));
@@ -295,16 +312,16 @@ static void test_encoder_rejects(void **state)
     codec_buf buf = { 0 };
     for (int i = 0; i < 36; i++) xyz[i] = 0.01f * (float)i;
     xyz[17] = NAN;
-    assert_int_equal(codec_encode(&enc, xyz, 1, 0.0, false, &buf, &err), CORE_EINVAL);
+    assert_int_equal(encode_at(&enc, xyz, 1, 0.0, false, &buf, &err), CORE_EINVAL);
     assert_non_null(strstr(err.msg, "not finite"));
     xyz[17] = 1e9f;
-    assert_int_equal(codec_encode(&enc, xyz, 1, 0.0, false, &buf, &err), CORE_EINVAL);
+    assert_int_equal(encode_at(&enc, xyz, 1, 0.0, false, &buf, &err), CORE_EINVAL);
     assert_non_null(strstr(err.msg, "out of range"));
     xyz[17] = 0.5f;
-    assert_int_equal(codec_encode(&enc, xyz, 5, 0.0, false, &buf, &err), CORE_OK);
-    assert_int_equal(codec_encode(&enc, xyz, 5, 0.0, false, &buf, &err), CORE_EINVAL);
-    assert_int_equal(codec_encode(&enc, xyz, 6, NAN, false, &buf, &err), CORE_EINVAL);
-    assert_int_equal(codec_encode(&enc, xyz, 6, 0.1, false, &buf, &err), CORE_OK);
+    assert_int_equal(encode_at(&enc, xyz, 5, 0.0, false, &buf, &err), CORE_OK);
+    assert_int_equal(encode_at(&enc, xyz, 5, 0.0, false, &buf, &err), CORE_EINVAL);
+    assert_int_equal(encode_at(&enc, xyz, 6, NAN, false, &buf, &err), CORE_EINVAL);
+    assert_int_equal(encode_at(&enc, xyz, 6, 0.1, false, &buf, &err), CORE_OK);
     codec_buf_free(&buf);
     codec_encoder_free(&enc);
     codec_encoder_free(&enc); /* safe twice */
@@ -330,10 +347,10 @@ static void make_frames(frames3 *f)
     codec_desc d = { .key_interval = 100 };
     assert_int_equal(codec_encoder_init(&enc, &d, ns, nv, &err), CORE_OK);
     codec_synth_frame(ns, nv, 0.0, CODEC_SYNTH_VIOLENT, f->want);
-    assert_int_equal(codec_encode(&enc, f->want, 1, 0.0, false, &f->key, &err), CORE_OK);
+    assert_int_equal(encode_at(&enc, f->want, 1, 0.0, false, &f->key, &err), CORE_OK);
     codec_synth_frame(ns, nv, 1.1, CODEC_SYNTH_TELEPORT, f->want); /* large residuals: escapes */
-    assert_int_equal(codec_encode(&enc, f->want, 2, 0.5, false, &f->delta, &err), CORE_OK);
-    assert_int_equal(codec_encode(&enc, f->want, 3, 0.6, true, &f->key2, &err), CORE_OK);
+    assert_int_equal(encode_at(&enc, f->want, 2, 0.5, false, &f->delta, &err), CORE_OK);
+    assert_int_equal(encode_at(&enc, f->want, 3, 0.6, true, &f->key2, &err), CORE_OK);
     codec_encoder_free(&enc);
 }
 
@@ -500,7 +517,7 @@ static void test_absurd_headers(void **state)
         memcpy(c, f.key.data, f.key.len);
         switch (which) {
         case 0: c[0] = 'X'; break;
-        case 1: c[4] = 1; break;                               /* a version 1 frame */
+        case 1: c[4] = 2; break;                               /* a version 2 frame */
         case 2: c[6] = 9; break;
         case 3: c[7] = 0x81; break;
         case 4: put64(c + 16, 0); break;                       /* keyframe ref != seq */
@@ -571,6 +588,80 @@ static void test_absurd_headers(void **state)
     free_frames(&f);
 }
 
+/* A header whose simulation snapshot is bad: a non-finite head position or rotation, a rotation
+ * that is not a unit quaternion; each refused by the decoder and by codec_peek_header with a
+ * message naming it, and never written by the encoder. The tolerance's edges are accepted. */
+static void test_bad_head(void **state)
+{
+    (void)state;
+    frames3 f;
+    make_frames(&f);
+    float *out = malloc(f.n * sizeof *out);
+    codec_decoder dec;
+    codec_decoder_init(&dec);
+    core_err err;
+    codec_frame_info info;
+    uint8_t *c = malloc(f.key.len);
+    const float fnan = NAN, finf = INFINITY, half = 0.5f, tiny = 0.9999f, slightly = 1.00004f;
+    const float *vals[] = { &fnan, &finf, &fnan, &finf, &half, &tiny };
+    const size_t offs[] = { 72, 80, 84, 96, 96, 96 }; /* head x, z; rotation x, w */
+    const char *want[] = { "head position is not finite [head, byte 72]", "head position is not finite [head, byte 80]",
+                           "head rotation is not finite [head, byte 84]", "head rotation is not finite [head, byte 96]",
+                           "not a unit quaternion (squared norm 0.25", "not a unit quaternion (squared norm 0.9997" };
+    for (size_t k = 0; k < sizeof offs / sizeof offs[0]; k++) {
+        memcpy(c, f.key.data, f.key.len);
+        uint32_t u;
+        memcpy(&u, vals[k], 4);
+        put32(c + offs[k], u);
+        if (offs[k] == 96) memset(c + 84, 0, 12); /* the rotation (0, 0, 0, w) */
+        restamp_crc(c, f.key.len);
+        expect_reject(&dec, c, f.key.len, out, f.n, CORE_EFORMAT);
+        assert_int_equal(codec_decode(&dec, c, f.key.len, out, f.n, NULL, &err), CORE_EFORMAT);
+        if (!strstr(err.msg, want[k])) fail_msg("case %zu: '%s' does not say '%s'", k, err.msg, want[k]);
+        assert_int_equal(codec_peek_header(c, f.key.len, &info, &err), CORE_EFORMAT);
+        assert_non_null(strstr(err.msg, "head"));
+    }
+    /* (0, 0, 0, 1.00004): squared norm 1.00008, within 1e-4 */
+    memcpy(c, f.key.data, f.key.len);
+    memset(c + 84, 0, 12);
+    uint32_t u;
+    memcpy(&u, &slightly, 4);
+    put32(c + 96, u);
+    restamp_crc(c, f.key.len);
+    assert_int_equal(codec_decode(&dec, c, f.key.len, out, f.n, &info, &err), CORE_OK);
+    assert_true(info.sim.head_rot[3] == slightly && info.sim.head_rot[0] == 0.0f);
+    free(c);
+
+    /* the encoder refuses to write such a header (and stays usable) */
+    codec_encoder enc;
+    codec_buf buf = { 0 };
+    assert_int_equal(codec_encoder_init(&enc, NULL, 24, 12, &err), CORE_OK);
+    codec_sim_info s = at_time(0.25);
+    s.head_pos[1] = NAN;
+    assert_int_equal(codec_encode(&enc, f.want, 1, &s, false, &buf, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "head position is not finite"));
+    s = at_time(0.25);
+    s.head_rot[3] = INFINITY;
+    assert_int_equal(codec_encode(&enc, f.want, 1, &s, false, &buf, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "head rotation is not finite"));
+    s = at_time(0.25);
+    for (int i = 0; i < 4; i++) s.head_rot[i] *= 1.01f;
+    assert_int_equal(codec_encode(&enc, f.want, 1, &s, false, &buf, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "unit quaternion"));
+    assert_int_equal(codec_encode(&enc, f.want, 1, NULL, false, &buf, &err), CORE_EINVAL);
+    s = at_time(0.25);
+    s.sim_step = UINT64_MAX;
+    assert_int_equal(codec_encode(&enc, f.want, 1, &s, false, &buf, &err), CORE_OK);
+    assert_int_equal(codec_decode(&dec, buf.data, buf.len, out, f.n, &info, &err), CORE_OK);
+    assert_true(info.sim.sim_step == UINT64_MAX && info.sim.sim_time == 0.25);
+    assert_memory_equal(info.sim.head_rot, s.head_rot, sizeof s.head_rot);
+    codec_buf_free(&buf);
+    codec_encoder_free(&enc);
+    free(out);
+    codec_decoder_free(&dec);
+    free_frames(&f);
+}
+
 /* Offset in a frame of rans_len (after the motion and the nine tables). */
 static size_t rans_len_offset(const uint8_t *frame)
 {
@@ -604,7 +695,7 @@ static size_t rl_bits_offset(const uint8_t *frame)
     return rl + 4u + get32(frame + rl);
 }
 
-/* Frames of format version 1 and entropy streams that break the version 2 rules are refused. */
+/* Frames of format version 2 and entropy streams that break the format's rules are refused. */
 static void test_v2_rejections(void **state)
 {
     (void)state;
@@ -622,7 +713,7 @@ static void test_v2_rejections(void **state)
         memcpy(c, f.key.data, f.key.len);
         const char *want = "entropy";
         switch (k) {
-        case 0: c[4] = 1; want = "unsupported format version 1 (this decoder reads 2) [version, byte 4]"; break;
+        case 0: c[4] = 2; want = "unsupported format version 2 (this decoder reads 3) [version, byte 4]"; break;
         case 1: put32(c + rl + 4 + 12, 0xffffu); want = "state 65535 in lane 3"; break; /* x[3] below 2^16 */
         case 2: put32(c + rl + 4, 0); want = "state"; break;             /* x[0] = 0 */
         case 3: put32(c + rl, rans_len - 1u); want = "[rans_len, byte"; break; /* odd */
@@ -647,7 +738,7 @@ static void test_v2_rejections(void **state)
     codec_encoder enc;
     codec_buf buf = { 0 };
     assert_int_equal(codec_encoder_init(&enc, NULL, ns, nv, &err), CORE_OK);
-    assert_int_equal(codec_encode(&enc, in, 1, 0.0, false, &buf, &err), CORE_OK);
+    assert_int_equal(encode_at(&enc, in, 1, 0.0, false, &buf, &err), CORE_OK);
     codec_decoder d2;
     codec_decoder_init(&d2);
     assert_int_equal(codec_decode(&d2, buf.data, buf.len, got, ns * nv * 3u, NULL, &err), CORE_OK);
@@ -780,7 +871,8 @@ static void test_vectors(void **state)
                 free(p);
             }
             uint64_t seq = 1000u + (uint64_t)f * 2u;
-            assert_int_equal(codec_encode(&enc, in, seq, t, f == v->force_at, &buf, &err), CORE_OK);
+            const codec_sim_info snap = codec_synth_sim(t, seq / 2u, v->style); /* the animation's head */
+            assert_int_equal(codec_encode(&enc, in, seq, &snap, f == v->force_at, &buf, &err), CORE_OK);
             codec_frame_info info;
             assert_int_equal(codec_decode(&dec, buf.data, buf.len, out, nsent, &info, &err), CORE_OK);
             gather(in, v->nstrands, v->nverts, v->stride, want);
@@ -789,9 +881,16 @@ static void test_vectors(void **state)
             check_or_write(vpath(dir, v->name, f, "out.f32"), out, nsent * sizeof *out, write);
             mlen += (size_t)snprintf(manifest + mlen, sizeof manifest - mlen,
                                      "      {\"file\": \"%s_%d\", \"seq\": %llu, \"ref_seq\": %llu, "
-                                     "\"sim_time\": %.17g, \"keyframe\": %s, \"bytes\": %zu}%s\n",
+                                     "\"sim_time\": %.17g, \"sim_step\": %llu, \"head_position\": [%.9g, %.9g, %.9g], "
+                                     "\"head_orientation\": [%.9g, %.9g, %.9g, %.9g], \"keyframe\": %s, \"bytes\": %zu}%s\n",
                                      v->name, f, (unsigned long long)seq, (unsigned long long)info.ref_seq, t,
-                                     info.keyframe ? "true" : "false", buf.len, f + 1 < v->nframes ? "," : "");
+                                     (unsigned long long)snap.sim_step, (double)snap.head_pos[0], (double)snap.head_pos[1],
+                                     (double)snap.head_pos[2], (double)snap.head_rot[0], (double)snap.head_rot[1],
+                                     (double)snap.head_rot[2], (double)snap.head_rot[3], info.keyframe ? "true" : "false",
+                                     buf.len, f + 1 < v->nframes ? "," : "");
+            assert_true(info.sim.sim_step == snap.sim_step);
+            assert_memory_equal(info.sim.head_pos, snap.head_pos, sizeof snap.head_pos);
+            assert_memory_equal(info.sim.head_rot, snap.head_rot, sizeof snap.head_rot);
         }
         mlen += (size_t)snprintf(manifest + mlen, sizeof manifest - mlen, "    ]}%s\n",
                                  s + 1 < sizeof VSTREAMS / sizeof VSTREAMS[0] ? "," : "");
@@ -895,6 +994,7 @@ int main(void)
         cmocka_unit_test(test_truncated_prefixes),
         cmocka_unit_test(test_bit_flips),
         cmocka_unit_test(test_absurd_headers),
+        cmocka_unit_test(test_bad_head),
         cmocka_unit_test(test_v2_rejections),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

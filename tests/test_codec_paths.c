@@ -63,8 +63,9 @@ static int run_case(const pcase *c, uint64_t seed)
                 }
         bool force = rng_next(&seed) % 11u == 0;
         core_err err2;
-        core_status sa = codec_encode(&vec, in, (uint64_t)f + 1u, t, force, &a, &err);
-        core_status sb = codec_encode(&port, in, (uint64_t)f + 1u, t, force, &b, &err2);
+        const codec_sim_info snap = codec_synth_sim(t, (uint64_t)f, c->style);
+        core_status sa = codec_encode(&vec, in, (uint64_t)f + 1u, &snap, force, &a, &err);
+        core_status sb = codec_encode(&port, in, (uint64_t)f + 1u, &snap, force, &b, &err2);
         assert_int_equal(sa, sb);
         assert_int_equal(vec.careful, port.careful);
         if (sa) { /* the same refusal; the encoders go on unchanged */

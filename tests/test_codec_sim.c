@@ -73,7 +73,11 @@ static void stream_close(stream *s)
 static void stream_frame(stream *s, const float *x, int i, codec_buf *buf)
 {
     core_err err;
-    if (codec_encode(&s->enc, x, 100u + (uint64_t)i, i / 60.0, false, buf, &err) != CORE_OK)
+    const core_xform h = head_at(i);
+    const codec_sim_info snap = { .sim_time = i / 60.0, .sim_step = (uint64_t)i + 1u,
+                                  .head_pos = { h.pos.x, h.pos.y, h.pos.z },
+                                  .head_rot = { h.rot.x, h.rot.y, h.rot.z, h.rot.w } };
+    if (codec_encode(&s->enc, x, 100u + (uint64_t)i, &snap, false, buf, &err) != CORE_OK)
         fail_msg("step %d, %g m: encode: %s", i, (double)s->bound, err.msg);
     codec_frame_info info;
     if (codec_decode(&s->every, buf->data, buf->len, s->out, s->nsent, &info, &err) != CORE_OK)

@@ -382,7 +382,7 @@ static void test_hostile_inputs(void **state)
     /* unicode: escapes and raw UTF-8 in ids round-trip; lone surrogates are bad JSON */
     expect_ok("{\"type\":\"reset\",\"id\":\"h\\u00e9llo \\ud83d\\ude00 \xe2\x82\xac\"}", PROTO_RESET);
     assert_string_equal(msg.id.str, "h\xc3\xa9llo \xf0\x9f\x98\x80 \xe2\x82\xac");
-    cJSON *j = json(proto_build_ok(&msg.id, PROTO_RESET));
+    cJSON *j = json(proto_build_ok(&msg.id, PROTO_RESET, 0));
     assert_string_equal(str_of(j, "id"), "h\xc3\xa9llo \xf0\x9f\x98\x80 \xe2\x82\xac");
     cJSON_Delete(j);
     expect_err("{\"type\":\"reset\",\"id\":\"\\ud800\"}", PROTO_ERR_BAD_JSON, "");
@@ -424,10 +424,25 @@ static void test_build_error_and_ok(void **state)
     cJSON_Delete(j);
 
     proto_id none = { 0 };
-    j = json(proto_build_ok(&none, PROTO_SET_PARAMS));
+    j = json(proto_build_ok(&none, PROTO_SET_PARAMS, 123456789012));
     assert_string_equal(str_of(j, "type"), "ok");
     assert_string_equal(str_of(j, "request"), "set_params");
+    assert_true(num_of(j, "step") == 123456789012.0); /* where the change shows */
     assert_null(cJSON_GetObjectItemCaseSensitive(j, "id"));
+    cJSON_Delete(j);
+    char *text = proto_build_ok(&id, PROTO_RESET, 77);
+    uint64_t step = 0;
+    assert_int_equal(proto_read_ok_step(text, strlen(text), &step), CORE_OK);
+    assert_true(step == 77);
+    proto_free(text);
+    static const char *const no_step[] = { "{\"type\":\"ok\",\"request\":\"keyframe\"}",
+                                           "{\"type\":\"ok\",\"step\":-1}", "{\"type\":\"ok\",\"step\":1.5}",
+                                           "{\"type\":\"state\",\"step\":3}", "not json" };
+    for (size_t i = 0; i < sizeof no_step / sizeof no_step[0]; i++)
+        assert_int_equal(proto_read_ok_step(no_step[i], strlen(no_step[i]), &step), CORE_EFORMAT);
+    j = json(proto_build_ok(&id, PROTO_KEYFRAME, -1)); /* changes no simulation: no step */
+    assert_null(cJSON_GetObjectItemCaseSensitive(j, "step"));
+    assert_true(num_of(j, "id") == 42.0);
     cJSON_Delete(j);
 
     for (int c = PROTO_ERR_BAD_JSON; c <= PROTO_ERR_FAILED; c++) assert_string_not_equal(proto_code_name((proto_code)c), "unknown");
@@ -481,9 +496,12 @@ static void test_build_hello_and_groom(void **state)
     (void)state;
     core_groom g = { 0 };
     make_groom(&g);
-    proto_groom pg = { "procedural:straight", &g, 7, NULL };
+    proto_groom pg = { "procedural:straight", &g, 7, NULL, NULL };
     proto_groom_json gj;
     core_err cerr;
+    assert_int_equal(proto_groom_json_build(&gj, &pg, &cerr), CORE_EINVAL); /* the data must be described */
+    proto_data_ref dr = { "/groom.bin", "fedcba9876543210", 64 };
+    pg.data = &dr;
     assert_int_equal(proto_groom_json_build(&gj, &pg, &cerr), CORE_OK);
     test_params v = { 0.0f, 2, false, 0.1f };
     static const char *const files[] = { "ratboy/Ratboy_mohawk.tfx" };
@@ -513,12 +531,12 @@ static void test_build_hello_and_groom(void **state)
     const cJSON *gr = cJSON_GetObjectItemCaseSensitive(j, "groom");
     assert_string_equal(str_of(gr, "source"), "procedural:straight");
     assert_true(num_of(gr, "strands") == 3 && num_of(gr, "verts") == 4 && num_of(gr, "seed") == 7);
-    const cJSON *rl = cJSON_GetObjectItemCaseSensitive(gr, "rest_lengths");
-    assert_int_equal(cJSON_GetArraySize(rl), 3);
-    assert_true(fabs(cJSON_GetArrayItem(rl, 2)->valuedouble - 0.03) < 1e-6);
-    const cJSON *roots = cJSON_GetObjectItemCaseSensitive(gr, "roots");
-    assert_int_equal(cJSON_GetArraySize(roots), 9);
-    assert_true(cJSON_GetArrayItem(roots, 3)->valuedouble == 0.1);
+    /* the per-strand arrays are not in the JSON: it says where their binary is */
+    assert_null(cJSON_GetObjectItemCaseSensitive(gr, "rest_lengths"));
+    assert_null(cJSON_GetObjectItemCaseSensitive(gr, "roots"));
+    assert_string_equal(str_of(gr, "url"), "/groom.bin");
+    assert_string_equal(str_of(gr, "etag"), "fedcba9876543210");
+    assert_true(num_of(gr, "bytes") == 64);
     const cJSON *bounds = cJSON_GetObjectItemCaseSensitive(gr, "bounds");
     assert_true(fabs(cJSON_GetArrayItem(bounds, 1)->valuedouble + 0.09) < 1e-6 && cJSON_GetArrayItem(bounds, 4)->valuedouble == 0.0);
     const cJSON *col = cJSON_GetObjectItemCaseSensitive(j, "colliders");
@@ -614,19 +632,62 @@ static void test_build_hello_and_groom(void **state)
     assert_int_equal(proto_mesh_bin_read(bin, n, &nv, &nt, &cerr), CORE_OK);
     assert_true(nv == 4 && nt == 4);
     char tag[17], tag2[17];
-    proto_mesh_bin_etag(bin, n, tag);
+    proto_bin_etag(bin, n, tag);
     assert_int_equal(strlen(tag), 16);
     assert_int_equal(proto_mesh_bin_read(bin, n - 1, &nv, &nt, &cerr), CORE_EFORMAT); /* short */
     bin[16 + 48] = 4;                                                                    /* index out of range */
     assert_int_equal(proto_mesh_bin_read(bin, n, &nv, &nt, &cerr), CORE_EFORMAT);
     assert_non_null(strstr(cerr.msg, "vertex 4"));
-    proto_mesh_bin_etag(bin, n, tag2);
+    proto_bin_etag(bin, n, tag2);
     assert_string_not_equal(tag, tag2); /* the tag follows the bytes */
     bin[16 + 48] = 0;
     memset(bin + 16, 0xff, 4); /* a NaN position */
     assert_int_equal(proto_mesh_bin_read(bin, n, &nv, &nt, &cerr), CORE_EFORMAT);
     bin[4] = 2; /* version */
     assert_int_equal(proto_mesh_bin_read(bin, n, &nv, &nt, &cerr), CORE_EFORMAT);
+    core_groom_free(&g);
+}
+
+/* The groom data binary: header, rest segment lengths, roots (little-endian float32). */
+static void test_groom_bin(void **state)
+{
+    (void)state;
+    core_groom g = { 0 };
+    make_groom(&g);
+    size_t n = proto_groom_bin_size(&g);
+    assert_int_equal(n, 16 + 16 * 3);
+    unsigned char bin[64];
+    proto_groom_bin_write(&g, bin);
+    assert_memory_equal(bin, "SCGR\1\0\0\0\3\0\0\0\4\0\0\0", 16);
+    float f;
+    memcpy(&f, bin + 16 + 4 * 2, 4); /* strand 2: segments of 0.03 m */
+    assert_true(fabsf(f - 0.03f) < 1e-6f);
+    memcpy(&f, bin + 16 + 12 + 12 * 1, 4); /* strand 1's root x */
+    assert_true(f == 0.1f);
+    memcpy(&f, bin + 16 + 12 + 12 * 2 + 8, 4); /* strand 2's root z */
+    assert_true(f == 0.05f);
+    uint32_t ns, nv;
+    core_err cerr;
+    assert_int_equal(proto_groom_bin_read(bin, n, &ns, &nv, &cerr), CORE_OK);
+    assert_true(ns == 3 && nv == 4);
+    assert_int_equal(proto_groom_bin_read(bin, n - 4, &ns, &nv, &cerr), CORE_EFORMAT); /* short */
+    assert_non_null(strstr(cerr.msg, "3 strands need 64 bytes"));
+    memset(bin + 16 + 4, 0xff, 4); /* a NaN rest length */
+    assert_int_equal(proto_groom_bin_read(bin, n, &ns, &nv, &cerr), CORE_EFORMAT);
+    assert_non_null(strstr(cerr.msg, "strand 1's rest length"));
+    proto_groom_bin_write(&g, bin);
+    memset(bin + 16 + 12 + 12 * 2 + 4, 0xff, 4); /* a NaN root */
+    assert_int_equal(proto_groom_bin_read(bin, n, &ns, &nv, &cerr), CORE_EFORMAT);
+    assert_non_null(strstr(cerr.msg, "strand 2's root"));
+    proto_groom_bin_write(&g, bin);
+    bin[12] = 1; /* one vertex per strand */
+    assert_int_equal(proto_groom_bin_read(bin, n, &ns, &nv, &cerr), CORE_EFORMAT);
+    bin[12] = 4;
+    bin[0] = 'X';
+    assert_int_equal(proto_groom_bin_read(bin, n, &ns, &nv, &cerr), CORE_EFORMAT);
+    bin[0] = 'S';
+    bin[4] = 2; /* version */
+    assert_int_equal(proto_groom_bin_read(bin, n, &ns, &nv, &cerr), CORE_EFORMAT);
     core_groom_free(&g);
 }
 
@@ -692,7 +753,7 @@ int main(void)
         cmocka_unit_test(test_step_errors),       cmocka_unit_test(test_set_groom),
         cmocka_unit_test(test_subscribe),         cmocka_unit_test(test_envelope_errors),
         cmocka_unit_test(test_hostile_inputs),    cmocka_unit_test(test_build_error_and_ok),
-        cmocka_unit_test(test_build_params),      cmocka_unit_test(test_build_hello_and_groom),
+        cmocka_unit_test(test_build_params),      cmocka_unit_test(test_build_hello_and_groom), cmocka_unit_test(test_groom_bin),
         cmocka_unit_test(test_build_state_stats_subscribed),
         cmocka_unit_test(test_read_envelope),
     };

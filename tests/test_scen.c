@@ -45,7 +45,7 @@ static codec_frame_info frame_info(uint64_t seq, double sim_time)
     codec_frame_info f;
     memset(&f, 0, sizeof f);
     f.seq = seq;
-    f.sim_time = sim_time;
+    f.sim.sim_time = sim_time;
     f.max_error_m = 1e-5f;
     f.nstrands_total = f.nstrands_sent = 2;
     f.nverts = 3;
@@ -251,16 +251,16 @@ static void test_check_follows_head(void **state)
     /* a preset: unknown head */
     scen_world_text(&w, "{\"type\":\"state\",\"paused\":false,\"sim_time\":2,\"steps\":100,\"animation\":{\"preset\":\"nod\",\"speed\":1}}");
     scen_check_begin(&c, NULL);
-    f.sim_time = 2.1;
+    f.sim.sim_time = 2.1;
     scen_check_frame(&c, &w, &f, old_pose, 1000);
     assert_int_equal(c.roots_unchecked, 1);
     assert_true(scen_check_end(&c, NULL, ""));
     /* stopped at sim time 3: blending until 3.4 (+ two steps), then the motion pose again */
     scen_world_text(&w, "{\"type\":\"state\",\"paused\":false,\"sim_time\":3,\"steps\":150,\"animation\":{\"preset\":\"none\",\"speed\":1}}");
-    f.sim_time = 3.2;
+    f.sim.sim_time = 3.2;
     scen_check_frame(&c, &w, &f, old_pose, 2000);
     assert_int_equal(c.roots_unchecked, 2);
-    f.sim_time = 3.5;
+    f.sim.sim_time = 3.5;
     scen_check_frame(&c, &w, &f, new_pose, 3000);
     assert_int_equal(c.roots_unchecked, 2);
     assert_true(scen_check_end(&c, NULL, ""));

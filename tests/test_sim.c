@@ -466,6 +466,29 @@ static void test_sph_clock(void **state)
     assert_float_equal(d.sph_keep, 0.0, 0.0);
 }
 
+/* sim_time_steps: the warm-up is not timed, every timed step counts, a budget stops early. */
+static void test_time_steps(void **state)
+{
+    (void)state;
+    fixture f;
+    sim_params p;
+    sim_params_default(&p);
+    make(&f, 64, 8, &p, 1, true);
+    core_err err;
+    sim_timing t;
+    sim_stats before, after;
+    sim_get_stats(&f.s, &before);
+    assert_int_equal(sim_time_steps(&f.s, f.x, 4, 0.0, &t, &err), CORE_OK);
+    sim_get_stats(&f.s, &after);
+    assert_int_equal(t.steps, 4);
+    assert_int_equal(after.steps - before.steps, 5); /* the warm-up and the four timed */
+    assert_true(t.best_s > 0.0 && t.best_s <= t.mean_s);
+    assert_int_equal(sim_time_steps(&f.s, f.x, 50, 1e-9, &t, &err), CORE_OK);
+    assert_int_equal(t.steps, 1); /* the budget is spent after the first timed step */
+    assert_true(t.best_s > 0.0 && t.best_s <= t.mean_s);
+    drop(&f);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -476,6 +499,7 @@ int main(void)
         cmocka_unit_test(test_nan_guard),         cmocka_unit_test(test_roots_follow_head),
         cmocka_unit_test(test_scalar_kernels_match), cmocka_unit_test(test_kept_lists_match_search),
         cmocka_unit_test(test_sph_clock),
+        cmocka_unit_test(test_time_steps),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

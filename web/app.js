@@ -11,6 +11,7 @@ import { Banner, statsText } from './overlay.js';
 import { Panel } from './panel.js';
 import { pickColliders } from './pick.js';
 import { ColliderMeshLoader, httpBase } from './collider_mesh.js';
+import { GroomDataLoader } from './groom_data.js';
 import { Renderer } from './renderer.js';
 import { StreamClient } from './stream_client.js';
 import { Ema, LatencyEstimator, RateMeter } from './stats.js';
@@ -39,7 +40,9 @@ export class App {
     this.renderer = new Renderer(canvas, gl);
     this.maxTexW = Math.min(4096, gl.getParameter(gl.MAX_TEXTURE_SIZE));
     // scene
-    this.groom = null;          // hello.groom
+    this.groom = null;          // hello.groom (applied: its data arrived)
+    this.groomData = null;      // its /groom.bin (groom_data.js)
+    this.cameraFramed = false;  // the camera was framed on the first hello's groom
     this.colliders = [];
     this.roots = null;          // Float32Array, rest roots (head frame)
     this.head = { position: new Float64Array(3), orientation: new Float64Array([0, 0, 0, 1]) };
@@ -92,6 +95,9 @@ export class App {
       if (!this.contextLost) this.renderer.head.setMesh(m);
       this.dirty = true;
     }, (message) => this.panel.showStatus(`collision mesh not drawn: ${message}`, true));
+    // the groom is applied once its per-strand data (GET groom.url) is at hand
+    this.groomLoader = new GroomDataLoader(httpBase(this.url), (g, data, colliders) => this._applyGroom(g, colliders, data),
+      (message) => this.panel.showStatus(`groom not drawn: ${message}`, true));
     this.stream = new StreamClient({
       onHello: (h) => this._onHello(h),
       onMessage: (m) => this._onMessage(m),
@@ -118,7 +124,7 @@ export class App {
       this.renderer = new Renderer(canvas, gl);
       this.layoutPerGuide = 0;
       this.dirty = true;
-      if (this.groom) this._applyGroom(this.groom, this.colliders);
+      if (this.groom) this._applyGroom(this.groom, this.colliders, this.groomData);
       this.renderer.head.setMesh(this.colliderMesh);
       this.banner.hide();
     });
@@ -185,8 +191,9 @@ export class App {
       this.head.position.set(h.head.position);
       this.head.orientation.set(h.head.orientation);
     }
-    const first = !this.groom;
-    this._applyGroom(h.groom, h.colliders);
+    const first = !this.cameraFramed;
+    this.cameraFramed = true;
+    this.groomLoader.update(h.groom, h.colliders);
     this.meshLoader.update(h.collider_mesh);
     if (first && finiteArray(h.groom.bounds, 6)) this.camera.frame(h.groom.bounds);
     if (h.access === 'token' && !this.token) {
@@ -205,7 +212,7 @@ export class App {
         this.latency.reset();
         break;
       case 'groom':
-        this._applyGroom(m.groom, m.colliders);
+        this.groomLoader.update(m.groom, m.colliders);
         this.meshLoader.update(m.collider_mesh);
         break;
       case 'stats': this.serverStats = m; break;
@@ -221,13 +228,13 @@ export class App {
 
   // ---- groom, layout and worker configuration -------------------------------------------
 
-  _applyGroom(groom, colliders) {
-    if (!groom || !(groom.strands >= 1) || !(groom.verts >= 2)) return;
+  // groom: a hello's or groom message's description; data: its parsed /groom.bin (groom_data.js)
+  _applyGroom(groom, colliders, data) {
+    if (!groom || !(groom.strands >= 1) || !(groom.verts >= 2) || !data) return;
     this.groom = groom;
+    this.groomData = data;
     this.colliders = Array.isArray(colliders) ? colliders : [];
-    const n = groom.strands;
-    this.roots = finiteArray(groom.roots, 3 * n) ? Float32Array.from(groom.roots) : new Float32Array(3 * n);
-    if (!finiteArray(groom.roots, 3 * n)) this.panel.showStatus('the groom has no root positions: render strands are not spread', true);
+    this.roots = data.roots;
     this.renderer.head.setColliders(this.colliders);
     if (finiteArray(groom.bounds, 6)) this.renderer.setBounds(groom.bounds);
     this.guideConfig = null;
@@ -248,7 +255,7 @@ export class App {
   _configureWorker() {
     if (!this.groom) return;
     this.guideConfig = null;
-    this.stream.configure(this.groom.strands, this.groom.verts, this.settings.segs, this.maxTexW, this.roots);
+    this.stream.configure(this.groom.strands, this.groom.verts, this.settings.segs, this.maxTexW);
   }
 
   _onConfigured(cfg) {
@@ -342,10 +349,8 @@ export class App {
         this.totals.uploadMs += dt;
         this.framesUploaded++;
         draw = true;
-        if (f.head) {
-          this.head.position.set(f.head.position);
-          this.head.orientation.set(f.head.orientation);
-        }
+        this.head.position.set(f.head.position); // where the simulation had the head (frame header)
+        this.head.orientation.set(f.head.orientation);
       }
       this.stream.recycle(f);
     }

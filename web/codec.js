@@ -4,8 +4,8 @@
 
 import { KERNEL_WASM } from './codec_kernel_wasm.js';
 
-export const HEADER_SIZE = 68;
-export const FORMAT_VERSION = 2;
+export const HEADER_SIZE = 104;
+export const FORMAT_VERSION = 3;
 export const CODEC_ID_STRAND = 1;
 export const FLAG_KEY = 1;
 
@@ -13,22 +13,25 @@ export const FLAG_KEY = 1;
 export const READ_SLACK = 1 << 19;
 // The core's state (struct codec_core): its header record, the held keyframe's, its last failure
 // (struct codec_core_error) and whether a keyframe is held, at these offsets.
-const INFO = 0, KEY = 64, ERROR = 128, KEY_VALID = 160, KEY_SLOT = 164;
+const INFO = 0, KEY = 104, ERROR = 208, KEY_VALID = 240, KEY_SLOT = 244;
+const INFO_SIZE = 104, ERROR_SIZE = 32;
+// A head rotation is a unit quaternion within this (CODEC_HEAD_NORM_TOL): |x²+y²+z²+w² - 1|.
+const HEAD_NORM_TOL = 1e-4;
 const PAGE = 65536;
 
 // The core's failures (enum codec_core_code), in order from 1.
 const E = Object.freeze({
-  SHORT_HEADER: 1, MAGIC: 2, VERSION: 3, CODEC: 4, FLAGS: 5, REF: 6, TIME: 7, BOUND: 8, STEP: 9, NVERTS: 10,
-  COUNTS: 11, SENT: 12, TOO_MANY: 13, LENGTH: 14, CRC: 15, NO_KEY: 16, KEY_LAYOUT: 17, NO_MOTION: 18,
-  ROTATION: 19, TRANSLATION: 20, PADDING: 21, TABLE_SHORT: 22, TABLE_VARINT: 23, TABLE_COUNT: 24,
-  TABLE_SYMBOL: 25, TABLE_FREQ: 26, TABLE_SUM: 27, NO_STREAM: 28, STREAM_LEN: 29, STATE: 30, SYMBOL: 31,
-  MODE: 32, OVERRUN: 33, ESCAPE: 34, VALUE: 35, BITS: 36, END: 37,
+  SHORT_HEADER: 1, MAGIC: 2, VERSION: 3, CODEC: 4, FLAGS: 5, REF: 6, TIME: 7, HEAD: 8, BOUND: 9, STEP: 10,
+  NVERTS: 11, COUNTS: 12, SENT: 13, TOO_MANY: 14, LENGTH: 15, CRC: 16, NO_KEY: 17, KEY_LAYOUT: 18,
+  NO_MOTION: 19, ROTATION: 20, TRANSLATION: 21, PADDING: 22, TABLE_SHORT: 23, TABLE_VARINT: 24,
+  TABLE_COUNT: 25, TABLE_SYMBOL: 26, TABLE_FREQ: 27, TABLE_SUM: 28, NO_STREAM: 29, STREAM_LEN: 30, STATE: 31,
+  SYMBOL: 32, MODE: 33, OVERRUN: 34, ESCAPE: 35, VALUE: 36, BITS: 37, END: 38,
 });
 
 // The header field each failure is about (the table, strand and motion ones say it themselves).
 const FIELDS = new Map([
   [E.SHORT_HEADER, 'header'], [E.MAGIC, 'magic'], [E.VERSION, 'version'], [E.CODEC, 'codec'], [E.FLAGS, 'flags'],
-  [E.REF, 'ref_seq'], [E.TIME, 'sim_time'], [E.BOUND, 'max_error_m'], [E.STEP, 'step'], [E.NVERTS, 'nverts'],
+  [E.REF, 'ref_seq'], [E.TIME, 'sim_time'], [E.HEAD, 'head'], [E.BOUND, 'max_error_m'], [E.STEP, 'step'], [E.NVERTS, 'nverts'],
   [E.COUNTS, 'stride / nstrands_total'], [E.SENT, 'nstrands_sent'], [E.TOO_MANY, 'nstrands_sent'],
   [E.LENGTH, 'payload_len'], [E.CRC, 'crc32'], [E.NO_KEY, 'ref_seq'], [E.KEY_LAYOUT, 'step'],
   [E.NO_MOTION, 'motion'], [E.ROTATION, 'motion'], [E.TRANSLATION, 'motion'], [E.PADDING, 'motion'],
@@ -46,6 +49,9 @@ const MESSAGES = new Map([
   [E.FLAGS, (h, e) => `unknown flags 0x${e.a.toString(16).padStart(2, '0')}`],
   [E.REF, (h) => `reference sequence ${h.refSeq} invalid for ${h.keyframe ? 'keyframe' : 'delta frame'} ${h.seq}`],
   [E.TIME, () => 'sim time is not finite'],
+  [E.HEAD, (h, e) => (e.index === 2
+    ? `head rotation is not a unit quaternion (squared norm ${g9(e.norm2)}, not within ${HEAD_NORM_TOL} of 1)`
+    : `head ${e.index ? 'rotation' : 'position'} is not finite`)],
   [E.BOUND, (h) => `error bound ${h.maxError} m outside [1e-5, 0.1]`],
   [E.STEP, (h) => `quantization step ${h.step} m does not meet bound ${h.maxError} m`],
   [E.NVERTS, (h) => `${h.nverts} vertices per strand outside [2, 4096]`],
@@ -79,6 +85,17 @@ const MESSAGES = new Map([
 ]);
 
 const fail = (msg) => { throw new Error('codec: ' + msg); };
+
+// x as C's printf("%.9g") writes it (finite x).
+function g9(x) {
+  const exp = Number(x.toExponential(8).split('e')[1]);
+  const strip = (s) => (s.includes('.') ? s.replace(/\.?0+$/, '') : s);
+  if (exp < -4 || exp >= 9) {
+    const [m, e] = x.toExponential(8).split('e');
+    return `${strip(m)}e${e[0] === '-' ? '-' : '+'}${e.replace(/^[-+]/, '').padStart(2, '0')}`;
+  }
+  return strip(x.toFixed(8 - exp));
+}
 
 // The module, compiled once, on first use, synchronously (workers and Node allow that for a module
 // this small); one instance per memory.
@@ -145,6 +162,9 @@ function readInfo(dv, at, info) {
   info.nstrandsSent = dv.getUint32(at + 44, true); info.nverts = dv.getUint32(at + 48, true);
   info.stride = dv.getUint32(at + 52, true); info.payloadLen = dv.getUint32(at + 56, true);
   info.frameLen = HEADER_SIZE + info.payloadLen;
+  info.simStep = u64(dv, at + 64);
+  for (let i = 0; i < 3; i++) info.headPosition[i] = dv.getFloat32(at + 72 + 4 * i, true);
+  for (let i = 0; i < 4; i++) info.headOrientation[i] = dv.getFloat32(at + 84 + 4 * i, true);
   return info;
 }
 
@@ -154,6 +174,7 @@ function throwFailure(dv, at, hat, len) {
   const e = {
     code: dv.getInt32(at, true), byte: dv.getUint32(at + 4, true), index: dv.getUint32(at + 8, true),
     a: u64(dv, at + 16), b: u64(dv, at + 24), signedA: Number(dv.getBigInt64(at + 16, true)),
+    norm2: dv.getFloat64(at + 16, true),
   };
   const h = readInfo(dv, hat, newFrameInfo());
   const text = MESSAGES.get(e.code) ?? (() => `decode core failure ${e.code}`);
@@ -165,10 +186,15 @@ function throwFailure(dv, at, hat, len) {
   fail(`${text(h, e, len)} [${where}]`);
 }
 
-/** A fresh header record (fields as in codec_frame_info). */
+/**
+ * A fresh header record (fields as in codec_frame_info): simStep is the simulation's step counter
+ * (exact below 2^53), headPosition [x, y, z] (m) and headOrientation [x, y, z, w] (a unit
+ * quaternion) the head transform that step used.
+ */
 export function newFrameInfo() {
   return {
-    seq: 0, refSeq: 0, simTime: 0, step: 0, maxError: 0, keyframe: false,
+    seq: 0, refSeq: 0, simTime: 0, simStep: 0, headPosition: new Float64Array(3),
+    headOrientation: Float64Array.of(0, 0, 0, 1), step: 0, maxError: 0, keyframe: false,
     nstrandsTotal: 0, nstrandsSent: 0, nverts: 0, stride: 0, payloadLen: 0, frameLen: 0,
   };
 }
@@ -180,7 +206,8 @@ export function newFrameInfo() {
  */
 export function peekHeader(bytes, info = newFrameInfo()) {
   if (!(bytes instanceof Uint8Array)) fail('frame must be a Uint8Array');
-  const c = scratchCore(128 + HEADER_SIZE), hat = c.heap, eat = c.heap + 64, at = c.heap + 128;
+  const c = scratchCore(INFO_SIZE + ERROR_SIZE + HEADER_SIZE);
+  const hat = c.heap, eat = c.heap + INFO_SIZE, at = eat + ERROR_SIZE;
   c.u8.fill(0, hat, at);
   c.u8.set(bytes.subarray(0, HEADER_SIZE), at);
   if (c.x.codec_core_header(hat, eat, at, bytes.length) !== 0) throwFailure(c.dv, eat, hat, bytes.length);

@@ -34,12 +34,11 @@ export class StreamClient {
     return msg.id === undefined ? 0 : msg.id;
   }
 
-  // (Re)configures for nstrands x nverts guides smoothed with segs points per span; rest roots
-  // (head frame, xyz per strand) let the worker recover the head pose.
-  configure(nstrands, nverts, segs, maxTexW, restRoots) {
+  // (Re)configures for nstrands x nverts guides smoothed with segs points per span.
+  configure(nstrands, nverts, segs, maxTexW) {
     this.gen++;
     this.pending = null;
-    this.worker.postMessage({ type: 'config', gen: this.gen, nstrands, nverts, segs, maxTexW, restRoots: Float32Array.from(restRoots) });
+    this.worker.postMessage({ type: 'config', gen: this.gen, nstrands, nverts, segs, maxTexW });
   }
 
   // The newest decoded frame, once; the caller uploads it and then calls recycle(frame).

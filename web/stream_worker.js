@@ -1,16 +1,16 @@
 // Worker: holds the WebSocket to strandcastd (so frames keep being read, and pings answered,
 // however busy the page's main thread is drawing), decodes strand frames with codec.js, smooths
-// the guides (Catmull-Rom), computes their tangents, normals and the head pose, and posts the
+// the guides (Catmull-Rom), computes their tangents and normals, and posts the
 // newest result back in transferable Float32Arrays that the page returns for reuse (at most
 // POOL buffers exist per configuration; frames decoded while none is free are not posted).
 // A buffer holds two RGBA32F texture images of texW x texH texels, point k of guide g at texel
 // g * pts + k: (position xyz, normal coordinate a), then (tangent xyz, normal coordinate b).
-// Control messages pass through to the page as parsed objects.
+// Each frame carries the head transform the simulation used for it (its header), which goes
+// with it to the page. Control messages pass through to the page as parsed objects.
 import { StrandDecoder } from './codec.js';
 import { catmullWeights, smoothedCount, smoothStrands } from './catmull.js';
 import { strandFrames } from './frames.js';
 import { Connection } from './net.js';
-import { fitRigid, rigidScratch } from './rigid.js';
 
 const POOL = 3;
 const KEYFRAME_REQUEST_MS = 1000;
@@ -25,19 +25,16 @@ const st = {
   texH: 0,
   block: 0,           // floats per texture image (texW * texH * 4)
   basis: new Float64Array(6),
-  restRoots: null,
   free: [],
   allocated: 0,
   weights: null,
   rootState: null,
-  head: { q: [0, 0, 0, 1], t: [0, 0, 0] },
-  rigid: rigidScratch(),
   decoder: new StrandDecoder(),
   connection: null,
   lastKeyRequest: -Infinity,
 };
 
-// { type: 'config', gen, nstrands, nverts, segs, maxTexW, restRoots: Float32Array }
+// { type: 'config', gen, nstrands, nverts, segs, maxTexW }
 function configure(m) {
   st.gen = m.gen;
   st.nstrands = m.nstrands;
@@ -48,12 +45,10 @@ function configure(m) {
   st.texW = Math.max(1, Math.min(m.maxTexW, texels));
   st.texH = Math.max(1, Math.ceil(texels / st.texW));
   st.block = st.texW * st.texH * 4;
-  st.restRoots = m.restRoots;
   st.free = [];
   st.allocated = 0;
   st.weights = catmullWeights(m.segs);
   st.rootState = new Float32Array(3 * st.nstrands);
-  st.head = { q: [0, 0, 0, 1], t: [0, 0, 0] };
   postMessage({ type: 'configured', gen: st.gen, pts: st.pts, texW: st.texW, texH: st.texH, tanOffset: st.block });
 }
 
@@ -93,13 +88,11 @@ function onFrame(data) {
   if (!buf) return; // the page has not drawn the previous ones yet: skip this frame
   smoothStrands(buf, 0, 4, decoded, 0, st.nstrands, st.nverts, st.segs, st.weights);
   strandFrames(buf, 0, buf, st.block, st.nstrands, st.pts, st.rootState, st.basis);
-  const headOk = st.restRoots && st.restRoots.length === 3 * st.nstrands &&
-    fitRigid(st.head, st.restRoots, decoded, 0, 3 * st.nverts, st.nstrands, Math.max(1, Math.floor(st.nstrands / 256)), st.rigid);
   const t2 = performance.now();
   postMessage({
     type: 'frame', gen: st.gen, buf, arrival,
-    seq: info.seq, simTime: info.simTime, keyframe: info.keyframe, bytes: data.byteLength,
-    head: headOk ? { position: st.head.t.slice(), orientation: st.head.q.slice() } : null,
+    seq: info.seq, simTime: info.simTime, simStep: info.simStep, keyframe: info.keyframe, bytes: data.byteLength,
+    head: { position: Array.from(info.headPosition), orientation: Array.from(info.headOrientation) },
     decodeMs: t1 - t0, prepareMs: t2 - t1,
   }, [buf.buffer]);
 }

@@ -21,20 +21,12 @@ core_status app_budget_measure(const sim_desc *sd, double *particles_per_s, core
         sim_destroy(&s);
         return core_fail(err, CORE_ENOMEM, "out of memory for the groom budget's measurement");
     }
-    st = sim_step(&s, err); /* warm-up: first-touch pages, the rest density */
-    if (st == CORE_OK) st = sim_read_positions(&s, xyz, err);
-    double best = 1e30;
-    for (int i = 0; st == CORE_OK && i < APP_BUDGET_STEPS; i++) {
-        unsigned long long t0 = core_now_ns();
-        st = sim_step(&s, err);
-        if (st == CORE_OK) st = sim_read_positions(&s, xyz, err); /* waits for queued GPU work */
-        double secs = (double)(core_now_ns() - t0) * 1e-9;
-        best = secs < best ? secs : best;
-    }
+    sim_timing t;
+    st = sim_time_steps(&s, xyz, APP_BUDGET_STEPS, 0.0, &t, err);
     free(xyz);
     sim_destroy(&s);
     if (st != CORE_OK) return st;
-    *particles_per_s = (double)APP_BUDGET_STRANDS * APP_BUDGET_VERTS / (best > 1e-9 ? best : 1e-9);
+    *particles_per_s = (double)APP_BUDGET_STRANDS * APP_BUDGET_VERTS / (t.best_s > 1e-9 ? t.best_s : 1e-9);
     return CORE_OK;
 }
 

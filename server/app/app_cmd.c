@@ -16,6 +16,12 @@ void app_cmd_tell_failure(app_world *w, int stream, uint32_t client)
     }
 }
 
+/* The step a change made now first shows in: the next one the simulation takes. */
+static int64_t next_step(const app_world *w)
+{
+    return (int64_t)app_world_snapshot(w).sim_step + 1;
+}
+
 static void broadcast_state(app_world *w)
 {
     proto_state s = app_world_state(w);
@@ -88,7 +94,7 @@ static void set_params(app_world *w, uint32_t client, const proto_msg *m)
         return;
     }
     w->params = p;
-    app_reply_ok(w->out, client, m);
+    app_reply_ok(w->out, client, m, next_step(w));
     app_send(w->out, NET_ALL, proto_build_params(NULL, w->ptable, w->nparams, &w->params, changed, client),
              APP_ANNOUNCE_PARAMS);
 }
@@ -110,7 +116,7 @@ static void motion(app_world *w, uint32_t client, const proto_msg *m)
     }
     core_xform base = { m->u.motion.position, m->u.motion.orientation };
     bool stopped = app_anim_motion(&w->anim, base);
-    if (m->id.kind != PROTO_ID_NONE) app_reply_ok(w->out, client, m);
+    if (m->id.kind != PROTO_ID_NONE) app_reply_ok(w->out, client, m, next_step(w));
     else app_count_accepted(w->out);
     if (stopped) broadcast_state(w);
 }
@@ -171,15 +177,17 @@ static void handle_msg(app_world *w, uint32_t client, const proto_msg *m)
         w->paused = false;
         w->step_budget = 0;
         break;
-    case PROTO_STEP:
+    case PROTO_STEP: {
         if (!w->paused) {
             app_reply_fail(w->out, client, &m->id, PROTO_ERR_BAD_STATE, "", "step works while paused; send pause first");
             return;
         }
+        const int64_t first = next_step(w) + w->step_budget; /* after the steps still owed */
         w->step_budget += m->u.step.count;
         if (w->step_budget > PROTO_MAX_STEP) w->step_budget = PROTO_MAX_STEP;
-        app_reply_ok(w->out, client, m);
+        app_reply_ok(w->out, client, m, first);
         return; /* the state follows when the steps are done */
+    }
     case PROTO_SET_GROOM: app_cmd_set_groom(w, client, m); return; /* it drops grooms_pending */
     case PROTO_AUTH: return; /* answered on the net thread (app_net.c), never queued */
     case PROTO_SUBSCRIBE: subscribe(w, client, m); return;
@@ -187,11 +195,13 @@ static void handle_msg(app_world *w, uint32_t client, const proto_msg *m)
         app_client *c = app_clients_find(&w->clients, client);
         if (c) app_stream_force_key(&w->streams, c->stream);
         w->dirty = w->dirty || w->paused;
-        app_reply_ok(w->out, client, m);
+        app_reply_ok(w->out, client, m, -1);
         return;
     }
     }
-    app_reply_ok(w->out, client, m);
+    /* reset: the rest pose at step 0 (published at once); pause: no step after the current one */
+    int64_t shows = m->type == PROTO_RESET ? 0 : m->type == PROTO_PAUSE ? next_step(w) - 1 : next_step(w);
+    app_reply_ok(w->out, client, m, shows);
     broadcast_state(w);
 }
 

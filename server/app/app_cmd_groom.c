@@ -105,7 +105,7 @@ static void swap_groom(app_world *w, app_loader *l)
     app_groom_free(&w->groom);
     w->groom = l->g;
     memset(&l->g, 0, sizeof l->g);
-    sim_set_motion(&w->sim, app_anim_pose(&w->anim));
+    app_world_set_head(w, app_anim_pose(&w->anim));
     app_world_reset(w);
     app_streams_regroom(&w->streams, w->groom.g.nstrands, w->groom.g.nverts);
     w->dirty = true;
@@ -124,14 +124,14 @@ void app_cmd_groom_poll(app_world *w)
         done(w); /* before the replies: a client may send the next set_groom on seeing them */
         unsigned long long t0 = core_now_ns();
         swap_groom(w, l);
-        app_groom_publish_mesh(w->out->net, &w->groom); /* before the groom message that names it */
+        app_groom_publish(w->out->net, &w->groom); /* before the groom message that names it */
         core_log(CORE_LOG_INFO, "app",
                  "client %u: groom %s, %u strands x %u vertices (load %.0f ms), collider %s (load %.0f ms, grid %.0f ms), "
                  "simulation %.0f ms; off the sim thread %.0f ms, swap on it %.1f ms",
                  client, w->groom.source, w->groom.g.nstrands, w->groom.g.nverts, l->groom_ms,
                  w->groom.collider[0] ? w->groom.collider : "none", w->groom.mesh_ms, w->groom.sdf_ms, l->sim_ms,
                  l->total_ms, (double)(core_now_ns() - t0) / 1e6);
-        app_reply_ok(w->out, client, m);
+        app_reply_ok(w->out, client, m, 0); /* the new groom's simulation starts at step 0 */
         app_send(w->out, NET_ALL, proto_build_groom(&w->groom.json), APP_ANNOUNCE_GROOM);
     }
     app_loader_clear(l);

@@ -1,4 +1,5 @@
-/* app: a groom's collision mesh: its SDF (over groom_collider_region) and the binary for clients. */
+/* app: a groom's collision mesh (its SDF over groom_collider_region, the binary for clients), and
+ * handing the groom's binaries to net. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -48,7 +49,7 @@ static core_status attach(app_groom *g, core_mesh *mesh, const char *label, core
     g->mesh_bin = net_buf_new(n);
     if (!g->mesh_bin) return core_fail(err, CORE_ENOMEM, "out of memory for the collision mesh binary");
     proto_mesh_bin_write(g->g.mesh, net_buf_data(g->mesh_bin));
-    proto_mesh_bin_etag(net_buf_data(g->mesh_bin), n, g->mesh_etag);
+    proto_bin_etag(net_buf_data(g->mesh_bin), n, g->mesh_etag);
     return CORE_OK;
 }
 
@@ -64,11 +65,16 @@ core_status app_groom_set_collider(app_groom *g, core_mesh *mesh, const char *la
     return app_groom_render(g, err);
 }
 
-void app_groom_publish_mesh(net *n, const app_groom *g)
+/* Hands one binary (a new reference) to n at path. */
+static void publish(net *n, const char *path, net_buf *b, const char *etag)
+{
+    if (b) net_buf_ref(b);
+    if (net_set_blob(n, path, b, etag) != CORE_OK) core_log(CORE_LOG_ERROR, "app", "%s could not be handed to net", path);
+}
+
+void app_groom_publish(net *n, const app_groom *g)
 {
     if (!n) return;
-    net_buf *b = g->mesh_bin;
-    if (b) net_buf_ref(b);
-    if (net_set_blob(n, APP_MESH_PATH, b, g->mesh_etag) != CORE_OK)
-        core_log(CORE_LOG_ERROR, "app", "the collision mesh could not be handed to net");
+    publish(n, APP_GROOM_PATH, g->groom_bin, g->groom_etag);
+    publish(n, APP_MESH_PATH, g->mesh_bin, g->mesh_etag);
 }

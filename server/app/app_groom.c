@@ -8,14 +8,24 @@
 
 core_status app_groom_render(app_groom *g, core_err *err)
 {
+    proto_data_ref dr = { APP_GROOM_PATH, g->groom_etag, g->groom_bin ? net_buf_len(g->groom_bin) : 0 };
     proto_mesh_ref mr = { g->collider, APP_MESH_PATH, g->mesh_etag, g->mesh_bin ? net_buf_len(g->mesh_bin) : 0 };
-    proto_groom pg = { g->source, &g->g, g->seed, g->g.mesh && g->mesh_bin ? &mr : NULL };
+    proto_groom pg = { g->source, &g->g, g->seed, &dr, g->g.mesh && g->mesh_bin ? &mr : NULL };
     proto_groom_json_free(&g->json);
     return proto_groom_json_build(&g->json, &pg, err);
 }
 
+/* The groom data binary, then the JSON that names it. */
 static core_status finish(app_groom *out, core_err *err)
 {
+    size_t n = proto_groom_bin_size(&out->g);
+    out->groom_bin = net_buf_new(n);
+    if (!out->groom_bin) {
+        app_groom_free(out);
+        return core_fail(err, CORE_ENOMEM, "out of memory for the groom data binary (%zu bytes)", n);
+    }
+    proto_groom_bin_write(&out->g, net_buf_data(out->groom_bin));
+    proto_bin_etag(net_buf_data(out->groom_bin), n, out->groom_etag);
     core_status st = app_groom_render(out, err);
     if (st != CORE_OK) app_groom_free(out);
     return st;
@@ -57,6 +67,7 @@ core_status app_groom_check_size(const app_groom *g, core_err *err)
 void app_groom_free(app_groom *g)
 {
     core_groom_free(&g->g);
+    net_buf_unref(g->groom_bin);
     net_buf_unref(g->mesh_bin);
     proto_groom_json_free(&g->json);
     memset(g, 0, sizeof *g);

@@ -1,5 +1,6 @@
-/* app: the live groom as the daemon holds it: the groom, its collision mesh (distance grid and
- * the binary clients fetch) and its pre-rendered JSON. Loading is pure of threads: whoever
+/* app: the live groom as the daemon holds it: the groom, the binary of its per-strand data
+ * clients fetch, its collision mesh (distance grid and the binary clients fetch) and its
+ * pre-rendered JSON. Loading is pure of threads: whoever
  * fills an app_groom owns it (app_groom_free). */
 #ifndef APP_GROOM_H
 #define APP_GROOM_H
@@ -10,11 +11,14 @@
 #include "proto/proto.h"
 
 #define APP_MESH_PATH "/collider.bin" /* where clients GET the collision mesh binary */
+#define APP_GROOM_PATH "/groom.bin"   /* where clients GET the groom data binary (rest lengths, roots) */
 
 typedef struct app_groom {
     core_groom g;             /* g.mesh / g.sdf: the collision mesh and its distance grid, if any */
     char source[PROTO_MAX_NAME + 16];
     uint64_t seed;
+    net_buf *groom_bin;       /* proto_groom_bin_write of g: built once, shared by every client */
+    char groom_etag[17];
     char collider[PROTO_MAX_NAME + 1]; /* the mesh's name ("" = none) */
     net_buf *mesh_bin;        /* proto_mesh_bin_write of g.mesh (NULL = none) */
     char mesh_etag[17];
@@ -41,7 +45,8 @@ core_status app_groom_check_size(const app_groom *g, core_err *err);
  * the hair cannot reach the mesh), its binary and the re-rendered JSON. mesh NULL removes
  * g's mesh. (app_collider.c) */
 core_status app_groom_set_collider(app_groom *g, core_mesh *mesh, const char *label, core_err *err);
-/* Hands g's mesh binary to n at APP_MESH_PATH (or none); n NULL does nothing. Sim thread. */
-void app_groom_publish_mesh(net *n, const app_groom *g);
+/* Hands g's binaries to n: its groom data at APP_GROOM_PATH, its mesh at APP_MESH_PATH (or
+ * none); before any message naming their tags is sent. n NULL does nothing. Sim thread. */
+void app_groom_publish(net *n, const app_groom *g);
 
 #endif

@@ -74,7 +74,7 @@ static bool allowed(app_gate *g, uint32_t client, const proto_msg *m)
     if (m->type == PROTO_AUTH) {
         if (!g->token || same_secret(m->u.auth.token, g->token)) {
             if (p) p->writer = true;
-            app_reply_ok(g->out, client, m);
+            app_reply_ok(g->out, client, m, -1);
         } else {
             app_reply_fail(g->out, client, &m->id, PROTO_ERR_FORBIDDEN, "token", "wrong token");
         }

@@ -28,10 +28,10 @@ void app_reply_fail(app_outbox *o, uint32_t client, const proto_id *id, proto_co
     app_reply_error(o, client, id, &e);
 }
 
-void app_reply_ok(app_outbox *o, uint32_t client, const proto_msg *m)
+void app_reply_ok(app_outbox *o, uint32_t client, const proto_msg *m, int64_t step)
 {
     atomic_fetch_add(&o->accepted, 1);
-    app_send(o, client, proto_build_ok(&m->id, m->type), 0);
+    app_send(o, client, proto_build_ok(&m->id, m->type, step), 0);
 }
 
 void app_count_accepted(app_outbox *o) { atomic_fetch_add(&o->accepted, 1); }

@@ -29,8 +29,9 @@ void app_reply_error(app_outbox *o, uint32_t client, const proto_id *id, const p
 /* app_reply_error of (code, field, msg). */
 void app_reply_fail(app_outbox *o, uint32_t client, const proto_id *id, proto_code code, const char *field,
                     const char *msg);
-/* An ok reply to m; counts an acceptance. */
-void app_reply_ok(app_outbox *o, uint32_t client, const proto_msg *m);
+/* An ok reply to m, with the step from which its change to the simulation shows (step < 0: m
+ * changes no simulation, no step field); counts an acceptance. */
+void app_reply_ok(app_outbox *o, uint32_t client, const proto_msg *m, int64_t step);
 /* Counts an acceptance that has no reply of its own (a motion without id, a subscribe). */
 void app_count_accepted(app_outbox *o);
 

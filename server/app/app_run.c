@@ -124,7 +124,7 @@ static core_status setup_world(app *a, const core_param_info *ptable, size_t npa
     size_t n = (size_t)w->groom.g.nstrands * w->groom.g.nverts * 3;
     w->xyz = malloc(n * sizeof *w->xyz);
     if (!w->xyz) return core_fail(err, CORE_ENOMEM, "out of memory for %zu positions", n / 3);
-    sim_set_motion(&w->sim, app_anim_pose(&w->anim));
+    app_world_set_head(w, app_anim_pose(&w->anim));
     if ((st = sim_read_positions(&w->sim, w->xyz, err)) != CORE_OK) return st;
     core_log(CORE_LOG_INFO, "app", "groom %s: %u strands x %u vertices, %u colliders; backend %s", w->groom.source,
              w->groom.g.nstrands, w->groom.g.nverts, w->groom.g.ncolliders, w->sim.vt->name);
@@ -151,7 +151,7 @@ static core_status setup(app *a, core_err *err)
             .listen = a->d.listen, .port = a->d.port, .web_dir = a->d.web_dir, .subprotocol = PROTO_SUBPROTOCOL,
             .max_message = PROTO_MAX_MESSAGE, .sndbuf = a->d.client_buffer, .max_clients = a->d.max_clients,
             .allow_origins = a->d.allow_origins, .tls_cert = a->d.tls_cert, .tls_key = a->d.tls_key,
-            .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout, .blobs = { APP_MESH_PATH },
+            .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout, .blobs = { APP_MESH_PATH, APP_GROOM_PATH },
             .cb = { &a->gate, app_on_open, app_on_text, app_on_close, app_metrics },
         };
         if ((st = net_create(&a->net, &nd, err)) != CORE_OK) return st;
@@ -159,7 +159,7 @@ static core_status setup(app *a, core_err *err)
     a->out.net = a->net;
     app_streams_init(&a->w.streams, a->net, a->d.rate, a->d.max_error, (uint32_t)a->d.keyframe_interval,
                      a->w.groom.g.nstrands, a->w.groom.g.nverts);
-    app_groom_publish_mesh(a->net, &a->w.groom);
+    app_groom_publish(a->net, &a->w.groom);
     return CORE_OK;
 }
 

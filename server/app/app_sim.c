@@ -19,7 +19,7 @@ static void take_commands(app_world *w)
 static core_status step_once(app_world *w)
 {
     app_anim_advance(&w->anim, w->params.dt);
-    sim_set_motion(&w->sim, app_anim_pose(&w->anim));
+    app_world_set_head(w, app_anim_pose(&w->anim));
     unsigned long long t0 = core_now_ns();
     core_status st = sim_step(&w->sim, &w->fatal_err);
     double ms = (double)(core_now_ns() - t0) / 1e6;
@@ -34,9 +34,8 @@ static core_status step_once(app_world *w)
 static void publish(app_world *w)
 {
     unsigned long long t0 = core_now_ns();
-    sim_stats ss;
-    sim_get_stats(&w->sim, &ss);
-    app_publish_result r = app_streams_publish(&w->streams, w->xyz, ss.sim_time);
+    const codec_sim_info snap = app_world_snapshot(w);
+    app_publish_result r = app_streams_publish(&w->streams, w->xyz, &snap);
     for (uint32_t m = r.began_failing; m; m &= m - 1) /* usually none: no loop per frame */
         app_cmd_tell_failure(w, __builtin_ctz(m), NET_ALL);
     if (!w->out->net) return;

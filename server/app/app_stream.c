@@ -161,7 +161,7 @@ bool app_stream_failure(const app_streams *ss, int stream, proto_error *e)
     return true;
 }
 
-app_publish_result app_streams_publish(app_streams *ss, const float *xyz, double sim_time)
+app_publish_result app_streams_publish(app_streams *ss, const float *xyz, const codec_sim_info *sim)
 {
     app_publish_result r = { 0, 0, 0 };
     if (!ss->net) return r;
@@ -170,7 +170,7 @@ app_publish_result app_streams_publish(app_streams *ss, const float *xyz, double
         app_stream *t = &ss->s[i];
         if (!t->due || !t->ready) continue;
         core_err err;
-        if (codec_encode(&t->enc, xyz, seq, sim_time, t->force_key, &ss->enc_buf, &err) != CORE_OK) {
+        if (codec_encode(&t->enc, xyz, seq, sim, t->force_key, &ss->enc_buf, &err) != CORE_OK) {
             if (!t->failing) {
                 core_log(CORE_LOG_WARN, "app", "stream %d: frames not sent from %llu on: %s", i, (unsigned long long)seq, err.msg);
                 t->failing = true;

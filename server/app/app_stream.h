@@ -79,9 +79,10 @@ bool app_streams_due(app_streams *ss, bool tick, bool all);
 void app_stream_force_key(app_streams *ss, int stream);
 /* Every stream's next frame is a keyframe. */
 void app_streams_force_keys(app_streams *ss);
-/* Encodes xyz (strand-major, the current groom) once per due stream and publishes the frames
+/* Encodes xyz (strand-major, the current groom) with the snapshot it belongs to (sim: time, step,
+ * head transform; the frames' headers carry it) once per due stream and publishes the frames
  * (one seq per call, so a stream of decimation k sees seq grow by k per frame). */
-app_publish_result app_streams_publish(app_streams *ss, const float *xyz, double sim_time);
+app_publish_result app_streams_publish(app_streams *ss, const float *xyz, const codec_sim_info *sim);
 /* When stream's frames are not being sent because they cannot be encoded: fills *e (code
  * failed, field "stream") and returns true; false while it encodes. */
 bool app_stream_failure(const app_streams *ss, int stream, proto_error *e);

@@ -39,6 +39,8 @@ typedef struct app_world {
     app_groom groom;
     float *xyz;               /* positions of the current groom, strand-major */
     app_anim anim;            /* head motion: client base pose, preset, blend */
+    core_xform head;          /* the head transform the positions belong to: the last one handed
+                                 to the simulation (app_world_set_head), rotation normalised */
 
     /* run state */
     bool paused;
@@ -74,5 +76,11 @@ typedef struct app_world {
 void app_world_reset(app_world *w);
 /* The run state for state messages and the hello. Sim thread. */
 proto_state app_world_state(const app_world *w);
+/* Hands the simulation the head transform of its next step (the pose after a reset until then)
+ * and keeps it as w->head. Sim thread. */
+void app_world_set_head(app_world *w, core_xform head);
+/* The snapshot the current positions belong to (time, step, head), as frames carry it. Sim
+ * thread. */
+codec_sim_info app_world_snapshot(const app_world *w);
 
 #endif

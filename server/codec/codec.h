@@ -10,15 +10,16 @@
 
 /* The wire format is specified byte by byte in proto/CODEC.md. */
 #define CODEC_MAGIC "SCF1"
-#define CODEC_VERSION 2u
-#define CODEC_ID_STRAND 1u         /* the only codec of format version 2 */
-#define CODEC_HEADER_SIZE 68u
+#define CODEC_VERSION 3u
+#define CODEC_ID_STRAND 1u         /* the only codec of format version 3 */
+#define CODEC_HEADER_SIZE 104u
 #define CODEC_FLAG_KEY 1u          /* keyframe: intra-coded, no reference */
 #define CODEC_DEFAULT_MAX_ERROR 1e-4f
 #define CODEC_DEFAULT_KEY_INTERVAL 30u
 #define CODEC_MAX_VERTICES (1u << 24) /* per frame (strands sent x vertices per strand) */
 #define CODEC_MAX_NVERTS 4096u
 #define CODEC_MAX_QUANT (1 << 26)  /* |position / step| must stay below this */
+#define CODEC_HEAD_NORM_TOL 1e-4   /* a frame's head quaternion: |x^2 + y^2 + z^2 + w^2 - 1| <= this */
 
 /* Per-stream constants; zero means default. */
 typedef struct codec_desc {
@@ -33,11 +34,19 @@ typedef struct codec_buf {
     size_t len, cap;
 } codec_buf;
 
+/* The simulation snapshot a frame's positions belong to (the header carries it). */
+typedef struct codec_sim_info {
+    double sim_time;         /* simulation time, s; finite */
+    uint64_t sim_step;       /* the simulation's step counter */
+    float head_pos[3];       /* the head transform that step used: position, m; finite */
+    float head_rot[4];       /* and rotation, a unit quaternion x, y, z, w (CODEC_HEAD_NORM_TOL) */
+} codec_sim_info;
+
 /* The decoded header of one frame. */
 typedef struct codec_frame_info {
     uint64_t seq;            /* this frame's sequence number */
     uint64_t ref_seq;        /* sequence of the keyframe it predicts from (== seq on keyframes) */
-    double sim_time;         /* simulation time, s */
+    codec_sim_info sim;      /* simulation time, step and head transform of the positions */
     double step;             /* quantization step, m */
     float max_error_m;       /* the per-axis error bound the encoder guaranteed */
     bool keyframe;
@@ -95,13 +104,16 @@ void codec_buf_free(codec_buf *buf);
 core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint32_t nstrands,
                                uint32_t nverts, core_err *err);
 
-/* Encodes one frame: xyz is 3 * nstrands * nverts floats, strand-major (caller-owned, read only).
- * Writes the frame to out (replacing its contents; out grows as needed). A keyframe is made on
- * the first call, every key_interval frames, and when force_key is set; other frames are deltas
- * against the last keyframe, so a decoder holding that keyframe decodes any later frame in any
- * subset. Every decoded coordinate is within max_error_m of the input (per axis). Fails with
- * CORE_EINVAL on a non-finite or out-of-range position (the encoder state is unchanged). */
-core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, double sim_time,
+/* Encodes one frame: xyz is 3 * nstrands * nverts floats, strand-major (caller-owned, read only);
+ * sim the snapshot they belong to (time, step, head transform; caller-owned, read only), which
+ * the header carries. Writes the frame to out (replacing its contents; out grows as needed). A
+ * keyframe is made on the first call, every key_interval frames, and when force_key is set;
+ * other frames are deltas against the last keyframe, so a decoder holding that keyframe decodes
+ * any later frame in any subset. Every decoded coordinate is within max_error_m of the input (per
+ * axis). Fails with CORE_EINVAL on a non-finite or out-of-range position, a non-finite time or
+ * head position, or a head rotation that is not a unit quaternion (the encoder state is
+ * unchanged). */
+core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, const codec_sim_info *sim,
                          bool force_key, codec_buf *out, core_err *err);
 
 /* Frees the encoder's memory and zeroes it. Safe on a zeroed encoder. */

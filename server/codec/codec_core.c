@@ -36,11 +36,14 @@
 #define INFO_UNUSED 0x9fff /* every slot of an unused table: INFO_SLOW, next table T_IDLE */
 #define QMAX (CODEC_MAX_QUANT - 1) /* |lattice coordinate| <= 2^26 - 1 */
 
-_Static_assert(__builtin_offsetof(codec_core, key) == 64, "codec.js reads key at 64");
-_Static_assert(__builtin_offsetof(codec_core, error) == 128, "codec.js reads error at 128");
-_Static_assert(__builtin_offsetof(codec_core, key_valid) == 160, "codec.js reads key_valid at 160");
-_Static_assert(__builtin_offsetof(codec_core, key_slot) == 164, "codec.js reads key_slot at 164");
-_Static_assert(sizeof(codec_core_info) == 64 && sizeof(codec_core_error) == 32, "fixed layouts");
+_Static_assert(__builtin_offsetof(codec_core, key) == 104, "codec.js reads key at 104");
+_Static_assert(__builtin_offsetof(codec_core, error) == 208, "codec.js reads error at 208");
+_Static_assert(__builtin_offsetof(codec_core, key_valid) == 240, "codec.js reads key_valid at 240");
+_Static_assert(__builtin_offsetof(codec_core, key_slot) == 244, "codec.js reads key_slot at 244");
+_Static_assert(__builtin_offsetof(codec_core_info, sim_step) == 64 && __builtin_offsetof(codec_core_info, head_pos) == 72 &&
+                   __builtin_offsetof(codec_core_info, head_rot) == 84,
+               "codec.js reads the step and head at 64, 72, 84");
+_Static_assert(sizeof(codec_core_info) == 104 && sizeof(codec_core_error) == 32, "fixed layouts");
 
 /* ---- 4 x int32 vectors ---- */
 #if CORE_WASM
@@ -423,6 +426,15 @@ static inline double as_f64(uint64_t u)
     return x.d;
 }
 
+static inline uint64_t as_u64(double d)
+{
+    union {
+        double d;
+        uint64_t u;
+    } x = { .d = d };
+    return x.u;
+}
+
 static inline float as_f32(uint32_t u)
 {
     union {
@@ -453,9 +465,25 @@ int codec_core_header(codec_core_info *h, codec_core_error *e, const uint8_t *p,
     h->nverts = get32(p + CODEC_OFF_NVERTS);
     h->stride = get32(p + CODEC_OFF_STRIDE);
     h->payload_len = get32(p + CODEC_OFF_PAYLOAD);
-    h->pad = 0;
+    h->pad = h->pad2 = 0;
+    h->sim_step = get64(p + CODEC_OFF_SIM_STEP);
+    /* written out: a copy loop would become a call to memcpy, which the freestanding core lacks */
+    h->head_pos[0] = as_f32(get32(p + CODEC_OFF_HEAD_POS));
+    h->head_pos[1] = as_f32(get32(p + CODEC_OFF_HEAD_POS + 4));
+    h->head_pos[2] = as_f32(get32(p + CODEC_OFF_HEAD_POS + 8));
+    h->head_rot[0] = as_f32(get32(p + CODEC_OFF_HEAD_ROT));
+    h->head_rot[1] = as_f32(get32(p + CODEC_OFF_HEAD_ROT + 4));
+    h->head_rot[2] = as_f32(get32(p + CODEC_OFF_HEAD_ROT + 8));
+    h->head_rot[3] = as_f32(get32(p + CODEC_OFF_HEAD_ROT + 12));
     if (h->keyframe ? h->ref_seq != h->seq : h->ref_seq >= h->seq) return fail_at(e, CODEC_E_REF, CODEC_OFF_REF, 0, 0, 0);
     if ((time_bits >> 52 & 0x7ffu) == 0x7ffu) return fail_at(e, CODEC_E_TIME, CODEC_OFF_TIME, 0, 0, 0);
+    for (uint32_t i = 0; i < 7; i++) /* head position x, y, z, then rotation x, y, z, w */
+        if ((get32(p + CODEC_OFF_HEAD_POS + 4 * i) >> 23 & 0xffu) == 0xffu)
+            return fail_at(e, CODEC_E_HEAD, CODEC_OFF_HEAD_POS + 4 * i, i < 3 ? 0 : 1, 0, 0);
+    double norm2 = 0.0;
+    for (int i = 0; i < 4; i++) norm2 += (double)h->head_rot[i] * (double)h->head_rot[i];
+    if (!(norm2 >= 1.0 - CODEC_HEAD_NORM_TOL && norm2 <= 1.0 + CODEC_HEAD_NORM_TOL))
+        return fail_at(e, CODEC_E_HEAD, CODEC_OFF_HEAD_ROT, 2, as_u64(norm2), 0);
     if (!(h->max_error_m >= CODEC_MIN_ERROR && h->max_error_m <= CODEC_MAX_ERROR)) return fail_at(e, CODEC_E_BOUND, CODEC_OFF_BOUND, 0, 0, 0);
     if (!(h->step > 0.0 && h->step <= 2.0 * (double)h->max_error_m)) return fail_at(e, CODEC_E_STEP, CODEC_OFF_STEP, 0, 0, 0);
     if (h->nverts < 2 || h->nverts > CODEC_MAX_NVERTS) return fail_at(e, CODEC_E_NVERTS, CODEC_OFF_NVERTS, 0, 0, 0);
@@ -1066,6 +1094,32 @@ int codec_core_check(codec_core *k, const uint8_t *p, size_t len)
     return 0;
 }
 
+/* *d = *s field by field: a struct copy this large would become a call to memcpy, which the
+ * freestanding core lacks. */
+static void copy_info(codec_core_info *d, const codec_core_info *s)
+{
+    d->seq = s->seq;
+    d->ref_seq = s->ref_seq;
+    d->sim_time = s->sim_time;
+    d->step = s->step;
+    d->max_error_m = s->max_error_m;
+    d->keyframe = s->keyframe;
+    d->nstrands_total = s->nstrands_total;
+    d->nstrands_sent = s->nstrands_sent;
+    d->nverts = s->nverts;
+    d->stride = s->stride;
+    d->payload_len = s->payload_len;
+    d->pad = d->pad2 = 0;
+    d->sim_step = s->sim_step;
+    d->head_pos[0] = s->head_pos[0];
+    d->head_pos[1] = s->head_pos[1];
+    d->head_pos[2] = s->head_pos[2];
+    d->head_rot[0] = s->head_rot[0];
+    d->head_rot[1] = s->head_rot[1];
+    d->head_rot[2] = s->head_rot[2];
+    d->head_rot[3] = s->head_rot[3];
+}
+
 int codec_core_decode(codec_core *k, const uint8_t *p, size_t len, float *out)
 {
     const codec_core_info *h = &k->info;
@@ -1096,7 +1150,7 @@ int codec_core_decode(codec_core *k, const uint8_t *p, size_t len, float *out)
     if (rc) return rc;
     if (h->keyframe) {
         k->key_slot ^= 1u;
-        k->key = *h;
+        copy_info(&k->key, h);
         k->key_valid = 1;
     }
     return 0;

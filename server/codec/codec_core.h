@@ -1,4 +1,4 @@
-/* codec core: the one decoder of strand frames (proto/CODEC.md, format version 2): header, CRC,
+/* codec core: the one decoder of strand frames (proto/CODEC.md, format version 3): header, CRC,
  * rigid motion, probability tables, the eight rANS lanes and the raw bits, the reconstruction of
  * groups of 8 strands. The daemon's library wraps it (codec_decode.c: allocation, messages) and
  * web/wasm/build.sh compiles this same source to WebAssembly for the browser (web/codec.js:
@@ -25,6 +25,8 @@ enum codec_core_code {
     CODEC_E_FLAGS,       /* a: the flags */
     CODEC_E_REF,         /* the header's seq and ref_seq */
     CODEC_E_TIME,
+    CODEC_E_HEAD,        /* index: 0 head position not finite, 1 rotation not finite, 2 rotation
+                            not a unit quaternion (a: the bits of its squared norm, binary64) */
     CODEC_E_BOUND,       /* the header's max_error_m */
     CODEC_E_STEP,        /* the header's step and max_error_m */
     CODEC_E_NVERTS,      /* the header's nverts */
@@ -58,7 +60,7 @@ enum codec_core_code {
 };
 
 /* A frame's header (proto/CODEC.md). The layout is fixed (web/codec.js reads it at these
- * offsets): 64 bytes. */
+ * offsets): 104 bytes. */
 typedef struct codec_core_info {
     uint64_t seq;            /* 0 */
     uint64_t ref_seq;        /* 8 */
@@ -72,6 +74,10 @@ typedef struct codec_core_info {
     uint32_t stride;         /* 52 */
     uint32_t payload_len;    /* 56 */
     uint32_t pad;            /* 60 */
+    uint64_t sim_step;       /* 64 */
+    float head_pos[3];       /* 72: x, y, z */
+    float head_rot[4];       /* 84: x, y, z, w */
+    uint32_t pad2;           /* 100 */
 } codec_core_info;
 
 /* Why the last call failed (fixed layout, 32 bytes). */
@@ -85,7 +91,7 @@ typedef struct codec_core_error {
 } codec_core_error;
 
 /* The decoder's state. The hosts read info, key, error, key_valid and key_slot at fixed offsets
- * (0, 64, 128, 160, 164); the rest is the core's. */
+ * (0, 104, 208, 240, 244); the rest is the core's. */
 typedef struct codec_core {
     codec_core_info info;   /* the header of the last frame parsed (in part when it failed) */
     codec_core_info key;    /* the held keyframe's header */
@@ -128,8 +134,8 @@ void codec_core_regions(codec_core *k, int32_t *q0, int32_t *q1, int16_t *d0, in
 /* zlib's crc32(crc, p, n) (CRC-32, reflected polynomial 0xEDB88320; crc 0 to start). */
 uint32_t codec_core_crc32(uint32_t crc, const uint8_t *p, size_t n);
 
-/* Parses and validates the fixed header of a frame of len bytes at p (min(len, 68) bytes
- * readable) into h: magic, version, codec, flags, references, time, bound, step, counts, and that
+/* Parses and validates the fixed header of a frame of len bytes at p (min(len, 104) bytes
+ * readable) into h: magic, version, codec, flags, references, time, head, bound, step, counts, and that
  * the frame has exactly the length the header gives. Not the CRC. Returns 0, or a
  * codec_core_code with e filled in (h then holds the fields read before the one at fault). */
 int codec_core_header(codec_core_info *h, codec_core_error *e, const uint8_t *p, size_t len);

@@ -33,7 +33,7 @@ static void where(const codec_core_error *e, const codec_core_info *h, char *buf
     static const char *const fields[] = {
         [CODEC_E_SHORT_HEADER] = "header", [CODEC_E_MAGIC] = "magic", [CODEC_E_VERSION] = "version",
         [CODEC_E_CODEC] = "codec", [CODEC_E_FLAGS] = "flags", [CODEC_E_REF] = "ref_seq",
-        [CODEC_E_TIME] = "sim_time", [CODEC_E_BOUND] = "max_error_m", [CODEC_E_STEP] = "step",
+        [CODEC_E_TIME] = "sim_time", [CODEC_E_HEAD] = "head", [CODEC_E_BOUND] = "max_error_m", [CODEC_E_STEP] = "step",
         [CODEC_E_NVERTS] = "nverts", [CODEC_E_COUNTS] = "stride / nstrands_total",
         [CODEC_E_SENT] = "nstrands_sent", [CODEC_E_TOO_MANY] = "nstrands_sent", [CODEC_E_LENGTH] = "payload_len",
         [CODEC_E_CRC] = "crc32", [CODEC_E_NO_KEY] = "ref_seq", [CODEC_E_KEY_LAYOUT] = "step",
@@ -72,6 +72,14 @@ static core_status report(const codec_core_error *e, const codec_core_info *h, s
         return core_fail(err, st, "codec: reference sequence %llu invalid for %s %llu [%s]", ref,
                          h->keyframe ? "keyframe" : "delta frame", seq, at);
     case CODEC_E_TIME: return core_fail(err, st, "codec: sim time is not finite [%s]", at);
+    case CODEC_E_HEAD:
+        if (e->index == 2) {
+            double norm2;
+            memcpy(&norm2, &e->a, sizeof norm2);
+            return core_fail(err, st, "codec: head rotation is not a unit quaternion (squared norm %.9g, not within %g of 1) [%s]",
+                             norm2, CODEC_HEAD_NORM_TOL, at);
+        }
+        return core_fail(err, st, "codec: head %s is not finite [%s]", e->index ? "rotation" : "position", at);
     case CODEC_E_BOUND:
         return core_fail(err, st, "codec: error bound %g m outside [%g, %g] [%s]", (double)h->max_error_m,
                          (double)CODEC_MIN_ERROR, (double)CODEC_MAX_ERROR, at);
@@ -148,7 +156,10 @@ static core_status report(const codec_core_error *e, const codec_core_info *h, s
 /* The core's header record as codec.h's. */
 static codec_frame_info frame_info(const codec_core_info *h)
 {
-    return (codec_frame_info){ .seq = h->seq, .ref_seq = h->ref_seq, .sim_time = h->sim_time, .step = h->step,
+    codec_sim_info sim = { .sim_time = h->sim_time, .sim_step = h->sim_step };
+    memcpy(sim.head_pos, h->head_pos, sizeof sim.head_pos);
+    memcpy(sim.head_rot, h->head_rot, sizeof sim.head_rot);
+    return (codec_frame_info){ .seq = h->seq, .ref_seq = h->ref_seq, .sim = sim, .step = h->step,
                                .max_error_m = h->max_error_m, .keyframe = h->keyframe != 0,
                                .nstrands_total = h->nstrands_total, .nstrands_sent = h->nstrands_sent,
                                .nverts = h->nverts, .stride = h->stride, .payload_len = h->payload_len,

@@ -225,12 +225,29 @@ static core_status tokenize(codec_encoder *enc, const codec_quant *qz, const flo
     return CORE_OK;
 }
 
-core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, double sim_time,
+/* The checks the decoder makes of the header's simulation snapshot (codec_core_header). */
+static core_status check_sim(const codec_sim_info *sim, core_err *err)
+{
+    if (!isfinite(sim->sim_time)) return core_fail(err, CORE_EINVAL, "codec: sim time is not finite");
+    double norm2 = 0.0;
+    for (int i = 0; i < 3; i++)
+        if (!isfinite(sim->head_pos[i])) return core_fail(err, CORE_EINVAL, "codec: head position is not finite");
+    for (int i = 0; i < 4; i++) {
+        if (!isfinite(sim->head_rot[i])) return core_fail(err, CORE_EINVAL, "codec: head rotation is not finite");
+        norm2 += (double)sim->head_rot[i] * (double)sim->head_rot[i];
+    }
+    if (!(norm2 >= 1.0 - CODEC_HEAD_NORM_TOL && norm2 <= 1.0 + CODEC_HEAD_NORM_TOL)) /* as the decoder checks it */
+        return core_fail(err, CORE_EINVAL, "codec: head rotation is not a unit quaternion (squared norm %.9g)", norm2);
+    return CORE_OK;
+}
+
+core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, const codec_sim_info *sim,
                          bool force_key, codec_buf *out, core_err *err)
 {
-    if (!enc || !enc->cur_q || !xyz || !out)
-        return core_fail(err, CORE_EINVAL, "codec: NULL or uninitialised encoder/positions/buffer");
-    if (!isfinite(sim_time)) return core_fail(err, CORE_EINVAL, "codec: sim time is not finite");
+    if (!enc || !enc->cur_q || !xyz || !sim || !out)
+        return core_fail(err, CORE_EINVAL, "codec: NULL or uninitialised encoder/positions/snapshot/buffer");
+    core_status st = check_sim(sim, err);
+    if (st) return st;
     if (enc->key_valid && seq <= enc->last_seq)
         return core_fail(err, CORE_EINVAL, "codec: sequence %llu does not follow %llu", (unsigned long long)seq,
                          (unsigned long long)enc->last_seq);
@@ -241,7 +258,6 @@ core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, dou
 
     codec_motion motion;
     codec_motion_identity(&motion);
-    core_status st;
     if (!key) {
         const uint32_t step = root_step(enc);
         st = quantize_roots(enc, &qz, xyz, step, err);
@@ -302,7 +318,7 @@ core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, dou
     if (payload > UINT32_MAX) return core_fail(err, CORE_EINVAL, "codec: frame payload over 4 GiB");
 
     codec_frame_info h = {
-        .seq = seq, .ref_seq = key ? seq : enc->key_seq, .sim_time = sim_time, .step = enc->step,
+        .seq = seq, .ref_seq = key ? seq : enc->key_seq, .sim = *sim, .step = enc->step,
         .max_error_m = enc->desc.max_error_m, .keyframe = key, .nstrands_total = enc->nstrands_total,
         .nstrands_sent = enc->nstrands_sent, .nverts = enc->nverts, .stride = enc->desc.stride,
         .payload_len = (uint32_t)payload,

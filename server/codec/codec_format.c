@@ -21,8 +21,17 @@ void codec_header_write(uint8_t *p, const codec_frame_info *info)
     p[CODEC_OFF_FLAGS] = info->keyframe ? CODEC_FLAG_KEY : 0u;
     codec_put_u64(p + CODEC_OFF_SEQ, info->seq);
     codec_put_u64(p + CODEC_OFF_REF, info->ref_seq);
-    memcpy(&u64, &info->sim_time, 8);
+    memcpy(&u64, &info->sim.sim_time, 8);
     codec_put_u64(p + CODEC_OFF_TIME, u64);
+    codec_put_u64(p + CODEC_OFF_SIM_STEP, info->sim.sim_step);
+    for (int i = 0; i < 3; i++) {
+        memcpy(&u32, &info->sim.head_pos[i], 4);
+        codec_put_u32(p + CODEC_OFF_HEAD_POS + 4 * i, u32);
+    }
+    for (int i = 0; i < 4; i++) {
+        memcpy(&u32, &info->sim.head_rot[i], 4);
+        codec_put_u32(p + CODEC_OFF_HEAD_ROT + 4 * i, u32);
+    }
     memcpy(&u64, &info->step, 8);
     codec_put_u64(p + CODEC_OFF_STEP, u64);
     memcpy(&u32, &info->max_error_m, 4);

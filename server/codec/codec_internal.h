@@ -88,7 +88,10 @@ static inline void codec_put_u64(uint8_t *p, uint64_t v)
 #define CODEC_OFF_NVERTS 52u
 #define CODEC_OFF_STRIDE 56u
 #define CODEC_OFF_PAYLOAD 60u
-#define CODEC_OFF_CRC 64u
+#define CODEC_OFF_SIM_STEP 64u
+#define CODEC_OFF_HEAD_POS 72u
+#define CODEC_OFF_HEAD_ROT 84u
+#define CODEC_OFF_CRC 100u
 
 /* Delta frames start their payload with a rigid motion in lattice units: nine i16 rotation
  * entries (2^-14 units, row-major), two zero bytes, three i32 translations, 16 zero bytes. */
@@ -143,7 +146,7 @@ void codec_header_write(uint8_t *p, const codec_frame_info *info);
 /* Grows buf to hold at least cap bytes. */
 core_status codec_buf_reserve(codec_buf *buf, size_t cap, core_err *err);
 
-/* CRC-32 (zlib) of a frame: header bytes 0..63, then the payload. */
+/* CRC-32 (zlib) of a frame: header bytes 0..99, then the payload. */
 uint32_t codec_frame_crc(const uint8_t *frame, size_t payload_len);
 
 #endif

@@ -133,7 +133,8 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     n->listen = dup_or_null(listen);
     n->web_dir = dup_or_null(d->web_dir);
     n->subprotocol = dup_or_null(d->subprotocol);
-    if ((listen && !n->listen) || (d->web_dir && !n->web_dir) || !n->subprotocol) {
+    n->scratch = malloc(LWS_PRE + NET_FRAME_CHUNK);
+    if ((listen && !n->listen) || (d->web_dir && !n->web_dir) || !n->subprotocol || !n->scratch) {
         net_destroy(n);
         return core_fail(err, CORE_ENOMEM, "net: out of memory");
     }
@@ -177,6 +178,11 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
     /* an IPv4 address on lws' IPv6 socket ends up bound to every interface: use an IPv4 socket */
     if (n->listen && !strchr(n->listen, ':')) info.options |= LWS_SERVER_OPTION_DISABLE_IPV6;
     info.vhost_name = "strandcast";
+    /* a request with a method lws cannot parse (or CONNECT, which lws turns raw) becomes a raw
+     * socket of the "http" protocol, answered 501 by net_method.c instead of 403 or silence */
+    info.options |= LWS_SERVER_OPTION_FALLBACK_TO_APPLY_LISTEN_ACCEPT_CONFIG;
+    info.listen_accept_role = "raw-skt";
+    info.listen_accept_protocol = "http";
     if (d->tls_cert) {
         info.options |= LWS_SERVER_OPTION_DO_SSL_GLOBAL_INIT;
         info.ssl_cert_filepath = d->tls_cert;
@@ -260,6 +266,7 @@ void net_destroy(net *n)
     free(n->listen);
     free(n->web_dir);
     free(n->subprotocol);
+    free(n->scratch);
     free(n);
 }
 

@@ -159,6 +159,10 @@ int net_http_callback(struct lws *wsi, enum lws_callback_reasons reason, void *u
         }
         return 0;
     case LWS_CALLBACK_FILTER_HTTP_CONNECTION: atomic_fetch_add(&n->http_requests, 1); return 0;
+    case LWS_CALLBACK_RAW_ADOPT: return 0;
+    case LWS_CALLBACK_RAW_RX:
+    case LWS_CALLBACK_RAW_WRITEABLE:
+    case LWS_CALLBACK_RAW_CLOSE: return net_method_callback(wsi, reason, h, in, len);
     default: return lws_callback_http_dummy(wsi, reason, user, in, len);
     }
 }

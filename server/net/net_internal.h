@@ -8,6 +8,11 @@
 
 #include "net.h"
 
+/* Frames longer than this go out as WebSocket fragments of at most this many bytes, one per
+ * WRITEABLE: lws copies what the socket does not take of a write, so a client that reads
+ * slowly (or never) holds at most one fragment, not a whole keyframe. */
+#define NET_FRAME_CHUNK (16 * 1024)
+
 struct net_buf {
     atomic_int refs;
     size_t len;
@@ -58,6 +63,10 @@ typedef struct net_session {
     uint64_t last_count;  /* count of the last frame sent from its stream; 0 = none */
     bool has_key;
     uint64_t key_seq;     /* seq of the keyframe it holds */
+    /* a frame over NET_FRAME_CHUNK bytes being written in fragments (nothing else is sent
+     * to this client until its last fragment is out) */
+    net_buf *tx;
+    size_t tx_off;
     /* receive reassembly */
     char *rx;
     size_t rx_len, rx_cap;
@@ -100,6 +109,7 @@ struct net {
     net_event *pending_frame[NET_MAX_STREAMS]; /* newest non-key frame event still in the inbox */
 
     /* net thread only */
+    unsigned char *scratch;            /* LWS_PRE + NET_FRAME_CHUNK bytes: the fragment being written */
     net_session *sessions;
     uint32_t next_client;
     net_stream streams[NET_MAX_STREAMS];
@@ -114,6 +124,11 @@ struct net {
 /* lws protocol callbacks. */
 int net_ws_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in, size_t len);
 int net_http_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in, size_t len);
+
+/* The raw-socket callbacks (RAW_RX, RAW_WRITEABLE, RAW_CLOSE) of a request whose method the
+ * server does not implement: answers 501 with the reason (400 for bytes that are no request
+ * line) and closes (net_method.c). */
+int net_method_callback(struct lws *wsi, enum lws_callback_reasons reason, net_http *h, void *in, size_t len);
 
 /* Checks desc.blobs and copies them into n->blobs. CORE_EINVAL for a bad path. */
 core_status net_blobs_init(net *n, core_err *err);

@@ -1,4 +1,5 @@
-/* net: WebSocket sessions: receive reassembly with a cap, text queues, newest-frame-wins sending. */
+/* net: WebSocket sessions: receive reassembly with a cap, text queues, newest-frame-wins sending
+ * (large frames in fragments). */
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
@@ -82,7 +83,7 @@ static bool frame_pending(net *n, const net_session *s)
 
 void net_session_kick(net *n, net_session *s)
 {
-    if (s->closing ? s->close_code != 0 : s->qlen > 0 || frame_pending(n, s)) lws_callback_on_writable(s->wsi);
+    if (s->closing ? s->close_code != 0 : s->tx || s->qlen > 0 || frame_pending(n, s)) lws_callback_on_writable(s->wsi);
 }
 
 static void session_open(net *n, net_session *s, struct lws *wsi)
@@ -120,6 +121,8 @@ static void session_closed(net *n, net_session *s)
     free(s->q);
     free(s->qflags);
     free(s->rx);
+    net_buf_unref(s->tx);
+    s->tx = NULL;
     atomic_fetch_sub(&n->clients, 1);
     if (n->desc.cb.on_close && !n->shutting_down) n->desc.cb.on_close(n->desc.cb.user, s->client);
     s->wsi = NULL;
@@ -161,6 +164,38 @@ static int write_buf(net *n, struct lws *wsi, net_buf *b, enum lws_write_protoco
     return 0;
 }
 
+/* Writes the next fragment of s->tx (through the scratch buffer: lws writes the header in
+ * front of what it sends, which must not touch a buffer other clients share); drops s->tx
+ * after the last. */
+static int write_fragment(net *n, net_session *s, struct lws *wsi)
+{
+    size_t len = net_buf_len(s->tx), k = len - s->tx_off < NET_FRAME_CHUNK ? len - s->tx_off : NET_FRAME_CHUNK;
+    bool first = s->tx_off == 0, last = s->tx_off + k == len;
+    int kind = (first ? LWS_WRITE_BINARY : LWS_WRITE_CONTINUATION) | (last ? 0 : LWS_WRITE_NO_FIN);
+    memcpy(n->scratch + LWS_PRE, net_buf_data(s->tx) + s->tx_off, k);
+    int w = lws_write(wsi, n->scratch + LWS_PRE, k, (enum lws_write_protocol)kind);
+    if (w < (int)k) return -1;
+    atomic_fetch_add(&n->bytes_sent, k);
+    s->tx_off += k;
+    if (last) {
+        net_buf_unref(s->tx);
+        s->tx = NULL;
+    }
+    return 0;
+}
+
+/* Starts sending frame b: whole when it is small, else its first fragment (the others follow
+ * on the next WRITEABLEs). */
+static int write_frame(net *n, net_session *s, struct lws *wsi, net_buf *b)
+{
+    atomic_fetch_add(&n->frames_sent, 1);
+    if (net_buf_len(b) <= NET_FRAME_CHUNK) return write_buf(n, wsi, b, LWS_WRITE_BINARY);
+    net_buf_ref(b);
+    s->tx = b;
+    s->tx_off = 0;
+    return write_fragment(n, s, wsi);
+}
+
 /* Sends the newest frame the session lacks (its keyframe first when needed). */
 static int send_frame(net *n, net_session *s, struct lws *wsi)
 {
@@ -173,8 +208,7 @@ static int send_frame(net *n, net_session *s, struct lws *wsi)
     uint64_t sent;
     if (!s->has_key || s->key_seq != sl->latest_key_seq) {
         if (!sl->key || sl->key_seq != sl->latest_key_seq) return 0; /* undecodable until the next keyframe */
-        if (write_buf(n, wsi, sl->key, LWS_WRITE_BINARY)) return -1;
-        atomic_fetch_add(&n->frames_sent, 1);
+        if (write_frame(n, s, wsi, sl->key)) return -1;
         s->has_key = true;
         s->key_seq = sl->key_seq;
         if (sl->latest_seq != sl->key_seq && s->max_rate <= 0) {
@@ -185,8 +219,7 @@ static int send_frame(net *n, net_session *s, struct lws *wsi)
          * newest frame waits for the next slot, so the cap holds */
         sent = sl->key_count;
     } else {
-        if (write_buf(n, wsi, sl->latest, LWS_WRITE_BINARY)) return -1;
-        atomic_fetch_add(&n->frames_sent, 1);
+        if (write_frame(n, s, wsi, sl->latest)) return -1;
         sent = sl->count;
     }
     if (s->last_count && sent > s->last_count + 1) atomic_fetch_add(&n->frames_skipped, sent - s->last_count - 1);
@@ -208,7 +241,9 @@ static int session_writeable(net *n, net_session *s, struct lws *wsi)
         s->close_code = 0;
         return -1;
     }
-    if (s->qlen > 0) {
+    if (s->tx) {
+        if (write_fragment(n, s, wsi)) return -1;
+    } else if (s->qlen > 0) {
         net_buf *b = s->q[s->qhead];
         s->qhead = (s->qhead + 1) % s->qcap;
         s->qlen--;
@@ -220,10 +255,30 @@ static int session_writeable(net *n, net_session *s, struct lws *wsi)
     } else if (frame_pending(n, s)) {
         if (send_frame(n, s, wsi)) return -1;
     }
-    if (s->qlen > 0) lws_callback_on_writable(wsi);
+    if (s->tx || s->qlen > 0) lws_callback_on_writable(wsi);
     else if (frame_pending(n, s) && !(s->max_rate > 0 && core_now_ns() < s->next_due_ns)) lws_callback_on_writable(wsi);
     else if (frame_pending(n, s)) lws_set_timer_usecs(wsi, (lws_usec_t)((s->next_due_ns - core_now_ns()) / 1000 + 1));
     return 0;
+}
+
+/* The peer's close frame, before lws echoes it (RFC 6455 5.5.1, 7.4, 8.1): a 1-byte payload
+ * cannot hold a status code (close 1002) and a reason must be UTF-8 (close 1007); lws would
+ * echo either. Returning -1 from here makes lws send the close set by lws_close_reason (the
+ * connection is still open: lws marks it closing only after this callback). */
+static int peer_close(net *n, struct lws *wsi, const unsigned char *in, size_t len)
+{
+    const char *why = NULL;
+    enum lws_close_status code = LWS_CLOSE_STATUS_PROTOCOL_ERR;
+    if (len == 1) {
+        why = "a close payload of 1 byte: a status code takes 2";
+    } else if (len > 2 && !core_utf8_valid((const char *)in + 2, len - 2)) {
+        code = LWS_CLOSE_STATUS_INVALID_PAYLOAD;
+        why = "close reason is not valid UTF-8";
+    }
+    if (!why) return 0;
+    atomic_fetch_add(&n->protocol_closes, 1);
+    lws_close_reason(wsi, code, (unsigned char *)why, strlen(why));
+    return -1;
 }
 
 int net_ws_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in, size_t len)
@@ -235,6 +290,7 @@ int net_ws_callback(struct lws *wsi, enum lws_callback_reasons reason, void *use
     case LWS_CALLBACK_ESTABLISHED: session_open(n, s, wsi); return 0;
     case LWS_CALLBACK_CLOSED: session_closed(n, s); return 0;
     case LWS_CALLBACK_RECEIVE: return session_receive(n, s, wsi, in, len);
+    case LWS_CALLBACK_WS_PEER_INITIATED_CLOSE: return peer_close(n, wsi, in, len);
     case LWS_CALLBACK_SERVER_WRITEABLE: return s->wsi ? session_writeable(n, s, wsi) : 0;
     case LWS_CALLBACK_TIMER:
         if (s->wsi) lws_callback_on_writable(wsi);

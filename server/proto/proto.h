@@ -163,8 +163,9 @@ void proto_free(char *text);
 /* {"type":"error","id":..,"code":..,"field":..,"message":..} */
 char *proto_build_error(const proto_id *id, const proto_error *e);
 
-/* {"type":"ok","id":..,"request":"<type name>"} */
-char *proto_build_ok(const proto_id *id, proto_type request);
+/* {"type":"ok","id":..,"request":"<type name>","step":..}: step (the simulation step from which a
+ * change to the simulation shows, proto/PROTOCOL.md) only when step >= 0. */
+char *proto_build_ok(const proto_id *id, proto_type request, int64_t step);
 
 /* {"type":"params","id":..,"values":{..},"by":..}: values read from the struct at `values`
  * through the table offsets; only the entries with changed[i] set when changed is non-NULL.
@@ -176,15 +177,23 @@ char *proto_build_params(const proto_id *id, const core_param_info *table, size_
 typedef struct proto_mesh_ref {
     const char *source;           /* "ratboy/Ratboy_body.tfxmesh" (a name under the asset folder or the --collider file's name) */
     const char *url;              /* "/collider.bin" */
-    const char *etag;             /* the binary's version: proto_mesh_bin_etag */
+    const char *etag;             /* the binary's version: proto_bin_etag */
     uint64_t bytes;               /* the binary's size */
 } proto_mesh_ref;
+
+/* Where a client fetches the groom's per-strand data (the binary of proto_groom_bin_write). */
+typedef struct proto_data_ref {
+    const char *url;              /* "/groom.bin" */
+    const char *etag;             /* the binary's version: proto_bin_etag */
+    uint64_t bytes;               /* the binary's size */
+} proto_data_ref;
 
 /* Everything about the groom a client needs to draw it and decode frames. */
 typedef struct proto_groom {
     const char *source;           /* "procedural:straight", "file:ratboy/Ratboy_mohawk.tfx" */
     const core_groom *groom;      /* rest pose, head frame; its mesh and sdf (when set) are described too */
     uint64_t seed;
+    const proto_data_ref *data;   /* the rest lengths and roots (required) */
     const proto_mesh_ref *mesh;   /* required when groom->mesh is set, ignored otherwise */
 } proto_groom;
 
@@ -267,13 +276,30 @@ char *proto_build_hello(const proto_hello *h);
 size_t proto_mesh_bin_size(const core_mesh *m);
 /* Writes m's binary (proto_mesh_bin_size bytes) to out. Pure, any thread. */
 void proto_mesh_bin_write(const core_mesh *m, unsigned char *out);
-/* The binary's version tag: 16 lowercase hex digits of its 64-bit FNV-1a hash, into out
- * (17 bytes with the NUL). Pure. */
-void proto_mesh_bin_etag(const unsigned char *bin, size_t len, char out[17]);
 /* Checks a binary of len bytes (magic, version, exact size, finite positions, indices in
  * range) and gives its counts; the positions start at bin + PROTO_MESH_HEADER, the indices
  * 12 nverts bytes later. CORE_EFORMAT with the reason in err. Pure, any thread. */
 core_status proto_mesh_bin_read(const unsigned char *bin, size_t len, uint32_t *nverts, uint32_t *ntris, core_err *err);
+
+/* ---- the groom data binary (GET /groom.bin; layout in proto/PROTOCOL.md) ---- */
+#define PROTO_GROOM_MAGIC "SCGR"
+#define PROTO_GROOM_VERSION 1u
+#define PROTO_GROOM_HEADER 16u /* magic, version, nstrands, nverts (uint32 LE each) */
+
+/* Bytes of g's binary: PROTO_GROOM_HEADER + 16 nstrands. Pure. */
+size_t proto_groom_bin_size(const core_groom *g);
+/* Writes g's binary (proto_groom_bin_size bytes) to out: each strand's rest segment length
+ * (the mean over its segments of the rest pose), then its rest root. Pure, any thread. */
+void proto_groom_bin_write(const core_groom *g, unsigned char *out);
+/* Checks a binary of len bytes (magic, version, counts, exact size, finite non-negative
+ * lengths, finite roots) and gives its counts; the rest lengths start at
+ * bin + PROTO_GROOM_HEADER, the roots 4 nstrands bytes later. CORE_EFORMAT with the reason in
+ * err. Pure, any thread. */
+core_status proto_groom_bin_read(const unsigned char *bin, size_t len, uint32_t *nstrands, uint32_t *nverts, core_err *err);
+
+/* A served binary's version tag: 16 lowercase hex digits of its 64-bit FNV-1a hash, into out
+ * (17 bytes with the NUL). Pure. */
+void proto_bin_etag(const unsigned char *bin, size_t len, char out[17]);
 
 typedef struct proto_stats {
     double steps_per_s;
@@ -297,6 +323,11 @@ core_status proto_read_envelope(const char *text, size_t len, char *type, size_t
 
 /* True when two ids are the same (kind and value). Pure. */
 bool proto_id_equal(const proto_id *a, const proto_id *b);
+
+/* The "step" of an ok reply (the simulation step from which the change shows) into *step.
+ * CORE_EFORMAT when text is not an ok or has no step that is a whole number in [0, 2^53]. Pure,
+ * any thread. */
+core_status proto_read_ok_step(const char *text, size_t len, uint64_t *step);
 
 /* What a client tool shows of a hello; numbers are NaN where the hello lacks them. */
 typedef struct proto_hello_info {

@@ -47,10 +47,11 @@ char *proto_build_error(const proto_id *id, const proto_error *e)
     return finish(o, ok);
 }
 
-char *proto_build_ok(const proto_id *id, proto_type request)
+char *proto_build_ok(const proto_id *id, proto_type request, int64_t step)
 {
     cJSON *o = new_message("ok", id);
-    bool ok = o && cJSON_AddStringToObject(o, "request", proto_type_name(request));
+    bool ok = o && cJSON_AddStringToObject(o, "request", proto_type_name(request)) &&
+              (step < 0 || cJSON_AddNumberToObject(o, "step", (double)step));
     return finish(o, ok);
 }
 

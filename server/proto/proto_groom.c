@@ -1,4 +1,4 @@
-/* proto: pre-renders a groom's JSON (counts, roots, rest lengths, bounds, colliders, collision mesh) once per groom. */
+/* proto: pre-renders a groom's JSON (counts, bounds, where its data is, colliders, collision mesh) once per groom. */
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
@@ -27,51 +27,34 @@ static void put_vec(proto_sb *sb, core_vec3 v)
     proto_sb_floats(sb, f, 3, 1);
 }
 
+/* {"source":..,"strands":..,"verts":..,"seed":..,"bounds":[..],"url":..,"etag":..,"bytes":..}:
+ * the per-strand arrays are in the binary at url, not in the JSON. */
 static char *groom_text(const proto_groom *pg, core_err *err, core_status *st)
 {
     const core_groom *g = pg->groom;
-    size_t ns = g->nstrands, nv = g->nverts;
-    float *lens = malloc((ns ? ns : 1) * sizeof *lens);
-    float *roots = malloc((ns ? ns : 1) * 3 * sizeof *roots);
+    size_t n = (size_t)g->nstrands * g->nverts;
     float bounds[6] = { FLT_MAX, FLT_MAX, FLT_MAX, -FLT_MAX, -FLT_MAX, -FLT_MAX };
-    if (!lens || !roots) {
-        free(lens);
-        free(roots);
-        *st = core_fail(err, CORE_ENOMEM, "out of memory rendering the groom");
-        return NULL;
-    }
-    for (size_t s = 0; s < ns; s++) {
-        const float *p = g->pos + 3 * s * nv;
-        double len = 0.0;
-        for (size_t v = 0; v < nv; v++) {
-            for (int k = 0; k < 3; k++) {
-                if (p[3 * v + k] < bounds[k]) bounds[k] = p[3 * v + k];
-                if (p[3 * v + k] > bounds[3 + k]) bounds[3 + k] = p[3 * v + k];
-            }
-            if (v) {
-                double dx = p[3 * v] - p[3 * v - 3], dy = p[3 * v + 1] - p[3 * v - 2], dz = p[3 * v + 2] - p[3 * v - 1];
-                len += sqrt(dx * dx + dy * dy + dz * dz);
-            }
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            bounds[k] = fminf(bounds[k], g->pos[3 * i + (size_t)k]);
+            bounds[3 + k] = fmaxf(bounds[3 + k], g->pos[3 * i + (size_t)k]);
         }
-        lens[s] = nv > 1 ? (float)(len / (double)(nv - 1)) : 0.0f;
-        memcpy(roots + 3 * s, p, 3 * sizeof *p);
-    }
-    if (ns == 0) memset(bounds, 0, sizeof bounds);
+    if (n == 0) memset(bounds, 0, sizeof bounds);
+    const proto_data_ref *d = pg->data;
     proto_sb sb = { 0 };
     char buf[160];
     put_str(&sb, "{\"source\":");
     put_json_string(&sb, pg->source ? pg->source : "");
-    snprintf(buf, sizeof buf, ",\"strands\":%zu,\"verts\":%zu,\"seed\":%llu,\"rest_lengths\":", ns, nv,
+    snprintf(buf, sizeof buf, ",\"strands\":%u,\"verts\":%u,\"seed\":%llu,\"bounds\":", g->nstrands, g->nverts,
              (unsigned long long)pg->seed);
     put_str(&sb, buf);
-    proto_sb_floats(&sb, lens, ns, 1);
-    put_str(&sb, ",\"roots\":");
-    proto_sb_floats(&sb, roots, 3 * ns, 1);
-    put_str(&sb, ",\"bounds\":");
     proto_sb_floats(&sb, bounds, 6, 1);
-    put_str(&sb, "}");
-    free(lens);
-    free(roots);
+    put_str(&sb, ",\"url\":");
+    put_json_string(&sb, d && d->url ? d->url : "");
+    put_str(&sb, ",\"etag\":");
+    put_json_string(&sb, d && d->etag ? d->etag : "");
+    snprintf(buf, sizeof buf, ",\"bytes\":%llu}", d ? (unsigned long long)d->bytes : 0ull);
+    put_str(&sb, buf);
     char *t = proto_sb_take(&sb);
     if (!t) *st = core_fail(err, CORE_ENOMEM, "out of memory rendering the groom");
     return t;
@@ -166,6 +149,7 @@ core_status proto_groom_json_build(proto_groom_json *out, const proto_groom *g, 
 {
     core_status st = CORE_OK;
     memset(out, 0, sizeof *out);
+    if (!g->data) return core_fail(err, CORE_EINVAL, "the groom's data binary is not described (proto_groom.data)");
     out->groom = groom_text(g, err, &st);
     if (st == CORE_OK) out->colliders = colliders_text(g->groom, err, &st);
     if (st == CORE_OK) out->mesh = mesh_text(g, err, &st);

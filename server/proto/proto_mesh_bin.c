@@ -1,4 +1,4 @@
-/* proto: the collision mesh binary served at /collider.bin (write, version tag, check). */
+/* proto: the collision mesh binary served at /collider.bin (write, check). */
 #include <math.h>
 #include <string.h>
 
@@ -32,15 +32,6 @@ void proto_mesh_bin_write(const core_mesh *m, unsigned char *out)
         put_u32(p, bits);
     }
     for (size_t i = 0; i < 3u * (size_t)m->ntris; i++, p += 4) put_u32(p, m->tri[i]);
-}
-
-void proto_mesh_bin_etag(const unsigned char *bin, size_t len, char out[17])
-{
-    uint64_t h = 0xcbf29ce484222325ull;
-    for (size_t i = 0; i < len; i++) h = (h ^ bin[i]) * 0x100000001b3ull;
-    static const char hex[] = "0123456789abcdef";
-    for (int i = 0; i < 16; i++) out[i] = hex[(h >> (60 - 4 * i)) & 15];
-    out[16] = '\0';
 }
 
 core_status proto_mesh_bin_read(const unsigned char *bin, size_t len, uint32_t *nverts, uint32_t *ntris, core_err *err)

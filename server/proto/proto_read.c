@@ -1,4 +1,5 @@
-/* proto: reads what a client tool needs from server messages (the type, a hello's summary). */
+/* proto: reads what a client tool needs from server messages (the type, an ok's step, a hello's
+ * summary). */
 #include <cjson/cJSON.h>
 #include <math.h>
 #include <stdio.h>
@@ -42,6 +43,18 @@ bool proto_id_equal(const proto_id *a, const proto_id *b)
     if (a->kind != b->kind) return false;
     if (a->kind == PROTO_ID_NUMBER) return a->num == b->num;
     return a->kind == PROTO_ID_NONE || strcmp(a->str, b->str) == 0;
+}
+
+core_status proto_read_ok_step(const char *text, size_t len, uint64_t *step)
+{
+    cJSON *root = cJSON_ParseWithLength(text, len);
+    const cJSON *t = cJSON_GetObjectItemCaseSensitive(root, "type");
+    const double s = number(root, "step");
+    const bool ok = cJSON_IsString(t) && strcmp(t->valuestring, "ok") == 0 && s >= 0.0 && s <= 9007199254740992.0 &&
+                    s == floor(s);
+    if (ok) *step = (uint64_t)s;
+    cJSON_Delete(root);
+    return ok ? CORE_OK : CORE_EFORMAT;
 }
 
 core_status proto_read_hello(const char *text, size_t len, proto_hello_info *out, core_err *err)

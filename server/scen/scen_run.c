@@ -67,7 +67,7 @@ static void forget_stale_frame(runner *r, const char *type)
     if (!r->have_frame) return;
     if (!strcmp(type, "groom")) r->have_frame = false;
     const cJSON *t = strcmp(type, "state") ? NULL : scen_world_value(&r->world, "state", "sim_time");
-    if (cJSON_IsNumber(t) && t->valuedouble < r->last.sim_time) r->have_frame = false;
+    if (cJSON_IsNumber(t) && t->valuedouble < r->last.sim.sim_time) r->have_frame = false;
 }
 
 /* Takes the text messages received since the last call, in order: the world learns from them
@@ -124,8 +124,8 @@ static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user
     if (codec_decode(&r->dec, data, len, r->xyz, r->cap, &info, &err) != CORE_OK) goto bad;
     if (!r->have_world) return;
     if (r->reset_pending) {
-        if (!(info.sim_time < r->reset_max_time)) {
-            r->reset_max_time = info.sim_time;
+        if (!(info.sim.sim_time < r->reset_max_time)) {
+            r->reset_max_time = info.sim.sim_time;
             return;
         }
         r->reset_pending = false;
@@ -193,7 +193,7 @@ static bool at_time(runner *r, const scen_step *st, void *arg)
     (void)arg;
     if (st->at_ms >= 0) return elapsed_s(r) * 1e3 >= st->at_ms;
     if (!r->have_frame) return false;
-    if (st->at_sim_time >= 0) return r->last.sim_time >= st->at_sim_time;
+    if (st->at_sim_time >= 0) return r->last.sim.sim_time >= st->at_sim_time;
     if (st->at_step >= 0) return scen_world_frame_step(&r->world, &r->last) >= st->at_step;
     return true;
 }
@@ -229,7 +229,7 @@ static bool frames_reached(runner *r, const scen_step *st, void *arg)
 static bool sim_time_reached(runner *r, const scen_step *st, void *arg)
 {
     (void)arg;
-    return r->have_frame && r->last.sim_time >= st->count;
+    return r->have_frame && r->last.sim.sim_time >= st->count;
 }
 
 static bool step_reached(runner *r, const scen_step *st, void *arg)
@@ -275,7 +275,7 @@ static const cJSON *value_of(runner *r, const char *what, const char *path)
     cJSON *o = r->frame_json = cJSON_CreateObject();
     const codec_frame_info *f = &r->last;
     cJSON_AddNumberToObject(o, "seq", (double)f->seq);
-    cJSON_AddNumberToObject(o, "sim_time", f->sim_time);
+    cJSON_AddNumberToObject(o, "sim_time", f->sim.sim_time);
     cJSON_AddNumberToObject(o, "step", scen_world_frame_step(&r->world, f));
     cJSON_AddBoolToObject(o, "keyframe", f->keyframe);
     cJSON_AddNumberToObject(o, "strands", f->nstrands_sent);
@@ -315,7 +315,7 @@ static void note_reset(runner *r, const char *text)
     if (!r->have_frame || proto_read_envelope(text, strlen(text), type, sizeof type, &id) != CORE_OK) return;
     if (strcmp(type, "reset") != 0) return;
     r->reset_pending = true;
-    r->reset_max_time = r->last.sim_time;
+    r->reset_max_time = r->last.sim.sim_time;
     r->have_frame = false;
 }
 
@@ -326,7 +326,7 @@ static bool run_send(runner *r, const scen_step *st)
         if (!r->detail[0])
             snprintf(r->detail, sizeof r->detail, "the simulation did not reach %s %g in %g ms (last frame: sim_time %.4f)",
                      st->at_sim_time >= 0 ? "sim_time" : "step", st->at_sim_time >= 0 ? st->at_sim_time : st->at_step,
-                     st->timeout_ms, r->have_frame ? r->last.sim_time : -1.0);
+                     st->timeout_ms, r->have_frame ? r->last.sim.sim_time : -1.0);
         return false;
     }
     wsc_send_text(r->conn, st->text);
@@ -397,7 +397,7 @@ static bool run_wait(runner *r, const scen_step *st)
     }
     if (!r->detail[0])
         snprintf(r->detail, sizeof r->detail, "%s (last frame: sim_time %.4f, step %.0f)",
-                 ok ? "reached" : "not reached in time", r->have_frame ? r->last.sim_time : -1.0,
+                 ok ? "reached" : "not reached in time", r->have_frame ? r->last.sim.sim_time : -1.0,
                  r->have_frame ? scen_world_frame_step(&r->world, &r->last) : -1.0);
     return ok;
 }
@@ -485,7 +485,7 @@ static void report(runner *r, size_t i, const scen_step *st, bool ok, double t)
 {
     if (r->d->json) {
         fprintf(r->out, "{\"step\":%zu,\"kind\":\"%s\",\"ok\":%s,\"t\":%.3f,\"frames\":%lu,\"sim_time\":%.4f,\"detail\":", i,
-                scen_kind_name(st->kind), ok ? "true" : "false", t, r->frames, r->have_frame ? r->last.sim_time : -1.0);
+                scen_kind_name(st->kind), ok ? "true" : "false", t, r->frames, r->have_frame ? r->last.sim.sim_time : -1.0);
         put_json_string(r->out, r->detail);
         fprintf(r->out, ",\"seen\":%s}\n", r->seen ? r->seen : "null");
     } else {

@@ -264,7 +264,7 @@ void scen_world_sent(scen_world *w, const char *msg)
 
 int scen_world_head(const scen_world *w, const codec_frame_info *info, core_xform *out)
 {
-    if (strcmp(w->preset, "none") != 0 || info->sim_time < w->blend_until) return 0;
+    if (strcmp(w->preset, "none") != 0 || info->sim.sim_time < w->blend_until) return 0;
     for (int k = 0; k < w->nheads; k++) out[k] = w->heads[k];
     return w->nheads;
 }
@@ -278,7 +278,7 @@ double scen_world_frame_step(const scen_world *w, const codec_frame_info *info)
 {
     const cJSON *d = cJSON_GetObjectItemCaseSensitive(w->params, "dt");
     double dt = cJSON_IsNumber(d) && d->valuedouble > 0 ? d->valuedouble : 1.0 / 60.0;
-    return floor(info->sim_time / dt + 0.5);
+    return floor(info->sim.sim_time / dt + 0.5);
 }
 
 bool scen_world_collisions_on(const scen_world *w)

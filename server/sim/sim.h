@@ -121,6 +121,20 @@ core_status sim_step(sim *s, core_err *err);
 /* Copies positions out, strand-major xyz (3 * nstrands * nverts floats, caller-owned). */
 core_status sim_read_positions(sim *s, float *xyz, core_err *err);
 
+/* What sim_time_steps measured. */
+typedef struct sim_timing {
+    int steps;        /* timed steps */
+    double mean_s;    /* seconds per step over them */
+    double best_s;    /* the fastest one */
+} sim_timing;
+
+/* Times up to `steps` steps of s after one untimed warm-up step (first-touch pages, the rest
+ * density), each followed by sim_read_positions into xyz (caller-owned, 3 * nstrands * nverts
+ * floats) so queued GPU work is counted; it stops early once budget_s seconds have passed
+ * (budget_s <= 0: no limit). The solver's state moves on (sim_reset it afterwards if that
+ * matters). Used by the AUTO backend trial and the groom budget. Sim thread of s. (sim_time.c) */
+core_status sim_time_steps(sim *s, float *xyz, int steps, double budget_s, sim_timing *out, core_err *err);
+
 /* Reads or replaces the full state (positions and velocities, strand-major xyz). */
 core_status sim_read_state(sim *s, float *xyz, float *vel, core_err *err);
 core_status sim_write_state(sim *s, const float *xyz, const float *vel, core_err *err);

@@ -16,21 +16,14 @@ static core_status create_kind(sim *s, const sim_desc *desc, sim_backend_kind ki
     return sim_create(s, &d, groom, params, err);
 }
 
-/* Seconds per step of s over up to TRIAL_STEPS steps after a warm-up step (positions read back
- * at the end, so queued GPU work is counted); it stops early once budget seconds have passed
- * (the backend is then clearly the slower one). Negative when a step fails. */
+/* Seconds per step of s over up to TRIAL_STEPS steps (sim_time_steps), stopping early once
+ * budget seconds have passed (the backend is then clearly the slower one). Negative when a
+ * step fails. */
 static double time_steps(sim *s, float *xyz, double budget)
 {
     core_err err;
-    if (sim_step(s, &err) != CORE_OK || sim_read_positions(s, xyz, &err) != CORE_OK) return -1.0;
-    unsigned long long t0 = core_now_ns();
-    int done = 0;
-    while (done < TRIAL_STEPS) {
-        if (sim_step(s, &err) != CORE_OK || sim_read_positions(s, xyz, &err) != CORE_OK) return -1.0;
-        done++;
-        if ((double)(core_now_ns() - t0) * 1e-9 > budget) break;
-    }
-    return (double)(core_now_ns() - t0) * 1e-9 / done;
+    sim_timing t;
+    return sim_time_steps(s, xyz, TRIAL_STEPS, budget, &t, &err) == CORE_OK ? t.mean_s : -1.0;
 }
 
 static core_status pick_faster(sim *s, const sim_desc *desc, const core_groom *groom, const sim_params *params,

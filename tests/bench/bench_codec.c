@@ -403,7 +403,8 @@ int bench_codec_main(int argc, char **argv)
             core_err err;
             /* strand */
             t0 = bench_clock(cpu_time);
-            if (codec_encode(&enc[b], x, f + 1u, f / src.fps, false, &buf, &err)) {
+            const codec_sim_info snap = { .sim_time = f / src.fps, .sim_step = f, .head_rot = { 0.0f, 0.0f, 0.0f, 1.0f } };
+            if (codec_encode(&enc[b], x, f + 1u, &snap, false, &buf, &err)) {
                 fprintf(stderr, "strandbench codec: frame %u: %s\n", f, err.msg);
                 return 1;
             }

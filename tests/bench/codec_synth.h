@@ -6,6 +6,8 @@
 #include <math.h>
 #include <stdint.h>
 
+#include "codec/codec.h"
+
 typedef enum codec_synth_style {
     CODEC_SYNTH_GENTLE = 0,  /* slow head sway, small swing */
     CODEC_SYNTH_VIOLENT,     /* fast, large head motion and swing */
@@ -24,12 +26,9 @@ static inline void codec_synth_rot(double *v, const double *axis, double ang)
     v[2] = r[2];
 }
 
-/* Fills xyz (3 * nstrands * nverts floats, strand-major, vertex 0 = root) with the pose at
- * time t (seconds). Deterministic for given arguments. */
-static inline void codec_synth_frame(uint32_t nstrands, uint32_t nverts, double t, codec_synth_style style,
-                                     float *xyz)
+/* The rigid head motion at time t: world = R_y(yaw) R_x(pitch) local + head. */
+static inline void codec_synth_head(double t, codec_synth_style style, double *yaw, double *pitch, double head[3])
 {
-    const double pi = 3.14159265358979323846, golden = pi * (3.0 - sqrt(5.0)), radius = 0.1;
     double amp = 1.0, freq = 1.0, jump[3] = { 0, 0, 0 };
     if (style == CODEC_SYNTH_VIOLENT) {
         amp = 4.0;
@@ -41,10 +40,35 @@ static inline void codec_synth_frame(uint32_t nstrands, uint32_t nverts, double 
         jump[1] = 0.7 * cos(k * 1.3);
         jump[2] = 0.9 * sin(k * 0.7 + 1.0);
     }
+    *yaw = 0.4 * amp * sin(0.9 * freq * t);
+    *pitch = 0.15 * amp * sin(1.3 * freq * t);
+    head[0] = 0.05 * amp * sin(0.7 * freq * t) + jump[0];
+    head[1] = 1.6 + 0.03 * amp * sin(1.1 * freq * t) + jump[1];
+    head[2] = jump[2];
+}
+
+/* The snapshot a frame of the animation at time t and step carries: the head as a position and
+ * the unit quaternion of R_y(yaw) R_x(pitch). */
+static inline codec_sim_info codec_synth_sim(double t, uint64_t step, codec_synth_style style)
+{
+    double yaw, pitch, head[3];
+    codec_synth_head(t, style, &yaw, &pitch, head);
+    double cy = cos(0.5 * yaw), sy = sin(0.5 * yaw), cp = cos(0.5 * pitch), sp = sin(0.5 * pitch);
+    return (codec_sim_info){ .sim_time = t, .sim_step = step,
+                             .head_pos = { (float)head[0], (float)head[1], (float)head[2] },
+                             .head_rot = { (float)(cy * sp), (float)(sy * cp), (float)(-sy * sp), (float)(cy * cp) } };
+}
+
+/* Fills xyz (3 * nstrands * nverts floats, strand-major, vertex 0 = root) with the pose at
+ * time t (seconds). Deterministic for given arguments. */
+static inline void codec_synth_frame(uint32_t nstrands, uint32_t nverts, double t, codec_synth_style style,
+                                     float *xyz)
+{
+    const double pi = 3.14159265358979323846, golden = pi * (3.0 - sqrt(5.0)), radius = 0.1;
+    const double amp = style == CODEC_SYNTH_VIOLENT ? 4.0 : 1.0, freq = style == CODEC_SYNTH_VIOLENT ? 5.0 : 1.0;
     const double yaxis[3] = { 0, 1, 0 }, xaxis[3] = { 1, 0, 0 };
-    double yaw = 0.4 * amp * sin(0.9 * freq * t), pitch = 0.15 * amp * sin(1.3 * freq * t);
-    double head[3] = { 0.05 * amp * sin(0.7 * freq * t) + jump[0], 1.6 + 0.03 * amp * sin(1.1 * freq * t) + jump[1],
-                       jump[2] };
+    double yaw, pitch, head[3];
+    codec_synth_head(t, style, &yaw, &pitch, head);
     for (uint32_t i = 0; i < nstrands; i++) {
         double yv = 1.0 - ((double)i + 0.5) / (double)nstrands * 0.9, rr = sqrt(1.0 - yv * yv);
         double phi = (double)i * golden;

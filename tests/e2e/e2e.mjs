@@ -10,6 +10,7 @@ import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { createRequire } from 'node:module';
 import { diffShare, pixelStats } from './pixels.mjs';
+import { StrandDecoder } from '../../web/codec.js';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
 const require = createRequire(path.join(here, '..', 'package.json'));
@@ -100,12 +101,25 @@ function startDaemon(port, logName) {
 }
 
 // A second protocol client: resolves once its hello arrived; collects every text message.
-function secondClient(wsUrl) {
+// A client in Node; with decode, client.frame is the newest frame it decoded: { simStep, head:
+// { position, orientation } from its header, roots: [x, y, z] per strand }.
+function secondClient(wsUrl, decode = false) {
   return new Promise((resolve, reject) => {
     const ws = new WebSocket(wsUrl, 'strandcast.v2');
-    const client = { ws, hello: null, messages: [], waiters: [] };
+    const client = { ws, hello: null, messages: [], waiters: [], frame: null };
+    const dec = decode ? new StrandDecoder() : null;
     ws.on('message', (data, isBinary) => {
-      if (isBinary) return;
+      if (isBinary) {
+        if (!dec) return;
+        let f;
+        try { f = dec.decode(new Uint8Array(data)); } catch { return; } // before its first keyframe
+        const per = 3 * f.nverts;
+        client.frame = {
+          simStep: f.simStep, head: { position: Array.from(f.headPosition), orientation: Array.from(f.headOrientation) },
+          roots: Array.from({ length: f.nstrandsSent }, (_, j) => Array.from(f.positions.subarray(j * per, j * per + 3))),
+        };
+        return;
+      }
       const m = JSON.parse(data.toString());
       if (m.type === 'hello') { client.hello = m; resolve(client); }
       client.messages.push(m);
@@ -281,6 +295,33 @@ async function main() {
   });
   const after = await page.evaluate(() => Array.from(window.strandcast.head.position));
   check(true, `dragging the head moved it (roots streamed back) from [${before.pos.map((v) => v.toFixed(3))}] to [${after.map((v) => v.toFixed(3))}]`);
+
+  // the head (and its collider mesh) is drawn where the frames' headers put it, and the hair's
+  // roots sit on that transform: the page and a client decoding the same stream agree
+  const viewer = await secondClient(wsUrl, true);
+  const t0 = Date.now();
+  while (!viewer.frame && Date.now() - t0 < 60000) await new Promise((r) => setTimeout(r, 100));
+  check(!!viewer.frame, 'a second client decodes frames');
+  // the head comes to rest where the drag left it; the page (slow under SwiftShader) catches up
+  // with the newest frames and then draws exactly the header's transform
+  let headGap = Infinity, fh = viewer.frame.head;
+  for (const end = Date.now() + 60000; headGap >= 1e-6 && Date.now() < end;) {
+    await page.waitForTimeout(200);
+    fh = viewer.frame.head;
+    const pageHead = await page.evaluate(() => ({ p: Array.from(window.strandcast.head.position), q: Array.from(window.strandcast.head.orientation) }));
+    headGap = Math.max(...pageHead.p.map((v, i) => Math.abs(v - fh.position[i])), ...pageHead.q.map((v, i) => Math.abs(v - fh.orientation[i])));
+  }
+  check(headGap < 1e-6, `the page draws the head of the frame header (step ${viewer.frame.simStep}): position [${fh.position.map((v) => v.toFixed(4))}], differs by ${headGap.toExponential(2)}`);
+  const [qx, qy, qz, qw] = fh.orientation, rest = viewer.hello.groom.roots;
+  let rootGap = 0;
+  viewer.frame.roots.forEach((r, j) => {
+    const vx = rest[3 * j], vy = rest[3 * j + 1], vz = rest[3 * j + 2];
+    const tx = 2 * (qy * vz - qz * vy), ty = 2 * (qz * vx - qx * vz), tz = 2 * (qx * vy - qy * vx);
+    const w = [vx + qw * tx + (qy * tz - qz * ty), vy + qw * ty + (qz * tx - qx * tz), vz + qw * tz + (qx * ty - qy * tx)];
+    for (let a = 0; a < 3; a++) rootGap = Math.max(rootGap, Math.abs(r[a] - (w[a] + fh.position[a])));
+  });
+  check(rootGap < 3e-4, `the streamed roots sit on the header's head transform: within ${(rootGap * 1e3).toFixed(3)} mm (need 0.3)`);
+  viewer.ws.close();
 
   const snap = await page.evaluate(() => ({ s: window.strandcast.snapshot(), text: document.getElementById('stats').textContent }));
   check(snap.s.framesPerSec > 0 && snap.s.kbitPerSec > 0 && Number.isFinite(snap.s.bytesPerVertex) && snap.s.serverStepsPerSec > 0 && /fps/.test(snap.text),

@@ -1,7 +1,8 @@
 /* fuzz_codec: libFuzzer target for the strand frame decoder (codec_peek_header, codec_decode).
  * An input is a sequence of frames back to back (a keyframe then deltas, as the seeds are), all
  * decoded by one decoder so the delta paths see a held keyframe. A frame runs to the next
- * "SCF1" magic (or the end); its header's payload_len and CRC (bytes 60..67, proto/CODEC.md)
+ * "SCF1" magic (or the end); its header's payload_len and CRC (bytes 60..63 and 100..103,
+ * proto/CODEC.md)
  * are rewritten to match before decoding, so inserted or erased bytes and other mutations reach
  * the payload decoder instead of stopping at the length or checksum check. The frame as it
  * came also goes through codec_peek_header, which checks both. */
@@ -15,15 +16,16 @@
 #define FUZZ_MAX_FRAMES 4
 #define FUZZ_MAX_FLOATS (3u << 16) /* larger frames are skipped (memory, time) */
 
-/* Writes len - 68 as payload_len (bytes 60..63) and the CRC-32 of header bytes 0..63 and the
- * payload into bytes 64..67 (little-endian) of frame[0, len), len >= CODEC_HEADER_SIZE. */
+/* Writes len - CODEC_HEADER_SIZE as payload_len (bytes 60..63) and the CRC-32 of the header bytes
+ * before the CRC field and the payload into the CRC field (the header's last 4 bytes,
+ * little-endian) of frame[0, len), len >= CODEC_HEADER_SIZE. */
 static void fix_length_crc(uint8_t *frame, size_t len)
 {
     const uint32_t payload = (uint32_t)(len - CODEC_HEADER_SIZE);
     for (int i = 0; i < 4; i++) frame[60 + i] = (uint8_t)(payload >> (8 * i));
-    uLong c = crc32(0L, frame, 64);
+    uLong c = crc32(0L, frame, CODEC_HEADER_SIZE - 4u);
     c = crc32(c, frame + CODEC_HEADER_SIZE, (uInt)(len - CODEC_HEADER_SIZE));
-    for (int i = 0; i < 4; i++) frame[64 + i] = (uint8_t)(c >> (8 * i));
+    for (int i = 0; i < 4; i++) frame[CODEC_HEADER_SIZE - 4u + (unsigned)i] = (uint8_t)(c >> (8 * i));
 }
 
 /* Bytes of the frame at the start of data[0, size): up to the next CODEC_MAGIC after the

@@ -116,6 +116,11 @@ void expect_http(fixture *fx, const char *request, int status, const char *needl
 double now_s(void);
 /* The value of a /metrics line name (NAN when absent). */
 double metric(const char *body, const char *name);
+/* GETs the groom data binary a hello's or groom message's "groom" object g names (url) and
+ * checks it (200, size, proto_groom_bin_read, counts, its tag = etag = the ETag header); fails
+ * the test otherwise. Returns its floats in native order: nstrands rest lengths, then 3
+ * nstrands root coordinates; the caller frees them. */
+float *fetch_groom_data(fixture *fx, const cJSON *g);
 
 /* ---- the scenarios (it_protocol.c, it_streams.c, it_lifecycle.c, it_programs.c, it_collider.c) ---- */
 
@@ -125,6 +130,8 @@ int setup_ratboy(void **state);
 int setup_two_clients(void **state);
 /* The common fixture with a groom budget of 100 steps/s (it_lifecycle.c). */
 int setup_budget(void **state);
+/* The common fixture on a 65,536 x 4 groom (it_lifecycle.c). */
+int setup_large_groom(void **state);
 /* it_access.c: with --token-file (IT_TOKEN); with --allow-origin https://good.example; with a
  * self-signed --tls-cert/--tls-key made by openssl. */
 int setup_token(void **state);

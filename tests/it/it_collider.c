@@ -91,7 +91,7 @@ static void check_mesh_bin(fixture *fx, const cJSON *desc)
         if (!(f >= lo - 1e-6 && f <= hi + 1e-6)) fail_msg("vertex %u coordinate %g outside [%g, %g]", i / 3, (double)f, lo, hi);
     }
     char etag[17], hdr[32];
-    proto_mesh_bin_etag((const unsigned char *)r.body, r.body_len, etag);
+    proto_bin_etag((const unsigned char *)r.body, r.body_len, etag);
     assert_string_equal(etag, str(desc, "etag"));
     snprintf(hdr, sizeof hdr, "\"%s\"", etag);
     if (!strstr(r.raw, hdr)) fail_msg("no ETag %s in:\n%.300s", hdr, r.raw);

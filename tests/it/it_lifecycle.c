@@ -1,4 +1,5 @@
 /* Integration tests: listening, shutdown on signals, and clients that never read or never answer pings. */
+#include <math.h>
 #include <pthread.h>
 #include <signal.h>
 #include <stdatomic.h>
@@ -68,10 +69,11 @@ void test_reader_that_never_reads_is_closed(void **state)
     /* a client sends requests within its budget (300 a second) and never reads: its replies
      * pile up in a bounded queue, then the server gives up on it (1008) while everyone else
      * keeps streaming */
-    int fd = rawws_open(fx->d.port, SUBPROTOCOL);
+    /* its window is small from the connect on: with only a later SO_RCVBUF the kernel's first
+     * window took the hello and early frames, and whether the server's writes stalled while
+     * it still read the requests depended on the hello's size */
+    int fd = rawws_open_rcvbuf(fx->d.port, SUBPROTOCOL, 4096);
     assert_true(fd >= 0);
-    int small = 4096;
-    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
     static const char req[] = "{\"type\":\"get_params\"}";
     for (int i = 0; i < 900; i++) {
         if (rawws_send(fd, 1, req, sizeof req - 1, true) != 0) break;
@@ -252,4 +254,80 @@ void test_groom_budget_refuses(void **state)
     cJSON *ok = expect_msg_within(fx, c, "ok", 4 * WAIT_MS);
     assert_true(num(ok, "id") == 2);
     cJSON_Delete(ok);
+}
+
+int setup_large_groom(void **state)
+{
+    static const char *const extra[] = { "--strands", "65536", "--verts", "4", NULL };
+    return setup_with(state, extra);
+}
+
+/* Resident memory of process pid, MiB (fails the test when unreadable). */
+static double rss_mib(pid_t pid)
+{
+    char path[64], line[256];
+    snprintf(path, sizeof path, "/proc/%d/status", (int)pid);
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    double kib = -1.0;
+    while (kib < 0.0 && fgets(line, sizeof line, f))
+        if (strncmp(line, "VmRSS:", 6) == 0) kib = atof(line + 6);
+    fclose(f);
+    assert_true(kib > 0.0);
+    return kib / 1024.0;
+}
+
+/* /metrics' value of name. */
+static double metric_now(fixture *fx, const char *name)
+{
+    http_reply r;
+    assert_int_equal(http_get(fx->d.port, "/metrics", &r), 0);
+    double v = metric(r.body, name);
+    http_reply_free(&r);
+    return v;
+}
+
+/* A groom of the largest strand count: the hello stays a few KB (the per-strand data is one
+ * shared binary at /groom.bin, fetched once), and 100 idle clients that never read cost the
+ * daemon little memory (each used to be sent its own multi-megabyte hello). */
+void test_large_groom_hello_small(void **state)
+{
+    fixture *fx = *state;
+    view *v;
+    wsc_conn *c = connect_view(fx, &v);
+    const char *text = wsc_next_of_type(fx->w, c, "hello", 4 * WAIT_MS);
+    assert_non_null(text);
+    size_t hello_len = strlen(text);
+    cJSON *h = cJSON_Parse(text);
+    assert_non_null(h);
+    const cJSON *g = get(h, "groom");
+    assert_true(num(g, "strands") == 65536);
+    printf("hello for 65,536 strands: %zu bytes; /groom.bin %.0f bytes\n", hello_len, num(g, "bytes"));
+    if (hello_len > 8192) fail_msg("the hello is %zu bytes for a 65,536-strand groom (want a few KB)", hello_len);
+    float *data = fetch_groom_data(fx, g);
+    for (int s = 0; s < 65536; s++) assert_true(data[s] > 0.0f && isfinite(data[65536 + 3 * s]));
+    free(data);
+    cJSON_Delete(h);
+    /* its frames (a keyframe is hundreds of KB: sent in 16 KiB fragments) decode */
+    wait_frames(fx, v, 3);
+    assert_true(v->first_was_key && v->bad == 0 && v->info.nstrands_total == 65536);
+
+    double rss0 = rss_mib(fx->d.pid);
+    int fds[100];
+    for (int i = 0; i < 100; i++) {
+        fds[i] = rawws_open(fx->d.port, SUBPROTOCOL);
+        assert_true(fds[i] >= 0);
+    }
+    double t_end = now_s() + 4 * WAIT_MS / 1e3;
+    while (metric_now(fx, "strandcast_clients") < 101 && now_s() < t_end) wsc_run(fx->w, 50);
+    assert_true(metric_now(fx, "strandcast_clients") == 101);
+    wsc_run(fx->w, 1500); /* their hellos and frames are written (or queued) by now */
+    double rss1 = rss_mib(fx->d.pid), queued = metric_now(fx, "strandcast_client_queued_bytes");
+    printf("100 idle clients: RSS %.1f -> %.1f MiB (+%.1f), text queued for clients %.0f bytes\n", rss0, rss1, rss1 - rss0,
+           queued);
+    if (rss1 - rss0 > 64.0) fail_msg("100 idle clients took %.1f MiB", rss1 - rss0);
+    if (queued > 100 * 8192.0) fail_msg("%.0f bytes of text queued for 100 idle clients", queued);
+    for (int i = 0; i < 100; i++) rawws_free(fds[i]);
+    wait_frames(fx, v, v->ok + 3);
+    assert_int_equal(v->bad, 0);
 }

@@ -155,22 +155,43 @@ void test_cli_client(void **state)
     assert_true(strstr(first, "\"keyframe\":true") < strchr(first, '\n')); /* the new stream starts with a keyframe */
     if (count_of(out, "{\"cli\":\"frame\"") != 12 || count_of(out, "\"strands\":32,\"strands_total\":128,\"verts\":8,\"stride\":4,") != 12)
         fail_msg("want 12 frames of every 4th strand:\n%s", out);
+    /* each frame line reports its step and the head its header carries (at rest: the identity) */
+    if (count_of(out, "\"sim_step\":") != 12 ||
+        count_of(out, "\"head\":{\"position\":[0,0,0],\"orientation\":[0,0,0,1]},") != 12)
+        fail_msg("want sim_step and the head in every frame line:\n%s", out);
     if (!strstr(out, "\"frames\":12,") || !strstr(out, "\"recorded\":12,") || !strstr(out, "\"ok\":true}"))
         fail_msg("summary:\n%s", out);
-    /* the recording: SCFR header, then 12 frames of 32 x 8 finite positions near the head */
+    /* the recording: SCFR header, then 12 frames of 32 x 8 finite positions near the head, then
+       "SCFM" and each frame's step (increasing) and head (the identity: at rest) */
     size_t len;
     FILE *fp = fopen(rec, "rb");
     assert_non_null(fp);
-    static float xyz[16 + 12 * 32 * 8 * 3];
+    static float xyz[4 + 12 * 32 * 8 * 3 + 1 + 12 * 9 + 1];
     len = fread(xyz, 1, sizeof xyz, fp);
     fclose(fp);
-    assert_int_equal(len, 16 + 12 * 32 * 8 * 3 * sizeof(float));
+    const size_t npos = 12 * 32 * 8 * 3;
+    assert_int_equal(len, 16 + npos * sizeof(float) + 4 + 12 * 36);
     uint32_t h[4];
     memcpy(h, xyz, sizeof h);
     assert_memory_equal(h, "SCFR", 4);
     assert_true(h[1] == 32 && h[2] == 8 && h[3] == 12);
-    for (size_t i = 4; i < len / sizeof(float); i++)
+    for (size_t i = 4; i < 4 + npos; i++)
         if (!(fabsf(xyz[i]) < 1.0f)) fail_msg("recorded coordinate %zu is %g", i - 4, (double)xyz[i]);
+    const uint8_t *trailer = (const uint8_t *)(xyz + 4 + npos);
+    assert_memory_equal(trailer, "SCFM", 4);
+    uint64_t prev = 0;
+    for (int f = 0; f < 12; f++) {
+        const uint8_t *m = trailer + 4 + 36 * f;
+        uint64_t step;
+        float head[7];
+        memcpy(&step, m, 8);
+        memcpy(head, m + 8, sizeof head);
+        if (f > 0 && step <= prev) fail_msg("recorded frame %d has step %llu after %llu", f, (unsigned long long)step,
+                                            (unsigned long long)prev);
+        prev = step;
+        const float identity[7] = { 0, 0, 0, 0, 0, 0, 1 };
+        assert_memory_equal(head, identity, sizeof head);
+    }
 
     const char *bad[] = { "--port", "0", NULL };
     assert_int_equal(run_capture(exe, bad, out, sizeof out), 2);

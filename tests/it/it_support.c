@@ -251,13 +251,13 @@ void wait_frames(fixture *fx, view *v, uint64_t n)
 bool at_time(void *arg)
 {
     time_arg *a = arg;
-    return a->v->ok && fabs(a->v->info.sim_time - a->t) < 1e-3;
+    return a->v->ok && fabs(a->v->info.sim.sim_time - a->t) < 1e-3;
 }
 
 void wait_sim_time(fixture *fx, view *v, double t)
 {
     time_arg a = { v, t };
-    if (!wsc_until(fx->w, at_time, &a, WAIT_MS)) fail_msg("no frame at sim time %g (last %g)", t, v->info.sim_time);
+    if (!wsc_until(fx->w, at_time, &a, WAIT_MS)) fail_msg("no frame at sim time %g (last %g)", t, v->info.sim.sim_time);
 }
 
 /* Mean y of the last vertex of every decoded strand. */
@@ -291,4 +291,32 @@ void expect_http(fixture *fx, const char *request, int status, const char *needl
         fail_msg("HTTP %d (want %d%s%s): %s", r.status, status, needle ? " with " : "", needle ? needle : "",
                  r.body ? r.body : "");
     http_reply_free(&r);
+}
+
+float *fetch_groom_data(fixture *fx, const cJSON *g)
+{
+    http_reply r;
+    assert_int_equal(http_get(fx->d.port, str(g, "url"), &r), 0);
+    if (r.status != 200) fail_msg("GET %s: %d\n%.300s", str(g, "url"), r.status, r.raw);
+    assert_string_equal(r.content_type, "application/octet-stream");
+    if (r.body_len != (size_t)num(g, "bytes"))
+        fail_msg("GET %s: %zu bytes, the groom says %.0f", str(g, "url"), r.body_len, num(g, "bytes"));
+    uint32_t ns, nv;
+    core_err err;
+    if (proto_groom_bin_read((const unsigned char *)r.body, r.body_len, &ns, &nv, &err) != CORE_OK) fail_msg("%s", err.msg);
+    assert_true(ns == num(g, "strands") && nv == num(g, "verts"));
+    char etag[17], hdr[32];
+    proto_bin_etag((const unsigned char *)r.body, r.body_len, etag);
+    assert_string_equal(etag, str(g, "etag"));
+    snprintf(hdr, sizeof hdr, "\"%s\"", etag);
+    if (!strstr(r.raw, hdr)) fail_msg("no ETag %s in:\n%.300s", hdr, r.raw);
+    float *out = malloc(16 * (size_t)ns);
+    assert_non_null(out);
+    for (size_t i = 0; i < 4 * (size_t)ns; i++) {
+        const unsigned char *p = (const unsigned char *)r.body + PROTO_GROOM_HEADER + 4 * i;
+        uint32_t bits = (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+        memcpy(&out[i], &bits, 4);
+    }
+    http_reply_free(&r);
+    return out;
 }

@@ -32,10 +32,10 @@ function crc32(bytes) {
 
 function restampCrc(frame) {
   const body = new Uint8Array(frame.length - 4);
-  body.set(frame.subarray(0, 64));
-  body.set(frame.subarray(HEADER_SIZE), 64);
+  body.set(frame.subarray(0, HEADER_SIZE - 4));
+  body.set(frame.subarray(HEADER_SIZE), HEADER_SIZE - 4);
   const c = crc32(body);
-  for (let k = 0; k < 4; k++) frame[64 + k] = (c >>> (8 * k)) & 0xff;
+  for (let k = 0; k < 4; k++) frame[HEADER_SIZE - 4 + k] = (c >>> (8 * k)) & 0xff;
 }
 
 function put32(b, o, v) { for (let k = 0; k < 4; k++) b[o + k] = (v >>> (8 * k)) & 0xff; }
@@ -55,7 +55,7 @@ function sameBits(positions, file) {
 }
 
 test('manifest describes the format this decoder reads', () => {
-  assert.equal(manifest.format_version, 2);
+  assert.equal(manifest.format_version, 3);
   assert.ok(manifest.streams.length >= 4);
   assert.ok(manifest.streams.some((s) => s.stride > 1));
   assert.ok(manifest.streams.some((s) => s.nstrands_sent % 8 !== 0), 'a stream with a partial group of 8');
@@ -76,6 +76,9 @@ test('every vector decodes bit for bit, in order and with frames skipped', () =>
         assert.equal(info.refSeq, f.ref_seq);
         assert.equal(info.keyframe, f.keyframe);
         assert.equal(info.simTime, f.sim_time);
+        assert.equal(info.simStep, f.sim_step);
+        assert.deepEqual([...info.headPosition], f.head_position.map(Math.fround));
+        assert.deepEqual([...info.headOrientation], f.head_orientation.map(Math.fround));
         assert.equal(info.nstrandsSent, s.nstrands_sent);
         assert.equal(info.nstrandsTotal, s.nstrands);
         assert.equal(info.nverts, s.nverts);
@@ -183,7 +186,7 @@ test('absurd header fields are rejected', () => {
   const f64 = (b, o, v) => new DataView(b.buffer).setFloat64(o, v, true);
   const f32 = (b, o, v) => new DataView(b.buffer).setFloat32(o, v, true);
   const edits = [
-    (c) => { c[0] = 0x58; }, (c) => { c[4] = 3; }, (c) => { c[6] = 9; }, (c) => { c[7] = 0x81; },
+    (c) => { c[0] = 0x58; }, (c) => { c[4] = 2; }, (c) => { c[6] = 9; }, (c) => { c[7] = 0x81; },
     (c) => { put32(c, 16, 0); put32(c, 20, 0); }, (c) => { c[7] = 0; },
     (c) => f64(c, 24, NaN), (c) => f64(c, 32, NaN), (c) => f64(c, 32, 0), (c) => f64(c, 32, 1e300),
     (c) => f32(c, 40, NaN), (c) => f32(c, 40, Infinity), (c) => f32(c, 40, 1e-7),
@@ -212,14 +215,46 @@ function rejects(dec, frame, pattern) {
   assert.deepEqual(dec.info.positions, before, 'output unchanged');
 }
 
-test('version 1 frames are refused', () => {
+test('version 2 frames are refused', () => {
   const c = keyBytes();
-  c[4] = 1;
+  c[4] = 2;
   stampCrc(c);
-  assert.throws(() => peekHeader(c), /unsupported format version 1/);
+  assert.throws(() => peekHeader(c), /unsupported format version 2/);
   const dec = new StrandDecoder();
   dec.decode(keyBytes());
-  rejects(dec, c, /^Error: codec: unsupported format version 1 \(this decoder reads 2\) \[version, byte 4\]$/);
+  rejects(dec, c, /^Error: codec: unsupported format version 2 \(this decoder reads 3\) \[version, byte 4\]$/);
+});
+
+test('a header whose head transform is not finite or not a unit rotation is refused', () => {
+  const f32 = (b, o, v) => new DataView(b.buffer, b.byteOffset).setFloat32(o, v, true);
+  const cases = [
+    [(c) => f32(c, 72, NaN), /^Error: codec: head position is not finite \[head, byte 72\]$/],
+    [(c) => f32(c, 80, -Infinity), /^Error: codec: head position is not finite \[head, byte 80\]$/],
+    [(c) => f32(c, 88, NaN), /^Error: codec: head rotation is not finite \[head, byte 88\]$/],
+    [(c) => { [0, 0, 0, 0.5].forEach((v, k) => f32(c, 84 + 4 * k, v)); },
+      /^Error: codec: head rotation is not a unit quaternion \(squared norm 0\.25, not within 0\.0001 of 1\) \[head, byte 84\]$/],
+    [(c) => { [0, 0, 0, 0].forEach((v, k) => f32(c, 84 + 4 * k, v)); }, /squared norm 0, not within/],
+    [(c) => { [0.6, 0.8, 0, 0.02].forEach((v, k) => f32(c, 84 + 4 * k, v)); }, /squared norm 1\.0004/],
+  ];
+  const dec = new StrandDecoder();
+  dec.decode(keyBytes());
+  for (const [edit, pattern] of cases) {
+    const c = keyBytes();
+    edit(c);
+    stampCrc(c);
+    assert.throws(() => peekHeader(c), pattern);
+    rejects(dec, c, pattern);
+  }
+  // within the tolerance: accepted, and read as written
+  const c = keyBytes();
+  [0, 0, 0, 1.00004].forEach((v, k) => f32(c, 84 + 4 * k, v));
+  [1, -2, 3].forEach((v, k) => f32(c, 72 + 4 * k, v));
+  new DataView(c.buffer).setBigUint64(64, 123456789n, true);
+  stampCrc(c);
+  const info = dec.decode(c);
+  assert.deepEqual([...info.headOrientation], [0, 0, 0, Math.fround(1.00004)]);
+  assert.deepEqual([...info.headPosition], [1, -2, 3]);
+  assert.equal(info.simStep, 123456789);
 });
 
 test('a delta whose rigid motion is out of range or badly padded is refused', () => {
@@ -520,6 +555,8 @@ test('peekHeader reads the fixed header', () => {
   const h = peekHeader(keyBytes());
   assert.equal(h.keyframe, true);
   assert.equal(h.seq, 1000);
+  assert.equal(h.simStep, basic.frames[0].sim_step);
+  assert.deepEqual([...h.headOrientation], basic.frames[0].head_orientation.map(Math.fround));
   assert.equal(h.nverts, basic.nverts);
   assert.ok(h.step > 0 && h.step <= 2 * h.maxError);
 });

@@ -1,9 +1,10 @@
-// A small reference encoder of strand frames (proto/CODEC.md, version 2) for the tests of
+// A small reference encoder of strand frames (proto/CODEC.md, version 3) for the tests of
 // web/codec.js: it codes given lattice coordinates with given per-strand modes, written
 // straight from the spec (and independent of the decoder), so that the tests can build frames
 // the vectors do not have (escapes of every size, all modes, crafted corruptions).
 
-export const VERSION = 2;
+export const VERSION = 3;
+export const HEADER = 104;
 const SCALE = 4096;
 const LANES = 8;
 
@@ -95,7 +96,8 @@ function normalize(counts) {
 }
 
 /**
- * Encodes a frame. f: { key, seq, refSeq, simTime, step, maxError, nstrandsTotal, stride, nverts,
+ * Encodes a frame. f: { key, seq, refSeq, simTime, simStep, headPosition [x, y, z], headOrientation
+ * [x, y, z, w] (0, identity by default), step, maxError, nstrandsTotal, stride, nverts,
  * q (Int32Array: the lattice of the strands sent), modes (one per strand sent), and for deltas
  * keyQ (the held keyframe's lattice) and motion { rho, t } }; optional escapeExp(e) to change the
  * exponent written in an escape's 5-bit field, states (8 initial encoder states, 2^16 by default)
@@ -161,16 +163,16 @@ export function encodeFrame(f) {
     f.motion.t.forEach((t, k) => mb.setInt32(20 + 4 * k, t, true));
     payload.push(...new Uint8Array(mb.buffer));
   }
-  const tablesAt = 68 + payload.length;
+  const tablesAt = HEADER + payload.length;
   for (const b of f.tableBytes || tables) payload.push(b);
-  const ransLenAt = 68 + payload.length;
+  const ransLenAt = HEADER + payload.length;
   payload.push(rans.length & 255, (rans.length >> 8) & 255, (rans.length >> 16) & 255, rans.length >>> 24);
-  const ransAt = 68 + payload.length;
+  const ransAt = HEADER + payload.length;
   for (const b of rans) payload.push(b);
-  const bitsAt = 68 + payload.length;
+  const bitsAt = HEADER + payload.length;
   for (const b of bw.bytes) payload.push(b);
 
-  const bytes = new Uint8Array(68 + payload.length);
+  const bytes = new Uint8Array(HEADER + payload.length);
   const dv = new DataView(bytes.buffer);
   bytes.set([0x53, 0x43, 0x46, 0x31]);
   dv.setUint16(4, VERSION, true);
@@ -186,7 +188,10 @@ export function encodeFrame(f) {
   dv.setUint32(52, nverts, true);
   dv.setUint32(56, f.stride ?? 1, true);
   dv.setUint32(60, payload.length, true);
-  bytes.set(payload, 68);
+  dv.setBigUint64(64, BigInt(f.simStep ?? 0), true);
+  (f.headPosition ?? [0, 0, 0]).forEach((v, k) => dv.setFloat32(72 + 4 * k, v, true));
+  (f.headOrientation ?? [0, 0, 0, 1]).forEach((v, k) => dv.setFloat32(84 + 4 * k, v, true));
+  bytes.set(payload, HEADER);
   stampCrc(bytes);
   return { bytes, tablesAt, ransLenAt, ransAt, bitsAt };
 }
@@ -204,7 +209,7 @@ export function crc32(bytes) {
 /** Rewrites the CRC field of a frame after an edit. */
 export function stampCrc(frame) {
   const body = new Uint8Array(frame.length - 4);
-  body.set(frame.subarray(0, 64));
-  body.set(frame.subarray(68), 64);
-  new DataView(frame.buffer, frame.byteOffset).setUint32(64, crc32(body), true);
+  body.set(frame.subarray(0, HEADER - 4));
+  body.set(frame.subarray(HEADER), HEADER - 4);
+  new DataView(frame.buffer, frame.byteOffset).setUint32(HEADER - 4, crc32(body), true);
 }

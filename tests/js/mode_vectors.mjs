@@ -35,11 +35,15 @@ export function modeStream(ns, nv) {
   }
   const common = { step: MODE_STEP, maxError: MODE_BOUND, nverts: nv };
   const keyModes = Array.from({ length: ns }, (_, j) => j % 3);
-  frames.push({ q: kq, bytes: encodeFrame({ ...common, key: true, seq: 10, q: kq, modes: keyModes }).bytes });
+  const head = { simStep: 500, headPosition: [0.1, 1.6, -0.2], headOrientation: [0, 0.6, 0, 0.8] };
+  frames.push({ q: kq, bytes: encodeFrame({ ...common, ...head, key: true, seq: 10, q: kq, modes: keyModes }).bytes });
   for (let m = 0; m < 4; m++) {
     const q = kq.map((k) => k + (next() % 61) - 30 + (next() % 13 === 0 ? (next() % 5000) - 2500 : 0));
     const modes = Array.from({ length: ns }, (_, j) => (j + m) % 4);
-    const f = { ...common, key: false, seq: 11 + m, refSeq: 10, q, keyQ: kq, modes, motion: MOTION };
+    const f = {
+      ...common, key: false, seq: 11 + m, refSeq: 10, q, keyQ: kq, modes, motion: MOTION, simStep: 501 + m,
+      headPosition: [0.1 + 0.01 * m, 1.6, -0.2], headOrientation: [0, 0.6, 0, 0.8],
+    };
     frames.push({ q, bytes: encodeFrame(f).bytes });
   }
   return frames.map((f, i) => ({ ...f, name: `modes_${ns}x${nv}_${i}` }));

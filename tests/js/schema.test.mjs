@@ -9,6 +9,7 @@ import { tmpdir } from 'node:os';
 import { dirname, join } from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { createRequire } from 'node:module';
+import { parseGroomData } from '../../web/groom_data.js';
 
 const require = createRequire(import.meta.url);
 const Ajv2020 = require('ajv/dist/2020').default;
@@ -171,6 +172,13 @@ test('every server message validates against its schema', async () => {
       seen.add(m.type);
     }
     for (const t of ['hello', 'params', 'ok', 'error', 'state', 'groom', 'subscribed', 'stats']) assert.ok(seen.has(t), `no ${t} seen`);
+    // the replies to requests that change the simulation say from which step it shows, the others not
+    const oks = a.texts.filter((m) => m.type === 'ok');
+    for (const r of ['set_params', 'animate', 'reset', 'pause', 'resume', 'step']) {
+      assert.ok(oks.some((m) => m.request === r && Number.isInteger(m.step)), `ok of ${r} without step`);
+    }
+    assert.ok(oks.filter((m) => m.request === 'keyframe').every((m) => m.step === undefined), 'ok of keyframe with a step');
+    assert.ok(oks.some((m) => m.request === 'reset' && m.step === 0), 'reset does not show at step 0');
     // the stiffnesses span many decades: their schema entries ask for log sliders, the rest not
     const hello = a.texts.find((m) => m.type === 'hello');
     const logs = hello.params.schema.filter((e) => e.scale !== undefined).map((e) => `${e.name}:${e.scale}`);
@@ -185,6 +193,18 @@ test('every server message validates against its schema', async () => {
     check(get('server.hello'), withEntry({ min: -1 }), false);
     assert.ok(b.texts.some((m) => m.type === 'groom' && m.collider_mesh && m.collider_mesh.source === 'tet.obj'), 'no groom with the mesh');
     assert.deepEqual(b.texts.find((m) => m.type === 'hello').grooms.colliders, ['tet.obj']);
+    // the groom's data binary the hello names, read by the viewer's parser (the groom may have
+    // changed since: then the server's bytes carry the newest groom message's tag)
+    const groomMsgs = [hello.groom, ...b.texts.filter((m) => m.type === 'groom').map((m) => m.groom)];
+    const r = await fetch(`http://127.0.0.1:${port}${hello.groom.url}`);
+    assert.equal(r.status, 200);
+    const tag = r.headers.get('etag').replace(/"/g, '');
+    const described = groomMsgs.filter((g) => g.etag === tag).pop();
+    assert.ok(described, `the ETag ${tag} is no groom's etag`);
+    const data = parseGroomData(await r.arrayBuffer());
+    assert.equal(data.strands, described.strands);
+    assert.equal(data.verts, described.verts);
+    assert.equal(16 + 16 * data.strands, described.bytes);
     const codes = new Set(a.texts.filter((m) => m.type === 'error').map((m) => m.code));
     for (const c of ['unknown_type', 'unknown_param', 'bad_state', 'not_found', 'not_finite', 'bad_json']) assert.ok(codes.has(c), `no ${c}`);
     a.ws.close();

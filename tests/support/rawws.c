@@ -20,10 +20,13 @@ static long long now_ms(void)
     return (long long)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
 }
 
-int rawws_open(int port, const char *subprotocol)
+int rawws_open(int port, const char *subprotocol) { return rawws_open_rcvbuf(port, subprotocol, 0); }
+
+int rawws_open_rcvbuf(int port, const char *subprotocol, int rcvbuf)
 {
     int fd = socket(AF_INET, SOCK_STREAM, 0);
     if (fd < 0) return -1;
+    if (rcvbuf > 0) setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
     struct sockaddr_in a = { 0 };
     a.sin_family = AF_INET;
     a.sin_port = htons((uint16_t)port);
@@ -57,6 +60,17 @@ int rawws_open(int port, const char *subprotocol)
     return -1;
 }
 
+int rawws_send_bytes(int fd, const void *bytes, size_t len)
+{
+    size_t sent = 0;
+    while (sent < len) {
+        ssize_t w = send(fd, (const unsigned char *)bytes + sent, len - sent, MSG_NOSIGNAL);
+        if (w <= 0) return -1;
+        sent += (size_t)w;
+    }
+    return 0;
+}
+
 int rawws_send(int fd, int opcode, const void *payload, size_t len, bool fin)
 {
     unsigned char *f = malloc(len + 14);
@@ -76,14 +90,9 @@ int rawws_send(int fd, int opcode, const void *payload, size_t len, bool fin)
     memcpy(f + h, mask, 4);
     h += 4;
     for (size_t i = 0; i < len; i++) f[h + i] = ((const unsigned char *)payload)[i] ^ mask[i % 4];
-    size_t total = h + len, sent = 0;
-    while (sent < total) {
-        ssize_t w = send(fd, f + sent, total - sent, MSG_NOSIGNAL);
-        if (w <= 0) break;
-        sent += (size_t)w;
-    }
+    int rc = rawws_send_bytes(fd, f, h + len);
     free(f);
-    return sent == total ? 0 : -1;
+    return rc;
 }
 
 int rawws_close_code(int fd, int timeout_ms)

@@ -7,8 +7,13 @@
 
 /* Connects and upgrades with Sec-WebSocket-Protocol: subprotocol; returns the socket or -1. */
 int rawws_open(int port, const char *subprotocol);
+/* The same with a receive buffer of rcvbuf bytes set before connecting (so the TCP window is
+ * small from the start: a client that does not read stalls the server's writes at once). */
+int rawws_open_rcvbuf(int port, const char *subprotocol, int rcvbuf);
 /* Sends one masked frame (opcode 1 text, 2 binary, 0 continuation). Returns 0 on success. */
 int rawws_send(int fd, int opcode, const void *payload, size_t len, bool fin);
+/* Writes bytes as they are (a hand-made frame, e.g. an unmasked one). Returns 0 on success. */
+int rawws_send_bytes(int fd, const void *bytes, size_t len);
 /* Reads frames until a close frame (returns its code, 1005 when it has none), EOF/error (0) or
  * timeout (-1). */
 int rawws_close_code(int fd, int timeout_ms);
