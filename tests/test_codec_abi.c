@@ -1,7 +1,8 @@
 /* Tests for server/codec/codec_abi: the stable C ABI over the decoder (what the Python client
- * loads through ctypes) on the stored test vectors (proto/vectors/basic_*): header accessors,
- * bit-exact positions, and status codes and messages for bad frames, a missing keyframe, a short
- * output buffer and a NULL handle, leaving the output, keyframe and header unchanged. */
+ * loads through ctypes) on the stored test vectors (proto/vectors/basic_*): header accessors
+ * (the simulation step and head transform included), bit-exact positions, and status codes and
+ * messages for bad frames, a missing keyframe, a short output buffer and a NULL handle, leaving
+ * the output, keyframe and header unchanged. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -79,6 +80,17 @@ static void test_decodes_vectors(void **state)
         assert_int_equal(codec_abi_ref_seq(d), refs[f]);
         assert_int_equal(codec_abi_keyframe(d), f == 0 || f == 3);
         assert_float_equal(codec_abi_sim_time(d), f / 30.0, 1e-12);
+        assert_int_equal(codec_abi_sim_step(d), 500u + (unsigned)f);
+        float pos[3], rot[4];
+        codec_abi_head_position(d, pos);
+        codec_abi_head_orientation(d, rot);
+        if (f == 1) { /* manifest.json: head_position, head_orientation of basic_1 */
+            assert_float_equal(pos[0], 0.0011665608f, 1e-9f);
+            assert_float_equal(pos[1], 1.60109973f, 1e-7f);
+            assert_float_equal(rot[0], 0.0032489188f, 1e-9f);
+            assert_float_equal(rot[3], 0.999976754f, 1e-7f);
+        }
+        assert_float_equal(rot[0] * rot[0] + rot[1] * rot[1] + rot[2] * rot[2] + rot[3] * rot[3], 1.0f, 1e-4f);
         assert_float_equal(codec_abi_max_error_m(d), 1e-4, 1e-9);
         assert_true(codec_abi_step(d) > 0 && codec_abi_step(d) <= 2.0 * codec_abi_max_error_m(d));
         assert_int_equal(codec_abi_nstrands_total(d), NSTRANDS);
@@ -153,6 +165,9 @@ static void test_null_handle(void **state)
     assert_string_equal(codec_abi_message(NULL), "codec: NULL decoder");
     assert_int_equal(codec_abi_seq(NULL), 0);
     assert_int_equal(codec_abi_frame_len(NULL), 0);
+    float rot[4] = { 1, 1, 1, 1 };
+    codec_abi_head_orientation(NULL, rot);
+    assert_true(rot[0] == 0 && rot[3] == 0);
     codec_abi_decoder_free(NULL);
     codec_abi_decoder *d = codec_abi_decoder_new();
     assert_int_equal(codec_abi_peek(d, NULL, 0), CORE_EINVAL);

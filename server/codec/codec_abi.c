@@ -74,7 +74,8 @@ static codec_frame_info held(const codec_abi_decoder *d)
 uint64_t codec_abi_seq(const codec_abi_decoder *d) { return held(d).seq; }
 uint64_t codec_abi_ref_seq(const codec_abi_decoder *d) { return held(d).ref_seq; }
 int codec_abi_keyframe(const codec_abi_decoder *d) { return held(d).keyframe; }
-double codec_abi_sim_time(const codec_abi_decoder *d) { return held(d).sim_time; }
+double codec_abi_sim_time(const codec_abi_decoder *d) { return held(d).sim.sim_time; }
+uint64_t codec_abi_sim_step(const codec_abi_decoder *d) { return held(d).sim.sim_step; }
 double codec_abi_step(const codec_abi_decoder *d) { return held(d).step; }
 float codec_abi_max_error_m(const codec_abi_decoder *d) { return held(d).max_error_m; }
 uint32_t codec_abi_nstrands_total(const codec_abi_decoder *d) { return held(d).nstrands_total; }
@@ -83,3 +84,15 @@ uint32_t codec_abi_nverts(const codec_abi_decoder *d) { return held(d).nverts; }
 uint32_t codec_abi_stride(const codec_abi_decoder *d) { return held(d).stride; }
 uint32_t codec_abi_payload_len(const codec_abi_decoder *d) { return held(d).payload_len; }
 uint64_t codec_abi_frame_len(const codec_abi_decoder *d) { return held(d).frame_len; }
+
+void codec_abi_head_position(const codec_abi_decoder *d, float out[3])
+{
+    const codec_frame_info h = held(d);
+    memcpy(out, h.sim.head_pos, sizeof h.sim.head_pos);
+}
+
+void codec_abi_head_orientation(const codec_abi_decoder *d, float out[4])
+{
+    const codec_frame_info h = held(d);
+    memcpy(out, h.sim.head_rot, sizeof h.sim.head_rot);
+}

@@ -61,6 +61,7 @@ uint64_t codec_abi_seq(const codec_abi_decoder *d);
 uint64_t codec_abi_ref_seq(const codec_abi_decoder *d);
 int codec_abi_keyframe(const codec_abi_decoder *d);         /* 1 keyframe, 0 delta */
 double codec_abi_sim_time(const codec_abi_decoder *d);      /* s */
+uint64_t codec_abi_sim_step(const codec_abi_decoder *d);    /* the simulation's step counter */
 double codec_abi_step(const codec_abi_decoder *d);          /* quantization step, m */
 float codec_abi_max_error_m(const codec_abi_decoder *d);    /* per-axis error bound, m */
 uint32_t codec_abi_nstrands_total(const codec_abi_decoder *d);
@@ -69,5 +70,10 @@ uint32_t codec_abi_nverts(const codec_abi_decoder *d);
 uint32_t codec_abi_stride(const codec_abi_decoder *d);
 uint32_t codec_abi_payload_len(const codec_abi_decoder *d);
 uint64_t codec_abi_frame_len(const codec_abi_decoder *d);   /* header + payload bytes */
+/* The head transform the simulation used for the frame's positions (world frame): position x, y,
+ * z in metres, and orientation, a unit quaternion x, y, z, w; out is caller-owned. A NULL d, or
+ * no frame read yet, gives zeros. */
+void codec_abi_head_position(const codec_abi_decoder *d, float out[3]);
+void codec_abi_head_orientation(const codec_abi_decoder *d, float out[4]);
 
 #endif

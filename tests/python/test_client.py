@@ -1,7 +1,7 @@
 """The asyncio client (strandcast.Client) and its blocking wrapper against a real strandcastd:
-the hello, requests matched to their replies, protocol errors as StrandcastError with the
-protocol's code and field, frames decoded into arrays of the hello's shape that agree with the
-hello's groom, and subscriptions changing the frames' shape."""
+the hello, the groom data, requests matched to their replies, protocol errors as StrandcastError
+with the protocol's code and field, frames decoded into arrays of the hello's shape that agree
+with the groom data and the frames' head transform, and subscriptions changing their shape."""
 import asyncio
 
 import numpy as np
@@ -29,7 +29,8 @@ def test_set_params_round_trip(daemon):
     async def body():
         async with strandcast.connect(daemon.url) as a, strandcast.connect(daemon.url) as b:
             reply = await a.request({"type": "set_params", "values": {"gravity": 0}, "id": "g0"})
-            assert reply == {"type": "ok", "id": "g0", "request": "set_params"}
+            step = reply.pop("step")  # the step the change shows at
+            assert reply == {"type": "ok", "id": "g0", "request": "set_params"} and step >= 0
             # every client is told, with who changed it
             for c in (a, b):
                 params = await c.next_message("params")
@@ -61,32 +62,73 @@ def test_errors_raise_with_the_protocol_code(daemon, msg, code, field):
     run(body())
 
 
-def check_frames(hello, frames, strands):
-    """Frames of `strands` strands of the hello's groom: finite, strictly increasing seq, roots
-    on the hello's rest roots (the head has not moved) and segments of the rest lengths."""
-    groom = hello["groom"]
-    stride = groom["strands"] // strands
-    roots = np.array(groom["roots"], dtype=np.float64).reshape(-1, 3)[::stride]
-    rest = np.array(groom["rest_lengths"])[::stride]
-    seqs = []
+def rotate(q, v):
+    """v (n, 3) rotated by the unit quaternion q = (x, y, z, w)."""
+    u, w = np.asarray(q[:3], dtype=np.float64), float(q[3])
+    t = 2 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def check_frames(hello, groom, frames, strands):
+    """Frames of `strands` strands of the hello's groom (groom: its groom data): finite, strictly
+    increasing seq and sim_step, roots on the rest roots moved by the frame's head transform, and
+    segments of the rest lengths."""
+    stride = hello["groom"]["strands"] // strands
+    roots = groom["roots"].astype(np.float64)[::stride]
+    rest = groom["rest_lengths"].astype(np.float64)[::stride]
+    seqs, steps = [], []
     for header, xyz in frames:
-        assert xyz.shape == (strands, groom["verts"], 3) and xyz.dtype == np.float32
-        assert header["nstrands_sent"] == strands and header["nstrands_total"] == groom["strands"]
+        assert xyz.shape == (strands, hello["groom"]["verts"], 3) and xyz.dtype == np.float32
+        assert header["nstrands_sent"] == strands and header["nstrands_total"] == hello["groom"]["strands"]
         assert np.isfinite(xyz).all()
         bound = header["max_error_m"] * 1.01
-        assert np.abs(xyz[:, 0] - roots).max() <= bound
+        want = rotate(header["head_orientation"], roots) + header["head_position"]
+        assert np.abs(xyz[:, 0] - want).max() <= bound + 1e-6
         seg = np.linalg.norm(np.diff(xyz.astype(np.float64), axis=1), axis=2)
         assert np.abs(seg - rest[:, None]).max() <= 0.02 * rest.max() + 2 * np.sqrt(3) * bound
         seqs.append(header["seq"])
-    assert all(b > a for a, b in zip(seqs, seqs[1:]))
+        steps.append(header["sim_step"])
+    assert all(b > a for a, b in zip(seqs, seqs[1:])) and all(b > a for a, b in zip(steps, steps[1:]))
+
+
+def test_groom_data(daemon):
+    async def body():
+        async with strandcast.connect(daemon.url) as c:
+            groom = await c.groom_data()
+            assert groom["strands"] == 128 and groom["verts"] == 8 and groom["etag"] == c.hello["groom"]["etag"]
+            assert groom["roots"].shape == (128, 3) and (groom["rest_lengths"] > 0).all()
+            lo, hi = np.array(c.hello["groom"]["bounds"][:3]), np.array(c.hello["groom"]["bounds"][3:])
+            assert ((groom["roots"] >= lo - 1e-6) & (groom["roots"] <= hi + 1e-6)).all()
+            with pytest.raises(ValueError, match="etag"):
+                await c.groom_data(dict(c.hello["groom"], etag="0000000000000000"))
+    run(body())
 
 
 def test_frames_decode_to_the_hello_shape(daemon):
     async def body():
         async with strandcast.connect(daemon.url) as c:
             frames = [f async for f in c.frames(count=20)]
-            check_frames(c.hello, frames, c.hello["stream"]["strands"])
+            check_frames(c.hello, await c.groom_data(), frames, c.hello["stream"]["strands"])
             assert any(h["keyframe"] for h, _ in frames)
+    run(body())
+
+
+def test_frames_carry_the_head_motion(daemon):
+    async def body():
+        async with strandcast.connect(daemon.url) as c:
+            pos, rot = [0.05, 0.02, -0.01], [0, 0.25881904, 0, 0.96592583]  # 30 degrees about y
+            reply = await c.request({"type": "motion", "position": pos, "orientation": rot})
+            moved = []
+            async for header, xyz in c.frames(count=120):
+                if header["sim_step"] >= reply["step"]:
+                    moved.append((header, xyz))
+                    if len(moved) == 3:
+                        break
+            assert len(moved) == 3
+            for header, _ in moved:
+                assert header["head_position"] == pytest.approx(pos, abs=1e-6)
+                assert header["head_orientation"] == pytest.approx(rot, abs=1e-6)
+            check_frames(c.hello, await c.groom_data(), moved, 128)
     run(body())
 
 
@@ -103,7 +145,7 @@ def test_subscribe_changes_the_frames(daemon):
                         break
             assert len(frames) == 5 and frames[0][0]["keyframe"]
             assert frames[0][0]["max_error_m"] == pytest.approx(0.001)
-            check_frames(c.hello, frames, 32)
+            check_frames(c.hello, await c.groom_data(), frames, 32)
     run(body())
 
 
@@ -129,4 +171,4 @@ def test_sync_client(daemon):
         with pytest.raises(strandcast.StrandcastError) as e:
             c.request({"type": "animate", "preset": "moonwalk"})
         assert e.value.code == "out_of_range" and e.value.field == "preset"
-        check_frames(c.hello, c.frames(5), 128)
+        check_frames(c.hello, c.groom_data(), c.frames(5), 128)

@@ -36,7 +36,9 @@ def test_decodes_vectors_bit_exact(stream):
             assert np.array_equal(xyz, positions(f["file"], stream)), f["file"]
             assert header["seq"] == f["seq"] and header["ref_seq"] == f["ref_seq"]
             assert header["keyframe"] is f["keyframe"]
-            assert header["sim_time"] == f["sim_time"]
+            assert header["sim_time"] == f["sim_time"] and header["sim_step"] == f["sim_step"]
+            assert header["head_position"] == pytest.approx(f["head_position"], rel=1e-7, abs=1e-12)
+            assert header["head_orientation"] == pytest.approx(f["head_orientation"], rel=1e-7, abs=1e-12)
             assert header["nstrands_total"] == stream["nstrands"]
             assert header["nstrands_sent"] == stream["nstrands_sent"]
             assert header["nverts"] == stream["nverts"] and header["stride"] == stream["stride"]

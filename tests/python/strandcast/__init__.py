@@ -6,7 +6,8 @@
         async for header, xyz in client.frames(count=10): ...   # xyz: (strands, verts, 3) float32
 
 Modules: client (the asyncio client, StrandcastError), sync (SyncClient, blocking), codec (the
-C decoder through ctypes: Decoder, DecodeError), daemon (a strandcastd child for tests).
+C decoder through ctypes: Decoder, DecodeError), groom (the groom data: rest lengths, roots),
+daemon (a strandcastd child for tests).
 """
 from .client import DEFAULT_URL, SUBPROTOCOL, Client, StrandcastError, connect
 from .codec import DecodeError, Decoder

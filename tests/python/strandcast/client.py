@@ -5,10 +5,12 @@ decoded by the daemon's C decoder into numpy arrays, and the other messages the 
 import asyncio
 import itertools
 import json
+import urllib.parse
 
 import websockets
 
 from .codec import Decoder
+from .groom import fetch_groom
 
 SUBPROTOCOL = "strandcast.v2"
 DEFAULT_URL = "ws://127.0.0.1:7681/"
@@ -194,6 +196,21 @@ class Client:
                 if type is None or msg.get("type") == type:
                     return msg
         return await asyncio.wait_for(wait(), self.timeout if timeout is None else timeout)
+
+
+    async def groom_data(self, groom=None):
+        """The per-strand data of groom (a `groom` object of the hello or of a `groom` message;
+        default the hello's), fetched from its `url` on the server: strandcast.groom's dict
+        (rest_lengths, roots, etag, ...). Raises ValueError when the server's groom has changed
+        since (its etag differs); wait for the `groom` message and ask with its groom."""
+        groom = groom or self.hello["groom"]
+        parts = urllib.parse.urlsplit(self.url)
+        http = urllib.parse.urlunsplit(("https" if parts.scheme == "wss" else "http", parts.netloc,
+                                        groom["url"], "", ""))
+        data = await asyncio.to_thread(fetch_groom, http, self.timeout)
+        if data["etag"] != groom["etag"]:
+            raise ValueError(f"{http}: etag {data['etag']}, the groom asked for has {groom['etag']}")
+        return data
 
 
 def connect(url=DEFAULT_URL, **options):

@@ -14,21 +14,25 @@ import numpy as np
 ABI_VERSION = 1
 LIBRARY_NAME = "libstrandcast_codec.so"
 
-# The header fields (proto/CODEC.md), each read by the accessor codec_abi_<name>; a field the
-# format gains is one entry here and one accessor in codec_abi.h.
+# The header fields (proto/CODEC.md) as (name, C type, count): a scalar (count 1) is read by the
+# accessor `T codec_abi_<name>(d)`, a vector by `void codec_abi_<name>(d, T out[count])` (a list
+# in the header dict). A field the format gains is one entry here and one accessor in codec_abi.h.
 HEADER_FIELDS = (
-    ("seq", ctypes.c_uint64),
-    ("ref_seq", ctypes.c_uint64),
-    ("keyframe", ctypes.c_int),
-    ("sim_time", ctypes.c_double),
-    ("step", ctypes.c_double),
-    ("max_error_m", ctypes.c_float),
-    ("nstrands_total", ctypes.c_uint32),
-    ("nstrands_sent", ctypes.c_uint32),
-    ("nverts", ctypes.c_uint32),
-    ("stride", ctypes.c_uint32),
-    ("payload_len", ctypes.c_uint32),
-    ("frame_len", ctypes.c_uint64),
+    ("seq", ctypes.c_uint64, 1),
+    ("ref_seq", ctypes.c_uint64, 1),
+    ("keyframe", ctypes.c_int, 1),
+    ("sim_time", ctypes.c_double, 1),
+    ("sim_step", ctypes.c_uint64, 1),
+    ("head_position", ctypes.c_float, 3),
+    ("head_orientation", ctypes.c_float, 4),
+    ("step", ctypes.c_double, 1),
+    ("max_error_m", ctypes.c_float, 1),
+    ("nstrands_total", ctypes.c_uint32, 1),
+    ("nstrands_sent", ctypes.c_uint32, 1),
+    ("nverts", ctypes.c_uint32, 1),
+    ("stride", ctypes.c_uint32, 1),
+    ("payload_len", ctypes.c_uint32, 1),
+    ("frame_len", ctypes.c_uint64, 1),
 )
 
 
@@ -85,10 +89,10 @@ def load_library(path=None):
                                      ctypes.POINTER(ctypes.c_float), ctypes.c_size_t]
     lib.codec_abi_message.restype = ctypes.c_char_p
     lib.codec_abi_message.argtypes = [handle]
-    for name, ctype in HEADER_FIELDS:
+    for name, ctype, count in HEADER_FIELDS:
         f = getattr(lib, "codec_abi_" + name)
-        f.restype = ctype
-        f.argtypes = [handle]
+        f.restype = ctype if count == 1 else None
+        f.argtypes = [handle] if count == 1 else [handle, ctypes.POINTER(ctype)]
     return lib
 
 
@@ -133,8 +137,16 @@ class Decoder:
             raise ValueError("codec: the decoder is closed")
         return self._d
 
+    def _field(self, name, ctype, count):
+        f = getattr(self._lib, "codec_abi_" + name)
+        if count == 1:
+            return f(self._d)
+        out = (ctype * count)()
+        f(self._d, out)
+        return list(out)
+
     def _fields(self):
-        h = {name: getattr(self._lib, "codec_abi_" + name)(self._d) for name, _ in HEADER_FIELDS}
+        h = {name: self._field(name, ctype, count) for name, ctype, count in HEADER_FIELDS}
         h["keyframe"] = bool(h["keyframe"])
         return h
 

@@ -45,6 +45,10 @@ class SyncClient:
             return [f async for f in self._client.frames(count, timeout)]
         return self._loop.run_until_complete(take())
 
+    def groom_data(self, groom=None):
+        """Client.groom_data: the groom's rest lengths and roots."""
+        return self._loop.run_until_complete(self._client.groom_data(groom))
+
     def next_message(self, type=None, timeout=None):
         """Client.next_message."""
         return self._loop.run_until_complete(self._client.next_message(type, timeout))
