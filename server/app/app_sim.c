@@ -8,12 +8,17 @@
 
 #define NS 1000000000ull
 
-/* Applies every queued command. */
-static void take_commands(app_world *w)
+/* Applies every queued command; true when there was one. */
+static bool take_commands(app_world *w)
 {
     app_cmd c;
-    while (app_mailbox_take(w->mb, &c)) app_cmd_handle(w, &c);
+    bool took = false;
+    while (app_mailbox_take(w->mb, &c)) {
+        app_cmd_handle(w, &c);
+        took = true;
+    }
     app_cmd_groom_poll(w); /* a set_groom whose loads finished */
+    return took;
 }
 
 static core_status step_once(app_world *w)
@@ -135,16 +140,31 @@ void *app_sim_main(void *arg)
     unsigned long long next = core_now_ns();
     w->pace.win_start_ns = w->pace.log_start_ns = next;
     uint64_t total = 0;
+    /* A command that comes while the thread waits for the next step's time is shown at once:
+     * the step runs then, ahead of the clock, and the slot it took is skipped when its time
+     * comes. At most one step ahead, so the simulation never runs faster than real time by more
+     * than a step, and a change waits for at most the step in progress and its own. */
+    bool ahead = false;
     while (!atomic_load(&w->quit)) {
         /* wait for the next step's wall-clock time, handling commands as they come */
+        bool early = false;
         for (;;) {
-            take_commands(w);
+            const bool took = take_commands(w);
             unsigned long long now = core_now_ns();
             if (now >= next || atomic_load(&w->quit)) break;
+            if (took && !ahead && (!w->paused || w->step_budget > 0)) {
+                early = true;
+                break;
+            }
             if (w->dirty) maybe_publish(w, false);
             app_mailbox_wait(w->mb, next);
         }
         if (atomic_load(&w->quit)) break;
+        if (ahead && !early) { /* this slot's step already ran */
+            ahead = false;
+            next += (unsigned long long)(w->params.dt * 1e9);
+            continue;
+        }
         bool run = !w->paused || w->step_budget > 0;
         if (run) {
             if ((w->fatal = step_once(w)) != CORE_OK) {
@@ -162,6 +182,10 @@ void *app_sim_main(void *arg)
         unsigned long long now = core_now_ns();
         update_stats(w, now);
         if (w->d->steps && total >= w->d->steps) break;
+        if (early) {
+            ahead = true;
+            continue;
+        }
         next += (unsigned long long)(w->params.dt * 1e9);
         /* more than a quarter second behind: give up catching up (log shows the deficit) */
         if (now > next + NS / 4) next = now;

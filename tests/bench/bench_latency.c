@@ -19,27 +19,32 @@
 #define WAIT_MS 10000
 
 static const char *const LATENCY_USAGE =
-    "usage: strandbench latency [--changes N] [--daemon PATH] [--json]\n"
-    "Starts strandcastd with its default scene on a loopback port, connects one client and sends N\n"
+    "usage: strandbench latency [--changes N] [--strands N --verts N] [--daemon PATH] [--json]\n"
+    "Starts strandcastd with its default scene (or a straight groom of --strands x --verts) on a loopback port, connects one client and sends N\n"
     "parameter changes one after another (gravity, alternating between two values), each once the\n"
     "previous one shows. For each it measures, on the client's monotonic clock, the time from\n"
     "sending set_params to its ok reply, and to the first frame decoded after the reply whose\n"
     "sim_step is at least the reply's step (the first frame showing the change). Prints p50, p99\n"
     "and the maximum of both (target: p99 change-to-frame <= 25 ms).\n"
     "  --changes N    parameter changes to time, 1..100000 (default 1000)\n"
+    "  --strands N    strands of the daemon's groom (with --verts; default: its default scene)\n"
+    "  --verts N      vertices per strand of the daemon's groom\n"
     "  --daemon PATH  the strandcastd to run (default: next to this program's folder)\n"
     "  --json         one JSON row: {\"bench\":\"latency\",\"changes\":N,\"p50_ms\":..,\"p99_ms\":..,...}\n";
 
 typedef struct latency_opts {
     unsigned changes;
+    const char *strands, *verts; /* passed to the daemon as given (it checks them) */
     const char *daemon;
     bool json;
 } latency_opts;
 
-enum { OPT_CHANGES = 256, OPT_DAEMON, OPT_JSON };
+enum { OPT_CHANGES = 256, OPT_STRANDS, OPT_VERTS, OPT_DAEMON, OPT_JSON };
 
 static const struct option latency_options[] = {
     { "changes", required_argument, NULL, OPT_CHANGES },
+    { "strands", required_argument, NULL, OPT_STRANDS },
+    { "verts", required_argument, NULL, OPT_VERTS },
     { "daemon", required_argument, NULL, OPT_DAEMON },
     { "json", no_argument, NULL, OPT_JSON },
     { "help", no_argument, NULL, 'h' },
@@ -62,10 +67,16 @@ static int parse_opts(int argc, char **argv, latency_opts *o)
         case OPT_CHANGES:
             if (!(rc = core_cli_u64(PROG, flag, optarg, 1, 100000, &u))) o->changes = (unsigned)u;
             break;
+        case OPT_STRANDS: o->strands = optarg; break;
+        case OPT_VERTS: o->verts = optarg; break;
         case OPT_DAEMON: o->daemon = optarg; break;
         case OPT_JSON: o->json = true; break;
         }
         if (rc) return rc;
+    }
+    if (status == 0 && !o->strands != !o->verts) {
+        fprintf(stderr, "%s: --strands and --verts go together\n", PROG);
+        return 2;
     }
     return status;
 }
@@ -237,8 +248,12 @@ int bench_latency_main(int argc, char **argv)
         fprintf(stderr, "%s: strandcastd not found next to this program; give --daemon PATH\n", PROG);
         return 1;
     }
-    /* the default scene; --min-step-rate 0 so that a loaded machine still runs it */
-    char *dargv[] = { (char *)exe, "--port", "0", "--min-step-rate", "0", NULL };
+    /* the default scene or the given groom; --min-step-rate 0 so that a loaded machine still runs it */
+    char *dargv[] = { (char *)exe, "--port", "0", "--min-step-rate", "0", NULL, NULL, NULL, NULL, NULL };
+    if (o.strands) {
+        dargv[5] = "--strands", dargv[6] = (char *)o.strands;
+        dargv[7] = "--verts", dargv[8] = (char *)o.verts;
+    }
     daemon_proc d;
     if (daemon_start(&d, exe, dargv, 60000) != 0) {
         fprintf(stderr, "%s: could not start %s\n", PROG, exe);
