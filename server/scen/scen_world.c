@@ -1,5 +1,5 @@
 /* scen: what a client knows of the server: the hello, the parameters and state announced since,
- * the groom and colliders the checks measure against, and the head pose frames were made under. */
+ * the groom and colliders the checks measure against (the groom data fetched from groom.url). */
 #include <cjson/cJSON.h>
 #include <math.h>
 #include <stdio.h>
