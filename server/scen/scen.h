@@ -20,7 +20,6 @@
 #include "../proto/proto.h"
 
 #define SCEN_MAX_COLLIDERS CORE_MAX_COLLIDERS /* as many as a groom may have */
-#define SCEN_MAX_HEADS 2 /* candidate head poses for one frame */
 
 /* ---- frame invariants (scen_check.c) ---- */
 

@@ -15,9 +15,9 @@
 #define CHUNK 1000
 
 /* A child process that answers `times` GETs on a loopback port (into *port) with a chunked
- * 200 of CHUNKS x CHUNK bytes (no Content-Length: the cap is met while the body arrives).
- * Returns the child's pid. */
-static pid_t serve_chunked(int times, int *port)
+ * 200 of CHUNKS x CHUNK bytes (no Content-Length: the cap is met while the body arrives), or
+ * when stall, reads the first request and answers nothing for 2 s. Returns the child's pid. */
+static pid_t serve_chunked(int times, bool stall, int *port)
 {
     int ls = socket(AF_INET, SOCK_STREAM, 0);
     struct sockaddr_in a = { .sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
@@ -44,6 +44,11 @@ static pid_t serve_chunked(int times, int *port)
             got += (size_t)n;
             req[got] = '\0';
             if (strstr(req, "\r\n\r\n")) break;
+        }
+        if (stall && i == 0) {
+            sleep(2);
+            close(c);
+            continue;
         }
         const char *head = "HTTP/1.1 200 OK\r\nContent-Type: application/octet-stream\r\nTransfer-Encoding: chunked\r\n"
                            "Connection: close\r\n\r\n";
@@ -117,12 +122,12 @@ void test_wsc_http_get(void **state)
 }
 
 /* A chunked body (no Content-Length) is taken whole under the cap and refused once it passes
- * it, as it arrives. */
+ * it, as it arrives; a server that does not answer meets the timeout, and the wsc still works. */
 void test_wsc_http_get_chunked(void **state)
 {
     fixture *fx = *state;
     int port;
-    pid_t pid = serve_chunked(2, &port);
+    pid_t pid = serve_chunked(2, false, &port);
     wsc_http_reply r;
     wsc_http_desc d = { .port = port, .path = "/data", .max_bytes = CHUNKS * CHUNK };
     if (!wsc_http_get(fx->w, &d, &r)) fail_msg("chunked GET: %s", r.error);
@@ -137,4 +142,17 @@ void test_wsc_http_get_chunked(void **state)
     int status;
     assert_int_equal(waitpid(pid, &status, 0), pid);
     assert_true(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    /* a server that never answers: the GET gives up at its timeout, and the next one works */
+    pid = serve_chunked(2, true, &port);
+    wsc_http_desc slow = { .port = port, .path = "/data", .timeout_ms = 300 };
+    unsigned long long t0 = core_now_ns();
+    assert_false(wsc_http_get(fx->w, &slow, &r));
+    double waited_ms = (double)(core_now_ns() - t0) / 1e6;
+    if (!strstr(r.error, "no complete response from 127.0.0.1:") || !strstr(r.error, "/data in 300 ms") || waited_ms > 1800)
+        fail_msg("after %.0f ms: %s", waited_ms, r.error);
+    slow.timeout_ms = 0;
+    if (!wsc_http_get(fx->w, &slow, &r)) fail_msg("after a timeout: %s", r.error);
+    assert_int_equal(r.len, CHUNKS * CHUNK);
+    wsc_http_reply_free(&r);
+    assert_int_equal(waitpid(pid, &status, 0), pid);
 }
