@@ -149,10 +149,15 @@ static void test_world_reads_hello(void **state)
     assert_null(scen_world_value(&w, "params", "nope"));
     /* announcements update params and state; a groom message replaces the groom, fetching its data */
     core_err err;
-    assert_int_equal(scen_world_text(&w, "{\"type\":\"params\",\"values\":{\"gravity\":0,\"wind_x\":1},\"by\":2}", &err), CORE_OK);
-    assert_int_equal(scen_world_text(&w, "{\"type\":\"state\",\"paused\":true,\"sim_time\":2,\"steps\":100,\"animation\":{\"preset\":\"none\",\"speed\":1}}", &err), CORE_OK);
+    assert_int_equal(scen_world_text(&w, "{\"type\":\"params\",\"values\":{\"gravity\":0,\"wind_x\":1},\"by\":2}", &err),
+                     CORE_OK);
+    assert_int_equal(scen_world_text(&w, "{\"type\":\"state\",\"paused\":true,\"sim_time\":2,\"steps\":100,"
+                                         "\"animation\":{\"preset\":\"none\",\"speed\":1}}", &err),
+                     CORE_OK);
     char msg[512];
-    snprintf(msg, sizeof msg, "{\"type\":\"groom\",\"groom\":{\"strands\":1,\"verts\":4,\"url\":\"/groom.bin\",\"etag\":\"%s\",\"bytes\":%zu},\"colliders\":[]}",
+    snprintf(msg, sizeof msg,
+             "{\"type\":\"groom\",\"groom\":{\"strands\":1,\"verts\":4,\"url\":\"/groom.bin\",\"etag\":\"%s\",\"bytes\":%zu},"
+             "\"colliders\":[]}",
              srv.etag[1], srv.len[1]);
     srv.serve = 1;
     if (scen_world_text(&w, msg, &err) != CORE_OK) fail_msg("groom: %s", err.msg);
@@ -248,7 +253,9 @@ static void test_world_groom_data(void **state)
     /* a groom message whose data fails to fetch fails, saying so */
     srv.fail = "groom data: GET http://127.0.0.1:1/groom.bin answered 503";
     char msg[512];
-    snprintf(msg, sizeof msg, "{\"type\":\"groom\",\"groom\":{\"strands\":1,\"verts\":4,\"url\":\"/groom.bin\",\"etag\":\"%s\",\"bytes\":%zu},\"colliders\":[]}",
+    snprintf(msg, sizeof msg,
+             "{\"type\":\"groom\",\"groom\":{\"strands\":1,\"verts\":4,\"url\":\"/groom.bin\",\"etag\":\"%s\",\"bytes\":%zu},"
+             "\"colliders\":[]}",
              srv.etag[1], srv.len[1]);
     assert_int_equal(scen_world_text(&w, msg, &err), CORE_EIO);
     assert_non_null(strstr(err.msg, "groom data: GET http://127.0.0.1:1/groom.bin answered 503"));

@@ -50,7 +50,8 @@ typedef enum scen_inv { SCEN_INV_FINITE, SCEN_INV_STRETCH, SCEN_INV_DEPTH, SCEN_
 typedef struct scen_check {
     scen_check_desc d; /* with defaults filled in */
     unsigned long frames;
-    unsigned long groom_unchecked; /* frames of a groom whose data this client does not hold (superseded before it was fetched) */
+    unsigned long groom_unchecked; /* frames of a groom whose data this client does not hold
+                                      (superseded before it was fetched) */
     unsigned long depth_unchecked; /* frames with collisions off */
     unsigned long long first_ns, last_ns, max_gap_ns;
     uint64_t max_gap_seq;
