@@ -22,6 +22,14 @@ typedef struct scen_msg {
     bool used;
 } scen_msg;
 
+/* A binary message received and not yet taken. */
+typedef struct queued_frame {
+    uint8_t *data; /* owned */
+    size_t len;
+    size_t ntexts;                  /* text messages received before it */
+    unsigned long long arrival_ns;  /* monotonic */
+} queued_frame;
+
 typedef struct runner {
     const scen_run_desc *d;
     FILE *out;
@@ -44,7 +52,11 @@ typedef struct runner {
     uint64_t reset_max_step;
     const char *host; /* where the hello came from: the groom data is fetched there */
     int port;
-    wsc *http; /* the groom data's GETs: its own event loop, as they run inside on_frame */
+    size_t hello_at; /* the hello's index among the connection's text messages */
+    /* binary messages as they arrive (on_frame), taken in order with the text messages outside
+     * lws callbacks (take_messages): a groom message's data is fetched on the same wsc */
+    queued_frame *queue;
+    size_t qhead, qlen, qcap;
     char fatal[CORE_ERR_MAX + 64]; /* what ends the script: a frame that does not decode, groom data not fetched */
     size_t next_text;
     scen_msg *msgs;
@@ -80,10 +92,9 @@ static core_status fetch_http(void *user, const char *url, size_t max_bytes, uin
     runner *r = user;
     *body = NULL;
     *len = 0;
-    if (!r->http && !(r->http = wsc_new())) return core_fail(err, CORE_ENOMEM, "groom data: no HTTP client");
     wsc_http_desc d = { .host = r->host, .port = r->port, .path = url, .max_bytes = max_bytes, .timeout_ms = SCEN_CONNECT_MS };
     wsc_http_reply rep;
-    if (!wsc_http_get(r->http, &d, &rep))
+    if (!wsc_http_get(r->w, &d, &rep))
         return core_fail(err, CORE_EIO, "groom data: GET http://%s:%d%.200s: %s", r->host, r->port, url, rep.error);
     if (rep.status != 200) {
         wsc_http_reply_free(&rep);
@@ -94,13 +105,13 @@ static core_status fetch_http(void *user, const char *url, size_t max_bytes, uin
     return CORE_OK;
 }
 
-/* Takes the text messages received since the last call, in order: the world learns from them
- * and the replies are kept for matching. Called before each frame is checked, so that a frame
- * is judged with every message the server sent before it. */
-static void drain_texts(runner *r)
+/* Takes the text messages received since the last call up to index limit, in order: the world
+ * learns from them and the replies are kept for matching. */
+static void drain_texts(runner *r, size_t limit)
 {
     size_t n;
     char *const *t = wsc_texts(r->conn, &n);
+    if (limit < n) n = limit;
     for (; r->next_text < n; r->next_text++) {
         const char *text = t[r->next_text];
         char type[32];
@@ -110,6 +121,8 @@ static void drain_texts(runner *r)
         core_err err;
         if (scen_world_text(&r->world, text, &err) != CORE_OK && !r->fatal[0])
             snprintf(r->fatal, sizeof r->fatal, "%s", err.msg);
+        t = wsc_texts(r->conn, &n); /* a groom data fetch ran the connection: more may have come */
+        if (limit < n) n = limit;
         forget_stale_frame(r, type);
         if (!is_reply_type(type)) continue;
         if (r->nmsgs == r->cap_msgs) {
@@ -127,15 +140,12 @@ static void drain_texts(runner *r)
     }
 }
 
-static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user)
+/* Decodes one frame and, once the hello is read and the frame came after it, checks it. */
+static void take_frame(runner *r, const queued_frame *q)
 {
-    (void)conn;
-    runner *r = user;
-    if (r->fatal[0]) return;
-    if (r->have_world) drain_texts(r);
     codec_frame_info info;
     core_err err;
-    if (codec_peek_header(data, len, &info, &err) != CORE_OK) goto bad;
+    if (codec_peek_header(q->data, q->len, &info, &err) != CORE_OK) goto bad;
     size_t need = 3u * (size_t)info.nstrands_sent * info.nverts;
     if (need > r->cap) {
         float *x = realloc(r->xyz, need * sizeof *x);
@@ -146,9 +156,9 @@ static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user
         r->xyz = x;
         r->cap = need;
     }
-    /* frames that come while the hello is read are decoded too: the decoder keeps their keyframe */
-    if (codec_decode(&r->dec, data, len, r->xyz, r->cap, &info, &err) != CORE_OK) goto bad;
-    if (!r->have_world) return;
+    /* frames that came before the hello are decoded too: the decoder keeps their keyframe */
+    if (codec_decode(&r->dec, q->data, q->len, r->xyz, r->cap, &info, &err) != CORE_OK) goto bad;
+    if (q->ntexts <= r->hello_at) return;
     if (r->reset_pending) {
         if (info.sim.sim_step != 0 && info.sim.sim_step >= r->reset_max_step) {
             r->reset_max_step = info.sim.sim_step;
@@ -159,10 +169,50 @@ static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user
     r->last = info;
     r->have_frame = true;
     r->frames++;
-    if (r->check) scen_check_frame(r->check, &r->world, &info, r->xyz, core_now_ns());
+    if (r->check) scen_check_frame(r->check, &r->world, &info, r->xyz, q->arrival_ns);
     return;
 bad:
     snprintf(r->fatal, sizeof r->fatal, "frame %lu does not decode: %s", r->frames, err.msg);
+}
+
+/* Takes every message received so far in the order it came: each frame after the text
+ * messages before it, so that a frame is judged with every message the server sent before it.
+ * Runs outside lws callbacks (a groom message fetches its data on r->w). Once the hello is read. */
+static void take_messages(runner *r)
+{
+    while (r->qhead < r->qlen) { /* the queue may grow while a frame's texts are taken */
+        queued_frame q = r->queue[r->qhead++];
+        drain_texts(r, q.ntexts);
+        if (!r->fatal[0]) take_frame(r, &q);
+        free(q.data);
+    }
+    r->qhead = r->qlen = 0;
+    drain_texts(r, SIZE_MAX);
+}
+
+static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user)
+{
+    runner *r = user;
+    if (r->fatal[0]) return;
+    if (r->qlen == r->qcap) {
+        size_t cap = r->qcap ? 2 * r->qcap : 16;
+        queued_frame *q = realloc(r->queue, cap * sizeof *q);
+        if (!q) {
+            snprintf(r->fatal, sizeof r->fatal, "out of memory for %zu queued frames", cap);
+            return;
+        }
+        r->queue = q;
+        r->qcap = cap;
+    }
+    uint8_t *copy = malloc(len ? len : 1);
+    if (!copy) {
+        snprintf(r->fatal, sizeof r->fatal, "out of memory for a %zu-byte frame", len);
+        return;
+    }
+    memcpy(copy, data, len);
+    size_t ntexts;
+    wsc_texts(conn, &ntexts);
+    r->queue[r->qlen++] = (queued_frame){ copy, len, ntexts, core_now_ns() };
 }
 
 /* A condition a step waits for. */
@@ -180,7 +230,7 @@ static bool poll_cond(void *p)
 {
     wait_arg *a = p;
     if (a->met) return true; /* a condition may consume what it found (a reply): asked once */
-    drain_texts(a->r);
+    take_messages(a->r);
     a->met = a->cond(a->r, a->st, a->arg);
     return a->met || !wsc_is_open(a->r->conn) || a->r->fatal[0];
 }
@@ -555,6 +605,7 @@ static bool connect_hello(runner *r, const char *host, int port)
     size_t n;
     char *const *t = wsc_texts(r->conn, &n);
     while (r->next_text < n && t[r->next_text] != hello) r->next_text++;
+    r->hello_at = r->next_text;
     r->next_text++; /* the hello itself is read */
     return true;
 }
@@ -594,7 +645,8 @@ int scen_run(const scen_run_desc *d, const scen_script *s)
                 s->nsteps, r.frames, elapsed_s(&r));
 done:
     wsc_free(r.w);
-    wsc_free(r.http);
+    for (size_t i = r.qhead; i < r.qlen; i++) free(r.queue[i].data);
+    free(r.queue);
     if (r.have_world) scen_world_free(&r.world);
     codec_decoder_free(&r.dec);
     free(r.xyz);
