@@ -30,9 +30,6 @@ strandcast_scenario_test(scenario_fails_check --exit 1
   -- $<TARGET_FILE:strandcastc> run --json --port {port} ${fail}/check_fails.json)
 strandcast_scenario_test(scenario_fails_no_frames --exit 1 --expect "step 3 (check) failed: no frame in 0.5 s"
   -- $<TARGET_FILE:strandcastc> run --port {port} ${fail}/check_no_frames.json)
-strandcast_scenario_test(scenario_fails_roots --exit 1 --expect "step 7 (check) failed: 10 frames"
-  --expect "root: 10 of 10 frames fail" --expect "worst: frame seq " --expect ", vertex 0: root "
-  -- $<TARGET_FILE:strandcastc> run --port {port} ${fail}/stale_motion.json)
 strandcast_scenario_test(scenario_bad_kind --exit 2 --expect "step 1: unknown step kind (fields: teleport)"
   -- $<TARGET_FILE:strandcastc> run --port {port} ${fail}/bad_kind.json)
 strandcast_scenario_test(scenario_bad_type --exit 2

@@ -9,24 +9,89 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include <cjson/cJSON.h>
 
+#include "proto/proto.h"
 #include "scen/scen.h"
+
+/* The groom data a fake server serves (scen_fetch_fn): groom data binaries by version. */
+typedef struct fake_server {
+    unsigned char bin[2][16 + 16 * 2];
+    size_t len[2];
+    char etag[2][17];
+    int serve;        /* which version GET /groom.bin answers */
+    int fetches;
+    const char *fail; /* a fetch failure's message, or NULL */
+} fake_server;
+
+static void put_u32(unsigned char *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++) p[i] = (unsigned char)(v >> (8 * i));
+}
+
+static void put_f32(unsigned char *p, float f)
+{
+    uint32_t bits;
+    memcpy(&bits, &f, 4);
+    put_u32(p, bits);
+}
+
+/* Version k of the groom data: strands x verts with the given rest lengths and roots. */
+static void make_bin(fake_server *f, int k, uint32_t strands, uint32_t verts, const float *rest, const float *roots)
+{
+    unsigned char *b = f->bin[k];
+    memcpy(b, "SCGR", 4);
+    put_u32(b + 4, 1);
+    put_u32(b + 8, strands);
+    put_u32(b + 12, verts);
+    for (uint32_t s = 0; s < strands; s++) put_f32(b + 16 + 4 * s, rest[s]);
+    for (uint32_t i = 0; i < 3 * strands; i++) put_f32(b + 16 + 4 * strands + 4 * i, roots[i]);
+    f->len[k] = 16 + 16 * (size_t)strands;
+    proto_bin_etag(b, f->len[k], f->etag[k]);
+}
+
+static core_status fake_fetch(void *user, const char *url, size_t max_bytes, uint8_t **body, size_t *len, core_err *err)
+{
+    fake_server *f = user;
+    f->fetches++;
+    if (strcmp(url, "/groom.bin") != 0) return core_fail(err, CORE_EIO, "groom data: GET %s answered 404", url);
+    if (f->fail) return core_fail(err, CORE_EIO, "%s", f->fail);
+    size_t n = f->len[f->serve] < max_bytes ? f->len[f->serve] : max_bytes;
+    *body = malloc(n);
+    memcpy(*body, f->bin[f->serve], n);
+    *len = n;
+    return CORE_OK;
+}
 
 /* 2 strands x 3 vertices: strand 0 rest segment 3 cm from (0, 0.1, 0), strand 1 1 cm from
  * (0.05, 0.1, 0); a sphere at the origin, a capsule below it, an ellipsoid off to +x. */
-static const char HELLO[] =
-    "{\"type\":\"hello\",\"groom\":{\"source\":\"t\",\"strands\":2,\"verts\":3,\"rest_lengths\":[0.03,0.01],"
-    "\"roots\":[0,0.1,0,0.05,0.1,0]},"
-    "\"colliders\":[{\"kind\":\"sphere\",\"center\":[0,0,0],\"radius\":0.05},"
-    "{\"kind\":\"capsule\",\"a\":[0,-0.06,0],\"b\":[0,-0.2,0],\"radius\":0.03},"
-    "{\"kind\":\"ellipsoid\",\"center\":[0.3,0,0],\"radii\":[0.02,0.04,0.08],\"rotation\":[0,0,0,1]}],"
-    "\"head\":{\"position\":[0,0,0],\"orientation\":[0,0,0,1]},"
-    "\"params\":{\"schema\":[],\"values\":{\"dt\":0.02,\"gravity\":9.81,\"collisions\":true}},"
-    "\"animation\":{\"preset\":\"none\",\"speed\":1},"
-    "\"state\":{\"paused\":false,\"sim_time\":1,\"steps\":50,\"animation\":{\"preset\":\"none\",\"speed\":1}}}";
+static void fake_init(fake_server *f)
+{
+    memset(f, 0, sizeof *f);
+    const float rest[2] = { 0.03f, 0.01f }, roots[6] = { 0, 0.1f, 0, 0.05f, 0.1f, 0 };
+    make_bin(f, 0, 2, 3, rest, roots);
+    const float rest1[1] = { 0.5f }, roots1[3] = { 1, 2, 3 };
+    make_bin(f, 1, 1, 4, rest1, roots1);
+}
+
+/* The hello, its groom naming version k of f's data (bytes: its size plus extra). */
+static void hello_text(char *out, size_t cap, const fake_server *f, int k, const char *url, long extra)
+{
+    snprintf(out, cap,
+             "{\"type\":\"hello\",\"groom\":{\"source\":\"t\",\"strands\":2,\"verts\":3,\"url\":\"%s\",\"etag\":\"%s\","
+             "\"bytes\":%ld},"
+             "\"colliders\":[{\"kind\":\"sphere\",\"center\":[0,0,0],\"radius\":0.05},"
+             "{\"kind\":\"capsule\",\"a\":[0,-0.06,0],\"b\":[0,-0.2,0],\"radius\":0.03},"
+             "{\"kind\":\"ellipsoid\",\"center\":[0.3,0,0],\"radii\":[0.02,0.04,0.08],\"rotation\":[0,0,0,1]}],"
+             "\"head\":{\"position\":[0,0,0],\"orientation\":[0,0,0,1]},"
+             "\"params\":{\"schema\":[],\"values\":{\"dt\":0.02,\"gravity\":9.81,\"collisions\":true}},"
+             "\"animation\":{\"preset\":\"none\",\"speed\":1},"
+             "\"state\":{\"paused\":false,\"sim_time\":1,\"steps\":50,\"animation\":{\"preset\":\"none\",\"speed\":1}}}",
+             url, f->etag[k], (long)f->len[k] + extra);
+}
 
 /* The rest pose under a head at height dy: both strands straight up from their roots. */
 static void rest_frame(float xyz[18], float dy)
@@ -40,12 +105,15 @@ static void rest_frame(float xyz[18], float dy)
         }
 }
 
+/* A frame of the 2 x 3 groom under the identity head. */
 static codec_frame_info frame_info(uint64_t seq, double sim_time)
 {
     codec_frame_info f;
     memset(&f, 0, sizeof f);
     f.seq = seq;
     f.sim.sim_time = sim_time;
+    f.sim.sim_step = (uint64_t)(sim_time / 0.02 + 0.5);
+    f.sim.head_rot[3] = 1;
     f.max_error_m = 1e-5f;
     f.nstrands_total = f.nstrands_sent = 2;
     f.nverts = 3;
@@ -53,32 +121,54 @@ static codec_frame_info frame_info(uint64_t seq, double sim_time)
     return f;
 }
 
-static void load(scen_world *w)
+static void load(scen_world *w, fake_server *f)
 {
+    fake_init(f);
+    char hello[2048];
+    hello_text(hello, sizeof hello, f, 0, "/groom.bin", 0);
     core_err err;
-    if (scen_world_hello(w, HELLO, strlen(HELLO), &err) != CORE_OK) fail_msg("hello: %s", err.msg);
+    if (scen_world_hello(w, hello, strlen(hello), fake_fetch, f, &err) != CORE_OK) fail_msg("hello: %s", err.msg);
 }
 
 static void test_world_reads_hello(void **state)
 {
     (void)state;
     scen_world w;
-    load(&w);
+    fake_server srv;
+    load(&w, &srv);
+    assert_int_equal(srv.fetches, 1);
     assert_int_equal(w.strands, 2);
     assert_int_equal(w.verts, 3);
     assert_true(w.rest_lengths[0] == 0.03f && w.rest_lengths[1] == 0.01f);
+    assert_true(w.roots[3] == 0.05f && w.roots[4] == 0.1f);
+    assert_string_equal(w.data_etag, srv.etag[0]);
     assert_int_equal(w.ncolliders, 3);
     assert_int_equal(w.colliders[1].kind, SCEN_CAPSULE);
-    assert_non_null(scen_world_value(&w, "hello", "groom.roots.3"));
-    assert_null(scen_world_value(&w, "hello", "groom.roots.9"));
+    assert_non_null(scen_world_value(&w, "hello", "groom.etag"));
+    assert_null(scen_world_value(&w, "hello", "colliders.9"));
     assert_null(scen_world_value(&w, "params", "nope"));
-    /* announcements update params and state; a groom message replaces the groom */
-    scen_world_text(&w, "{\"type\":\"params\",\"values\":{\"gravity\":0,\"wind_x\":1},\"by\":2}");
-    scen_world_text(&w, "{\"type\":\"state\",\"paused\":true,\"sim_time\":2,\"steps\":100,\"animation\":{\"preset\":\"none\",\"speed\":1}}");
-    scen_world_text(&w, "{\"type\":\"groom\",\"groom\":{\"strands\":1,\"verts\":4,\"rest_lengths\":[0.5],\"roots\":[1,2,3]},\"colliders\":[]}");
+    /* announcements update params and state; a groom message replaces the groom, fetching its data */
+    core_err err;
+    assert_int_equal(scen_world_text(&w, "{\"type\":\"params\",\"values\":{\"gravity\":0,\"wind_x\":1},\"by\":2}", &err),
+                     CORE_OK);
+    assert_int_equal(scen_world_text(&w, "{\"type\":\"state\",\"paused\":true,\"sim_time\":2,\"steps\":100,"
+                                         "\"animation\":{\"preset\":\"none\",\"speed\":1}}", &err),
+                     CORE_OK);
+    char msg[512];
+    snprintf(msg, sizeof msg,
+             "{\"type\":\"groom\",\"groom\":{\"strands\":1,\"verts\":4,\"url\":\"/groom.bin\",\"etag\":\"%s\",\"bytes\":%zu},"
+             "\"colliders\":[]}",
+             srv.etag[1], srv.len[1]);
+    srv.serve = 1;
+    if (scen_world_text(&w, msg, &err) != CORE_OK) fail_msg("groom: %s", err.msg);
+    assert_int_equal(srv.fetches, 2);
     assert_int_equal(w.strands, 1);
     assert_int_equal(w.verts, 4);
     assert_int_equal(w.ncolliders, 0);
+    assert_true(w.rest_lengths[0] == 0.5f && w.roots[2] == 3.0f);
+    /* the same etag again (a collider change): the data held is kept, not fetched */
+    assert_int_equal(scen_world_text(&w, msg, &err), CORE_OK);
+    assert_int_equal(srv.fetches, 2);
     assert_true(w.rest_lengths[0] == 0.5f);
     const cJSON *gv = scen_world_value(&w, "groom", "groom.verts");
     assert_true(gv && cJSON_IsNumber(gv) && gv->valuedouble == 4);
@@ -86,37 +176,101 @@ static void test_world_reads_hello(void **state)
     assert_true(gv && cJSON_IsNumber(gv) && gv->valuedouble == 1);
     gv = scen_world_value(&w, "state", "paused");
     assert_true(gv && cJSON_IsTrue(gv));
-    codec_frame_info f = frame_info(1, 1.0);
-    assert_true(scen_world_frame_step(&w, &f) == 50.0); /* 1 s at dt 0.02 */
     scen_world_free(&w);
-    /* a hello without rest lengths is refused, naming the field */
-    const char *bad = "{\"type\":\"hello\",\"groom\":{\"strands\":2,\"verts\":3,\"roots\":[0,0,0,0,0,0]},"
-                      "\"head\":{\"position\":[0,0,0],\"orientation\":[0,0,0,1]}}";
-    core_err err;
-    assert_int_equal(scen_world_hello(&w, bad, strlen(bad), &err), CORE_EFORMAT);
-    assert_non_null(strstr(err.msg, "rest_lengths"));
     /* a collider with a zero radius, and more colliders than the client takes */
-    const char *flat = "{\"type\":\"hello\",\"groom\":{\"strands\":1,\"verts\":2,\"rest_lengths\":[1],\"roots\":[0,0,0]},"
+    const char *flat = "{\"type\":\"hello\",\"groom\":{\"strands\":1,\"verts\":2},"
                        "\"colliders\":[{\"kind\":\"ellipsoid\",\"center\":[0,0,0],\"radii\":[1,0,1]}],"
                        "\"head\":{\"position\":[0,0,0],\"orientation\":[0,0,0,1]}}";
-    assert_int_equal(scen_world_hello(&w, flat, strlen(flat), &err), CORE_EFORMAT);
+    assert_int_equal(scen_world_hello(&w, flat, strlen(flat), fake_fetch, &srv, &err), CORE_EFORMAT);
     assert_non_null(strstr(err.msg, "colliders[0]"));
     char many[8192];
-    int n = snprintf(many, sizeof many, "{\"type\":\"hello\",\"groom\":{\"strands\":1,\"verts\":2,\"rest_lengths\":[1],"
-                                        "\"roots\":[0,0,0]},\"head\":{\"position\":[0,0,0],\"orientation\":[0,0,0,1]},"
-                                        "\"colliders\":[");
+    int n = snprintf(many, sizeof many, "{\"type\":\"hello\",\"groom\":{\"strands\":1,\"verts\":2},"
+                                        "\"head\":{\"position\":[0,0,0],\"orientation\":[0,0,0,1]},\"colliders\":[");
     for (int i = 0; i <= SCEN_MAX_COLLIDERS; i++)
         n += snprintf(many + n, sizeof many - (size_t)n, "%s{\"kind\":\"sphere\",\"center\":[0,0,0],\"radius\":1}", i ? "," : "");
     snprintf(many + n, sizeof many - (size_t)n, "]}");
-    assert_int_equal(scen_world_hello(&w, many, strlen(many), &err), CORE_EFORMAT);
+    assert_int_equal(scen_world_hello(&w, many, strlen(many), fake_fetch, &srv, &err), CORE_EFORMAT);
     assert_non_null(strstr(err.msg, "colliders: more than 32"));
+}
+
+/* Reads a hello (version k of srv's data at url, bytes off by extra), expecting a failure
+ * whose message holds needle. */
+static void bad_groom_data(fake_server *srv, int k, const char *url, long extra, const char *needle)
+{
+    char hello[2048];
+    hello_text(hello, sizeof hello, srv, k, url, extra);
+    scen_world w;
+    core_err err;
+    if (scen_world_hello(&w, hello, strlen(hello), fake_fetch, srv, &err) == CORE_OK) {
+        scen_world_free(&w);
+        fail_msg("accepted: %s", hello);
+    }
+    if (!strstr(err.msg, "groom data: ") || !strstr(err.msg, needle)) fail_msg("said: %s\nwant: %s", err.msg, needle);
+}
+
+/* The groom data: fetch failures, a size, count or format that does not match the groom are
+ * refused, each saying so; data of a newer groom than announced is not taken (its frames are
+ * not checked) until the groom message that names it. */
+static void test_world_groom_data(void **state)
+{
+    (void)state;
+    fake_server srv;
+    fake_init(&srv);
+    bad_groom_data(&srv, 0, "/missing.bin", 0, "GET /missing.bin answered 404");
+    srv.fail = "groom data: GET http://127.0.0.1:1/groom.bin: cannot connect";
+    bad_groom_data(&srv, 0, "/groom.bin", 0, "cannot connect");
+    srv.fail = NULL;
+    bad_groom_data(&srv, 0, "/groom.bin", 4, "sent 48 bytes, groom.bytes says 52");
+    bad_groom_data(&srv, 0, "groom.bin", 0, "groom.url (a path)");
+    srv.bin[0][4] = 2; /* version 2, etag recomputed: the reader's message is passed on */
+    proto_bin_etag(srv.bin[0], srv.len[0], srv.etag[0]);
+    bad_groom_data(&srv, 0, "/groom.bin", 0, "/groom.bin: groom data binary: version 2, expected 1");
+    fake_init(&srv);
+    put_u32(srv.bin[0] + 12, 5); /* 2 x 5 in the binary, 2 x 3 in the hello */
+    proto_bin_etag(srv.bin[0], srv.len[0], srv.etag[0]);
+    bad_groom_data(&srv, 0, "/groom.bin", 0, "holds 2 x 5, groom says 2 x 3");
+    const char *no_etag = "{\"type\":\"hello\",\"groom\":{\"strands\":2,\"verts\":3,\"url\":\"/groom.bin\",\"bytes\":48},"
+                          "\"head\":{\"position\":[0,0,0],\"orientation\":[0,0,0,1]}}";
+    scen_world w;
+    core_err err;
+    assert_int_equal(scen_world_hello(&w, no_etag, strlen(no_etag), fake_fetch, &srv, &err), CORE_EFORMAT);
+    assert_non_null(strstr(err.msg, "groom.etag"));
+    /* the server already serves version 1 when the hello names version 0: no data yet */
+    fake_init(&srv);
+    srv.serve = 1;
+    char hello[2048];
+    hello_text(hello, sizeof hello, &srv, 0, "/groom.bin", 0);
+    if (scen_world_hello(&w, hello, strlen(hello), fake_fetch, &srv, &err) != CORE_OK) fail_msg("%s", err.msg);
+    assert_null(w.rest_lengths);
+    scen_check c;
+    scen_check_begin(&c, NULL);
+    float xyz[18];
+    rest_frame(xyz, 0.5f); /* nowhere near the roots: not checked */
+    codec_frame_info f = frame_info(1, 1.0);
+    scen_check_frame(&c, &w, &f, xyz, 1000);
+    assert_int_equal(c.groom_unchecked, 1);
+    assert_true(scen_check_end(&c, NULL, ""));
+    /* a groom message whose data fails to fetch fails, saying so */
+    srv.fail = "groom data: GET http://127.0.0.1:1/groom.bin answered 503";
+    char msg[512];
+    snprintf(msg, sizeof msg,
+             "{\"type\":\"groom\",\"groom\":{\"strands\":1,\"verts\":4,\"url\":\"/groom.bin\",\"etag\":\"%s\",\"bytes\":%zu},"
+             "\"colliders\":[]}",
+             srv.etag[1], srv.len[1]);
+    assert_int_equal(scen_world_text(&w, msg, &err), CORE_EIO);
+    assert_non_null(strstr(err.msg, "groom data: GET http://127.0.0.1:1/groom.bin answered 503"));
+    srv.fail = NULL;
+    assert_int_equal(scen_world_text(&w, msg, &err), CORE_OK);
+    assert_true(w.rest_lengths && w.rest_lengths[0] == 0.5f);
+    scen_world_free(&w);
 }
 
 static void test_check_passes_rest_pose(void **state)
 {
     (void)state;
     scen_world w;
-    load(&w);
+    fake_server srv;
+    load(&w, &srv);
     scen_check c;
     scen_check_begin(&c, NULL);
     float xyz[18];
@@ -127,7 +281,7 @@ static void test_check_passes_rest_pose(void **state)
     }
     assert_true(scen_check_end(&c, stderr, "  "));
     assert_int_equal(c.frames, 10);
-    assert_int_equal(c.roots_unchecked, 0);
+    assert_int_equal(c.groom_unchecked, 0);
     double fps;
     assert_true(scen_check_fps_ok(&c, &fps));
     assert_true(fabs(fps - 62.5) < 1e-6);
@@ -163,8 +317,10 @@ static void test_check_catches_faults(void **state)
 {
     (void)state;
     scen_world w;
-    load(&w);
+    fake_server srv;
+    load(&w, &srv);
     float xyz[18];
+    core_err err;
     /* a non-finite coordinate */
     rest_frame(xyz, 0);
     xyz[(1 * 3 + 1) * 3 + 2] = NAN;
@@ -194,10 +350,10 @@ static void test_check_catches_faults(void **state)
     assert_non_null(strstr(c.worst[SCEN_INV_DEPTH].what, "sphere 0"));
     assert_int_equal(c.worst[SCEN_INV_STRETCH].frames_failed, 0);
     /* with collisions off the depth is not checked */
-    scen_world_text(&w, "{\"type\":\"params\",\"values\":{\"collisions\":false},\"by\":1}");
+    assert_int_equal(scen_world_text(&w, "{\"type\":\"params\",\"values\":{\"collisions\":false},\"by\":1}", &err), CORE_OK);
     c = one_frame(&w, NULL, xyz, 10);
     assert_true(scen_check_end(&c, NULL, ""));
-    scen_world_text(&w, "{\"type\":\"params\",\"values\":{\"collisions\":true},\"by\":1}");
+    assert_int_equal(scen_world_text(&w, "{\"type\":\"params\",\"values\":{\"collisions\":true},\"by\":1}", &err), CORE_OK);
     /* a vertex in the capsule and one in the ellipsoid (its depth a lower bound: (1 - 0.875) x 2 cm);
      * stretch and roots off (a bound below zero) */
     scen_check_desc only_depth = { .max_stretch = -1, .root_tolerance = -1 };
@@ -225,47 +381,48 @@ static void test_check_catches_faults(void **state)
     scen_world_free(&w);
 }
 
-/* The head pose: a motion this client sent moves the expected roots (frames still in flight may
- * show the old pose until one shows the new); a running preset leaves the roots unchecked; after
- * it stops they are checked again once the 0.4 s blend is over. */
+/* The head pose is the frame's own: roots and collider depths are measured under the head
+ * transform its header carries (a preset running or not). */
 static void test_check_follows_head(void **state)
 {
     (void)state;
     scen_world w;
-    load(&w);
-    float old_pose[18], new_pose[18];
-    rest_frame(old_pose, 0);
-    rest_frame(new_pose, 0.1f);
+    fake_server srv;
+    load(&w, &srv);
+    float at_rest[18], raised[18];
+    rest_frame(at_rest, 0);
+    rest_frame(raised, 0.1f);
     scen_check c;
     scen_check_begin(&c, NULL);
     codec_frame_info f = frame_info(1, 1.0);
-    scen_check_frame(&c, &w, &f, new_pose, 1000);
-    assert_int_equal(c.worst[SCEN_INV_ROOT].frames_failed, 1);
-    scen_world_sent(&w, "{\"type\":\"motion\",\"position\":[0,0.1,0],\"orientation\":[0,0,0,2]}");
+    scen_check_frame(&c, &w, &f, raised, 1000); /* the header says the identity: roots 10 cm off */
+    expect_failure(&c, SCEN_INV_ROOT, 1, 0, 0);
+    assert_true(fabs(c.worst[SCEN_INV_ROOT].value - 0.1) < 1e-6);
+    f.sim.head_pos[1] = 0.1f; /* the header says raised 10 cm */
     scen_check_begin(&c, NULL);
-    scen_check_frame(&c, &w, &f, old_pose, 1000); /* in flight: still right */
-    scen_check_frame(&c, &w, &f, new_pose, 2000);
+    scen_check_frame(&c, &w, &f, raised, 1000);
     assert_true(scen_check_end(&c, stderr, ""));
-    scen_check_frame(&c, &w, &f, old_pose, 3000); /* the new pose was seen: the old one is wrong now */
+    scen_check_frame(&c, &w, &f, at_rest, 2000);
     assert_int_equal(c.worst[SCEN_INV_ROOT].frames_failed, 1);
-    /* a preset: unknown head */
-    scen_world_text(&w, "{\"type\":\"state\",\"paused\":false,\"sim_time\":2,\"steps\":100,\"animation\":{\"preset\":\"nod\",\"speed\":1}}");
+    /* turned half a turn about y (a non-unit quaternion is normalized): x and z flip */
+    float turned[18];
+    rest_frame(turned, 0);
+    for (int i = 0; i < 6; i++) {
+        turned[3 * i] = -turned[3 * i];
+        turned[3 * i + 2] = -turned[3 * i + 2];
+    }
+    f = frame_info(2, 1.0);
+    f.sim.head_rot[1] = 2;
+    f.sim.head_rot[3] = 0;
     scen_check_begin(&c, NULL);
-    f.sim.sim_time = 2.1;
-    scen_check_frame(&c, &w, &f, old_pose, 1000);
-    assert_int_equal(c.roots_unchecked, 1);
-    assert_true(scen_check_end(&c, NULL, ""));
-    /* stopped at sim time 3: blending until 3.4 (+ two steps), then the motion pose again */
-    scen_world_text(&w, "{\"type\":\"state\",\"paused\":false,\"sim_time\":3,\"steps\":150,\"animation\":{\"preset\":\"none\",\"speed\":1}}");
-    f.sim.sim_time = 3.2;
-    scen_check_frame(&c, &w, &f, old_pose, 2000);
-    assert_int_equal(c.roots_unchecked, 2);
-    f.sim.sim_time = 3.5;
-    scen_check_frame(&c, &w, &f, new_pose, 3000);
-    assert_int_equal(c.roots_unchecked, 2);
-    assert_true(scen_check_end(&c, NULL, ""));
-    scen_check_frame(&c, &w, &f, old_pose, 4000);
-    assert_int_equal(c.worst[SCEN_INV_ROOT].frames_failed, 1);
+    scen_check_frame(&c, &w, &f, turned, 1000);
+    assert_true(scen_check_end(&c, stderr, ""));
+    /* strand 0 hanging 1 cm into the sphere, seen in the head frame */
+    turned[(0 * 3 + 1) * 3 + 1] = 0.07f;
+    turned[(0 * 3 + 2) * 3 + 1] = 0.04f;
+    scen_check_begin(&c, &(scen_check_desc){ .max_stretch = -1 });
+    scen_check_frame(&c, &w, &f, turned, 1000);
+    expect_failure(&c, SCEN_INV_DEPTH, 2, 0, 2);
     scen_world_free(&w);
 }
 
@@ -273,7 +430,8 @@ static void test_check_rate_and_gaps(void **state)
 {
     (void)state;
     scen_world w;
-    load(&w);
+    fake_server srv;
+    load(&w, &srv);
     float xyz[18];
     rest_frame(xyz, 0);
     scen_check c;
@@ -378,6 +536,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_world_reads_hello),
+        cmocka_unit_test(test_world_groom_data),
         cmocka_unit_test(test_check_passes_rest_pose),
         cmocka_unit_test(test_check_catches_faults),
         cmocka_unit_test(test_check_follows_head),

@@ -17,9 +17,9 @@
 #include "../core/core.h"
 #include "../core/groom_types.h"
 #include "../core/math3.h"
+#include "../proto/proto.h"
 
 #define SCEN_MAX_COLLIDERS CORE_MAX_COLLIDERS /* as many as a groom may have */
-#define SCEN_MAX_HEADS 2 /* candidate head poses for one frame */
 
 /* ---- frame invariants (scen_check.c) ---- */
 
@@ -49,7 +49,10 @@ typedef enum scen_inv { SCEN_INV_FINITE, SCEN_INV_STRETCH, SCEN_INV_DEPTH, SCEN_
 /* A check in progress: counters and worst values. Plain data, owned by the caller. */
 typedef struct scen_check {
     scen_check_desc d; /* with defaults filled in */
-    unsigned long frames, roots_unchecked, depth_unchecked;
+    unsigned long frames;
+    unsigned long groom_unchecked; /* frames of a groom whose data this client does not hold
+                                      (superseded before it was fetched) */
+    unsigned long depth_unchecked; /* frames with collisions off */
     unsigned long long first_ns, last_ns, max_gap_ns;
     uint64_t max_gap_seq;
     scen_check_worst worst[SCEN_INV_COUNT];
@@ -68,50 +71,49 @@ typedef struct scen_collider {
     core_quat rot;      /* ellipsoid rotation */
 } scen_collider;
 
-/* The hello and every announcement since, plus the head pose as far as this client can tell.
- * Owns its JSON trees and arrays (scen_world_free). */
+#define SCEN_GROOM_MAX_BYTES ((uint64_t)PROTO_GROOM_HEADER + 16u * (1u << 24)) /* the largest groom data taken */
+
+/* Fetches url (a path on the server the hello came from) into *body (malloc'd, *len bytes,
+ * owned by the caller), taking at most max_bytes. CORE_OK, or a failure with the reason in err. */
+typedef core_status (*scen_fetch_fn)(void *user, const char *url, size_t max_bytes, uint8_t **body, size_t *len,
+                                     core_err *err);
+
+/* The hello and every announcement since. Owns its JSON trees and arrays (scen_world_free). */
 typedef struct scen_world {
     void *hello;  /* cJSON: the hello message */
     void *params; /* cJSON: every parameter's current value (hello.params.values + announcements) */
     void *state;  /* cJSON: the latest state (hello.state, then each state message) */
     void *groom;  /* cJSON: {groom, colliders, collider_mesh} of the hello, then of each groom message */
     uint32_t strands, verts;
+    /* the groom data (GET groom.url), NULL while this client holds none: the server already
+     * served a newer groom when it was fetched (its groom message is on its way) */
     float *rest_lengths; /* per strand */
     float *roots;        /* rest roots, head frame, 3 per strand */
+    char data_etag[17];  /* the version held ("" none) */
+    scen_fetch_fn fetch;
+    void *fetch_user;
     scen_collider colliders[SCEN_MAX_COLLIDERS];
     int ncolliders;
-    /* head pose: heads[0..nheads) are the poses a frame may have been made under (0: unknown) */
-    core_xform heads[SCEN_MAX_HEADS];
-    int nheads;
-    core_xform base;     /* the last motion pose (the pose presets run on) */
-    bool base_known;
-    char preset[32];     /* the running preset, "none" when none */
-    double blend_until;  /* sim time until which a preset change still blends the head */
-    double last_state_time;
 } scen_world;
 
-/* Reads the hello (text, len bytes) into a zeroed w: the groom counts, rest lengths and roots,
- * the colliders, the head pose, parameters and state. CORE_EFORMAT with the field named in err
- * when a part the checks need is missing or malformed. On failure w holds nothing to free. */
-core_status scen_world_hello(scen_world *w, const char *text, size_t len, core_err *err);
+/* Reads the hello (text, len bytes) into w: the groom counts, the colliders, parameters and
+ * state, and the groom data (rest lengths and roots), which it fetches with fetch (given
+ * fetch_user; kept for the groom messages that follow). CORE_EFORMAT with the field named in
+ * err when a part the checks need is missing or malformed, "groom data: ..." when the data
+ * cannot be fetched or does not match groom.etag / groom.bytes / the counts. On failure w
+ * holds nothing to free. */
+core_status scen_world_hello(scen_world *w, const char *text, size_t len, scen_fetch_fn fetch, void *fetch_user,
+                             core_err *err);
 /* Takes one server text message: params/state announcements and replies update the values,
- * a groom message replaces the groom and colliders. Malformed messages are ignored. */
-void scen_world_text(scen_world *w, const char *text);
-/* Tells w that this client sent msg (a JSON object as text): a motion moves the head. */
-void scen_world_sent(scen_world *w, const char *msg);
-/* The poses the head may have had when the frame was made, into out (SCEN_MAX_HEADS), newest
- * first; the count, 0 when unknown (a preset running or blending, a pose never seen). The one
- * place the head pose of a frame is decided: once frames carry the head transform, it returns
- * that one pose. */
-int scen_world_head(const scen_world *w, const codec_frame_info *info, core_xform *out);
-/* The frame's roots matched candidate k of scen_world_head: older candidates are dropped. */
-void scen_world_head_matched(scen_world *w, int k);
-/* The simulation step a frame shows: sim_time over the current dt (once frames carry their
- * step, that step). */
-double scen_world_frame_step(const scen_world *w, const codec_frame_info *info);
+ * a groom message replaces the groom and colliders and fetches the groom data again when its
+ * etag is new. A failure only for a groom message that cannot be read or whose data cannot be
+ * fetched ("groom data: ..." in err); other malformed messages are ignored. */
+core_status scen_world_text(scen_world *w, const char *text, core_err *err);
+/* The head transform a frame was made under: the one its header carries. */
+core_xform scen_world_head(const codec_frame_info *info);
 /* Whether collisions are on (the "collisions" parameter; true when absent). */
 bool scen_world_collisions_on(const scen_world *w);
-/* The value at a dotted path ("values.gravity", "groom.roots.0") in what ("hello", "params",
+/* The value at a dotted path ("values.gravity", "groom.etag") in what ("hello", "params",
  * "state", "groom"); NULL when absent. Owned by w, valid until the next scen_world_* call. */
 const void *scen_world_value(const scen_world *w, const char *what, const char *path);
 /* Frees what w holds and zeroes it (a zeroed w is fine). */
@@ -121,8 +123,8 @@ void scen_world_free(scen_world *w);
 void scen_check_begin(scen_check *c, const scen_check_desc *d);
 /* Checks one decoded frame (xyz strand-major, info from codec_decode) received at arrival_ns
  * (monotonic): finite, segment lengths, collider depth and roots; the gap since the last frame.
- * w gives the groom, colliders and head; a root match settles w's head pose. */
-void scen_check_frame(scen_check *c, scen_world *w, const codec_frame_info *info, const float *xyz,
+ * w gives the groom and colliders, the frame's header the head transform. */
+void scen_check_frame(scen_check *c, const scen_world *w, const codec_frame_info *info, const float *xyz,
                       unsigned long long arrival_ns);
 /* Ends a check: true when every invariant held (frame rate and gaps included). Writes one line
  * per failed invariant to fp (when not NULL), each starting with prefix, naming the frame (seq),

@@ -81,35 +81,28 @@ static const char *collider_name(scen_collider_kind k)
     return k == SCEN_SPHERE ? "sphere" : k == SCEN_CAPSULE ? "capsule" : "ellipsoid";
 }
 
-/* Which candidate head pose puts every root on its rest root (within tol), newest first: its
- * index, or -1. The worst root of the matching candidate (of candidate 0 when none) is measured. */
-static int check_roots(scen_check *c, const scen_world *w, const codec_frame_info *info, const float *xyz,
-                       const core_xform *heads, int nheads, double tol)
+/* The worst distance between a root and its rest root under head; whether it is within tol. */
+static bool check_roots(scen_check *c, const scen_world *w, const codec_frame_info *info, const float *xyz,
+                        core_xform head, double tol)
 {
-    double worst[SCEN_MAX_HEADS] = { 0 };
-    uint32_t ws[SCEN_MAX_HEADS] = { 0 };
-    int match = -1;
-    for (int h = 0; h < nheads && match < 0; h++) {
-        for (uint32_t k = 0; k < info->nstrands_sent; k++) {
-            uint32_t s = k * info->stride;
-            const float *r = w->roots + 3 * (size_t)s;
-            core_vec3 want = core_xform_point(heads[h], core_v3(r[0], r[1], r[2]));
-            double dist = core_v3_len(core_v3_sub(vertex_at(xyz, info, k, 0), want));
-            if (!(dist <= worst[h])) {
-                worst[h] = dist;
-                ws[h] = s;
-            }
+    double worst = 0;
+    uint32_t ws = 0;
+    for (uint32_t k = 0; k < info->nstrands_sent; k++) {
+        uint32_t s = k * info->stride;
+        const float *r = w->roots + 3 * (size_t)s;
+        core_vec3 want = core_xform_point(head, core_v3(r[0], r[1], r[2]));
+        double dist = core_v3_len(core_v3_sub(vertex_at(xyz, info, k, 0), want));
+        if (!(dist <= worst)) {
+            worst = dist;
+            ws = s;
         }
-        if (worst[h] <= tol) match = h;
     }
-    int m = match < 0 ? 0 : match;
     char what[96];
-    snprintf(what, sizeof what, "root %.3f mm from the head-transformed rest root", worst[m] * 1e3);
-    measure(&c->worst[SCEN_INV_ROOT], info, ws[m], 0, worst[m], tol, what);
-    return match;
+    snprintf(what, sizeof what, "root %.3f mm from the head-transformed rest root", worst * 1e3);
+    return !measure(&c->worst[SCEN_INV_ROOT], info, ws, 0, worst, tol, what);
 }
 
-void scen_check_frame(scen_check *c, scen_world *w, const codec_frame_info *info, const float *xyz,
+void scen_check_frame(scen_check *c, const scen_world *w, const codec_frame_info *info, const float *xyz,
                       unsigned long long arrival_ns)
 {
     if (c->frames == 0) c->first_ns = arrival_ns;
@@ -129,7 +122,8 @@ void scen_check_frame(scen_check *c, scen_world *w, const codec_frame_info *info
             failed[SCEN_INV_FINITE] = true;
             break;
         }
-    bool same_groom = info->nstrands_total == w->strands && info->nverts == w->verts && info->stride >= 1;
+    bool same_groom = info->nstrands_total == w->strands && info->nverts == w->verts && info->stride >= 1 && w->rest_lengths;
+    if (!same_groom) c->groom_unchecked++;
     double err = info->max_error_m;
     if (same_groom && c->d.max_stretch >= 0) {
         for (uint32_t k = 0; k < info->nstrands_sent; k++) {
@@ -150,23 +144,15 @@ void scen_check_frame(scen_check *c, scen_world *w, const codec_frame_info *info
             }
         }
     }
-    core_xform heads[SCEN_MAX_HEADS];
-    int nheads = same_groom ? scen_world_head(w, info, heads) : 0;
-    int h = 0;
-    if (nheads > 0 && c->d.root_tolerance >= 0) {
-        h = check_roots(c, w, info, xyz, heads, nheads, c->d.root_tolerance + SQRT3 * err);
-        if (h >= 0) scen_world_head_matched(w, h);
-        failed[SCEN_INV_ROOT] = h < 0;
-        if (h < 0) h = 0;
-    } else if (c->d.root_tolerance >= 0) {
-        c->roots_unchecked++;
-    }
-    if (nheads > 0 && c->d.max_depth >= 0 && w->ncolliders > 0 && scen_world_collisions_on(w)) {
-        core_quat inv = core_q_conj(heads[h].rot);
+    core_xform head = scen_world_head(info);
+    if (same_groom && c->d.root_tolerance >= 0)
+        failed[SCEN_INV_ROOT] = !check_roots(c, w, info, xyz, head, c->d.root_tolerance + SQRT3 * err);
+    if (c->d.max_depth >= 0 && w->ncolliders > 0 && scen_world_collisions_on(w)) {
+        core_quat inv = core_q_conj(head.rot);
         double limit = c->d.max_depth + SQRT3 * err;
         for (uint32_t k = 0; k < info->nstrands_sent; k++)
             for (uint32_t v = 1; v < info->nverts; v++) {
-                core_vec3 p = core_q_rotate(inv, core_v3_sub(vertex_at(xyz, info, k, v), heads[h].pos));
+                core_vec3 p = core_q_rotate(inv, core_v3_sub(vertex_at(xyz, info, k, v), head.pos));
                 for (int o = 0; o < w->ncolliders; o++) {
                     double d = depth_in(&w->colliders[o], p);
                     if (d <= 0 || unremarkable(&c->worst[SCEN_INV_DEPTH], d, limit)) continue;
@@ -220,8 +206,8 @@ void scen_check_json(const scen_check *c, char *out, size_t cap)
 {
     double fps;
     scen_check_fps_ok(c, &fps);
-    int n = snprintf(out, cap, "\"frames\":%lu,\"fps\":%.3f,\"max_gap_ms\":%.3f,\"roots_unchecked\":%lu,\"depth_unchecked\":%lu",
-                     c->frames, fps, (double)c->max_gap_ns / 1e6, c->roots_unchecked, c->depth_unchecked);
+    int n = snprintf(out, cap, "\"frames\":%lu,\"fps\":%.3f,\"max_gap_ms\":%.3f,\"groom_unchecked\":%lu,\"depth_unchecked\":%lu",
+                     c->frames, fps, (double)c->max_gap_ns / 1e6, c->groom_unchecked, c->depth_unchecked);
     for (int i = 0; i < SCEN_INV_COUNT && n > 0 && (size_t)n < cap; i++) {
         const scen_check_worst *wst = &c->worst[i];
         if (!wst->any) continue;

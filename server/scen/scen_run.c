@@ -22,6 +22,14 @@ typedef struct scen_msg {
     bool used;
 } scen_msg;
 
+/* A binary message received and not yet taken. */
+typedef struct queued_frame {
+    uint8_t *data; /* owned */
+    size_t len;
+    size_t ntexts;                  /* text messages received before it */
+    unsigned long long arrival_ns;  /* monotonic */
+} queued_frame;
+
 typedef struct runner {
     const scen_run_desc *d;
     FILE *out;
@@ -37,11 +45,19 @@ typedef struct runner {
     codec_frame_info last; /* the last decoded frame */
     bool have_frame;
     /* a reset this client sent, until a frame of the restarted simulation arrives: frames sent
-     * before the reset took effect may come after its reply and its state announcement, so the
-     * first frame whose sim time is below every earlier one ends it (a reset restarts time) */
+     * before the reset took effect may come after its reply and its state announcement. A reset
+     * restarts the step counter at 0 (its ok carries step 0) and sends that rest pose at once:
+     * the first frame at step 0 or below every earlier one's step ends it */
     bool reset_pending;
-    double reset_max_time;
-    char frame_error[CORE_ERR_MAX + 64];
+    uint64_t reset_max_step;
+    const char *host; /* where the hello came from: the groom data is fetched there */
+    int port;
+    size_t hello_at; /* the hello's index among the connection's text messages */
+    /* binary messages as they arrive (on_frame), taken in order with the text messages outside
+     * lws callbacks (take_messages): a groom message's data is fetched on the same wsc */
+    queued_frame *queue;
+    size_t qhead, qlen, qcap;
+    char fatal[CORE_ERR_MAX + 64]; /* what ends the script: a frame that does not decode, groom data not fetched */
     size_t next_text;
     scen_msg *msgs;
     size_t nmsgs, cap_msgs;
@@ -60,30 +76,53 @@ static bool is_reply_type(const char *t)
            !strcmp(t, "subscribed");
 }
 
-/* After a reset (a state whose sim time is below the last frame's) or a groom change, the last
+/* After a reset (a state whose steps are below the last frame's) or a groom change, the last
  * frame no longer tells the sim time or step: at_* and until_* wait for a frame that follows. */
 static void forget_stale_frame(runner *r, const char *type)
 {
     if (!r->have_frame) return;
     if (!strcmp(type, "groom")) r->have_frame = false;
-    const cJSON *t = strcmp(type, "state") ? NULL : scen_world_value(&r->world, "state", "sim_time");
-    if (cJSON_IsNumber(t) && t->valuedouble < r->last.sim.sim_time) r->have_frame = false;
+    const cJSON *t = strcmp(type, "state") ? NULL : scen_world_value(&r->world, "state", "steps");
+    if (cJSON_IsNumber(t) && t->valuedouble < (double)r->last.sim.sim_step) r->have_frame = false;
 }
 
-/* Takes the text messages received since the last call, in order: the world learns from them
- * and the replies are kept for matching. Called before each frame is checked, so that a frame
- * is judged with every message the server sent before it. */
-static void drain_texts(runner *r)
+/* scen_fetch_fn over HTTP: GET url from the host and port of the hello. */
+static core_status fetch_http(void *user, const char *url, size_t max_bytes, uint8_t **body, size_t *len, core_err *err)
+{
+    runner *r = user;
+    *body = NULL;
+    *len = 0;
+    wsc_http_desc d = { .host = r->host, .port = r->port, .path = url, .max_bytes = max_bytes, .timeout_ms = SCEN_CONNECT_MS };
+    wsc_http_reply rep;
+    if (!wsc_http_get(r->w, &d, &rep))
+        return core_fail(err, CORE_EIO, "groom data: GET http://%s:%d%.200s: %s", r->host, r->port, url, rep.error);
+    if (rep.status != 200) {
+        wsc_http_reply_free(&rep);
+        return core_fail(err, CORE_EIO, "groom data: GET http://%s:%d%.200s answered %d", r->host, r->port, url, rep.status);
+    }
+    *body = rep.body;
+    *len = rep.len;
+    return CORE_OK;
+}
+
+/* Takes the text messages received since the last call up to index limit, in order: the world
+ * learns from them and the replies are kept for matching. */
+static void drain_texts(runner *r, size_t limit)
 {
     size_t n;
     char *const *t = wsc_texts(r->conn, &n);
+    if (limit < n) n = limit;
     for (; r->next_text < n; r->next_text++) {
         const char *text = t[r->next_text];
         char type[32];
         proto_id id;
         if (proto_read_envelope(text, strlen(text), type, sizeof type, &id) != CORE_OK) continue;
         if (strcmp(type, "stats") == 0) continue;
-        scen_world_text(&r->world, text);
+        core_err err;
+        if (scen_world_text(&r->world, text, &err) != CORE_OK && !r->fatal[0])
+            snprintf(r->fatal, sizeof r->fatal, "%s", err.msg);
+        t = wsc_texts(r->conn, &n); /* a groom data fetch ran the connection: more may have come */
+        if (limit < n) n = limit;
         forget_stale_frame(r, type);
         if (!is_reply_type(type)) continue;
         if (r->nmsgs == r->cap_msgs) {
@@ -101,15 +140,12 @@ static void drain_texts(runner *r)
     }
 }
 
-static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user)
+/* Decodes one frame and, once the hello is read and the frame came after it, checks it. */
+static void take_frame(runner *r, const queued_frame *q)
 {
-    (void)conn;
-    runner *r = user;
-    if (r->frame_error[0]) return;
-    if (r->have_world) drain_texts(r);
     codec_frame_info info;
     core_err err;
-    if (codec_peek_header(data, len, &info, &err) != CORE_OK) goto bad;
+    if (codec_peek_header(q->data, q->len, &info, &err) != CORE_OK) goto bad;
     size_t need = 3u * (size_t)info.nstrands_sent * info.nverts;
     if (need > r->cap) {
         float *x = realloc(r->xyz, need * sizeof *x);
@@ -120,12 +156,12 @@ static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user
         r->xyz = x;
         r->cap = need;
     }
-    /* frames that come while the hello is read are decoded too: the decoder keeps their keyframe */
-    if (codec_decode(&r->dec, data, len, r->xyz, r->cap, &info, &err) != CORE_OK) goto bad;
-    if (!r->have_world) return;
+    /* frames that came before the hello are decoded too: the decoder keeps their keyframe */
+    if (codec_decode(&r->dec, q->data, q->len, r->xyz, r->cap, &info, &err) != CORE_OK) goto bad;
+    if (q->ntexts <= r->hello_at) return;
     if (r->reset_pending) {
-        if (!(info.sim.sim_time < r->reset_max_time)) {
-            r->reset_max_time = info.sim.sim_time;
+        if (info.sim.sim_step != 0 && info.sim.sim_step >= r->reset_max_step) {
+            r->reset_max_step = info.sim.sim_step;
             return;
         }
         r->reset_pending = false;
@@ -133,10 +169,50 @@ static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user
     r->last = info;
     r->have_frame = true;
     r->frames++;
-    if (r->check) scen_check_frame(r->check, &r->world, &info, r->xyz, core_now_ns());
+    if (r->check) scen_check_frame(r->check, &r->world, &info, r->xyz, q->arrival_ns);
     return;
 bad:
-    snprintf(r->frame_error, sizeof r->frame_error, "frame %lu does not decode: %s", r->frames, err.msg);
+    snprintf(r->fatal, sizeof r->fatal, "frame %lu does not decode: %s", r->frames, err.msg);
+}
+
+/* Takes every message received so far in the order it came: each frame after the text
+ * messages before it, so that a frame is judged with every message the server sent before it.
+ * Runs outside lws callbacks (a groom message fetches its data on r->w). Once the hello is read. */
+static void take_messages(runner *r)
+{
+    while (r->qhead < r->qlen) { /* the queue may grow while a frame's texts are taken */
+        queued_frame q = r->queue[r->qhead++];
+        drain_texts(r, q.ntexts);
+        if (!r->fatal[0]) take_frame(r, &q);
+        free(q.data);
+    }
+    r->qhead = r->qlen = 0;
+    drain_texts(r, SIZE_MAX);
+}
+
+static void on_frame(wsc_conn *conn, const uint8_t *data, size_t len, void *user)
+{
+    runner *r = user;
+    if (r->fatal[0]) return;
+    if (r->qlen == r->qcap) {
+        size_t cap = r->qcap ? 2 * r->qcap : 16;
+        queued_frame *q = realloc(r->queue, cap * sizeof *q);
+        if (!q) {
+            snprintf(r->fatal, sizeof r->fatal, "out of memory for %zu queued frames", cap);
+            return;
+        }
+        r->queue = q;
+        r->qcap = cap;
+    }
+    uint8_t *copy = malloc(len ? len : 1);
+    if (!copy) {
+        snprintf(r->fatal, sizeof r->fatal, "out of memory for a %zu-byte frame", len);
+        return;
+    }
+    memcpy(copy, data, len);
+    size_t ntexts;
+    wsc_texts(conn, &ntexts);
+    r->queue[r->qlen++] = (queued_frame){ copy, len, ntexts, core_now_ns() };
 }
 
 /* A condition a step waits for. */
@@ -154,9 +230,9 @@ static bool poll_cond(void *p)
 {
     wait_arg *a = p;
     if (a->met) return true; /* a condition may consume what it found (a reply): asked once */
-    drain_texts(a->r);
+    take_messages(a->r);
     a->met = a->cond(a->r, a->st, a->arg);
-    return a->met || !wsc_is_open(a->r->conn) || a->r->frame_error[0];
+    return a->met || !wsc_is_open(a->r->conn) || a->r->fatal[0];
 }
 
 /* Runs the connection until cond holds (true), or timeout_ms passes, the connection closes or a
@@ -173,7 +249,7 @@ static bool wait_until(runner *r, const scen_step *st, cond_fn cond, void *arg, 
         wsc_until(r->w, poll_cond, &a, left < SCEN_SLICE_MS ? (int)ceil(left) : SCEN_SLICE_MS);
     }
     if (a.met) return true;
-    if (r->frame_error[0]) snprintf(r->detail, sizeof r->detail, "%s", r->frame_error);
+    if (r->fatal[0]) snprintf(r->detail, sizeof r->detail, "%s", r->fatal);
     else
         snprintf(r->detail, sizeof r->detail, "the server closed the connection (%d %s)", wsc_close_code(r->conn),
                  wsc_close_reason(r->conn));
@@ -194,7 +270,7 @@ static bool at_time(runner *r, const scen_step *st, void *arg)
     if (st->at_ms >= 0) return elapsed_s(r) * 1e3 >= st->at_ms;
     if (!r->have_frame) return false;
     if (st->at_sim_time >= 0) return r->last.sim.sim_time >= st->at_sim_time;
-    if (st->at_step >= 0) return scen_world_frame_step(&r->world, &r->last) >= st->at_step;
+    if (st->at_step >= 0) return (double)r->last.sim.sim_step >= st->at_step;
     return true;
 }
 
@@ -235,7 +311,7 @@ static bool sim_time_reached(runner *r, const scen_step *st, void *arg)
 static bool step_reached(runner *r, const scen_step *st, void *arg)
 {
     (void)arg;
-    return r->have_frame && scen_world_frame_step(&r->world, &r->last) >= st->count;
+    return r->have_frame && (double)r->last.sim.sim_step >= st->count;
 }
 
 static bool never(runner *r, const scen_step *st, void *arg)
@@ -266,7 +342,8 @@ static bool json_close(const cJSON *a, const cJSON *b, double tol)
 }
 
 /* The value at path in what: the world's, or for "frame" the last frame's header (seq,
- * sim_time, step, keyframe, strands, strands_total, verts, stride, max_error). */
+ * sim_time, step, head_position, head_orientation, keyframe, strands, strands_total, verts,
+ * stride, max_error). */
 static const cJSON *value_of(runner *r, const char *what, const char *path)
 {
     if (strcmp(what, "frame") != 0) return scen_world_value(&r->world, what, path);
@@ -276,7 +353,9 @@ static const cJSON *value_of(runner *r, const char *what, const char *path)
     const codec_frame_info *f = &r->last;
     cJSON_AddNumberToObject(o, "seq", (double)f->seq);
     cJSON_AddNumberToObject(o, "sim_time", f->sim.sim_time);
-    cJSON_AddNumberToObject(o, "step", scen_world_frame_step(&r->world, f));
+    cJSON_AddNumberToObject(o, "step", (double)f->sim.sim_step);
+    cJSON_AddItemToObject(o, "head_position", cJSON_CreateFloatArray(f->sim.head_pos, 3));
+    cJSON_AddItemToObject(o, "head_orientation", cJSON_CreateFloatArray(f->sim.head_rot, 4));
     cJSON_AddBoolToObject(o, "keyframe", f->keyframe);
     cJSON_AddNumberToObject(o, "strands", f->nstrands_sent);
     cJSON_AddNumberToObject(o, "strands_total", f->nstrands_total);
@@ -307,7 +386,7 @@ static bool check_done(runner *r, const scen_step *st, void *arg)
 /* ---- steps ---- */
 
 /* A reset sent with frames seen: the last frame no longer tells the sim time or step, and
- * frames from before the reset are told apart by their sim time (runner.reset_pending). */
+ * frames from before the reset are told apart by their step (runner.reset_pending). */
 static void note_reset(runner *r, const char *text)
 {
     char type[32];
@@ -315,7 +394,7 @@ static void note_reset(runner *r, const char *text)
     if (!r->have_frame || proto_read_envelope(text, strlen(text), type, sizeof type, &id) != CORE_OK) return;
     if (strcmp(type, "reset") != 0) return;
     r->reset_pending = true;
-    r->reset_max_time = r->last.sim.sim_time;
+    r->reset_max_step = r->last.sim.sim_step;
     r->have_frame = false;
 }
 
@@ -330,7 +409,6 @@ static bool run_send(runner *r, const scen_step *st)
         return false;
     }
     wsc_send_text(r->conn, st->text);
-    scen_world_sent(&r->world, st->text);
     note_reset(r, st->text);
     snprintf(r->detail, sizeof r->detail, "sent %.900s", st->text);
     return true;
@@ -398,7 +476,7 @@ static bool run_wait(runner *r, const scen_step *st)
     if (!r->detail[0])
         snprintf(r->detail, sizeof r->detail, "%s (last frame: sim_time %.4f, step %.0f)",
                  ok ? "reached" : "not reached in time", r->have_frame ? r->last.sim.sim_time : -1.0,
-                 r->have_frame ? scen_world_frame_step(&r->world, &r->last) : -1.0);
+                 r->have_frame ? (double)r->last.sim.sim_step : -1.0);
     return ok;
 }
 
@@ -462,7 +540,7 @@ static bool run_check(runner *r, const scen_step *st)
     double fps;
     scen_check_fps_ok(&chk, &fps);
     snprintf(r->detail, sizeof r->detail, "%lu frames, %.1f frames/s, longest gap %.1f ms%s%.700s", chk.frames, fps,
-             (double)chk.max_gap_ns / 1e6, chk.roots_unchecked ? ", roots not checked on some (head pose unknown)" : "",
+             (double)chk.max_gap_ns / 1e6, chk.groom_unchecked ? ", some of a superseded groom (not checked)" : "",
              buf ? buf : "");
     free(buf);
     return ok;
@@ -517,7 +595,9 @@ static bool connect_hello(runner *r, const char *host, int port)
     }
     const char *hello = wsc_next_of_type(r->w, r->conn, "hello", SCEN_CONNECT_MS);
     core_err err;
-    if (!hello || scen_world_hello(&r->world, hello, strlen(hello), &err) != CORE_OK) {
+    r->host = host;
+    r->port = port;
+    if (!hello || scen_world_hello(&r->world, hello, strlen(hello), fetch_http, r, &err) != CORE_OK) {
         fprintf(stderr, "strandcastc: no usable hello from the server%s%s\n", hello ? ": " : "", hello ? err.msg : "");
         return false;
     }
@@ -525,6 +605,7 @@ static bool connect_hello(runner *r, const char *host, int port)
     size_t n;
     char *const *t = wsc_texts(r->conn, &n);
     while (r->next_text < n && t[r->next_text] != hello) r->next_text++;
+    r->hello_at = r->next_text;
     r->next_text++; /* the hello itself is read */
     return true;
 }
@@ -564,6 +645,8 @@ int scen_run(const scen_run_desc *d, const scen_script *s)
                 s->nsteps, r.frames, elapsed_s(&r));
 done:
     wsc_free(r.w);
+    for (size_t i = r.qhead; i < r.qlen; i++) free(r.queue[i].data);
+    free(r.queue);
     if (r.have_world) scen_world_free(&r.world);
     codec_decoder_free(&r.dec);
     free(r.xyz);

@@ -1,32 +1,13 @@
 /* scen: what a client knows of the server: the hello, the parameters and state announced since,
- * the groom and colliders the checks measure against, and the head pose frames were made under. */
+ * the groom and colliders the checks measure against (the groom data fetched from groom.url). */
 #include <cjson/cJSON.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "../proto/proto.h"
 #include "scen.h"
-
-#define SCEN_BLEND_S 0.4 /* PROTOCOL.md: a preset change blends the head over 0.4 s of sim time */
-
-/* n floats of a JSON number array into out (malloc'd); false when it is not such an array. */
-static bool float_array(const cJSON *a, size_t n, float **out)
-{
-    if (!cJSON_IsArray(a) || (size_t)cJSON_GetArraySize(a) != n || n == 0) return false;
-    float *v = malloc(n * sizeof *v);
-    if (!v) return false;
-    size_t i = 0;
-    for (const cJSON *e = a->child; e; e = e->next, i++) {
-        if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble)) {
-            free(v);
-            return false;
-        }
-        v[i] = (float)e->valuedouble;
-    }
-    *out = v;
-    return true;
-}
 
 static bool doubles(const cJSON *a, double *out, int n)
 {
@@ -47,11 +28,72 @@ static core_quat quat_of(const double q[4])
     return core_q_norm(r);
 }
 
-/* The per-strand rest segment lengths of a groom object (hello.groom or groom.groom) into
- * *out (n floats). The one place they are read, should they move to an HTTP resource. */
-static bool read_rest_lengths(const cJSON *groom, uint32_t n, float **out)
+static float f32_at(const unsigned char *p)
 {
-    return float_array(cJSON_GetObjectItemCaseSensitive(groom, "rest_lengths"), n, out);
+    uint32_t bits = (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+    float f;
+    memcpy(&f, &bits, 4);
+    return f;
+}
+
+/* The per-strand rest segment lengths and rest roots of a groom object (hello.groom or
+ * groom.groom: strands x verts) into *rest and *roots (malloc'd; both NULL when the data was
+ * superseded: the server already serves a newer groom, whose groom message is on its way).
+ * The one place they are read: fetched from the groom's url and checked against its etag and
+ * bytes. CORE_EFORMAT or the fetch's status with "groom data: ..." in err. */
+static core_status read_groom_data(scen_world *w, const cJSON *g, uint32_t strands, uint32_t verts, float **rest,
+                                   float **roots, core_err *err)
+{
+    *rest = *roots = NULL;
+    const cJSON *url = cJSON_GetObjectItemCaseSensitive(g, "url"), *etag = cJSON_GetObjectItemCaseSensitive(g, "etag"),
+                *bytes = cJSON_GetObjectItemCaseSensitive(g, "bytes");
+    if (!cJSON_IsString(url) || url->valuestring[0] != '/' || !cJSON_IsString(etag) || !cJSON_IsNumber(bytes) ||
+        !(bytes->valuedouble >= PROTO_GROOM_HEADER && bytes->valuedouble <= (double)SCEN_GROOM_MAX_BYTES))
+        return core_fail(err, CORE_EFORMAT, "groom data: groom.url (a path), groom.etag and groom.bytes (at most %llu) wanted",
+                         (unsigned long long)SCEN_GROOM_MAX_BYTES);
+    if (w->rest_lengths && strcmp(w->data_etag, etag->valuestring) == 0 && w->strands == strands && w->verts == verts) {
+        *rest = w->rest_lengths; /* the bytes held are this version's */
+        *roots = w->roots;
+        w->rest_lengths = w->roots = NULL;
+        return CORE_OK;
+    }
+    if (!w->fetch) return core_fail(err, CORE_EINVAL, "groom data: no way to fetch %.200s", url->valuestring);
+    size_t want = (size_t)bytes->valuedouble, len = 0;
+    uint8_t *bin = NULL;
+    core_status st = w->fetch(w->fetch_user, url->valuestring, want, &bin, &len, err);
+    if (st != CORE_OK) return st;
+    char tag[17];
+    proto_bin_etag(bin, len, tag);
+    uint32_t ns = 0, nv = 0;
+    if (strcmp(tag, etag->valuestring) != 0) {
+        st = CORE_OK; /* superseded: no data until the next groom message */
+    } else if (len != want) {
+        st = core_fail(err, CORE_EFORMAT, "groom data: %.200s sent %zu bytes, groom.bytes says %zu", url->valuestring, len, want);
+    } else if ((st = proto_groom_bin_read(bin, len, &ns, &nv, err)) != CORE_OK) {
+        core_err inner = *err;
+        st = core_fail(err, st, "groom data: %.200s: %s", url->valuestring, inner.msg);
+    } else if (ns != strands || nv != verts) {
+        st = core_fail(err, CORE_EFORMAT, "groom data: %.200s holds %u x %u, groom says %u x %u", url->valuestring, ns, nv,
+                       strands, verts);
+    } else {
+        *rest = malloc((size_t)ns * sizeof **rest);
+        *roots = malloc(3u * (size_t)ns * sizeof **roots);
+        if (!*rest || !*roots) {
+            st = core_fail(err, CORE_ENOMEM, "groom data: out of memory for %u strands", ns);
+        } else {
+            const unsigned char *p = bin + PROTO_GROOM_HEADER;
+            for (size_t i = 0; i < ns; i++, p += 4) (*rest)[i] = f32_at(p);
+            for (size_t i = 0; i < 3u * (size_t)ns; i++, p += 4) (*roots)[i] = f32_at(p);
+            snprintf(w->data_etag, sizeof w->data_etag, "%s", tag);
+        }
+    }
+    free(bin);
+    if (st != CORE_OK) {
+        free(*rest);
+        free(*roots);
+        *rest = *roots = NULL;
+    }
+    return st;
 }
 
 /* Reads a groom object and the colliders array into w (replacing what it held). */
@@ -62,23 +104,13 @@ static core_status read_groom(scen_world *w, const cJSON *g, const cJSON *cols, 
         !(nv->valuedouble >= 2 && nv->valuedouble <= 4096))
         return core_fail(err, CORE_EFORMAT, "groom.strands / groom.verts missing or out of range");
     uint32_t strands = (uint32_t)ns->valuedouble, verts = (uint32_t)nv->valuedouble;
-    float *rest = NULL, *roots = NULL;
-    if (!read_rest_lengths(g, strands, &rest))
-        return core_fail(err, CORE_EFORMAT, "groom.rest_lengths: want %u finite numbers", strands);
-    if (!float_array(cJSON_GetObjectItemCaseSensitive(g, "roots"), 3u * strands, &roots)) {
-        free(rest);
-        return core_fail(err, CORE_EFORMAT, "groom.roots: want %u finite numbers", 3u * strands);
-    }
     scen_collider cs[SCEN_MAX_COLLIDERS];
     int nc = 0;
     for (const cJSON *c = cJSON_IsArray(cols) ? cols->child : NULL; c; c = c->next) {
         const cJSON *kind = cJSON_GetObjectItemCaseSensitive(c, "kind");
         const char *k = cJSON_IsString(kind) ? kind->valuestring : "";
-        if (nc == SCEN_MAX_COLLIDERS) {
-            free(rest);
-            free(roots);
+        if (nc == SCEN_MAX_COLLIDERS)
             return core_fail(err, CORE_EFORMAT, "colliders: more than %d", SCEN_MAX_COLLIDERS);
-        }
         scen_collider *o = &cs[nc];
         memset(o, 0, sizeof *o);
         double q[4] = { 0, 0, 0, 1 };
@@ -105,17 +137,18 @@ static core_status read_groom(scen_world *w, const cJSON *g, const cJSON *cols, 
         } else {
             ok = false;
         }
-        if (!ok) {
-            free(rest);
-            free(roots);
+        if (!ok)
             return core_fail(err, CORE_EFORMAT, "colliders[%d]: not a sphere, capsule or ellipsoid with finite fields and positive radii", nc);
-        }
         nc++;
     }
+    float *rest, *roots;
+    core_status st = read_groom_data(w, g, strands, verts, &rest, &roots, err);
+    if (st != CORE_OK) return st;
     free(w->rest_lengths);
     free(w->roots);
     w->rest_lengths = rest;
     w->roots = roots;
+    if (!rest) w->data_etag[0] = '\0';
     w->strands = strands;
     w->verts = verts;
     memcpy(w->colliders, cs, sizeof cs);
@@ -132,15 +165,12 @@ static void keep(void **slot, const cJSON *v)
     *slot = copy;
 }
 
-static void set_preset(scen_world *w, const cJSON *animation)
-{
-    const cJSON *p = cJSON_GetObjectItemCaseSensitive(animation, "preset");
-    if (cJSON_IsString(p)) snprintf(w->preset, sizeof w->preset, "%s", p->valuestring);
-}
-
-core_status scen_world_hello(scen_world *w, const char *text, size_t len, core_err *err)
+core_status scen_world_hello(scen_world *w, const char *text, size_t len, scen_fetch_fn fetch, void *fetch_user,
+                             core_err *err)
 {
     memset(w, 0, sizeof *w);
+    w->fetch = fetch;
+    w->fetch_user = fetch_user;
     cJSON *root = cJSON_ParseWithLength(text, len);
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(root, "type");
     core_status st = CORE_OK;
@@ -151,21 +181,6 @@ core_status scen_world_hello(scen_world *w, const char *text, size_t len, core_e
     if ((st = read_groom(w, cJSON_GetObjectItemCaseSensitive(root, "groom"),
                          cJSON_GetObjectItemCaseSensitive(root, "colliders"), err)))
         goto out;
-    const cJSON *head = cJSON_GetObjectItemCaseSensitive(root, "head");
-    double p[3], q[4];
-    if (!doubles(cJSON_GetObjectItemCaseSensitive(head, "position"), p, 3) ||
-        !doubles(cJSON_GetObjectItemCaseSensitive(head, "orientation"), q, 4)) {
-        st = core_fail(err, CORE_EFORMAT, "head: want position [x,y,z] and orientation [x,y,z,w]");
-        goto out;
-    }
-    snprintf(w->preset, sizeof w->preset, "none");
-    set_preset(w, cJSON_GetObjectItemCaseSensitive(root, "animation"));
-    w->base.pos = core_v3((float)p[0], (float)p[1], (float)p[2]);
-    w->base.rot = quat_of(q);
-    /* under a running preset hello.head is the animated pose, not the one presets run on */
-    w->base_known = strcmp(w->preset, "none") == 0;
-    w->heads[0] = w->base;
-    w->nheads = w->base_known;
     const cJSON *params = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(root, "params"), "values");
     keep(&w->params, cJSON_IsObject(params) ? params : NULL);
     keep(&w->state, cJSON_GetObjectItemCaseSensitive(root, "state"));
@@ -177,8 +192,6 @@ core_status scen_world_hello(scen_world *w, const char *text, size_t len, core_e
             if (v) cJSON_AddItemToObject(w->groom, parts[i], v);
         }
     }
-    const cJSON *stime = cJSON_GetObjectItemCaseSensitive(w->state, "sim_time");
-    w->last_state_time = cJSON_IsNumber(stime) ? stime->valuedouble : 0.0;
     w->hello = root;
     root = NULL;
     if (!w->params) w->params = cJSON_CreateObject();
@@ -188,32 +201,9 @@ out:
     return st;
 }
 
-/* A state message (hello.state's shape): the preset, and a preset change's blend. */
-static void take_state(scen_world *w, const cJSON *m)
+core_status scen_world_text(scen_world *w, const char *text, core_err *err)
 {
-    char before[32];
-    snprintf(before, sizeof before, "%s", w->preset);
-    set_preset(w, cJSON_GetObjectItemCaseSensitive(m, "animation"));
-    const cJSON *stime = cJSON_GetObjectItemCaseSensitive(m, "sim_time");
-    double t = cJSON_IsNumber(stime) ? stime->valuedouble : w->last_state_time;
-    if (t < w->last_state_time && w->blend_until > 0) w->blend_until = t + SCEN_BLEND_S; /* a reset restarts time */
-    w->last_state_time = t;
-    bool was_moving = strcmp(before, "none") != 0, moving = strcmp(w->preset, "none") != 0;
-    if (was_moving && !moving) {
-        /* the head blends back to the last motion pose */
-        double dt = 1.0 / 60.0;
-        const cJSON *d = cJSON_GetObjectItemCaseSensitive(w->params, "dt");
-        if (cJSON_IsNumber(d) && d->valuedouble > 0) dt = d->valuedouble;
-        w->blend_until = t + SCEN_BLEND_S + 2.0 * dt;
-        w->heads[0] = w->base;
-        w->nheads = w->base_known;
-    } else if (moving) {
-        w->nheads = 0;
-    }
-}
-
-void scen_world_text(scen_world *w, const char *text)
-{
+    core_status st = CORE_OK;
     cJSON *m = cJSON_Parse(text);
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(m, "type");
     if (!cJSON_IsString(t)) goto out;
@@ -230,55 +220,21 @@ void scen_world_text(scen_world *w, const char *text)
     } else if (strcmp(t->valuestring, "state") == 0) {
         cJSON_DeleteItemFromObjectCaseSensitive(m, "type");
         keep(&w->state, m);
-        take_state(w, m);
     } else if (strcmp(t->valuestring, "groom") == 0) {
-        core_err err;
-        read_groom(w, cJSON_GetObjectItemCaseSensitive(m, "groom"), cJSON_GetObjectItemCaseSensitive(m, "colliders"), &err);
+        st = read_groom(w, cJSON_GetObjectItemCaseSensitive(m, "groom"), cJSON_GetObjectItemCaseSensitive(m, "colliders"), err);
         cJSON_DeleteItemFromObjectCaseSensitive(m, "type");
         keep(&w->groom, m);
     }
 out:
     cJSON_Delete(m);
+    return st;
 }
 
-void scen_world_sent(scen_world *w, const char *msg)
+core_xform scen_world_head(const codec_frame_info *info)
 {
-    cJSON *m = cJSON_Parse(msg);
-    const cJSON *t = cJSON_GetObjectItemCaseSensitive(m, "type");
-    double p[3], q[4];
-    if (cJSON_IsString(t) && strcmp(t->valuestring, "motion") == 0 &&
-        doubles(cJSON_GetObjectItemCaseSensitive(m, "position"), p, 3) &&
-        doubles(cJSON_GetObjectItemCaseSensitive(m, "orientation"), q, 4) && (q[0] || q[1] || q[2] || q[3])) {
-        core_xform x = { core_v3((float)p[0], (float)p[1], (float)p[2]), quat_of(q) };
-        w->base = x;
-        w->base_known = true;
-        if (strcmp(w->preset, "none") == 0) {
-            /* frames in flight still show the old pose: either is right until a frame shows the new one */
-            if (w->nheads > 0) w->heads[1] = w->heads[0];
-            w->nheads = w->nheads > 0 ? 2 : 1;
-            w->heads[0] = x;
-        }
-    }
-    cJSON_Delete(m);
-}
-
-int scen_world_head(const scen_world *w, const codec_frame_info *info, core_xform *out)
-{
-    if (strcmp(w->preset, "none") != 0 || info->sim.sim_time < w->blend_until) return 0;
-    for (int k = 0; k < w->nheads; k++) out[k] = w->heads[k];
-    return w->nheads;
-}
-
-void scen_world_head_matched(scen_world *w, int k)
-{
-    if (k == 0 && w->nheads > 1) w->nheads = 1;
-}
-
-double scen_world_frame_step(const scen_world *w, const codec_frame_info *info)
-{
-    const cJSON *d = cJSON_GetObjectItemCaseSensitive(w->params, "dt");
-    double dt = cJSON_IsNumber(d) && d->valuedouble > 0 ? d->valuedouble : 1.0 / 60.0;
-    return floor(info->sim.sim_time / dt + 0.5);
+    const codec_sim_info *h = &info->sim;
+    core_quat q = { h->head_rot[0], h->head_rot[1], h->head_rot[2], h->head_rot[3] };
+    return (core_xform){ core_v3(h->head_pos[0], h->head_pos[1], h->head_pos[2]), core_q_norm(q) };
 }
 
 bool scen_world_collisions_on(const scen_world *w)

@@ -35,7 +35,7 @@ struct wsc_conn {
 
 struct wsc {
     struct lws_context *ctx;
-    struct lws_protocols protocols[2];
+    struct lws_protocols protocols[3];
     wsc_conn *conns;
     lws_sorted_usec_list_t sul;
 };
@@ -121,11 +121,103 @@ static int callback(struct lws *wsi, enum lws_callback_reasons reason, void *use
     }
 }
 
+/* One GET in progress (wsc_http_get): the connection's opaque user data until the exchange
+ * ends, when the connection is detached from it (wsi NULL) and left to lws to close. */
+typedef struct http_get {
+    wsc_http_reply *r;
+    size_t max;
+    struct lws *wsi;
+    bool done; /* the response is complete, or the exchange failed (r->error set) */
+} http_get;
+
+static void http_fail(http_get *g, const char *msg)
+{
+    if (g->done) return;
+    snprintf(g->r->error, sizeof g->r->error, "%s", msg);
+    g->done = true;
+}
+
+/* Ends the exchange on g's side: lws may close or free the connection from now on. Returns
+ * the callback's answer: -1 closes the connection. */
+static int http_detach(http_get *g, int rc)
+{
+    if (g->wsi) lws_set_opaque_user_data(g->wsi, NULL);
+    g->wsi = NULL;
+    g->done = true;
+    return rc;
+}
+
+/* Appends a piece of the body; false (the GET failed) past the cap. */
+static bool http_take(http_get *g, const void *in, size_t len)
+{
+    wsc_http_reply *r = g->r;
+    char msg[96];
+    if (len > g->max - r->len) {
+        snprintf(msg, sizeof msg, "the body exceeds the %zu-byte limit", g->max);
+        http_fail(g, msg);
+        return false;
+    }
+    uint8_t *b = realloc(r->body, r->len + len);
+    if (!b) {
+        snprintf(msg, sizeof msg, "out of memory for a %zu-byte body", r->len + len);
+        http_fail(g, msg);
+        return false;
+    }
+    memcpy(b + r->len, in, len);
+    r->body = b;
+    r->len += len;
+    return true;
+}
+
+static int http_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in, size_t len)
+{
+    (void)user;
+    http_get *g = lws_get_opaque_user_data(wsi);
+    char msg[160];
+    switch (reason) {
+    case LWS_CALLBACK_CLIENT_CONNECTION_ERROR:
+        if (!g) return 0;
+        snprintf(msg, sizeof msg, "cannot connect: %s", in ? (const char *)in : "connection error");
+        http_fail(g, msg);
+        return http_detach(g, 0);
+    case LWS_CALLBACK_ESTABLISHED_CLIENT_HTTP: {
+        if (!g) return -1;
+        g->r->status = (int)lws_http_client_http_response(wsi);
+        char cl[32];
+        if (lws_hdr_copy(wsi, cl, sizeof cl, WSI_TOKEN_HTTP_CONTENT_LENGTH) > 0) {
+            unsigned long long n = strtoull(cl, NULL, 10);
+            if (n > g->max) {
+                snprintf(msg, sizeof msg, "Content-Length %llu exceeds the %zu-byte limit", n, g->max);
+                http_fail(g, msg);
+                return http_detach(g, -1);
+            }
+        }
+        return 0;
+    }
+    case LWS_CALLBACK_RECEIVE_CLIENT_HTTP_READ:
+        if (!g) return -1;
+        return http_take(g, in, len) ? 0 : http_detach(g, -1);
+    case LWS_CALLBACK_RECEIVE_CLIENT_HTTP: {
+        char buf[LWS_PRE + 16384], *p = buf + LWS_PRE;
+        int n = sizeof buf - LWS_PRE;
+        return lws_http_client_read(wsi, &p, &n) < 0 ? -1 : 0;
+    }
+    case LWS_CALLBACK_COMPLETED_CLIENT_HTTP:
+        return g ? http_detach(g, -1) : -1; /* one request per connection: no keep-alive */
+    case LWS_CALLBACK_CLOSED_CLIENT_HTTP:
+        if (!g) return 0;
+        http_fail(g, "the server closed the connection before the response was complete");
+        return http_detach(g, 0);
+    default: return 0;
+    }
+}
+
 wsc *wsc_new(void)
 {
     wsc *w = calloc(1, sizeof *w);
     lws_set_log_level(LLL_ERR, NULL);
     w->protocols[0] = (struct lws_protocols){ "wsc", callback, 0, 65536, 0, NULL, 0 };
+    w->protocols[1] = (struct lws_protocols){ "wsc-http", http_callback, 0, 0, 0, NULL, 0 };
     struct lws_context_creation_info info;
     memset(&info, 0, sizeof info);
     info.port = CONTEXT_PORT_NO_LISTEN;
@@ -324,6 +416,55 @@ const char *wsc_next_of_type(wsc *w, wsc_conn *c, const char *type, int timeout_
     find_arg f = { c, type, NULL };
     wsc_until(w, find_type, &f, timeout_ms);
     return f.found;
+}
+
+static bool http_done(void *arg) { return ((const http_get *)arg)->done; }
+
+bool wsc_http_get(wsc *w, const wsc_http_desc *d, wsc_http_reply *r)
+{
+    memset(r, 0, sizeof *r);
+    http_get g = { r, d->max_bytes ? d->max_bytes : WSC_HTTP_MAX_BYTES, NULL, false };
+    const char *host = d->host ? d->host : "127.0.0.1";
+    int timeout = d->timeout_ms > 0 ? d->timeout_ms : 5000;
+    char msg[160];
+    struct lws_client_connect_info ci;
+    memset(&ci, 0, sizeof ci);
+    ci.context = w->ctx;
+    ci.address = host;
+    ci.port = d->port;
+    ci.path = d->path ? d->path : "/";
+    ci.host = host;
+    ci.origin = host;
+    ci.method = "GET";
+    ci.alpn = "http/1.1";
+    ci.local_protocol_name = "wsc-http";
+    ci.opaque_user_data = &g;
+    ci.pwsi = &g.wsi;
+    if (d->tls) ci.ssl_connection = LCCSCF_USE_SSL | LCCSCF_ALLOW_SELFSIGNED | LCCSCF_SKIP_SERVER_CERT_HOSTNAME_CHECK;
+    if (!lws_client_connect_via_info(&ci)) {
+        g.wsi = NULL; /* scrubbed by lws */
+        snprintf(msg, sizeof msg, "cannot connect to %s:%d", host, d->port);
+        http_fail(&g, msg);
+    }
+    if (!wsc_until(w, http_done, &g, timeout)) {
+        snprintf(msg, sizeof msg, "no complete response from %s:%d%s in %d ms", host, d->port, ci.path, timeout);
+        http_fail(&g, msg);
+    }
+    if (g.wsi) { /* timed out with the connection open: it must not reach g once this returns */
+        lws_set_opaque_user_data(g.wsi, NULL);
+        lws_set_timeout(g.wsi, PENDING_TIMEOUT_CLOSE_SEND, LWS_TO_KILL_ASYNC);
+    }
+    if (!r->error[0]) return true;
+    free(r->body);
+    r->body = NULL;
+    r->len = 0;
+    return false;
+}
+
+void wsc_http_reply_free(wsc_http_reply *r)
+{
+    free(r->body);
+    memset(r, 0, sizeof *r);
 }
 
 uint64_t wsc_binary_count(const wsc_conn *c) { return c->nbinary; }

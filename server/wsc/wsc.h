@@ -57,6 +57,36 @@ char *const *wsc_texts(wsc_conn *c, size_t *count);
  * before it; returns it (owned by c) or NULL on timeout. */
 const char *wsc_next_of_type(wsc *w, wsc_conn *c, const char *type, int timeout_ms);
 
+/* An HTTP GET (wsc_http_get). Zero means the default. */
+typedef struct wsc_http_desc {
+    const char *host;   /* an IP address or a name; NULL: 127.0.0.1 */
+    int port;           /* required */
+    bool tls;           /* https://, accepting any certificate (as wsc_connect_tls) */
+    const char *path;   /* "/groom.bin"; NULL: "/" */
+    size_t max_bytes;   /* the largest body taken; default WSC_HTTP_MAX_BYTES */
+    int timeout_ms;     /* the whole exchange; default 5000 */
+} wsc_http_desc;
+
+#define WSC_HTTP_MAX_BYTES ((size_t)64 << 20)
+
+/* A GET's answer: the status and the body (malloc'd, owned by the caller: wsc_http_reply_free). */
+typedef struct wsc_http_reply {
+    int status;        /* 200, 404, ...; 0 when no response came */
+    uint8_t *body;     /* len bytes, NULL when empty */
+    size_t len;
+    char error[192];   /* why wsc_http_get failed ("" when it did not) */
+} wsc_http_reply;
+
+/* GETs d->path from d->host:d->port on its own connection and runs w's event loop (every other
+ * connection of w is served meanwhile) until the whole response is in. True with any status
+ * (the caller judges it) and the body; false, with the reason in r->error and no body, when the
+ * connection fails, the response is cut short, its body (by Content-Length or as it arrives)
+ * would exceed max_bytes, or timeout_ms passes. r is overwritten. Not to be called from inside
+ * a callback of w (an on_binary): use a second wsc there. */
+bool wsc_http_get(wsc *w, const wsc_http_desc *d, wsc_http_reply *r);
+/* Frees r's body and zeroes r. */
+void wsc_http_reply_free(wsc_http_reply *r);
+
 uint64_t wsc_binary_count(const wsc_conn *c);
 bool wsc_is_open(const wsc_conn *c);
 bool wsc_failed(const wsc_conn *c);

@@ -126,6 +126,16 @@ void test_tls_serves_wss(void **state)
     cJSON_Delete(expect_msg(fx, c, "hello"));
     wait_frames(fx, v, 3);
     assert_int_equal(v->bad, 0);
+    /* wsc_http_get over TLS: the groom data binary from the same port */
+    wsc_http_reply r;
+    wsc_http_desc d = { .port = fx->d.port, .tls = true, .path = "/groom.bin" };
+    if (!wsc_http_get(fx->w, &d, &r)) fail_msg("GET https /groom.bin: %s", r.error);
+    assert_int_equal(r.status, 200);
+    uint32_t ns, nv;
+    core_err err;
+    if (proto_groom_bin_read(r.body, r.len, &ns, &nv, &err) != CORE_OK) fail_msg("%s", err.msg);
+    assert_int_equal(ns, NSTRANDS);
+    wsc_http_reply_free(&r);
     wsc_conn *plain = wsc_connect(fx->w, fx->d.port, SUBPROTOCOL, NULL, NULL);
     assert_false(wsc_wait_open(fx->w, plain, 3000));
 }
