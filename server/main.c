@@ -65,6 +65,15 @@ static void usage(FILE *f)
             "                         measured at start-up on a 2048 x 32 groom; 0 = no limit (default %.0f)\n"
             "Run\n"
             "  --steps N              exit after N simulation steps (default 0 = until SIGINT/SIGTERM)\n"
+            "  --record FILE          write the initial state and every input that changes the simulation, with\n"
+            "                         its step, to FILE (format: proto/RECORD.md); a write error is logged and\n"
+            "                         counted (strandcast_record_errors_total), the simulation goes on\n"
+            "  --record-digests       with --record: also a digest of the positions after every step, which\n"
+            "                         --replay checks bit for bit (CPU backend)\n"
+            "  --replay FILE          run a recording again from its initial state (groom, collider, counts, seed,\n"
+            "                         backend, threads and parameters come from FILE), streamed like a live\n"
+            "                         session; clients' changes are refused (bad_state) until its last step, then\n"
+            "                         the daemon pauses and is live (with --no-net it exits)\n"
             "  --help                 this text;  --version  the version\n\n"
             "The simulation runs in real time (one step of dt per dt of wall time) and logs steps/s every %.0f s.\n"
             "Protocol: WebSocket subprotocol %s, spec in proto/PROTOCOL.md. Metrics: GET /metrics.\n"
@@ -88,7 +97,7 @@ enum {
     OPT_GROOM = 256, OPT_COLLIDER, OPT_STRANDS, OPT_VERTS, OPT_SEED, OPT_BACKEND, OPT_DEVICE, OPT_THREADS, OPT_LISTEN,
     OPT_PORT, OPT_WEB, OPT_ASSETS, OPT_RATE, OPT_MAX_ERROR, OPT_KEY_INTERVAL, OPT_CLIENT_BUFFER, OPT_PING_INTERVAL,
     OPT_PING_TIMEOUT, OPT_MAX_CLIENTS, OPT_MIN_STEP_RATE, OPT_TOKEN_FILE, OPT_INSECURE_OPEN, OPT_ALLOW_ORIGIN, OPT_TLS_CERT, OPT_TLS_KEY,
-    OPT_NO_NET, OPT_STEPS, OPT_VERSION
+    OPT_NO_NET, OPT_STEPS, OPT_RECORD, OPT_RECORD_DIGESTS, OPT_REPLAY, OPT_VERSION
 };
 
 static const struct option options[] = {
@@ -119,6 +128,9 @@ static const struct option options[] = {
     { "tls-key", required_argument, NULL, OPT_TLS_KEY },
     { "no-net", no_argument, NULL, OPT_NO_NET },
     { "steps", required_argument, NULL, OPT_STEPS },
+    { "record", required_argument, NULL, OPT_RECORD },
+    { "record-digests", no_argument, NULL, OPT_RECORD_DIGESTS },
+    { "replay", required_argument, NULL, OPT_REPLAY },
     { "help", no_argument, NULL, 'h' },
     { "version", no_argument, NULL, OPT_VERSION },
     { NULL, 0, NULL, 0 },
@@ -255,6 +267,9 @@ static int apply(int opt, const char *flag, const char *v, app_desc *d, extra_ar
     case OPT_TLS_CERT: d->tls_cert = v; break;
     case OPT_TLS_KEY: d->tls_key = v; break;
     case OPT_NO_NET: d->no_net = true; break;
+    case OPT_RECORD: d->record = v; break;
+    case OPT_RECORD_DIGESTS: d->record_digests = true; break;
+    case OPT_REPLAY: d->replay = v; break;
     }
     return rc;
 }
@@ -290,6 +305,8 @@ int main(int argc, char **argv)
         return bad("--listen", d.listen,
                    "beyond loopback anyone could change the simulation: give --token-file FILE (clients then need "
                    "its token to make changes), or --insecure-open");
+    if (d.record && d.replay) return bad("--record", d.record, "not with --replay");
+    if (d.record_digests && !d.record) return bad("--record-digests", NULL, "needs --record FILE");
     if (!d.tls_cert != !d.tls_key) return bad(d.tls_cert ? "--tls-cert" : "--tls-key", NULL, "needs both --tls-cert and --tls-key");
     int interval = d.ping_interval ? d.ping_interval : NET_DEFAULT_PING_S;
     if (d.ping_timeout && d.ping_timeout <= interval) {

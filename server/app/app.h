@@ -45,6 +45,10 @@ typedef struct app_desc {
     const char *tls_cert, *tls_key;   /* PEM files: serve https/wss only; NULL = plain */
     bool no_net;               /* simulate and log only */
     uint64_t steps;            /* stop after this many steps; 0 = run until SIGINT/SIGTERM */
+    const char *record;        /* write the initial state and every input to this file (proto/RECORD.md) */
+    bool record_digests;       /* with record: a digest of the positions after every step */
+    const char *replay;        /* run this recording (its initial state replaces groom, collider, strands,
+                                * verts, seed, backend and threads); not with record */
 } app_desc;
 
 /* The client limit when app_desc.max_clients is 0: APP_CLIENTS_PER_CORE per online core, at

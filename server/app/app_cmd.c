@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "app_cmd.h"
+#include "app_play.h"
 
 void app_cmd_tell_failure(app_world *w, int stream, uint32_t client)
 {
@@ -94,6 +95,7 @@ static void set_params(app_world *w, uint32_t client, const proto_msg *m)
         return;
     }
     w->params = p;
+    app_play_record(w, m);
     app_reply_ok(w->out, client, m, next_step(w));
     app_send(w->out, NET_ALL, proto_build_params(NULL, w->ptable, w->nparams, &w->params, changed, client),
              APP_ANNOUNCE_PARAMS);
@@ -116,6 +118,7 @@ static void motion(app_world *w, uint32_t client, const proto_msg *m)
     }
     core_xform base = { m->u.motion.position, m->u.motion.orientation };
     bool stopped = app_anim_motion(&w->anim, base);
+    app_play_record(w, m);
     if (m->id.kind != PROTO_ID_NONE) app_reply_ok(w->out, client, m, next_step(w));
     else app_count_accepted(w->out);
     if (stopped) broadcast_state(w);
@@ -154,6 +157,7 @@ static void subscribe(app_world *w, uint32_t client, const proto_msg *m)
 
 static void handle_msg(app_world *w, uint32_t client, const proto_msg *m)
 {
+    if (app_play_refuse(w, client, m)) return;
     switch (m->type) {
     case PROTO_GET_PARAMS:
         app_count_accepted(w->out);
@@ -184,6 +188,7 @@ static void handle_msg(app_world *w, uint32_t client, const proto_msg *m)
         }
         const int64_t first = next_step(w) + w->step_budget; /* after the steps still owed */
         w->step_budget += m->u.step.count;
+        app_play_record(w, m);
         if (w->step_budget > PROTO_MAX_STEP) w->step_budget = PROTO_MAX_STEP;
         app_reply_ok(w->out, client, m, first);
         return; /* the state follows when the steps are done */
@@ -201,6 +206,7 @@ static void handle_msg(app_world *w, uint32_t client, const proto_msg *m)
     }
     /* reset: the rest pose at step 0 (published at once); pause: no step after the current one */
     int64_t shows = m->type == PROTO_RESET ? 0 : m->type == PROTO_PAUSE ? next_step(w) - 1 : next_step(w);
+    app_play_record(w, m); /* animate, reset, pause, resume */
     app_reply_ok(w->out, client, m, shows);
     broadcast_state(w);
 }

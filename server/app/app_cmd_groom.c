@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "app_cmd_groom.h"
+#include "app_play.h"
 
 /* The end of a set_groom: the next may come (from the reply on, a client may send it). */
 static void done(app_world *w) { atomic_fetch_sub(w->grooms_pending, 1); }
@@ -124,6 +125,7 @@ void app_cmd_groom_poll(app_world *w)
         done(w); /* before the replies: a client may send the next set_groom on seeing them */
         unsigned long long t0 = core_now_ns();
         swap_groom(w, l);
+        app_play_record(w, m);
         app_groom_publish(w->out->net, &w->groom); /* before the groom message that names it */
         core_log(CORE_LOG_INFO, "app",
                  "client %u: groom %s, %u strands x %u vertices (load %.0f ms), collider %s (load %.0f ms, grid %.0f ms), "

@@ -120,7 +120,18 @@ size_t app_metrics(void *user, char *buf, size_t cap)
 {
     app_gate *g = user;
     app_stats s = app_stats_read(g->board);
-    return app_stats_metrics(&s, atomic_load(&g->out->accepted), atomic_load(&g->out->rejected), buf, cap);
+    size_t n = app_stats_metrics(&s, atomic_load(&g->out->accepted), atomic_load(&g->out->rejected), buf, cap);
+    if (!g->rec || n + 1 >= cap) return n;
+    int k = snprintf(buf + n, cap - n,
+                     "# HELP strandcast_record_bytes_total Bytes written to the --record file.\n"
+                     "# TYPE strandcast_record_bytes_total counter\nstrandcast_record_bytes_total %llu\n"
+                     "# HELP strandcast_record_errors_total Failed writes to the --record file and records dropped "
+                     "(the recording is incomplete when above 0).\n"
+                     "# TYPE strandcast_record_errors_total counter\nstrandcast_record_errors_total %llu\n",
+                     (unsigned long long)atomic_load(&g->rec->bytes),
+                     (unsigned long long)(atomic_load(&g->rec->errors) + atomic_load(&g->rec->dropped)));
+    if (k < 0) return n;
+    return n + (size_t)k < cap ? n + (size_t)k : cap - 1;
 }
 
 void app_gate_free(app_gate *g) { app_peers_free(&g->peers); }

@@ -8,6 +8,7 @@
 #include <stdint.h>
 
 #include "app_mailbox.h"
+#include "app_record.h"
 #include "app_outbox.h"
 #include "app_peers.h"
 #include "app_stats.h"
@@ -22,6 +23,7 @@ typedef struct app_gate {
     const atomic_bool *sim_done;  /* the sim thread has stopped: opens and closes are not waited for */
     const char *token;            /* NULL: every client is a writer */
     app_peers peers;              /* owned: each client's budget and access */
+    app_record *rec;              /* --record's counters for /metrics; NULL = not recording */
 } app_gate;
 
 /* Net-thread callbacks (net_callbacks.user = the app_gate). app_gate_free releases the peers

@@ -27,6 +27,8 @@ typedef struct app {
     app_assets assets;        /* read-only after set-up */
     app_gate gate;            /* the net callbacks' view */
     app_world w;              /* the sim thread's */
+    app_record rec;           /* --record (the sim thread appends, its own thread writes) */
+    app_replay replay;        /* --replay (read-only but for the sim thread's cursor) */
 } app;
 
 int app_default_max_clients(void)
@@ -114,6 +116,7 @@ static core_status setup_world(app *a, const core_param_info *ptable, size_t npa
     w->nparams = nparams;
     w->styles = a->styles;
     sim_params_default(&w->params);
+    if (a->d.replay) w->params = a->replay.start.params;
     app_anim_init(&w->anim);
     core_status st = load_initial_groom(&a->d, &w->groom, err);
     if (st != CORE_OK) return st;
@@ -131,6 +134,37 @@ static core_status setup_world(app *a, const core_param_info *ptable, size_t npa
     return CORE_OK;
 }
 
+/* Reads the --replay file; its initial state replaces the settings it records. */
+static core_status open_replay(app *a, core_err *err)
+{
+    core_status st = app_replay_open(&a->replay, a->d.replay, &a->parser, &a->assets, a->d.assets_dir, err);
+    if (st != CORE_OK) return st;
+    const app_rec_start *s = &a->replay.start;
+    a->d.groom = s->groom;
+    a->d.collider = s->collider[0] ? s->collider : NULL;
+    a->d.strands = s->strands;
+    a->d.verts = s->verts;
+    a->d.seed = s->seed;
+    a->d.backend = (sim_backend_kind)s->backend;
+    a->d.threads = s->threads;
+    a->w.replay = &a->replay;
+    core_log(CORE_LOG_INFO, "replay", "%s: %zu records, %llu steps; groom %s, backend %s", a->d.replay, a->replay.n,
+             (unsigned long long)a->replay.end_step, s->groom, s->backend == SIM_BACKEND_CPU ? "cpu" : "vulkan");
+    return CORE_OK;
+}
+
+/* Starts the --record file with the initial state the world was set up with. */
+static core_status open_record(app *a, core_err *err)
+{
+    app_rec_start s = { .strands = a->d.strands, .verts = a->d.verts, .seed = a->d.seed, .backend = a->w.backend,
+                        .threads = a->d.threads, .params = a->w.params };
+    snprintf(s.groom, sizeof s.groom, "%s", a->d.groom);
+    snprintf(s.collider, sizeof s.collider, "%s", a->d.collider ? a->d.collider : "");
+    core_status st = app_record_open(&a->rec, a->d.record, &s, &a->parser, a->d.record_digests, err);
+    if (st == CORE_OK) a->w.rec = &a->rec;
+    return st;
+}
+
 static core_status setup(app *a, core_err *err)
 {
     size_t nparams;
@@ -144,8 +178,10 @@ static core_status setup(app *a, core_err *err)
     core_status st = app_mailbox_init(&a->mb, err);
     if (st != CORE_OK) return st;
     app_assets_list(&a->assets, a->d.assets_dir, &a->parser);
+    if (a->d.replay && (st = open_replay(a, err)) != CORE_OK) return st;
     if ((st = setup_world(a, ptable, nparams, err)) != CORE_OK) return st;
-    a->gate = (app_gate){ &a->parser, &a->mb, &a->out, &a->board, &a->grooms_pending, &a->w.done, a->d.token, { 0 } };
+    if (a->d.record && (st = open_record(a, err)) != CORE_OK) return st;
+    a->gate = (app_gate){ &a->parser, &a->mb, &a->out, &a->board, &a->grooms_pending, &a->w.done, a->d.token, { 0 }, a->w.rec };
     if (!a->d.no_net) {
         net_desc nd = {
             .listen = a->d.listen, .port = a->d.port, .web_dir = a->d.web_dir, .subprotocol = PROTO_SUBPROTOCOL,
@@ -177,6 +213,7 @@ static void teardown(app *a)
     app_gate_free(&a->gate);
     app_mailbox_free(&a->mb);
     app_stats_board_free(&a->board);
+    app_replay_free(&a->replay);
 }
 
 static void *net_main(void *arg)
@@ -242,6 +279,7 @@ core_status app_run(const app_desc *desc, core_err *err)
         if (a->w.fatal != CORE_OK) st = core_fail(err, a->w.fatal, "simulation stopped: %s", a->w.fatal_err.msg);
     }
     app_loader_join(&a->w.loader); /* a groom load still running (the sim thread has stopped) */
+    app_record_close(&a->rec, a->w.step_no);
     if (net_started) {
         net_stop(a->net);
         pthread_join(net_thread, NULL);

@@ -4,6 +4,7 @@
 #include <sys/prctl.h>
 
 #include "app_cmd.h"
+#include "app_play.h"
 #include "app_sim.h"
 
 #define NS 1000000000ull
@@ -11,6 +12,7 @@
 /* Applies every queued command; true when there was one. */
 static bool take_commands(app_world *w)
 {
+    app_play_inputs(w); /* a replay's inputs of this step boundary, before any client's */
     app_cmd c;
     bool took = false;
     while (app_mailbox_take(w->mb, &c)) {
@@ -167,7 +169,7 @@ void *app_sim_main(void *arg)
         }
         bool run = !w->paused || w->step_budget > 0;
         if (run) {
-            if ((w->fatal = step_once(w)) != CORE_OK) {
+            if ((w->fatal = step_once(w)) != CORE_OK || app_play_stepped(w) != CORE_OK) {
                 core_log(CORE_LOG_ERROR, "sim", "step failed: %s", w->fatal_err.msg);
                 break;
             }

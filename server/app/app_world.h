@@ -16,6 +16,8 @@
 #include "app_loader.h"
 #include "app_mailbox.h"
 #include "app_outbox.h"
+#include "app_record.h"
+#include "app_replay.h"
 #include "app_stats.h"
 #include "app_stream.h"
 
@@ -53,6 +55,7 @@ typedef struct app_world {
     app_clients clients;
     app_loader loader;        /* the set_groom being loaded */
     app_pace pace;
+    uint64_t step_no;         /* steps since the daemon started: the clock of --record and --replay */
 
     /* borrowed from app_run.c */
     app_outbox *out;
@@ -63,6 +66,8 @@ typedef struct app_world {
     const core_param_info *ptable;
     size_t nparams;
     const char *const *styles;    /* the procedural style names, APP_NSTYLES of them */
+    app_record *rec;              /* --record; NULL = off */
+    app_replay *replay;           /* --replay; NULL = off */
 
     /* thread control */
     atomic_bool quit;         /* ask the sim thread to stop */

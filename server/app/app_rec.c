@@ -1,0 +1,483 @@
+/* app: the record file format: encoding and checked decoding of its records (proto/RECORD.md). */
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <zlib.h>
+
+#include "app_rec.h"
+
+void app_rec_buf_free(app_rec_buf *b)
+{
+    free(b->p);
+    memset(b, 0, sizeof *b);
+}
+
+static void put(app_rec_buf *b, const void *src, size_t n)
+{
+    if (b->oom) return;
+    if (b->len + n > b->cap) {
+        size_t cap = b->cap ? b->cap : 4096;
+        while (cap < b->len + n) cap *= 2;
+        uint8_t *p = realloc(b->p, cap);
+        if (!p) {
+            b->oom = true;
+            return;
+        }
+        b->p = p;
+        b->cap = cap;
+    }
+    memcpy(b->p + b->len, src, n);
+    b->len += n;
+}
+
+static void put_u8(app_rec_buf *b, uint8_t v) { put(b, &v, 1); }
+
+static void put_u32(app_rec_buf *b, uint32_t v)
+{
+    uint8_t x[4] = { (uint8_t)v, (uint8_t)(v >> 8), (uint8_t)(v >> 16), (uint8_t)(v >> 24) };
+    put(b, x, 4);
+}
+
+static void put_u64(app_rec_buf *b, uint64_t v)
+{
+    put_u32(b, (uint32_t)v);
+    put_u32(b, (uint32_t)(v >> 32));
+}
+
+static void put_f32(app_rec_buf *b, float v)
+{
+    uint32_t u;
+    memcpy(&u, &v, 4);
+    put_u32(b, u);
+}
+
+static void put_f64(app_rec_buf *b, double v)
+{
+    uint64_t u;
+    memcpy(&u, &v, 8);
+    put_u64(b, u);
+}
+
+static void put_str(app_rec_buf *b, const char *s)
+{
+    size_t n = strlen(s);
+    if (n > 0xffff) n = 0xffff;
+    uint8_t x[2] = { (uint8_t)n, (uint8_t)(n >> 8) };
+    put(b, x, 2);
+    put(b, s, n);
+}
+
+/* Opens a record: returns where it starts (its length is patched by end_record). */
+static size_t begin_record(app_rec_buf *b, app_rec_kind kind, uint64_t step)
+{
+    size_t at = b->len;
+    put_u32(b, 0);
+    put_u8(b, (uint8_t)kind);
+    put_u64(b, step);
+    return at;
+}
+
+static void end_record(app_rec_buf *b, size_t at)
+{
+    if (b->oom) return;
+    uint32_t payload = (uint32_t)(b->len - at - APP_REC_FRAME);
+    uint8_t *p = b->p + at;
+    p[0] = (uint8_t)payload, p[1] = (uint8_t)(payload >> 8), p[2] = (uint8_t)(payload >> 16), p[3] = (uint8_t)(payload >> 24);
+    uint32_t crc = (uint32_t)crc32(0, p + 4, (uInt)(b->len - at - 4));
+    put_u32(b, crc);
+}
+
+void app_rec_put_file_header(app_rec_buf *b)
+{
+    put(b, APP_REC_MAGIC, APP_REC_MAGIC_LEN);
+    put_u32(b, APP_REC_VERSION);
+}
+
+static double param_value(const sim_params *p, const core_param_info *t)
+{
+    const char *f = (const char *)p + t->offset;
+    switch (t->type) {
+    case CORE_PARAM_FLOAT: return *(const float *)f;
+    case CORE_PARAM_INT: return *(const int32_t *)f;
+    case CORE_PARAM_BOOL: return *(const bool *)f ? 1.0 : 0.0;
+    }
+    return 0.0;
+}
+
+static void set_param(sim_params *p, const core_param_info *t, double v)
+{
+    char *f = (char *)p + t->offset;
+    switch (t->type) {
+    case CORE_PARAM_FLOAT: *(float *)f = (float)v; break;
+    case CORE_PARAM_INT: *(int32_t *)f = (int32_t)v; break;
+    case CORE_PARAM_BOOL: *(bool *)f = v != 0.0; break;
+    }
+}
+
+void app_rec_put_start(app_rec_buf *b, const app_rec_start *s, const core_param_info *table, size_t n)
+{
+    size_t at = begin_record(b, APP_REC_START, 0);
+    put_str(b, s->groom);
+    put_str(b, s->collider);
+    put_u32(b, s->strands);
+    put_u32(b, s->verts);
+    put_u64(b, s->seed);
+    put_u32(b, s->backend);
+    put_u32(b, (uint32_t)s->threads);
+    put_u32(b, (uint32_t)n);
+    for (size_t i = 0; i < n; i++) {
+        put_str(b, table[i].name);
+        put_f64(b, param_value(&s->params, &table[i]));
+    }
+    end_record(b, at);
+}
+
+void app_rec_put_input(app_rec_buf *b, uint64_t step, const proto_msg *m, const proto_parser *p)
+{
+    size_t at = begin_record(b, APP_REC_INPUT, step);
+    put_str(b, proto_type_name(m->type));
+    switch (m->type) {
+    case PROTO_SET_PARAMS:
+        put_u32(b, m->u.set_params.count);
+        for (uint32_t i = 0; i < m->u.set_params.count; i++) {
+            put_str(b, p->params[m->u.set_params.v[i].index].name);
+            put_f64(b, m->u.set_params.v[i].value);
+        }
+        break;
+    case PROTO_MOTION: {
+        const float *v = &m->u.motion.position.x, *q = &m->u.motion.orientation.x;
+        for (int i = 0; i < 3; i++) put_f32(b, v[i]);
+        for (int i = 0; i < 4; i++) put_f32(b, q[i]);
+        break;
+    }
+    case PROTO_ANIMATE:
+        put_str(b, p->presets[m->u.animate.preset]);
+        put_f64(b, m->u.animate.speed);
+        break;
+    case PROTO_STEP: put_u32(b, (uint32_t)m->u.step.count); break;
+    case PROTO_SET_GROOM:
+        put_u8(b, m->u.set_groom.is_file);
+        put_str(b, m->u.set_groom.is_file ? m->u.set_groom.file : p->styles[m->u.set_groom.style]);
+        put_u32(b, m->u.set_groom.strands);
+        put_u32(b, m->u.set_groom.verts);
+        put_u8(b, m->u.set_groom.has_seed);
+        put_u64(b, m->u.set_groom.seed);
+        put_u8(b, (uint8_t)m->u.set_groom.collider_mode);
+        put_str(b, m->u.set_groom.collider);
+        break;
+    default: break; /* reset, pause, resume: the type says it all */
+    }
+    end_record(b, at);
+}
+
+void app_rec_put_digest(app_rec_buf *b, uint64_t step, uint64_t digest)
+{
+    size_t at = begin_record(b, APP_REC_DIGEST, step);
+    put_u64(b, digest);
+    end_record(b, at);
+}
+
+void app_rec_put_end(app_rec_buf *b, uint64_t step) { end_record(b, begin_record(b, APP_REC_END, step)); }
+
+uint64_t app_rec_digest(const float *xyz, size_t n)
+{
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (size_t i = 0; i < n; i++) {
+        uint32_t u;
+        memcpy(&u, &xyz[i], 4);
+        h = (h ^ u) * 0x100000001b3ull;
+        h ^= h >> 29;
+    }
+    return h;
+}
+
+/* A checked reader of one record's payload. */
+typedef struct rd {
+    const uint8_t *p;
+    size_t len, off, base; /* base: the payload's offset in the file */
+    uint32_t index;
+    core_err *err;
+    core_status st;
+} rd;
+
+static core_status bad(rd *r, const char *field, const char *fmt, ...)
+{
+    if (r->st != CORE_OK) return r->st;
+    char why[CORE_ERR_MAX];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(why, sizeof why, fmt, ap);
+    va_end(ap);
+    r->st = core_fail(r->err, CORE_EFORMAT, "record %u at byte %zu: field %s: %s", r->index, r->base + r->off, field, why);
+    return r->st;
+}
+
+static const uint8_t *take(rd *r, size_t n, const char *field)
+{
+    if (r->st != CORE_OK) return NULL;
+    if (r->len - r->off < n) {
+        bad(r, field, "the record ends %zu bytes early", n - (r->len - r->off));
+        return NULL;
+    }
+    const uint8_t *p = r->p + r->off;
+    r->off += n;
+    return p;
+}
+
+static uint32_t le32(const uint8_t *p) { return p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24; }
+
+static uint8_t get_u8(rd *r, const char *field)
+{
+    const uint8_t *p = take(r, 1, field);
+    return p ? p[0] : 0;
+}
+
+static uint32_t get_u32(rd *r, const char *field)
+{
+    const uint8_t *p = take(r, 4, field);
+    return p ? le32(p) : 0;
+}
+
+static uint64_t get_u64(rd *r, const char *field)
+{
+    const uint8_t *p = take(r, 8, field);
+    return p ? le32(p) | (uint64_t)le32(p + 4) << 32 : 0;
+}
+
+static float get_f32(rd *r, const char *field)
+{
+    uint32_t u = get_u32(r, field);
+    float f;
+    memcpy(&f, &u, 4);
+    if (r->st == CORE_OK && !isfinite(f)) bad(r, field, "not finite");
+    return f;
+}
+
+static double get_f64(rd *r, const char *field)
+{
+    uint64_t u = get_u64(r, field);
+    double f;
+    memcpy(&f, &u, 8);
+    if (r->st == CORE_OK && !isfinite(f)) bad(r, field, "not finite");
+    return f;
+}
+
+/* A string of at most cap - 1 bytes into out (NUL-terminated). */
+static void get_str(rd *r, char *out, size_t cap, const char *field)
+{
+    out[0] = '\0';
+    const uint8_t *p = take(r, 2, field);
+    if (!p) return;
+    size_t n = p[0] | (size_t)p[1] << 8;
+    if (n >= cap) {
+        bad(r, field, "%zu bytes, at most %zu", n, cap - 1);
+        return;
+    }
+    if (!(p = take(r, n, field))) return;
+    memcpy(out, p, n);
+    out[n] = '\0';
+    if (strlen(out) != n) bad(r, field, "holds a NUL byte");
+}
+
+static size_t find_name(const char *const *names, size_t n, const char *s)
+{
+    size_t i = 0;
+    while (i < n && strcmp(names[i], s) != 0) i++;
+    return i;
+}
+
+static size_t find_param(const proto_parser *p, const char *s)
+{
+    size_t i = 0;
+    while (i < p->nparams && strcmp(p->params[i].name, s) != 0) i++;
+    return i;
+}
+
+static void read_start(rd *r, const proto_parser *p, app_rec_start *s)
+{
+    memset(s, 0, sizeof *s);
+    sim_params_default(&s->params);
+    get_str(r, s->groom, sizeof s->groom, "groom");
+    get_str(r, s->collider, sizeof s->collider, "collider");
+    s->strands = get_u32(r, "strands");
+    s->verts = get_u32(r, "verts");
+    s->seed = get_u64(r, "seed");
+    s->backend = get_u32(r, "backend");
+    if (r->st == CORE_OK && s->backend != SIM_BACKEND_CPU && s->backend != SIM_BACKEND_VULKAN)
+        bad(r, "backend", "%u is no backend (1 cpu, 2 vulkan)", s->backend);
+    s->threads = (int32_t)get_u32(r, "threads");
+    uint32_t n = get_u32(r, "params");
+    for (uint32_t i = 0; i < n && r->st == CORE_OK; i++) {
+        char name[64];
+        get_str(r, name, sizeof name, "params");
+        double v = get_f64(r, "params");
+        size_t k = find_param(p, name);
+        if (r->st == CORE_OK && k == p->nparams) bad(r, "params", "no parameter named \"%s\" in this build", name);
+        if (r->st == CORE_OK) set_param(&s->params, &p->params[k], v);
+    }
+    core_err why;
+    if (r->st == CORE_OK && sim_params_validate(&s->params, &why) != CORE_OK) bad(r, "params", "%s", why.msg);
+}
+
+static void read_input(rd *r, const proto_parser *p, proto_msg *m)
+{
+    memset(m, 0, sizeof *m);
+    char name[64];
+    get_str(r, name, sizeof name, "type");
+    static const proto_type kinds[] = { PROTO_SET_PARAMS, PROTO_MOTION, PROTO_ANIMATE, PROTO_RESET,
+                                        PROTO_PAUSE,      PROTO_RESUME, PROTO_STEP,    PROTO_SET_GROOM };
+    size_t k = 0;
+    while (k < sizeof kinds / sizeof kinds[0] && strcmp(proto_type_name(kinds[k]), name) != 0) k++;
+    if (r->st != CORE_OK) return;
+    if (k == sizeof kinds / sizeof kinds[0]) {
+        bad(r, "type", "\"%s\" is no recorded input type", name);
+        return;
+    }
+    m->type = kinds[k];
+    switch (m->type) {
+    case PROTO_SET_PARAMS:
+        m->u.set_params.count = get_u32(r, "values");
+        if (r->st == CORE_OK && (m->u.set_params.count == 0 || m->u.set_params.count > p->nparams))
+            bad(r, "values", "%u values (1..%zu)", m->u.set_params.count, p->nparams);
+        for (uint32_t i = 0; i < m->u.set_params.count && r->st == CORE_OK; i++) {
+            get_str(r, name, sizeof name, "values");
+            m->u.set_params.v[i].value = get_f64(r, "values");
+            size_t j = find_param(p, name);
+            if (r->st == CORE_OK && j == p->nparams) bad(r, "values", "no parameter named \"%s\" in this build", name);
+            m->u.set_params.v[i].index = (uint32_t)j;
+        }
+        break;
+    case PROTO_MOTION: {
+        float *v = &m->u.motion.position.x, *q = &m->u.motion.orientation.x;
+        for (int i = 0; i < 3; i++) v[i] = get_f32(r, "position");
+        for (int i = 0; i < 4; i++) q[i] = get_f32(r, "orientation");
+        break;
+    }
+    case PROTO_ANIMATE:
+        get_str(r, name, sizeof name, "preset");
+        m->u.animate.speed = get_f64(r, "speed");
+        m->u.animate.preset = (uint32_t)find_name(p->presets, p->npresets, name);
+        if (r->st == CORE_OK && m->u.animate.preset == p->npresets) bad(r, "preset", "no preset named \"%s\"", name);
+        break;
+    case PROTO_STEP:
+        m->u.step.count = (int32_t)get_u32(r, "count");
+        if (r->st == CORE_OK && (m->u.step.count < 1 || m->u.step.count > PROTO_MAX_STEP))
+            bad(r, "count", "%d (1..%d)", m->u.step.count, PROTO_MAX_STEP);
+        break;
+    case PROTO_SET_GROOM:
+        m->u.set_groom.is_file = get_u8(r, "file") != 0;
+        get_str(r, m->u.set_groom.file, sizeof m->u.set_groom.file, m->u.set_groom.is_file ? "file" : "style");
+        if (!m->u.set_groom.is_file && r->st == CORE_OK) {
+            m->u.set_groom.style = (uint32_t)find_name(p->styles, p->nstyles, m->u.set_groom.file);
+            if (m->u.set_groom.style == p->nstyles) bad(r, "style", "no style named \"%s\"", m->u.set_groom.file);
+            m->u.set_groom.file[0] = '\0';
+        }
+        m->u.set_groom.strands = get_u32(r, "strands");
+        m->u.set_groom.verts = get_u32(r, "verts");
+        m->u.set_groom.has_seed = get_u8(r, "seed") != 0;
+        m->u.set_groom.seed = get_u64(r, "seed");
+        m->u.set_groom.collider_mode = (proto_collider_mode)get_u8(r, "collider");
+        if (r->st == CORE_OK && m->u.set_groom.collider_mode > PROTO_COLLIDER_FILE)
+            bad(r, "collider", "mode %u (0 keep, 1 none, 2 file)", (unsigned)m->u.set_groom.collider_mode);
+        get_str(r, m->u.set_groom.collider, sizeof m->u.set_groom.collider, "collider");
+        break;
+    default: break;
+    }
+}
+
+/* One framed record at data + *off into *out (the start record into *s); advances *off. */
+static core_status read_record(const uint8_t *data, size_t len, size_t *off, uint32_t index, const proto_parser *p,
+                               app_rec_start *s, app_rec *out, core_err *err)
+{
+    rd r = { data + *off, len - *off, 0, *off, index, err, CORE_OK };
+    memset(out, 0, sizeof *out);
+    out->index = index;
+    out->offset = *off;
+    if (r.len < APP_REC_FRAME + 4)
+        return core_fail(err, CORE_EFORMAT, "record %u at byte %zu: field length: truncated: %zu bytes left, a record takes at least %d",
+                         index, *off, r.len, APP_REC_FRAME + 4);
+    uint32_t payload = le32(r.p);
+    if (payload > APP_REC_MAX_PAYLOAD)
+        return core_fail(err, CORE_EFORMAT, "record %u at byte %zu: field length: %u bytes, at most %u (corrupt)", index, *off,
+                         payload, APP_REC_MAX_PAYLOAD);
+    size_t total = APP_REC_FRAME + (size_t)payload + 4;
+    if (total > r.len)
+        return core_fail(err, CORE_EFORMAT, "record %u at byte %zu: field length: truncated: the record takes %zu bytes, %zu are left",
+                         index, *off, total, r.len);
+    uint32_t want = le32(r.p + total - 4), got = (uint32_t)crc32(0, r.p + 4, (uInt)(total - 8));
+    if (want != got)
+        return core_fail(err, CORE_EFORMAT, "record %u at byte %zu: field crc32: the bytes do not match their checksum (corrupt)",
+                         index, *off);
+    out->kind = (app_rec_kind)r.p[4];
+    out->step = le32(r.p + 5) | (uint64_t)le32(r.p + 9) << 32;
+    r.len = APP_REC_FRAME + payload;
+    r.off = APP_REC_FRAME;
+    if (index == 0 && out->kind != APP_REC_START) return bad(&r, "kind", "the first record must be the start (1), not %d", out->kind);
+    if (index > 0 && out->kind == APP_REC_START) return bad(&r, "kind", "a second start record");
+    switch (out->kind) {
+    case APP_REC_START: read_start(&r, p, s); break;
+    case APP_REC_INPUT: read_input(&r, p, &out->msg); break;
+    case APP_REC_DIGEST: out->digest = get_u64(&r, "digest"); break;
+    case APP_REC_END: break;
+    default: return bad(&r, "kind", "%d is no record kind (1..4)", out->kind);
+    }
+    if (r.st == CORE_OK && r.off != r.len) bad(&r, "length", "%zu bytes past the record's fields", r.len - r.off);
+    if (r.st != CORE_OK) return r.st;
+    *off += total;
+    return CORE_OK;
+}
+
+core_status app_rec_read(const uint8_t *data, size_t len, const proto_parser *p, app_rec_start *s, app_rec **out,
+                         size_t *n, core_err *err)
+{
+    *out = NULL;
+    *n = 0;
+    if (len < APP_REC_FILE_HEADER || memcmp(data, APP_REC_MAGIC, APP_REC_MAGIC_LEN) != 0)
+        return core_fail(err, CORE_EFORMAT, "byte 0: field magic: not a strandcast recording (no \"SCREC\" header)");
+    uint32_t version = le32(data + APP_REC_MAGIC_LEN);
+    if (version != APP_REC_VERSION)
+        return core_fail(err, CORE_EFORMAT, "byte %d: field version: format version %u; this strandcastd reads version %u",
+                         APP_REC_MAGIC_LEN, version, APP_REC_VERSION);
+    size_t cap = 0, off = APP_REC_FILE_HEADER;
+    app_rec *v = NULL;
+    core_status st = CORE_OK;
+    uint64_t last = 0;
+    bool ended = false;
+    for (uint32_t index = 0; st == CORE_OK && off < len; index++) {
+        if (ended) {
+            st = core_fail(err, CORE_EFORMAT, "record %u at byte %zu: field kind: records after the end record (corrupt)", index, off);
+            break;
+        }
+        if (*n == cap) {
+            cap = cap ? cap * 2 : 256;
+            app_rec *g = realloc(v, cap * sizeof *v);
+            if (!g) {
+                st = core_fail(err, CORE_ENOMEM, "out of memory for %zu records", cap);
+                break;
+            }
+            v = g;
+        }
+        app_rec *r = &v[*n];
+        if ((st = read_record(data, len, &off, index, p, s, r, err)) != CORE_OK) break;
+        if (r->step < last) {
+            st = core_fail(err, CORE_EFORMAT, "record %u at byte %zu: field step: %llu is before the previous record's %llu",
+                           index, r->offset, (unsigned long long)r->step, (unsigned long long)last);
+            break;
+        }
+        last = r->step;
+        ended = r->kind == APP_REC_END;
+        if (r->kind != APP_REC_START) (*n)++;
+    }
+    if (st == CORE_OK && !ended)
+        st = core_fail(err, CORE_EFORMAT, "byte %zu: field end: truncated: the recording has no end record (the daemon that wrote it "
+                       "did not stop cleanly, or the file was cut)", len);
+    if (st != CORE_OK) {
+        free(v);
+        *n = 0;
+        return st;
+    }
+    *out = v;
+    return CORE_OK;
+}
