@@ -43,9 +43,14 @@ static void end_replay(app_world *w)
 {
     app_replay *r = w->replay;
     r->active = false;
-    core_log(CORE_LOG_INFO, "replay", "%s: ended after %llu steps, %llu inputs, %llu of %llu steps' positions checked and equal%s",
-             r->path, (unsigned long long)w->step_no, (unsigned long long)r->inputs, (unsigned long long)r->digests,
-             (unsigned long long)r->digests, w->d->no_net ? "" : "; paused, live from here");
+    char checked[96];
+    if (r->digests == w->step_no)
+        snprintf(checked, sizeof checked, "every step's positions (%llu) equal to the recording's", (unsigned long long)r->digests);
+    else
+        snprintf(checked, sizeof checked, "%llu steps' positions checked (the recording has no digests of the others)",
+                 (unsigned long long)r->digests);
+    core_log(CORE_LOG_INFO, "replay", "%s: ended after %llu steps, %llu inputs; %s%s", r->path, (unsigned long long)w->step_no,
+             (unsigned long long)r->inputs, checked, w->d->no_net ? "" : "; paused, live from here");
     if (w->d->no_net) {
         atomic_store(&w->quit, true);
         return;

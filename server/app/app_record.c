@@ -86,16 +86,12 @@ core_status app_record_open(app_record *r, const char *path, const app_rec_start
     r->parser = p;
     r->digests = digests;
     if (!(r->f = fopen(path, "wb"))) return core_fail(err, CORE_EIO, "--record %s: %s", path, strerror(errno));
-    app_rec_buf b = { 0 };
-    app_rec_put_file_header(&b);
-    app_rec_put_start(&b, s, p->params, p->nparams);
-    bool ok = !b.oom && fwrite(b.p, 1, b.len, r->f) == b.len && fflush(r->f) == 0;
-    if (ok) atomic_store(&r->bytes, b.len);
-    app_rec_buf_free(&b);
-    if (!ok) {
+    app_rec_put_file_header(&r->pending); /* written by the thread, like every record */
+    app_rec_put_start(&r->pending, s, p->params, p->nparams);
+    if (r->pending.oom) {
         fclose(r->f);
-        r->f = NULL;
-        return core_fail(err, CORE_EIO, "--record %s: cannot write the start record: %s", path, strerror(errno));
+        app_rec_buf_free(&r->pending);
+        return core_fail(err, CORE_ENOMEM, "--record %s: out of memory", path);
     }
     pthread_condattr_t ca;
     pthread_condattr_init(&ca);

@@ -28,8 +28,9 @@ typedef struct app_record {
     atomic_uint_fast64_t bytes, errors, dropped; /* written, failed writes, records dropped */
 } app_record;
 
-/* Creates path (truncating it) and writes the header and the start record; starts the writer
- * thread. CORE_EIO/CORE_ENOMEM with err naming the file. Main thread, before the sim thread. */
+/* Creates path (truncating it), queues the header and the start record and starts the writer
+ * thread. CORE_EIO (path cannot be created) / CORE_ENOMEM with err naming the file; later write
+ * errors are counted, not returned. Main thread, before the sim thread. */
 core_status app_record_open(app_record *r, const char *path, const app_rec_start *s, const proto_parser *p,
                             bool digests, core_err *err);
 /* Appends an input applied before the step after `step` steps. Sim thread; never blocks on I/O. */

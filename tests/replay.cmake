@@ -1,0 +1,49 @@
+# strandcastd --record / --replay (proto/RECORD.md): a 600-step session with motion, parameter
+# changes, a preset, pause and single steps and a reset is recorded through the real daemon (with
+# a position digest per step), then replayed with --no-net: the daemon checks every step's
+# positions bit for bit against the recording's digests and stops with an error at the first
+# that differs. Then: a replay streams like a live session and refuses changes (bad_state); a
+# file that is no recording, of another version, truncated or corrupt is refused at start-up,
+# naming the byte, record and field; a disk that fails (/dev/full) is reported in /metrics while
+# the simulation goes on.
+set(replay_dir ${CMAKE_CURRENT_SOURCE_DIR}/replay)
+set(replay_file ${CMAKE_CURRENT_BINARY_DIR}/replay_session.screc)
+set(replay_sh "/bin/sh")
+
+# with_daemon's arguments, then the command line after -- (as strandcast_scenario_test, which
+# scenarios.cmake defines after this file is read)
+function(strandcast_replay_daemon_test name)
+  add_test(NAME ${name} COMMAND $<TARGET_FILE:with_daemon> $<TARGET_FILE:strandcastd> ${ARGN})
+  set_tests_properties(${name} PROPERTIES TIMEOUT 180 LABELS integration)
+endfunction()
+
+strandcast_replay_daemon_test(replay_record --expect "steps held"
+  --daemon --record --daemon ${replay_file} --daemon --record-digests
+  -- $<TARGET_FILE:strandcastc> run --port {port} ${replay_dir}/session.json)
+set_tests_properties(replay_record PROPERTIES FIXTURES_SETUP replay_file)
+
+function(strandcast_replay_test name)
+  strandcast_replay_daemon_test(${name} ${ARGN})
+  set_tests_properties(${name} PROPERTIES FIXTURES_REQUIRED replay_file)
+endfunction()
+
+strandcast_replay_test(replay_bit_exact --expect "every step's positions (6"
+  -- $<TARGET_FILE:strandcastd> --replay ${replay_file} --no-net)
+strandcast_replay_test(replay_refuses_changes --expect "steps held" --daemon --replay --daemon ${replay_file}
+  -- $<TARGET_FILE:strandcastc> run --port {port} ${replay_dir}/refused.json)
+strandcast_replay_test(replay_not_a_recording --exit 1 --expect "byte 0: field magic: not a strandcast recording"
+  -- $<TARGET_FILE:strandcastd> --replay ${replay_dir}/session.json --no-net)
+strandcast_replay_test(replay_bad_version --exit 1
+  --expect "byte 8: field version: format version 2" --expect "this strandcastd reads version 1"
+  -- ${replay_sh} -c "cp \"$1\" \"$2\" && printf '\\002' | dd of=\"$2\" bs=1 seek=8 conv=notrunc 2>/dev/null && exec \"$3\" --replay \"$2\" --no-net"
+     sh ${replay_file} ${CMAKE_CURRENT_BINARY_DIR}/replay_v2.screc $<TARGET_FILE:strandcastd>)
+strandcast_replay_test(replay_truncated --exit 1 --expect ": field length: truncated: the record takes"
+  -- ${replay_sh} -c "head -c 1000 \"$1\" > \"$2\" && exec \"$3\" --replay \"$2\" --no-net"
+     sh ${replay_file} ${CMAKE_CURRENT_BINARY_DIR}/replay_cut.screc $<TARGET_FILE:strandcastd>)
+strandcast_replay_test(replay_corrupt --exit 1 --expect "record 0 at byte 12: field crc32: the bytes do not match"
+  -- ${replay_sh} -c "cp \"$1\" \"$2\" && printf 'X' | dd of=\"$2\" bs=1 seek=40 conv=notrunc 2>/dev/null && exec \"$3\" --replay \"$2\" --no-net"
+     sh ${replay_file} ${CMAKE_CURRENT_BINARY_DIR}/replay_bad.screc $<TARGET_FILE:strandcastd>)
+strandcast_replay_daemon_test(replay_record_disk_full --expect "steps held" --expect "strandcast_record_errors_total "
+  --daemon --record --daemon /dev/full
+  -- ${replay_sh} -c "\"$1\" run --port \"$2\" \"$3\" && sleep 0.5 && curl -s http://127.0.0.1:$2/metrics | grep -E '^strandcast_record_errors_total [1-9]'"
+     sh $<TARGET_FILE:strandcastc> {port} ${replay_dir}/full.json)
