@@ -26,6 +26,7 @@ static const char *const USAGE =
     "                   [--out FILE] [--json]\n"
     "       strandcastc run [--host H] [--port N] [--json] SCRIPT.json   (a scripted scenario: run --help)\n"
     "       strandcastc check [--host H] [--port N] [flags]             (frame invariants: check --help)\n"
+    "       strandcastc --compare A.scfr B.scfr [--json]                (largest position difference per frame)\n"
     "Connects to a running strandcastd (subprotocol " PROTO_SUBPROTOCOL "), shows its hello, sends each\n"
     "--send message in order (replies and broadcasts are printed as they come; stats are not),\n"
     "then decodes the strand frames with the C decoder and prints one line per frame. Frames are\n"
@@ -405,6 +406,7 @@ int main(int argc, char **argv)
 {
     if (argc > 1 && strcmp(argv[1], "run") == 0) return scen_cli_run(argc - 1, argv + 1);
     if (argc > 1 && strcmp(argv[1], "check") == 0) return scen_cli_check(argc - 1, argv + 1);
+    if (argc > 1 && strcmp(argv[1], "--compare") == 0) return scen_cli_compare(argc - 1, argv + 1);
     cli c;
     memset(&c, 0, sizeof c);
     int rc = parse_args(argc, argv, &c.d);

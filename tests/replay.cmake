@@ -47,3 +47,27 @@ strandcast_replay_daemon_test(replay_record_disk_full --expect "steps held" --ex
   --daemon --record --daemon /dev/full
   -- ${replay_sh} -c "\"$1\" run --port \"$2\" \"$3\" && sleep 0.5 && curl -s http://127.0.0.1:$2/metrics | grep -E '^strandcast_record_errors_total [1-9]'"
      sh $<TARGET_FILE:strandcastc> {port} ${replay_dir}/full.json)
+
+# strandcastc --compare on small SCFR files (tests/replay/compare_*.scfr): b differs from a by
+# (3, 4, 0) mm at frame 1, strand 1, vertex 2; shape has another strand count; cut is truncated.
+set(cmp $<TARGET_FILE:strandcastc> --compare)
+strandcast_replay_daemon_test(compare_reports_largest
+  --expect "frame 0: max difference 0 m at strand 0, vertex 0"
+  --expect "frame 1: max difference 0.005 m at strand 1, vertex 2"
+  --expect "2 frames of 2 strands x 3 vertices: largest difference 0.005 m at frame 1, strand 1, vertex 2"
+  -- ${cmp} ${replay_dir}/compare_a.scfr ${replay_dir}/compare_b.scfr)
+strandcast_replay_daemon_test(compare_json
+  --expect "{\"frame\":1,\"max_diff\":0.00500000082,\"strand\":1,\"vertex\":2}"
+  --expect "{\"summary\":true,\"frames\":2,\"max_diff\":0.00500000082,\"frame\":1,\"strand\":1,\"vertex\":2,\"identical\":false}"
+  -- ${cmp} ${replay_dir}/compare_a.scfr ${replay_dir}/compare_b.scfr --json)
+strandcast_replay_daemon_test(compare_identical --expect "largest difference 0 m at frame 0, strand 0, vertex 0 (identical)"
+  -- ${cmp} ${replay_dir}/compare_b.scfr ${replay_dir}/compare_b.scfr)
+strandcast_replay_daemon_test(compare_other_shape --exit 1
+  --expect "cannot compare: ${replay_dir}/compare_a.scfr has 2 strands x 3 vertices, 2 frames"
+  --expect "compare_shape.scfr has 3 x 3, 2 frames"
+  -- ${cmp} ${replay_dir}/compare_a.scfr ${replay_dir}/compare_shape.scfr)
+strandcast_replay_daemon_test(compare_truncated --exit 1
+  --expect "compare_cut.scfr: 155 bytes, its header (2 strands x 3 vertices, 2 frames) says 160 (truncated or corrupt)"
+  -- ${cmp} ${replay_dir}/compare_a.scfr ${replay_dir}/compare_cut.scfr)
+strandcast_replay_daemon_test(compare_bad_use --exit 2 --expect "--compare: takes two files"
+  -- ${cmp} ${replay_dir}/compare_a.scfr)

@@ -210,5 +210,8 @@ int scen_run(const scen_run_desc *d, const scen_script *s);
  * subcommand. Return the exit status: 0 held, 1 failed, 2 bad flags or script. */
 int scen_cli_run(int argc, char **argv);
 int scen_cli_check(int argc, char **argv);
+/* `strandcastc --compare A.scfr B.scfr [--json]` (scen_compare.c): argv[0] is --compare. Returns
+ * 0 when both files decode and have one shape, 1 when they cannot be compared, 2 for bad flags. */
+int scen_cli_compare(int argc, char **argv);
 
 #endif
