@@ -147,6 +147,7 @@ static core_status open_replay(app *a, core_err *err)
     a->d.seed = s->seed;
     a->d.backend = (sim_backend_kind)s->backend;
     a->d.threads = s->threads;
+    a->d.min_step_rate = -1.0; /* its grooms were accepted once: a slower machine replays them all the same */
     a->w.replay = &a->replay;
     core_log(CORE_LOG_INFO, "replay", "%s: %zu records, %llu steps; groom %s, backend %s", a->d.replay, a->replay.n,
              (unsigned long long)a->replay.end_step, s->groom, s->backend == SIM_BACKEND_CPU ? "cpu" : "vulkan");
