@@ -45,6 +45,7 @@ typedef struct app_rec_buf {
     bool oom;
 } app_rec_buf;
 
+/* Frees b's bytes and zeroes it (the caller owns b). Any thread. */
 void app_rec_buf_free(app_rec_buf *b);
 /* The file header (magic, version) into b. */
 void app_rec_put_file_header(app_rec_buf *b);

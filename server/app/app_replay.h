@@ -29,6 +29,7 @@ const proto_msg *app_replay_input(app_replay *r, uint64_t step);
 /* Compares the positions' digest after `step` steps with the recorded one, if any: false (err
  * saying where) when they differ. Sim thread. */
 bool app_replay_check(app_replay *r, uint64_t step, uint64_t digest, core_err *err);
+/* Frees the records (safe on a zeroed or failed r). Main thread, after the sim thread ended. */
 void app_replay_free(app_replay *r);
 
 #endif
