@@ -2,7 +2,8 @@
 # changes, a preset, pause and single steps and a reset is recorded through the real daemon (with
 # a position digest per step), then replayed with --no-net: the daemon checks every step's
 # positions bit for bit against the recording's digests and stops with an error at the first
-# that differs. Then: a replay streams like a live session and refuses changes (bad_state); a
+# that differs. Then: a replay streams like a live session and refuses changes (bad_state), ends
+# paused and live; a
 # file that is no recording, of another version, truncated or corrupt is refused at start-up,
 # naming the byte, record and field; a disk that fails (/dev/full) is reported in /metrics while
 # the simulation goes on.
@@ -32,6 +33,8 @@ strandcast_replay_test(replay_bit_exact --expect "every step's positions ("
   -- $<TARGET_FILE:strandcastd> --replay ${replay_file} --no-net)
 strandcast_replay_test(replay_refuses_changes --expect "steps held" --daemon --replay --daemon ${replay_file}
   -- $<TARGET_FILE:strandcastc> run --port {port} ${replay_dir}/refused.json)
+strandcast_replay_test(replay_ends_live --expect "steps held" --daemon --replay --daemon ${replay_file}
+  -- $<TARGET_FILE:strandcastc> run --port {port} ${replay_dir}/ends_live.json)
 strandcast_replay_test(replay_not_a_recording --exit 1 --expect "byte 0: field magic: not a strandcast recording"
   -- $<TARGET_FILE:strandcastd> --replay ${replay_dir}/session.json --no-net)
 strandcast_replay_test(replay_bad_version --exit 1
