@@ -3,10 +3,9 @@
 # a position digest per step), then replayed with --no-net: the daemon checks every step's
 # positions bit for bit against the recording's digests and stops with an error at the first
 # that differs. Then: a replay streams like a live session and refuses changes (bad_state), ends
-# paused and live; a
-# file that is no recording, of another version, truncated or corrupt is refused at start-up,
-# naming the byte, record and field; a disk that fails (/dev/full) is reported in /metrics while
-# the simulation goes on.
+# paused and live; a file that is no recording, of another version, truncated or corrupt is
+# refused at start-up, naming the byte, record and field; a disk that fails (/dev/full) is
+# reported in /metrics while the simulation goes on.
 set(replay_dir ${CMAKE_CURRENT_SOURCE_DIR}/replay)
 set(replay_file ${CMAKE_CURRENT_BINARY_DIR}/replay_session.screc)
 set(replay_sh "/bin/sh")
