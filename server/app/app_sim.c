@@ -169,8 +169,12 @@ void *app_sim_main(void *arg)
         }
         bool run = !w->paused || w->step_budget > 0;
         if (run) {
-            if ((w->fatal = step_once(w)) != CORE_OK || app_play_stepped(w) != CORE_OK) {
+            if ((w->fatal = step_once(w)) != CORE_OK) {
                 core_log(CORE_LOG_ERROR, "sim", "step failed: %s", w->fatal_err.msg);
+                break;
+            }
+            if (app_play_stepped(w) != CORE_OK) {
+                core_log(CORE_LOG_ERROR, "replay", "%s", w->fatal_err.msg);
                 break;
             }
             total++;
