@@ -1,7 +1,7 @@
 # fuzz: libFuzzer targets (tests/fuzz/fuzz_*.c) for the control-message parser, the frame
-# decoder and every file loader, built with clang directly (whatever compiles the rest) with
-# their own sanitizers; each runs for a few seconds as a test, from the seeds in
-# tests/fuzz/<target>/. Longer runs: tests/fuzz/README.md.
+# decoder, every file loader and the --replay record reader, built with clang directly
+# (whatever compiles the rest) with their own sanitizers; each runs for a few seconds as a test,
+# from the seeds in tests/fuzz/<target>/. Longer runs: tests/fuzz/README.md.
 find_program(STRANDCAST_CLANG clang)
 if(NOT STRANDCAST_CLANG)
   message(FATAL_ERROR "clang not found: install the Debian package 'clang' (or run .ci/deps)")
@@ -20,7 +20,8 @@ endif()
 file(GLOB FUZZ_LIB_SOURCES CONFIGURE_DEPENDS
      ${PROJECT_SOURCE_DIR}/server/core/*.c ${PROJECT_SOURCE_DIR}/server/groom/*.c
      ${PROJECT_SOURCE_DIR}/server/proto/*.c ${PROJECT_SOURCE_DIR}/server/codec/*.c)
-list(APPEND FUZZ_LIB_SOURCES ${PROJECT_SOURCE_DIR}/server/sim/sim_params.c ${PROJECT_SOURCE_DIR}/server/app/app_anim.c)
+list(APPEND FUZZ_LIB_SOURCES ${PROJECT_SOURCE_DIR}/server/sim/sim_params.c ${PROJECT_SOURCE_DIR}/server/app/app_anim.c
+     ${PROJECT_SOURCE_DIR}/server/app/app_rec.c)
 file(MAKE_DIRECTORY ${FUZZ_DIR}/obj)
 set(FUZZ_OBJECTS)
 foreach(src ${FUZZ_LIB_SOURCES})
@@ -75,3 +76,4 @@ strandcast_fuzz(tfx fuzz_groom.c tfx FUZZ_LOADER=1)
 strandcast_fuzz(hair fuzz_groom.c hair FUZZ_LOADER=2)
 strandcast_fuzz(obj fuzz_groom.c obj FUZZ_LOADER=3)
 strandcast_fuzz(tfxmesh fuzz_groom.c tfxmesh FUZZ_LOADER=4)
+strandcast_fuzz(record fuzz_record.c record)
