@@ -295,6 +295,20 @@ static size_t find_param(const proto_parser *p, const char *s)
     return i;
 }
 
+/* The index of a parameter named name whose value v is in its range, or p->nparams (refused). */
+static size_t check_param(rd *r, const proto_parser *p, const char *field, const char *name, double v)
+{
+    size_t k = find_param(p, name);
+    if (r->st != CORE_OK) return p->nparams;
+    if (k == p->nparams) {
+        bad(r, field, "no parameter named \"%s\" in this build", name);
+    } else if (v < p->params[k].min || v > p->params[k].max) {
+        bad(r, field, "%s = %.17g is outside [%g, %g]", name, v, p->params[k].min, p->params[k].max);
+        k = p->nparams;
+    }
+    return k;
+}
+
 static void read_start(rd *r, const proto_parser *p, app_rec_start *s)
 {
     memset(s, 0, sizeof *s);
@@ -313,8 +327,7 @@ static void read_start(rd *r, const proto_parser *p, app_rec_start *s)
         char name[64];
         get_str(r, name, sizeof name, "params");
         double v = get_f64(r, "params");
-        size_t k = find_param(p, name);
-        if (r->st == CORE_OK && k == p->nparams) bad(r, "params", "no parameter named \"%s\" in this build", name);
+        size_t k = check_param(r, p, "params", name, v);
         if (r->st == CORE_OK) set_param(&s->params, &p->params[k], v);
     }
     core_err why;
@@ -344,20 +357,26 @@ static void read_input(rd *r, const proto_parser *p, proto_msg *m)
         for (uint32_t i = 0; i < m->u.set_params.count && r->st == CORE_OK; i++) {
             get_str(r, name, sizeof name, "values");
             m->u.set_params.v[i].value = get_f64(r, "values");
-            size_t j = find_param(p, name);
-            if (r->st == CORE_OK && j == p->nparams) bad(r, "values", "no parameter named \"%s\" in this build", name);
-            m->u.set_params.v[i].index = (uint32_t)j;
+            m->u.set_params.v[i].index = (uint32_t)check_param(r, p, "values", name, m->u.set_params.v[i].value);
         }
         break;
     case PROTO_MOTION: {
         float *v = &m->u.motion.position.x, *q = &m->u.motion.orientation.x;
-        for (int i = 0; i < 3; i++) v[i] = get_f32(r, "position");
+        for (int i = 0; i < 3; i++) {
+            v[i] = get_f32(r, "position");
+            if (r->st == CORE_OK && fabsf(v[i]) > PROTO_MAX_POSITION)
+                bad(r, "position", "%g is outside [-%g, %g]", v[i], PROTO_MAX_POSITION, PROTO_MAX_POSITION);
+        }
         for (int i = 0; i < 4; i++) q[i] = get_f32(r, "orientation");
+        if (r->st == CORE_OK && fabsf(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] - 1.0f) > 1e-3f)
+            bad(r, "orientation", "not a unit quaternion");
         break;
     }
     case PROTO_ANIMATE:
         get_str(r, name, sizeof name, "preset");
         m->u.animate.speed = get_f64(r, "speed");
+        if (r->st == CORE_OK && (m->u.animate.speed < 0.0 || m->u.animate.speed > PROTO_MAX_SPEED))
+            bad(r, "speed", "%g is outside [0, %g]", m->u.animate.speed, PROTO_MAX_SPEED);
         m->u.animate.preset = (uint32_t)find_name(p->presets, p->npresets, name);
         if (r->st == CORE_OK && m->u.animate.preset == p->npresets) bad(r, "preset", "no preset named \"%s\"", name);
         break;
