@@ -1,8 +1,8 @@
 /* Tests for the record file format (app_rec) and the replay's checks (app_replay): every input
  * kind round-trips bit for bit; a file of another version, truncated, corrupt (crc32), with
- * records after the end or without one, with an unknown parameter, or naming a groom file or
- * asset that is missing is refused naming the byte, the record and the field; the digest sees
- * one flipped bit. */
+ * records after the end or without one, with an unknown parameter or a value out of its range,
+ * or naming a groom file or asset that is missing is refused naming the byte, the record and the
+ * field; the digest sees one flipped bit. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -188,6 +188,11 @@ static void test_refusals(void **state)
     g.p.nparams = find_index(&f.p, "gravity");
     expect_refused(&g, c, f.b.len, "field params: no parameter named \"gravity\" in this build");
     free(c);
+    app_rec_buf_free(&f.b);
+    /* a value outside its parameter's range */
+    f.start.params.gravity = 1e30f;
+    write_file(&f);
+    expect_refused(&f, f.b.p, f.b.len, "field params: gravity = 1.0000000150474662e+30 is outside [0, 50]");
     app_rec_buf_free(&f.b);
 }
 
