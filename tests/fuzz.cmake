@@ -21,7 +21,7 @@ file(GLOB FUZZ_LIB_SOURCES CONFIGURE_DEPENDS
      ${PROJECT_SOURCE_DIR}/server/core/*.c ${PROJECT_SOURCE_DIR}/server/groom/*.c
      ${PROJECT_SOURCE_DIR}/server/proto/*.c ${PROJECT_SOURCE_DIR}/server/codec/*.c)
 list(APPEND FUZZ_LIB_SOURCES ${PROJECT_SOURCE_DIR}/server/sim/sim_params.c ${PROJECT_SOURCE_DIR}/server/app/app_anim.c
-     ${PROJECT_SOURCE_DIR}/server/app/app_rec.c)
+     ${PROJECT_SOURCE_DIR}/server/app/app_rec_write.c ${PROJECT_SOURCE_DIR}/server/app/app_rec_read.c)
 file(MAKE_DIRECTORY ${FUZZ_DIR}/obj)
 set(FUZZ_OBJECTS)
 foreach(src ${FUZZ_LIB_SOURCES})

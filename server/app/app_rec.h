@@ -1,6 +1,7 @@
 /* app: the record file format (proto/RECORD.md): byte encoding of the initial state, the
- * inputs, the position digests and the end mark, and their checked decoding. Pure functions;
- * the writer (app_record) and the player (app_replay) own the files. */
+ * inputs, the position digests and the end mark (app_rec_write.c), and their checked decoding
+ * (app_rec_read.c). Pure functions; the writer (app_record) and the player (app_replay) own the
+ * files. */
 #ifndef APP_REC_H
 #define APP_REC_H
 
