@@ -74,3 +74,13 @@ strandcast_replay_daemon_test(compare_truncated --exit 1
   -- ${cmp} ${replay_dir}/compare_a.scfr ${replay_dir}/compare_cut.scfr)
 strandcast_replay_daemon_test(compare_bad_use --exit 2 --expect "--compare: takes two files"
   -- ${cmp} ${replay_dir}/compare_a.scfr)
+
+# flags: --record and --replay exclude each other, --record-digests needs --record; strandbench
+# record runs (a smoke test: its figures are for BENCHMARKS.md, not a timed test)
+strandcast_replay_daemon_test(replay_flags_exclusive --exit 2 --expect "--record" --expect "not with --replay"
+  -- $<TARGET_FILE:strandcastd> --record ${CMAKE_CURRENT_BINARY_DIR}/replay_x.screc --replay ${replay_file})
+strandcast_replay_daemon_test(replay_flags_digests_alone --exit 2 --expect "needs --record FILE"
+  -- $<TARGET_FILE:strandcastd> --record-digests)
+strandcast_replay_daemon_test(bench_record_smoke --expect "scene 64 x 8, 4 substeps, C backend, 1 rounds of 5 steps"
+  --expect "% of the step (budget 2%)"
+  -- $<TARGET_FILE:strandbench> record --steps 5 --rounds 1 --strands 64 --verts 8)
