@@ -427,21 +427,24 @@ static void test_roots_follow_head(void **state)
 }
 
 /* SPH is evaluated at SIM_SPH_RATE in whole steps with shape on (every second step at 1/60 s,
- * every fourth at 0.008 s, every step at 1/30 s), every step with shape off; an evaluation
+ * every fourth at 0.008 s, every step at 1/30 s), faster past SIM_SPH_RATE_REPULSION (every
+ * step at repulsion 0.5), every step with shape off; an evaluation
  * keeps exp(-elapsed / SIM_SPH_SMOOTH_TIME) of the held acceleration (none when cold), and
  * turning SPH off leaves the backend cold. */
 static void test_sph_clock(void **state)
 {
     (void)state;
-    const struct { float dt; bool shape; const char *pattern; } cases[] = {
-        { 1.0f / 60.0f, true, "YnYnYnYn" }, { 0.008f, true, "YnnnYnnnY" },
-        { 1.0f / 30.0f, true, "YYYY" },     { 1.0f / 60.0f, false, "YYYY" },
+    const struct { float dt, repulsion; bool shape; const char *pattern; } cases[] = {
+        { 1.0f / 60.0f, 0.1f, true, "YnYnYnYn" }, { 0.008f, 0.1f, true, "YnnnYnnnY" },
+        { 1.0f / 30.0f, 0.1f, true, "YYYY" },     { 1.0f / 60.0f, 0.1f, false, "YYYY" },
+        { 1.0f / 60.0f, 0.5f, true, "YYYY" },     { 0.008f, 0.2f, true, "YnYnY" },
     };
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         sim_params p;
         sim_params_default(&p);
         p.dt = cases[c].dt;
         p.shape = cases[c].shape;
+        p.repulsion = cases[c].repulsion;
         sim_sph_clock clk = { 0 };
         for (size_t k = 0; cases[c].pattern[k]; k++) {
             sim_step_desc d = { .sph = true };

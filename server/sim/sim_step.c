@@ -141,9 +141,11 @@ void sim_step_sph_clock(const sim_params *p, sim_sph_clock *clk, sim_step_desc *
         *clk = (sim_sph_clock){ 0 };
         return;
     }
-    /* whole steps per evaluation: the most that keep the rate (the small margin absorbs the
-     * rounding of dt = 1 / 60 in float) */
-    const float per = p->shape ? floorf(1.0f / (p->dt * (float)SIM_SPH_RATE) + 1e-3f) : 1.0f;
+    /* whole steps per evaluation: the most that keep the rate, which grows with the repulsion
+     * past SIM_SPH_RATE_REPULSION (sim_limits.h); the small margin absorbs the rounding of
+     * dt = 1 / 60 in float */
+    const float rate = (float)SIM_SPH_RATE * MAXF(1.0f, p->repulsion / (float)SIM_SPH_RATE_REPULSION);
+    const float per = p->shape ? floorf(1.0f / (p->dt * rate) + 1e-3f) : 1.0f;
     const uint32_t every = per < 1.0f ? 1u : (uint32_t)per;
     const uint32_t elapsed = clk->age + 1u;
     out->sph_eval = !clk->warm || elapsed >= every;
