@@ -29,10 +29,11 @@ export class ProtocolError extends Error {
   }
 }
 
-// Why a hello cannot be used (it names another protocol version), or null when it can.
-export function helloMismatch(hello) {
+// Why a hello cannot be used (it names another protocol version), or null when it can; who: how
+// the message names this side ('this client', 'this page').
+export function helloMismatch(hello, who = 'this client') {
   if (hello.protocol === PROTOCOL_VERSION) return null;
-  return `the server speaks protocol ${JSON.stringify(hello.protocol)} (${hello.server || 'unknown server'} ${hello.version || ''}), this client speaks protocol ${PROTOCOL_VERSION}`;
+  return `the server speaks protocol ${JSON.stringify(hello.protocol)} (${hello.server || 'unknown server'} ${hello.version || ''}), ${who} speaks protocol ${PROTOCOL_VERSION}`;
 }
 
 // The header of a decoded frame (a codec.js header record) as a plain object: seq, refSeq,
@@ -52,9 +53,11 @@ export function frameHeader(info) {
 // of its reply: resolved with the ok/params/state/subscribed reply, rejected with a
 // ProtocolError for an error reply. settle(msg) takes a received message: true when it was the
 // reply to a tracked request. rejectAll(error) rejects every pending request. Owned by one
-// thread (the one that reads the socket).
+// thread (the one that reads the socket). prefix: ids are numbers 1, 2, ... without one, else
+// strings prefix + number (two senders on one connection, each with its own prefix, never clash).
 export class Requests {
-  constructor() {
+  constructor(prefix = '') {
+    this.prefix = prefix;
     this.nextId = 1;
     this.pending = new Map();
   }
@@ -63,7 +66,7 @@ export class Requests {
 
   // Assigns msg's id (see above) and returns it, or undefined for a motion without one.
   assign(msg) {
-    if (msg.id === undefined && msg.type !== 'motion') msg.id = this.nextId++;
+    if (msg.id === undefined && msg.type !== 'motion') msg.id = this.prefix ? `${this.prefix}${this.nextId++}` : this.nextId++;
     return msg.id;
   }
 
@@ -279,7 +282,7 @@ export function connect(url, options = {}) {
       let hello;
       try { hello = JSON.parse(ev.data); } catch { hello = null; }
       if (!hello || hello.type !== 'hello') { fail('the first message was not a hello'); return; }
-      const mismatch = helloMismatch(hello);
+      const mismatch = helloMismatch(hello, 'this client');
       if (mismatch) { fail(mismatch); return; }
       client.hello = hello;
       client.groom = hello.groom;

@@ -66,6 +66,8 @@ test('Requests: a motion without id gets none; an id still waiting is refused', 
   assert.equal(r.settle({ type: 'ok', id: 'x', step: 3 }), true);
   assert.equal((await p).step, 3);
   assert.equal(r.size, 0);
+  const w = new Requests('w');
+  assert.deepEqual([w.assign({ type: 'reset' }), w.assign({ type: 'pause' })], ['w1', 'w2']);
 });
 
 test('connect refuses a hello of another protocol version and a missing WebSocket', async () => {
