@@ -153,3 +153,18 @@ test('against strandcastd: hello, requests, errors, frames, groom data, the READ
   assert.match(out, /rest length of strand 0: \d\.\d{4} m/);
   assert.match(out, new RegExp(`step \\d+: ${STRANDS * VERTS} vertices, tip of strand 0 at y = -?\\d+\\.\\d{4} m`));
 });
+
+test('with a token, connect resolves once the hello asking for it accepted the auth, and rejects a refusal', async () => {
+  class Locked extends FakeSocket {
+    hello() { return { type: 'hello', protocol: 2, access: 'token', groom: {} }; }
+    send(text) {
+      super.send(text);
+      const m = this.sent.at(-1);
+      setTimeout(() => this.text(m.token === 'good' ? { type: 'ok', id: m.id } : { type: 'error', id: m.id, code: 'forbidden', field: 'token', message: 'wrong token' }));
+    }
+  }
+  const c = await connect('ws://fake/', { WebSocket: Locked, token: 'good' });
+  assert.deepEqual(Locked.last.sent, [{ type: 'auth', token: 'good', id: 1 }]);
+  c.close();
+  await assert.rejects(connect('ws://fake/', { WebSocket: Locked, token: 'bad' }), (e) => e.code === 'forbidden' && e.field === 'token');
+});
