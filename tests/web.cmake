@@ -1,5 +1,6 @@
-# web: Node unit tests of the viewer's JavaScript modules: every tests/js/NAME.test.mjs but the
-# codec's and the protocol schema's (codec.cmake and integration.cmake register those).
+# web: Node tests of the viewer's JavaScript modules (web_js_client runs strandcastd): every
+# tests/js/NAME.test.mjs but the codec's and the protocol schema's (codec.cmake and
+# integration.cmake register those).
 file(GLOB STRANDCAST_WEB_JS_FILES CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/js/*.test.mjs)
 foreach(f ${STRANDCAST_WEB_JS_FILES})
   get_filename_component(file ${f} NAME)
@@ -8,6 +9,10 @@ foreach(f ${STRANDCAST_WEB_JS_FILES})
     continue()
   endif()
   add_test(NAME web_js_${name} COMMAND ${STRANDCAST_NODE} --test ${f})
+  # the client module's test talks to a real daemon (this build's)
+  if(name STREQUAL "client")
+    set_tests_properties(web_js_${name} PROPERTIES ENVIRONMENT "STRANDCASTD=$<TARGET_FILE:strandcastd>")
+  endif()
   # pure JavaScript: nothing for the sanitizers to check, so it runs in the release tree only
   set_tests_properties(web_js_${name} PROPERTIES LABELS "web;no_asan" TIMEOUT 120)
 endforeach()

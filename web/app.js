@@ -7,6 +7,7 @@ import { rendererName, softwareWebGL } from './gl_util.js';
 import { Input } from './input.js';
 import { dragRotate, dragTranslate, motionMessage } from './motion.js';
 import { defaultUrl, takeToken } from './net.js';
+import { ProtocolError } from './client.js';
 import { Banner, statsText } from './overlay.js';
 import { Panel } from './panel.js';
 import { pickColliders } from './pick.js';
@@ -77,13 +78,13 @@ export class App {
     this.refused = null;
 
     this.panel = new Panel(panelEl, {
-      setParams: (values) => this.send({ type: 'set_params', values }),
-      animate: (preset, speed) => this.send({ type: 'animate', preset, speed }),
-      reset: () => this.send({ type: 'reset' }),
-      pause: () => this.send({ type: 'pause' }),
-      resume: () => this.send({ type: 'resume' }),
-      step: () => this.send({ type: 'step', count: 1 }),
-      setGroom: (spec) => this.send({ type: 'set_groom', ...spec }),
+      setParams: (values) => this.request({ type: 'set_params', values }),
+      animate: (preset, speed) => this.request({ type: 'animate', preset, speed }),
+      reset: () => this.request({ type: 'reset' }),
+      pause: () => this.request({ type: 'pause' }),
+      resume: () => this.request({ type: 'resume' }),
+      step: () => this.request({ type: 'step', count: 1 }),
+      setGroom: (spec) => this.request({ type: 'set_groom', ...spec }),
       setView: (name, value) => this.setView(name, value),
     });
     this.panel.buildView(VIEW_SPECS, this.settings);
@@ -138,10 +139,26 @@ export class App {
     requestAnimationFrame(this._loop);
   }
 
-  send(msg) {
-    const id = this.stream.send(msg);
-    if (id === null) this.panel.showStatus('not connected: the change was not sent', true);
-    return id;
+  // Sends a request (stream_client.js request()); an error reply is shown in the panel (and a
+  // refused parameter's control goes back to the server's value). Returns the promise of the
+  // reply, or null when not connected.
+  request(msg) {
+    const reply = this.stream.request(msg);
+    if (reply === null) {
+      this.panel.showStatus('not connected: the change was not sent', true);
+      return null;
+    }
+    reply.catch((e) => this._refused(e));
+    return reply;
+  }
+
+  _refused(e) {
+    if (!(e instanceof ProtocolError)) {
+      this.panel.showStatus(`no reply: ${e.message}`, true);
+      return;
+    }
+    this.panel.showStatus(`server refused: ${e.message}`, true);
+    if (e.field.startsWith('values.')) this.panel.revertParam(e.field.slice(7));
   }
 
   // Changes a viewer setting (also the hook tests use); returns false for a bad name or value.
@@ -216,12 +233,7 @@ export class App {
         this.meshLoader.update(m.collider_mesh);
         break;
       case 'stats': this.serverStats = m; break;
-      case 'error': {
-        const field = typeof m.field === 'string' ? m.field : '';
-        this.panel.showStatus(`server refused: ${m.code}${field ? ` (${field})` : ''}: ${m.message}`, true);
-        if (field.startsWith('values.')) this.panel.revertParam(field.slice(7));
-        break;
-      }
+      case 'error': this._refused(new ProtocolError(m)); break; // one without an id (a stream's)
       default: break;
     }
   }

@@ -1,9 +1,10 @@
-// The WebSocket connection to strandcastd: subprotocol check, JSON control messages, binary
-// strand frames, a silence watchdog, and reconnects with backoff after a lost connection.
+// The viewer's WebSocket connection to strandcastd: subprotocol check, JSON control messages,
+// binary strand frames, a silence watchdog, and reconnects with backoff after a lost connection.
+// The protocol's constants, hello check and request ids are client.js's (the client module).
 import { Backoff } from './backoff.js';
+import { PROTOCOL_VERSION, Requests, SUBPROTOCOL, helloMismatch } from './client.js';
 
-export const SUBPROTOCOL = 'strandcast.v2';
-export const PROTOCOL_VERSION = 2;
+export { PROTOCOL_VERSION, SUBPROTOCOL };
 // The server sends stats about once a second; a connection silent for this long is taken as
 // half-open (sleep, NAT drop) and reopened. Generous, as a loaded server may step slowly.
 const WATCHDOG_MS = 30000;
@@ -37,7 +38,9 @@ export class Connection {
     this.cb = callbacks;
     this.backoff = new Backoff(backoffOptions);
     this.ws = null;
-    this.nextId = 1;
+    // ids only (replies go to onMessage), 'w1', 'w2', ...: the page's own requests (numbered by
+    // stream_client.js) share this connection
+    this.requests = new Requests('w');
     this.stopped = false;
     this.helloSeen = false;
     this.lastMessage = 0;
@@ -75,12 +78,13 @@ export class Connection {
 
   get open() { return !!this.ws && this.ws.readyState === WebSocket.OPEN && this.helloSeen; }
 
-  // Sends a control message; returns its id (assigned when missing) or null when not connected.
+  // Sends a control message; returns its id (assigned when missing, Requests.assign) or null when
+  // not connected.
   send(msg) {
     if (!this.open) return null;
-    if (msg.id === undefined && msg.type !== 'motion') msg.id = this.nextId++;
+    const id = this.requests.assign(msg);
     this.ws.send(JSON.stringify(msg));
-    return msg.id === undefined ? 0 : msg.id;
+    return id === undefined ? 0 : id;
   }
 
   _open() {
@@ -131,8 +135,9 @@ export class Connection {
     }
     if (!msg || typeof msg !== 'object' || typeof msg.type !== 'string') return;
     if (msg.type === 'hello') {
-      if (msg.protocol !== PROTOCOL_VERSION) {
-        this._mismatch(`the server speaks protocol ${JSON.stringify(msg.protocol)} (${msg.server || 'unknown server'} ${msg.version || ''}), this page speaks protocol ${PROTOCOL_VERSION}`);
+      const mismatch = helloMismatch(msg, 'this page');
+      if (mismatch) {
+        this._mismatch(mismatch);
         return;
       }
       this.helloSeen = true;

@@ -1,9 +1,12 @@
-// Page side of the stream worker: starts the connection, sends control messages, configures
+// Page side of the stream worker: starts the connection, sends control messages (requests whose
+// promises settle with their replies, as the client module's: client.js Requests), configures
 // the guide buffers, keeps only the newest decoded frame for the next render and hands older
 // buffers straight back to the worker.
+import { Requests } from './client.js';
 
 export class StreamClient {
-  // callbacks: onHello(hello), onMessage(msg), onStatus(status) (see net.js Connection),
+  // callbacks: onHello(hello), onMessage(msg) (every message but the replies to request()),
+  // onStatus(status) (see net.js Connection),
   // onConfigured({ gen, pts, texW, texH, tanOffset }), onDecoded(frame) for statistics (every
   // decoded frame; frame.arrival is on this page's performance.now() clock), onError(message).
   constructor(callbacks) {
@@ -14,7 +17,7 @@ export class StreamClient {
     this.gen = 0;
     this.pending = null; // newest decoded frame not yet uploaded
     this.open = false;   // a hello arrived and the connection has not been lost since
-    this.nextId = 1;
+    this.requests = new Requests();
     this.recycleMsg = { type: 'recycle', gen: 0, buf: null }; // reused: no allocation per frame
     this.transfer = [null];
   }
@@ -29,9 +32,19 @@ export class StreamClient {
   // gets no reply) or null when not connected.
   send(msg) {
     if (!this.open) return null;
-    if (msg.id === undefined && msg.type !== 'motion') msg.id = this.nextId++;
+    const id = this.requests.assign(msg);
     this.worker.postMessage({ type: 'send', message: msg });
-    return msg.id === undefined ? 0 : msg.id;
+    return id === undefined ? 0 : id;
+  }
+
+  // Sends a control message with a fresh id; returns a promise of its reply (client.js Requests:
+  // rejected with a ProtocolError for an error reply, with an Error when the connection is lost
+  // first), or null when not connected.
+  request(msg) {
+    if (!this.open) return null;
+    const reply = this.requests.track(msg);
+    this.worker.postMessage({ type: 'send', message: msg });
+    return reply;
   }
 
   // (Re)configures for nstrands x nverts guides smoothed with segs points per span.
@@ -67,9 +80,12 @@ export class StreamClient {
         this.cb.onDecoded(m);
         break;
       case 'hello': this.open = true; this.cb.onHello(m.hello); break;
-      case 'message': this.cb.onMessage(m.message); break;
+      case 'message': if (!this.requests.settle(m.message)) this.cb.onMessage(m.message); break;
       case 'status':
-        if (m.status.state !== 'open') this.open = false;
+        if (m.status.state !== 'open') {
+          this.open = false;
+          this.requests.rejectAll(new Error(`the connection was ${m.status.state === 'connecting' ? 'reopened' : m.status.state} before the reply came`));
+        }
         this.cb.onStatus(m.status);
         break;
       case 'configured': if (m.gen === this.gen) this.cb.onConfigured(m); break;

@@ -8,6 +8,7 @@
 // Each frame carries the head transform the simulation used for it (its header), which goes
 // with it to the page. Control messages pass through to the page as parsed objects.
 import { StrandDecoder } from './codec.js';
+import { frameHeader } from './client.js';
 import { catmullWeights, smoothedCount, smoothStrands } from './catmull.js';
 import { strandFrames } from './frames.js';
 import { Connection } from './net.js';
@@ -89,12 +90,8 @@ function onFrame(data) {
   smoothStrands(buf, 0, 4, decoded, 0, st.nstrands, st.nverts, st.segs, st.weights);
   strandFrames(buf, 0, buf, st.block, st.nstrands, st.pts, st.rootState, st.basis);
   const t2 = performance.now();
-  postMessage({
-    type: 'frame', gen: st.gen, buf, arrival,
-    seq: info.seq, simTime: info.simTime, simStep: info.simStep, keyframe: info.keyframe, bytes: data.byteLength,
-    head: { position: Array.from(info.headPosition), orientation: Array.from(info.headOrientation) },
-    decodeMs: t1 - t0, prepareMs: t2 - t1,
-  }, [buf.buffer]);
+  // the header as the client module gives it (seq, simTime, simStep, keyframe, head, counts, bytes)
+  postMessage({ type: 'frame', gen: st.gen, buf, arrival, ...frameHeader(info), decodeMs: t1 - t0, prepareMs: t2 - t1 }, [buf.buffer]);
 }
 
 function start(url, backoff, token) {

@@ -11,6 +11,7 @@ import { fileURLToPath } from 'node:url';
 import { createRequire } from 'node:module';
 import { diffShare, pixelStats } from './pixels.mjs';
 import { StrandDecoder } from '../../web/codec.js';
+import { parseGroomData } from '../../web/groom_data.js';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
 const require = createRequire(path.join(here, '..', 'package.json'));
@@ -312,7 +313,10 @@ async function main() {
     headGap = Math.max(...pageHead.p.map((v, i) => Math.abs(v - fh.position[i])), ...pageHead.q.map((v, i) => Math.abs(v - fh.orientation[i])));
   }
   check(headGap < 1e-6, `the page draws the head of the frame header (step ${viewer.frame.simStep}): position [${fh.position.map((v) => v.toFixed(4))}], differs by ${headGap.toExponential(2)}`);
-  const [qx, qy, qz, qw] = fh.orientation, rest = viewer.hello.groom.roots;
+  // the rest roots are in the groom's data binary (GET hello.groom.url), not in the hello
+  const groomBin = await fetch(new URL(viewer.hello.groom.url, url));
+  check(groomBin.ok, `GET ${viewer.hello.groom.url}: HTTP ${groomBin.status}`);
+  const [qx, qy, qz, qw] = fh.orientation, rest = parseGroomData(await groomBin.arrayBuffer()).roots;
   let rootGap = 0;
   viewer.frame.roots.forEach((r, j) => {
     const vx = rest[3 * j], vy = rest[3 * j + 1], vz = rest[3 * j + 2];
