@@ -13,8 +13,11 @@
 /* Verlet skin, in units of h: the lists hold the neighbour_cap nearest particles within
  * (1 + SPH_SKIN) h and are kept while every particle stays within SPH_SKIN h / 2 of where the
  * head's rigid motion since the build carried it: then no pair outside a list has come within
- * h (the kernels are zero beyond h), unless its list was full. */
-#define SPH_SKIN 0.2f
+ * h (the kernels are zero beyond h), unless its list was full. 0.4 rather than 0.2: with SPH
+ * evaluated every second step (sim_step_sph_clock) hair moves twice as far between searches, and
+ * under shake and headbang the lists were rebuilt at most evaluations (SPH 8.6 -> 6.7 ms a step
+ * under headbang on the default scene; 0.6 gained nothing more). */
+#define SPH_SKIN 0.4f
 /* Elements of padding after the sorted SoA arrays and scan buffers (two AVX2 vectors). */
 #define SPH_PAD 16
 /* Shares of the per-particle and per-cell passes, taken by whichever worker is free. */
