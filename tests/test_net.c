@@ -15,15 +15,15 @@
 static void test_token_list(void **state)
 {
     (void)state;
-    assert_true(net_token_listed("strandcast.v2", "strandcast.v2"));
-    assert_true(net_token_listed("chat, strandcast.v2", "strandcast.v2"));
-    assert_true(net_token_listed(" strandcast.v2 ,x", "strandcast.v2"));
-    assert_true(net_token_listed("a,,strandcast.v2\t", "strandcast.v2"));
-    assert_false(net_token_listed("", "strandcast.v2"));
-    assert_false(net_token_listed("strandcast.v20", "strandcast.v2"));
-    assert_false(net_token_listed("strandcast.v", "strandcast.v2"));
-    assert_false(net_token_listed("xstrandcast.v2", "strandcast.v2"));
-    assert_false(net_token_listed("strandcast v1", "strandcast.v2"));
+    assert_true(net_token_listed("strandcast.v3", "strandcast.v3"));
+    assert_true(net_token_listed("chat, strandcast.v3", "strandcast.v3"));
+    assert_true(net_token_listed(" strandcast.v3 ,x", "strandcast.v3"));
+    assert_true(net_token_listed("a,,strandcast.v3\t", "strandcast.v3"));
+    assert_false(net_token_listed("", "strandcast.v3"));
+    assert_false(net_token_listed("strandcast.v30", "strandcast.v3"));
+    assert_false(net_token_listed("strandcast.v", "strandcast.v3"));
+    assert_false(net_token_listed("xstrandcast.v3", "strandcast.v3"));
+    assert_false(net_token_listed("strandcast v1", "strandcast.v3"));
 }
 
 static void test_buffers(void **state)
@@ -64,7 +64,7 @@ static void test_binds_only_the_address(void **state)
     (void)state;
     net *n = NULL;
     core_err err;
-    net_desc d = { .subprotocol = "strandcast.v2", .port = NET_PORT_ANY };
+    net_desc d = { .subprotocol = "strandcast.v3", .port = NET_PORT_ANY };
     assert_int_equal(net_create(&n, &d, &err), CORE_OK); /* default 127.0.0.1 */
     unsigned a = listen_addr4(net_port(n));
     if (a != 0x7f000001u) fail_msg("listening on %08x, want 127.0.0.1 only", a);
@@ -78,7 +78,7 @@ static void test_inbox_merges_count(void **state)
     (void)state;
     net *n = NULL;
     core_err err;
-    net_desc d = { .subprotocol = "strandcast.v2", .port = NET_PORT_ANY };
+    net_desc d = { .subprotocol = "strandcast.v3", .port = NET_PORT_ANY };
     assert_int_equal(net_create(&n, &d, &err), CORE_OK);
     for (int i = 0; i < 6; i++) net_publish(n, 3, net_buf_new(8), 10u + (uint64_t)i, i == 0);
     net_drain(n); /* as the net thread does on its wake-up */
@@ -99,7 +99,7 @@ static void test_create_errors(void **state)
     net_desc d = { 0 };
     assert_int_equal(net_create(&n, &d, &err), CORE_EINVAL);
     assert_null(n);
-    d.subprotocol = "strandcast.v2";
+    d.subprotocol = "strandcast.v3";
     d.port = 70000;
     assert_int_equal(net_create(&n, &d, &err), CORE_EINVAL);
     /* a free port, then the same port again: the second bind fails with a clear error */
@@ -137,7 +137,7 @@ static void test_ping_policy(void **state)
         { 0, 21, 20, 21 },        { 65530, 0, 65530, 65535 }, { 65534, 65535, 65534, 65535 },
     };
     for (size_t i = 0; i < sizeof ok / sizeof ok[0]; i++) {
-        net_desc d = { .subprotocol = "strandcast.v2", .port = NET_PORT_ANY, .ping_s = ok[i].ping,
+        net_desc d = { .subprotocol = "strandcast.v3", .port = NET_PORT_ANY, .ping_s = ok[i].ping,
                        .hangup_s = ok[i].hangup };
         assert_int_equal(net_create(&n, &d, &err), CORE_OK);
         assert_int_equal(n->retry.secs_since_valid_ping, ok[i].want_ping);
@@ -146,7 +146,7 @@ static void test_ping_policy(void **state)
     }
     static const int bad[][2] = { { -1, 0 }, { 65535, 0 }, { 0, 20 }, { 0, 5 }, { 5, 5 }, { 0, -1 }, { 1, 65536 } };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        net_desc d = { .subprotocol = "strandcast.v2", .port = NET_PORT_ANY, .ping_s = bad[i][0], .hangup_s = bad[i][1] };
+        net_desc d = { .subprotocol = "strandcast.v3", .port = NET_PORT_ANY, .ping_s = bad[i][0], .hangup_s = bad[i][1] };
         assert_int_equal(net_create(&n, &d, &err), CORE_EINVAL);
         assert_null(n);
         if (!strstr(err.msg, bad[i][0] < 0 || bad[i][0] > 65534 ? "ping interval" : "hangup"))

@@ -8,8 +8,8 @@
 import { StrandDecoder } from './codec.js';
 import { parseGroomData } from './groom_data.js';
 
-export const SUBPROTOCOL = 'strandcast.v2';
-export const PROTOCOL_VERSION = 2;
+export const SUBPROTOCOL = 'strandcast.v3';
+export const PROTOCOL_VERSION = 3;
 // Decoded frames a frames() iterator holds for a reader that lags; older ones are dropped.
 const FRAME_QUEUE = 64;
 const ANNOUNCEMENTS = ['params', 'state', 'groom', 'stats', 'error', 'frame', 'close'];

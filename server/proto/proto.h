@@ -1,4 +1,4 @@
-/* proto: the strandcast.v2 control messages: JSON text <-> typed structs (the only cJSON user). */
+/* proto: the strandcast.v3 control messages: JSON text <-> typed structs (the only cJSON user). */
 #ifndef PROTO_PROTO_H
 #define PROTO_PROTO_H
 
@@ -11,8 +11,8 @@
 #include "../core/math3.h"
 #include "../core/param.h"
 
-#define PROTO_SUBPROTOCOL "strandcast.v2"
-#define PROTO_VERSION 2
+#define PROTO_SUBPROTOCOL "strandcast.v3"
+#define PROTO_VERSION 3
 #define PROTO_MAX_MESSAGE (64 * 1024) /* largest client text message, bytes */
 #define PROTO_MAX_PARAMS 64           /* largest parameter table proto can serve */
 #define PROTO_MAX_ID 64               /* longest string request id, bytes */

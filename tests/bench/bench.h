@@ -16,4 +16,9 @@ int bench_record_main(int argc, char **argv);
  * best of a few runs, on the calling thread plus nthreads-1 helpers. */
 double bench_memcpy_bandwidth(size_t bytes, int nthreads);
 
+/* The strandcastd a benchmark runs: `given` when not NULL, else the one in the build folder
+ * above this program's (build/tests/strandbench -> build/strandcastd), written into buf (cap
+ * bytes), or NULL when it is not there or not executable. Any thread. */
+const char *bench_find_daemon(const char *given, char *buf, size_t cap);
+
 #endif

@@ -215,22 +215,6 @@ static int parse_opts(int argc, char **argv, fanout_opts *o)
     return 0;
 }
 
-/* strandcastd next to the build's tests/ folder, unless --daemon says otherwise. */
-static const char *find_daemon(const fanout_opts *o, char *buf, size_t cap)
-{
-    if (o->daemon) return o->daemon;
-    ssize_t n = readlink("/proc/self/exe", buf, cap - 32);
-    if (n <= 0) return NULL;
-    buf[n] = '\0';
-    char *slash = strrchr(buf, '/');
-    if (!slash) return NULL;
-    *slash = '\0';
-    slash = strrchr(buf, '/');
-    if (!slash) return NULL;
-    strcpy(slash, "/strandcastd");
-    return access(buf, X_OK) == 0 ? buf : NULL;
-}
-
 typedef struct fanout_result {
     int clients;
     double steps_per_s, fpc, fpc_min, mbytes_per_s, server_cpu, bench_cpu, skipped_per_s;
@@ -265,7 +249,7 @@ static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_
     wsc *w = wsc_new();
     if (o->params || o->animate) {
         /* a control client changes the scene (parameters, head motion) and stays connected */
-        wsc_conn *ctl = wsc_connect(w, d.port, "strandcast.v2", NULL, NULL);
+        wsc_conn *ctl = wsc_connect(w, d.port, "strandcast.v3", NULL, NULL);
         char msg[1100];
         bool ok = wsc_wait_open(w, ctl, 10000);
         if (ok && o->params) {
@@ -288,7 +272,7 @@ static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_
     }
     char sub[96];
     snprintf(sub, sizeof sub, "{\"type\":\"subscribe\",\"max_rate\":%g}", o->max_rate);
-    fanout_rx *rx = fanout_rx_open(d.port, "strandcast.v2", nclients, sub);
+    fanout_rx *rx = fanout_rx_open(d.port, "strandcast.v3", nclients, sub);
     if (!rx) {
         wsc_free(w);
         daemon_stop(&d, SIGTERM, 15000);
@@ -343,7 +327,7 @@ int bench_fanout_main(int argc, char **argv)
     int rc = parse_opts(argc, argv, &o);
     if (rc) return rc == 1 ? 0 : rc;
     char buf[PATH_MAX];
-    const char *exe = find_daemon(&o, buf, sizeof buf);
+    const char *exe = bench_find_daemon(o.daemon, buf, sizeof buf);
     if (!exe) {
         fprintf(stderr, "fanout: strandcastd not found next to strandbench; pass --daemon PATH\n");
         return 2;

@@ -81,22 +81,6 @@ static int parse_opts(int argc, char **argv, latency_opts *o)
     return status;
 }
 
-/* strandcastd next to the build's tests/ folder, unless --daemon says otherwise. */
-static const char *find_daemon(const latency_opts *o, char *buf, size_t cap)
-{
-    if (o->daemon) return o->daemon;
-    ssize_t n = readlink("/proc/self/exe", buf, cap - 32);
-    if (n <= 0) return NULL;
-    buf[n] = '\0';
-    char *slash = strrchr(buf, '/');
-    if (!slash) return NULL;
-    *slash = '\0';
-    slash = strrchr(buf, '/');
-    if (!slash) return NULL;
-    strcpy(slash, "/strandcastd");
-    return access(buf, X_OK) == 0 ? buf : NULL;
-}
-
 /* The client: its decoder and, for the change being timed, when the first frame showing it was
  * decoded. A frame counts when the reply had arrived before it (the text messages received
  * before the frame, in the connection's order, include the reply) and its step reaches the
@@ -243,7 +227,7 @@ int bench_latency_main(int argc, char **argv)
     int rc = parse_opts(argc, argv, &o);
     if (rc) return rc < 0 ? 0 : rc;
     char path[4096];
-    const char *exe = find_daemon(&o, path, sizeof path);
+    const char *exe = bench_find_daemon(o.daemon, path, sizeof path);
     if (!exe) {
         fprintf(stderr, "%s: strandcastd not found next to this program; give --daemon PATH\n", PROG);
         return 1;

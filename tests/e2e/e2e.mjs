@@ -106,7 +106,7 @@ function startDaemon(port, logName) {
 // { position, orientation } from its header, roots: [x, y, z] per strand }.
 function secondClient(wsUrl, decode = false) {
   return new Promise((resolve, reject) => {
-    const ws = new WebSocket(wsUrl, 'strandcast.v2');
+    const ws = new WebSocket(wsUrl, 'strandcast.v3');
     const client = { ws, hello: null, messages: [], waiters: [], frame: null };
     const dec = decode ? new StrandDecoder() : null;
     ws.on('message', (data, isBinary) => {

@@ -382,15 +382,15 @@ void test_subprotocol_refused(void **state)
         "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n%s\r\n";
     char buf[512];
     snprintf(buf, sizeof buf, req, "Sec-WebSocket-Protocol: strandcast.v1\r\n");
-    expect_http(fx, buf, 400, "strandcast.v2", 3000);
+    expect_http(fx, buf, 400, "strandcast.v3", 3000);
     expect_http(fx, buf, 400, "strandcast.v1", 3000);
     snprintf(buf, sizeof buf, req, "");
-    expect_http(fx, buf, 400, "strandcast.v2", 3000);
+    expect_http(fx, buf, 400, "strandcast.v3", 3000);
     /* the Upgrade token is case-insensitive (RFC 7230): "WebSocket" is checked like "websocket" */
     static const char *const caps =
         "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: WebSocket\r\nConnection: Upgrade\r\n"
         "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n";
-    expect_http(fx, caps, 400, "strandcast.v2", 3000);
+    expect_http(fx, caps, 400, "strandcast.v3", 3000);
     /* RFC 6455: version 13 only (426 otherwise, or when missing), and a Host header */
     static const char *const versioned =
         "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
@@ -405,7 +405,7 @@ void test_subprotocol_refused(void **state)
         "Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: " SUBPROTOCOL "\r\n\r\n";
     expect_http(fx, hostless, 400, "Host", 3000);
     /* the right name in a list is accepted */
-    snprintf(buf, sizeof buf, req, "Sec-WebSocket-Protocol: chat, strandcast.v2\r\n");
+    snprintf(buf, sizeof buf, req, "Sec-WebSocket-Protocol: chat, strandcast.v3\r\n");
     expect_http(fx, buf, 101, NULL, 300);
     /* a real client asking for another subprotocol fails to connect */
     wsc_conn *c = wsc_connect(fx->w, fx->d.port, "other.v9", NULL, NULL);

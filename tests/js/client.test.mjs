@@ -28,7 +28,7 @@ class FakeSocket {
     FakeSocket.last = this;
     setTimeout(() => { this.emit('open', {}); this.text(this.hello()); });
   }
-  hello() { return { type: 'hello', protocol: 2, server: 'fake', groom: { strands: 1, verts: 2 } }; }
+  hello() { return { type: 'hello', protocol: 3, server: 'fake', groom: { strands: 1, verts: 2 } }; }
   addEventListener(type, fn) { (this.handlers[type] ||= []).push(fn); }
   emit(type, ev) { for (const fn of this.handlers[type] || []) fn(ev); }
   text(obj) { this.emit('message', { data: JSON.stringify(obj) }); }
@@ -156,7 +156,7 @@ test('against strandcastd: hello, requests, errors, frames, groom data, the READ
 
 test('with a token, connect resolves once the hello asking for it accepted the auth, and rejects a refusal', async () => {
   class Locked extends FakeSocket {
-    hello() { return { type: 'hello', protocol: 2, access: 'token', groom: {} }; }
+    hello() { return { type: 'hello', protocol: 3, access: 'token', groom: {} }; }
     send(text) {
       super.send(text);
       const m = this.sent.at(-1);

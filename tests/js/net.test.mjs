@@ -85,7 +85,7 @@ test('a hello with another protocol version stops with a mismatch', async () => 
   FakeSocket.all[0].accept();
   FakeSocket.all[0].text({ ...HELLO, protocol: 1 });
   assert.equal(log.status.at(-1).state, 'mismatch');
-  assert.match(log.status.at(-1).reason, /protocol 1.*protocol 2/);
+  assert.match(log.status.at(-1).reason, /protocol 1.*protocol 3/);
   assert.equal(log.hello.length, 0);
   await sleep(60);
   assert.equal(FakeSocket.all.length, 1, 'no reconnect after a mismatch');

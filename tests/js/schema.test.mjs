@@ -114,7 +114,7 @@ function startDaemon(assets) {
 }
 
 function open(port) {
-  const ws = new WebSocket(`ws://127.0.0.1:${port}/`, 'strandcast.v2');
+  const ws = new WebSocket(`ws://127.0.0.1:${port}/`, 'strandcast.v3');
   const texts = [];
   let waiters = [];
   ws.on('message', (data, isBinary) => {

@@ -18,7 +18,7 @@ def test_hello(daemon):
     async def body():
         async with strandcast.connect(daemon.url) as c:
             h = c.hello
-            assert h["type"] == "hello" and h["protocol"] == 2 and h["subprotocol"] == strandcast.SUBPROTOCOL
+            assert h["type"] == "hello" and h["protocol"] == 3 and h["subprotocol"] == strandcast.SUBPROTOCOL
             assert h["groom"]["strands"] == 128 and h["groom"]["verts"] == 8
             assert h["stream"]["strands"] == 128 and h["stream"]["stride"] == 1
             assert "gravity" in h["params"]["values"]

@@ -12,7 +12,7 @@ import strandcast
 from strandcast import codec
 
 VECTORS = codec.source_dir() / "proto" / "vectors"
-HELLO = {"type": "hello", "protocol": 2, "subprotocol": strandcast.SUBPROTOCOL, "client": 1}
+HELLO = {"type": "hello", "protocol": 3, "subprotocol": strandcast.SUBPROTOCOL, "client": 1}
 
 
 async def serve(handler, body):

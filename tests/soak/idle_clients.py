@@ -19,7 +19,7 @@ import time
 
 UPGRADE = (b'GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n'
            b'Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n'
-           b'Sec-WebSocket-Protocol: strandcast.v2\r\n\r\n')
+           b'Sec-WebSocket-Protocol: strandcast.v3\r\n\r\n')
 
 
 def rss_mib(pid):

@@ -18,7 +18,7 @@ import { createRequire } from 'node:module';
 const here = path.dirname(fileURLToPath(import.meta.url));
 const require = createRequire(path.join(here, '..', 'package.json'));
 const WebSocket = require('ws');
-const SUBPROTOCOL = 'strandcast.v2';
+const SUBPROTOCOL = 'strandcast.v3';
 
 const argv = process.argv.slice(2);
 const dashes = argv.indexOf('--');

@@ -12,7 +12,7 @@ import websockets
 from .codec import Decoder
 from .groom import fetch_groom
 
-SUBPROTOCOL = "strandcast.v2"
+SUBPROTOCOL = "strandcast.v3"
 DEFAULT_URL = "ws://127.0.0.1:7681/"
 _CLOSED = object()  # queue sentinel: the connection ended
 
