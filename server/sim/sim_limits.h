@@ -35,7 +35,7 @@
  * (0.14 mm per frame 3 s after the motion; 0.0001 with the cap). A vertex in
  * a crowd then settles about repulsion x h x (pressure term) x SIM_SPH_HOLD_GAIN / 4 from
  * where the shape springs hold it, whatever their stiffness: at the defaults about 5% more
- * distance between neighbouring strands than the authored groom has (BENCHMARKS.md). */
+ * distance between neighbouring strands than the authored groom has (tests/test_sim_volume.c). */
 #define SIM_SPH_ACCEL_SCALE 3600.0
 #define SIM_SPH_HOLD_GAIN 60.0
 #define SIM_SPH_HOLD_LOCAL_SHARE 0.1
