@@ -592,15 +592,22 @@ void test_pause_step_subscribe_groom(void **state)
     for (size_t i = 0; i < sizeof items / sizeof items[0]; i++) cJSON_Delete(items[i]);
 }
 
-/* The close frame of a raw client with payload (len bytes) is answered with code. */
+/* The close frame of a raw client with payload (len bytes) is answered with code. A close that
+ * fails the connection (1002, 1007) while a frame to this client is partly written cannot be
+ * answered in the middle of that frame: the server then just closes the socket (RFC 6455 7.1.7
+ * allows it), which the reader sees as EOF (0). Such a try, seen on a loaded machine, is made
+ * again, at most twice more. */
 static void expect_close_answer(fixture *fx, const char *payload, size_t len, int code)
 {
-    int fd = rawws_open(fx->d.port, SUBPROTOCOL);
-    assert_true(fd >= 0);
-    assert_int_equal(rawws_send(fd, 8, payload, len, true), 0);
-    int got = rawws_close_code(fd, WAIT_MS);
+    int got = 0;
+    for (int attempt = 0; attempt < 3 && got == 0; attempt++) {
+        int fd = rawws_open(fx->d.port, SUBPROTOCOL);
+        assert_true(fd >= 0);
+        assert_int_equal(rawws_send(fd, 8, payload, len, true), 0);
+        got = rawws_close_code(fd, WAIT_MS);
+        rawws_free(fd);
+    }
     if (got != code) fail_msg("a close frame of %zu bytes was answered %d, want %d", len, got, code);
-    rawws_free(fd);
 }
 
 /* RFC 6455 close rules, and HTTP methods the server does not implement. */
