@@ -17,13 +17,14 @@
 
 /* sim_set_cancel's poll, between the stages of a step: abandon it when a change is queued, the
  * step is in its first half (later, finishing it costs less than starting again), it was not
- * abandoned already, and the window's budget allows. The change then waits for its own step
+ * abandoned already, the simulation keeps real time (behind it, the work thrown away would put
+ * it further behind) and the window's budget allows. The change then waits for its own step
  * only. Sim thread. */
 static bool abandon_for_change(void *ctx)
 {
     app_world *w = ctx;
     app_pace *pc = &w->pace;
-    if (pc->abandoned || !app_mailbox_change_waiting(w->mb)) return false;
+    if (pc->abandoned || pc->behind || !app_mailbox_change_waiting(w->mb)) return false;
     const unsigned long long spent = core_now_ns() - pc->step_t0_ns;
     if (2 * spent > pc->last_step_ns || pc->abandoned_ns + spent > ABANDON_BUDGET_NS) return false;
     pc->abandoned = true;
@@ -217,6 +218,7 @@ void *app_sim_main(void *arg)
         }
         bool run = !w->paused || w->step_budget > 0;
         if (run) {
+            w->pace.behind = core_now_ns() > next + (unsigned long long)(w->params.dt * 0.5e9);
             core_status st = step_once(w);
             if (st == CORE_ECANCELED) continue; /* the change is taken above, then this step again */
             if ((w->fatal = st) != CORE_OK) {
