@@ -486,6 +486,19 @@ __attribute__((always_inline)) static inline void prefetch_ahead(const sim_cpu_s
     }
 }
 
+/* The particle's unsorted records, SPH_SCATTER_AHEAD sorted slots ahead, for the passes that
+ * read (pos, vel) or update (a) them by order: sorted neighbours are scattered in memory. */
+#define SPH_SCATTER_AHEAD 16
+
+__attribute__((always_inline)) static inline void prefetch_unsorted(const sim_cpu_sph *s, size_t slot, size_t e,
+                                                                    float *const *arrays, int narrays, int write)
+{
+    if (slot + SPH_SCATTER_AHEAD < e) {
+        const uint32_t o = s->order[slot + SPH_SCATTER_AHEAD];
+        for (int k = 0; k < narrays; k++) __builtin_prefetch(arrays[k] + o, write);
+    }
+}
+
 /* The per-particle constants of the force pass. */
 typedef struct force_consts {
     float inv_h, kp, mu_dt, inv_dt, keep;
@@ -731,6 +744,7 @@ static void force_job(void *vctx, int tid, int nt)
             __m256 rows[8];
             for (int l = 0; l < 8; l++) {
                 prefetch_ahead(&c->sph, i + (size_t)l, e, (size_t)fc.cap, true);
+                prefetch_unsorted(&c->sph, i + (size_t)l, e, c->a, 3, 1);
                 rows[l] = force_sums_vec(c, &fc, i + (size_t)l);
             }
             force_finish8(c, &fc, i, rows);
@@ -738,6 +752,7 @@ static void force_job(void *vctx, int tid, int nt)
 #endif
     for (; i < e; i++) {
         prefetch_ahead(&c->sph, i, e, (size_t)fc.cap, true);
+        prefetch_unsorted(&c->sph, i, e, c->a, 3, 1);
         force_one(c, &fc, i);
     }
 }
@@ -752,6 +767,8 @@ static void gather_job(void *vctx, int tid, int nt)
     size_t b, e;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     for (size_t slot = b; slot < e; slot++) {
+        prefetch_unsorted(s, slot, e, ctx->pos, 3, 0);
+        if (ctx->vel) prefetch_unsorted(s, slot, e, ctx->vel, 3, 0);
         const uint32_t i = s->order[slot];
         for (int k = 0; k < 3; k++) {
             s->sp[4 * slot + k] = ctx->pos[k][i];
@@ -774,6 +791,8 @@ static void regather_job(void *vctx, int tid, int nt)
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     bool strayed = false;
     for (size_t slot = b; slot < e; slot++) {
+        prefetch_unsorted(s, slot, e, ctx->pos, 3, 0);
+        prefetch_unsorted(s, slot, e, ctx->vel, 3, 0);
         const uint32_t i = s->order[slot];
         const float x = ctx->pos[0][i], y = ctx->pos[1][i], z = ctx->pos[2][i];
         s->sp[4 * slot] = x, s->sp[4 * slot + 1] = y, s->sp[4 * slot + 2] = z;
