@@ -1,5 +1,6 @@
 /* sim: the CPU SPH stage: hash grid, stable counting sort, capped neighbours, density, forces. */
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #ifdef __AVX2__
@@ -22,6 +23,8 @@
 #define SPH_PAD 16
 /* Shares of the per-particle and per-cell passes, taken by whichever worker is free. */
 #define SPH_PARTS 64
+/* Slots the regather pass refreshes between looks at whether another part found a stray. */
+#define SPH_STRAY_BLOCK 1024
 
 #define MAX0(a) ((a) > 0.0f ? (a) : 0.0f)
 
@@ -34,7 +37,7 @@ typedef struct sph_ctx {
     float carry[12];        /* rows (m0 m1 m2 t): the head's rigid motion since the lists' build */
     float stray2;           /* (SPH_SKIN h / 2)^2: a particle farther than this from its carried
                                build position voids the lists */
-    bool strayed[SPH_PARTS]; /* per part of the regather pass: some particle strayed */
+    atomic_bool strayed;    /* the regather pass found a particle that strayed (the others stop) */
     float bmin[256][3], bmax[256][3];
 } sph_ctx;
 
@@ -779,8 +782,9 @@ static void gather_job(void *vctx, int tid, int nt)
 }
 
 /* Kept lists: refreshes the sorted copies from the current state (same slot order) and sets
- * ctx->strayed[tid] when a particle is farther than the skin allows from its build position
- * carried by the head's motion (or not finite). */
+ * ctx->strayed when a particle is farther than the skin allows from its build position carried
+ * by the head's motion (or not finite). Once one has strayed the lists are rebuilt and gathered
+ * anew, so every part stops at its next block of SPH_STRAY_BLOCK slots. */
 static void regather_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
@@ -791,6 +795,10 @@ static void regather_job(void *vctx, int tid, int nt)
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     bool strayed = false;
     for (size_t slot = b; slot < e; slot++) {
+        if ((slot - b) % SPH_STRAY_BLOCK == 0) {
+            if (strayed) atomic_store_explicit(&ctx->strayed, true, memory_order_relaxed);
+            if (strayed || atomic_load_explicit(&ctx->strayed, memory_order_relaxed)) return;
+        }
         prefetch_unsorted(s, slot, e, ctx->pos, 3, 0);
         prefetch_unsorted(s, slot, e, ctx->vel, 3, 0);
         const uint32_t i = s->order[slot];
@@ -803,7 +811,7 @@ static void regather_job(void *vctx, int tid, int nt)
         const float dz = z - (m[8] * bx + m[9] * by + m[10] * bz + m[11]);
         strayed |= !((dx * dx + dy * dy) + dz * dz <= ctx->stray2);
     }
-    ctx->strayed[tid] = strayed;
+    if (strayed) atomic_store_explicit(&ctx->strayed, true, memory_order_relaxed);
 }
 
 /* Density over the listed neighbours at their current distances (those beyond h add 0) for
@@ -865,17 +873,16 @@ static void head_motion(core_xform a, core_xform b, float out[12])
 
 /* True when the skin lists of the last build still hold every pair within h: no particle has
  * strayed from its build position carried by the head's motion since (frame: the head now).
- * Refreshes the sorted copies either way. */
+ * Refreshes the sorted copies when they do. */
 static bool lists_hold(sph_ctx *ctx, core_xform frame)
 {
     sim_cpu *c = ctx->c;
     const float half_skin = 0.5f * SPH_SKIN * c->step.sph_h;
     head_motion(c->sph.build_head, frame, ctx->carry);
     ctx->stray2 = half_skin * half_skin;
+    atomic_init(&ctx->strayed, false);
     sim_pool_run_parts(&c->pool, regather_job, ctx, SPH_PARTS);
-    for (int p = 0; p < SPH_PARTS; p++)
-        if (ctx->strayed[p]) return false;
-    return true;
+    return !atomic_load_explicit(&ctx->strayed, memory_order_relaxed);
 }
 
 /* Sorts the particles into the hash grid of cells of twice the skin radius and builds the
