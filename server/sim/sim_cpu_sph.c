@@ -1,5 +1,6 @@
 /* sim: the CPU SPH stage: hash grid, stable counting sort, capped neighbours, density, forces. */
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #ifdef __AVX2__
@@ -22,6 +23,8 @@
 #define SPH_PAD 16
 /* Shares of the per-particle and per-cell passes, taken by whichever worker is free. */
 #define SPH_PARTS 64
+/* Slots the regather pass refreshes between looks at whether another part found a stray. */
+#define SPH_STRAY_BLOCK 1024
 
 #define MAX0(a) ((a) > 0.0f ? (a) : 0.0f)
 
@@ -34,7 +37,7 @@ typedef struct sph_ctx {
     float carry[12];        /* rows (m0 m1 m2 t): the head's rigid motion since the lists' build */
     float stray2;           /* (SPH_SKIN h / 2)^2: a particle farther than this from its carried
                                build position voids the lists */
-    bool strayed[SPH_PARTS]; /* per part of the regather pass: some particle strayed */
+    atomic_bool strayed;    /* the regather pass found a particle that strayed (the others stop) */
     float bmin[256][3], bmax[256][3];
 } sph_ctx;
 
@@ -460,6 +463,45 @@ static void search_job(void *vctx, int tid, int nt)
     }
 }
 
+/* Software prefetch in the passes over the lists (a sorted slot's row, then its neighbours'
+ * records): the rows are read in slot order but each one's neighbours are scattered, and the
+ * loads of a particle's neighbours wait on its row. Rows ROW_AHEAD particles ahead are fetched,
+ * and the records (sp, and sv with vel) of the neighbours of the particle NBR_AHEAD ahead.
+ * Always inlined: GCC takes a function that only prefetches for a pure one and drops its calls. */
+#define SPH_ROW_AHEAD 8
+#define SPH_NBR_AHEAD 2
+
+__attribute__((always_inline)) static inline void prefetch_ahead(const sim_cpu_sph *s, size_t i, size_t e, size_t cap, bool vel)
+{
+    if (i + SPH_ROW_AHEAD < e) {
+        const char *row = (const char *)(s->nbr + (i + SPH_ROW_AHEAD) * cap);
+        __builtin_prefetch(row); /* the row's first, second and last lines (all of a row of up to 32) */
+        __builtin_prefetch(row + 64);
+        __builtin_prefetch(row + cap * sizeof *s->nbr - 1);
+    }
+    if (i + SPH_NBR_AHEAD < e) {
+        const uint32_t *nb = s->nbr + (i + SPH_NBR_AHEAD) * cap;
+        const int n = s->nnbr[i + SPH_NBR_AHEAD];
+        for (int k = 0; k < n; k++) {
+            __builtin_prefetch(s->sp + 4 * (size_t)nb[k]);
+            if (vel) __builtin_prefetch(s->sv + 4 * (size_t)nb[k]);
+        }
+    }
+}
+
+/* The particle's unsorted records, SPH_SCATTER_AHEAD sorted slots ahead, for the passes that
+ * read (pos, vel) or update (a) them by order: sorted neighbours are scattered in memory. */
+#define SPH_SCATTER_AHEAD 16
+
+__attribute__((always_inline)) static inline void prefetch_unsorted(const sim_cpu_sph *s, size_t slot, size_t e,
+                                                                    float *const *arrays, int narrays, int write)
+{
+    if (slot + SPH_SCATTER_AHEAD < e) {
+        const uint32_t o = s->order[slot + SPH_SCATTER_AHEAD];
+        for (int k = 0; k < narrays; k++) __builtin_prefetch(arrays[k] + o, write);
+    }
+}
+
 /* The per-particle constants of the force pass. */
 typedef struct force_consts {
     float inv_h, kp, mu_dt, inv_dt, keep;
@@ -703,11 +745,19 @@ static void force_job(void *vctx, int tid, int nt)
     if (!c->sph.portable)
         for (; i + 8 <= e; i += 8) {
             __m256 rows[8];
-            for (int l = 0; l < 8; l++) rows[l] = force_sums_vec(c, &fc, i + (size_t)l);
+            for (int l = 0; l < 8; l++) {
+                prefetch_ahead(&c->sph, i + (size_t)l, e, (size_t)fc.cap, true);
+                prefetch_unsorted(&c->sph, i + (size_t)l, e, c->a, 3, 1);
+                rows[l] = force_sums_vec(c, &fc, i + (size_t)l);
+            }
             force_finish8(c, &fc, i, rows);
         }
 #endif
-    for (; i < e; i++) force_one(c, &fc, i);
+    for (; i < e; i++) {
+        prefetch_ahead(&c->sph, i, e, (size_t)fc.cap, true);
+        prefetch_unsorted(&c->sph, i, e, c->a, 3, 1);
+        force_one(c, &fc, i);
+    }
 }
 
 /* Copies positions and velocities (zero without vel) into the sorted slots given by order,
@@ -720,6 +770,8 @@ static void gather_job(void *vctx, int tid, int nt)
     size_t b, e;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     for (size_t slot = b; slot < e; slot++) {
+        prefetch_unsorted(s, slot, e, ctx->pos, 3, 0);
+        if (ctx->vel) prefetch_unsorted(s, slot, e, ctx->vel, 3, 0);
         const uint32_t i = s->order[slot];
         for (int k = 0; k < 3; k++) {
             s->sp[4 * slot + k] = ctx->pos[k][i];
@@ -730,8 +782,9 @@ static void gather_job(void *vctx, int tid, int nt)
 }
 
 /* Kept lists: refreshes the sorted copies from the current state (same slot order) and sets
- * ctx->strayed[tid] when a particle is farther than the skin allows from its build position
- * carried by the head's motion (or not finite). */
+ * ctx->strayed when a particle is farther than the skin allows from its build position carried
+ * by the head's motion (or not finite). Once one has strayed the lists are rebuilt and gathered
+ * anew, so every part stops at its next block of SPH_STRAY_BLOCK slots. */
 static void regather_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
@@ -742,6 +795,12 @@ static void regather_job(void *vctx, int tid, int nt)
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     bool strayed = false;
     for (size_t slot = b; slot < e; slot++) {
+        if ((slot - b) % SPH_STRAY_BLOCK == 0) {
+            if (strayed) atomic_store_explicit(&ctx->strayed, true, memory_order_relaxed);
+            if (strayed || atomic_load_explicit(&ctx->strayed, memory_order_relaxed)) return;
+        }
+        prefetch_unsorted(s, slot, e, ctx->pos, 3, 0);
+        prefetch_unsorted(s, slot, e, ctx->vel, 3, 0);
         const uint32_t i = s->order[slot];
         const float x = ctx->pos[0][i], y = ctx->pos[1][i], z = ctx->pos[2][i];
         s->sp[4 * slot] = x, s->sp[4 * slot + 1] = y, s->sp[4 * slot + 2] = z;
@@ -752,7 +811,7 @@ static void regather_job(void *vctx, int tid, int nt)
         const float dz = z - (m[8] * bx + m[9] * by + m[10] * bz + m[11]);
         strayed |= !((dx * dx + dy * dy) + dz * dz <= ctx->stray2);
     }
-    ctx->strayed[tid] = strayed;
+    if (strayed) atomic_store_explicit(&ctx->strayed, true, memory_order_relaxed);
 }
 
 /* Density over the listed neighbours at their current distances (those beyond h add 0) for
@@ -767,6 +826,7 @@ static void density_job(void *vctx, int tid, int nt)
     size_t b, e;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     for (size_t i = b; i < e; i++) {
+        prefetch_ahead(s, i, e, (size_t)cap, false);
         const float *pi = s->sp + 4 * i;
         const uint32_t *nb = s->nbr + i * (size_t)cap;
         const int n = s->nnbr[i];
@@ -813,17 +873,16 @@ static void head_motion(core_xform a, core_xform b, float out[12])
 
 /* True when the skin lists of the last build still hold every pair within h: no particle has
  * strayed from its build position carried by the head's motion since (frame: the head now).
- * Refreshes the sorted copies either way. */
+ * Refreshes the sorted copies when they do. */
 static bool lists_hold(sph_ctx *ctx, core_xform frame)
 {
     sim_cpu *c = ctx->c;
     const float half_skin = 0.5f * SPH_SKIN * c->step.sph_h;
     head_motion(c->sph.build_head, frame, ctx->carry);
     ctx->stray2 = half_skin * half_skin;
+    atomic_init(&ctx->strayed, false);
     sim_pool_run_parts(&c->pool, regather_job, ctx, SPH_PARTS);
-    for (int p = 0; p < SPH_PARTS; p++)
-        if (ctx->strayed[p]) return false;
-    return true;
+    return !atomic_load_explicit(&ctx->strayed, memory_order_relaxed);
 }
 
 /* Sorts the particles into the hash grid of cells of twice the skin radius and builds the
