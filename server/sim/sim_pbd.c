@@ -55,6 +55,7 @@ static void pbd_destroy(void *self)
     free(p->len);
     free(p->kg);
     free(p->kl);
+    free(p->scratch);
     core_sdf_free(&p->sdf);
     free(p);
 }
@@ -110,6 +111,11 @@ static core_status pbd_create(const sim_desc *desc, const core_groom *g, const s
     if ((st = sim_pool_init(&p->pool, desc ? desc->threads : 0, err)) != CORE_OK) {
         pbd_destroy(p);
         return st;
+    }
+    p->scratch = malloc((size_t)p->pool.nthreads * SIM_PBD_SCRATCH * p->nv * sizeof(float));
+    if (!p->scratch) {
+        pbd_destroy(p);
+        return core_fail(err, CORE_ENOMEM, "out of memory for the solver's scratch");
     }
     p->params = *params;
     update_stiffness(p);

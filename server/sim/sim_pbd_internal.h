@@ -10,6 +10,9 @@
 #include "sim_pool.h"
 #include "sim_step.h"
 
+/* Floats per vertex of a worker's per-strand scratch (sim_pbd_solve.c strand_view). */
+#define SIM_PBD_SCRATCH 18
+
 /* Strand-major arrays in groom order: vertex v of strand s at 3 * (s * nv + v). */
 typedef struct sim_pbd {
     uint32_t ns, nv;
@@ -25,6 +28,7 @@ typedef struct sim_pbd {
                                 contact normal friction acts against) */
     float *len;              /* rest length of the segment ending at each vertex (0 for roots) */
     float *kg, *kl;          /* per level: global and local stiffness (1/s^2), faded to the tip */
+    float *scratch;          /* per worker: SIM_PBD_SCRATCH x nv floats for the strand it solves */
     uint32_t ncolliders;
     core_collider colliders[CORE_MAX_COLLIDERS];
     core_sdf sdf;            /* copy of the groom's distance grid (sdf.d NULL = none) */

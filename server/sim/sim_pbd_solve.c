@@ -7,7 +7,7 @@
 #include "sim_pbd_internal.h"
 
 /* Rotates v by the minimal rotation taking unit a onto unit b. */
-static core_vec3 min_rotate(core_vec3 a, core_vec3 b, core_vec3 v)
+static inline __attribute__((always_inline)) core_vec3 min_rotate(core_vec3 a, core_vec3 b, core_vec3 v)
 {
     const core_vec3 k = core_v3_cross(a, b);
     const float co = core_v3_dot(a, b);
@@ -15,10 +15,10 @@ static core_vec3 min_rotate(core_vec3 a, core_vec3 b, core_vec3 v)
     return core_v3_add(core_v3_add(core_v3_scale(v, co), core_v3_cross(k, v)), core_v3_scale(k, kv));
 }
 
-static core_vec3 unit(core_vec3 a)
+static inline __attribute__((always_inline)) core_vec3 unit(core_vec3 a)
 {
-    const float l = core_v3_len(a);
-    return l > 1e-15f ? core_v3_scale(a, 1.0f / l) : core_v3(0.0f, 1.0f, 0.0f);
+    const float l2 = core_v3_dot(a, a);
+    return l2 > 1e-30f ? core_v3_scale(a, 1.0f / sqrtf(l2)) : core_v3(0.0f, 1.0f, 0.0f);
 }
 
 static core_vec3 ld(const float *a) { return core_v3(a[0], a[1], a[2]); }
@@ -39,12 +39,13 @@ static core_vec3 carry(const float *C, core_vec3 p)
  * (w (t - x) + c (xc - x)) / (1 + w + c), the implicit step of the DFTL solver's springs; the
  * multiplier keeps later iterations from pulling further, so the settled offset is g / k for
  * any h and iteration count. A parent takes its share of the reaction. */
-static void pull(float *x, float *xp, float wp, core_vec3 t, core_vec3 xc, float w, float c, float *lam)
+static inline __attribute__((always_inline)) void pull(float *x, float *xp, float wp, core_vec3 t, core_vec3 xc,
+                                                       float w, float c, float *lam)
 {
-    const float den = 1.0f + (w + c) * (1.0f + wp);
+    const float inv_den = 1.0f / (1.0f + (w + c) * (1.0f + wp));
     const float tv[3] = { t.x, t.y, t.z }, cv[3] = { xc.x, xc.y, xc.z };
     for (int d = 0; d < 3; d++) {
-        const float dl = (w * (tv[d] - x[d]) - c * (x[d] - cv[d]) - lam[d]) / den;
+        const float dl = (w * (tv[d] - x[d]) - c * (x[d] - cv[d]) - lam[d]) * inv_den;
         lam[d] += dl;
         x[d] += dl;
         if (xp) xp[d] -= wp * dl;
@@ -119,6 +120,11 @@ static void friction(float *x, core_vec3 n, core_vec3 oc, float mu)
 typedef struct strand_view {
     float *x, *v, *o, *lg, *ll, *push;
     const float *r, *len;
+    /* per level, fixed over the substep (so not recomputed every iteration): seg = the rest
+     * segment ending there under the head, e0 = the unit rest direction of the segment before it
+     * under the head, gt = the global target, gc = the start carried by the head, eo = the unit
+     * start direction of the segment before it, od = the start segment ending there */
+    float *seg, *e0, *gt, *gc, *eo, *od;
 } strand_view;
 
 /* The angular constraint of level l >= 1: toward its rest segment turned by the minimal rotation
@@ -126,25 +132,21 @@ typedef struct strand_view {
  * level l-2 and writes l and its parent l-1 (which takes the reaction), so the levels of one
  * residue mod 3 touch disjoint vertices and can be solved in parallel. Its damper acts on the
  * motion relative to the start carried by the same frame. */
-static void angular(const sim_pbd *p, const strand_view *s, uint32_t l, int k, float b)
+static void angular(const sim_pbd *p, const strand_view *s, uint32_t l, float b)
 {
     const float kl = p->kl[l];
     if (!(kl > 0.0f)) return;
     const float h = p->step.h, w = kl * h * h, c = kl * h * b;
-    const core_quat hr = p->step.head[k].rot;
-    const float *x = s->x, *o = s->o, *r = s->r;
-    const core_vec3 seg = core_q_rotate(hr, core_v3_sub(ld(r + 3 * l), ld(r + 3 * (l - 1))));
-    const core_vec3 parent = ld(x + 3 * (l - 1));
+    const float *x = s->x;
+    const core_vec3 seg = ld(s->seg + 3 * l), parent = ld(x + 3 * (l - 1));
     core_vec3 t, xc;
     if (l == 1) {
         t = core_v3_add(parent, seg);
-        xc = carry(p->step.carry[k], ld(o + 3));
+        xc = ld(s->gc + 3);
     } else {
-        const core_vec3 e0 = unit(core_q_rotate(hr, core_v3_sub(ld(r + 3 * (l - 1)), ld(r + 3 * (l - 2)))));
         const core_vec3 e1 = unit(core_v3_sub(parent, ld(x + 3 * (l - 2))));
-        const core_vec3 eo = unit(core_v3_sub(ld(o + 3 * (l - 1)), ld(o + 3 * (l - 2))));
-        t = core_v3_add(parent, min_rotate(e0, e1, seg));
-        xc = core_v3_add(parent, min_rotate(eo, e1, core_v3_sub(ld(o + 3 * l), ld(o + 3 * (l - 1)))));
+        t = core_v3_add(parent, min_rotate(ld(s->e0 + 3 * l), e1, seg));
+        xc = core_v3_add(parent, min_rotate(ld(s->eo + 3 * l), e1, ld(s->od + 3 * l)));
     }
     pull(s->x + 3 * l, s->x + 3 * (l - 1), l == 1 ? 0.0f : 1.0f, t, xc, w, c, s->ll + 3 * l);
 }
@@ -162,13 +164,33 @@ static void distance(const strand_view *s, uint32_t l)
     st(b, core_v3_sub(ld(b), core_v3_scale(n, wb)));
 }
 
-static void strand_substep(sim_pbd *p, int k, uint32_t si, uint64_t *nan)
+/* Fills the per-substep fields of s (strand_view) from the starts and the rest pose. */
+static void substep_frames(const sim_step_desc *sd, int k, const strand_view *s, uint32_t nv)
+{
+    const core_xform head = sd->head[k];
+    for (uint32_t l = 0; l < nv; l++) {
+        const core_vec3 r = ld(s->r + 3 * l), o = ld(s->o + 3 * l);
+        st(s->gt + 3 * l, core_xform_point(head, r));
+        st(s->gc + 3 * l, carry(sd->carry[k], o));
+        if (l == 0) continue;
+        st(s->seg + 3 * l, core_q_rotate(head.rot, core_v3_sub(r, ld(s->r + 3 * (l - 1)))));
+        st(s->od + 3 * l, core_v3_sub(o, ld(s->o + 3 * (l - 1))));
+        if (l == 1) continue;
+        st(s->e0 + 3 * l, unit(ld(s->seg + 3 * (l - 1))));
+        st(s->eo + 3 * l, unit(ld(s->od + 3 * (l - 1))));
+    }
+}
+
+static void strand_substep(sim_pbd *p, int k, uint32_t si, int worker)
 {
     const sim_step_desc *sd = &p->step;
     const uint32_t nv = p->nv;
     const size_t base = 3 * (size_t)si * nv;
-    const strand_view s = { p->x + base,  p->v + base,    p->start + base,           p->lg + base,
-                            p->ll + base, p->push + base, p->rest + base, p->len + (size_t)si * nv };
+    float *w = p->scratch + (size_t)worker * SIM_PBD_SCRATCH * nv;
+    const strand_view s = { p->x + base,  p->v + base,    p->start + base, p->lg + base,
+                            p->ll + base, p->push + base, p->rest + base,  p->len + (size_t)si * nv,
+                            w,            w + 3 * nv,     w + 6 * nv,      w + 9 * nv,
+                            w + 12 * nv,  w + 15 * nv };
     const float h = sd->h, inv_h = sd->inv_h, b = 0.5f * fmaxf((float)SIM_SHAPE_DAMPING_STEP - h, 0.0f);
     const core_xform head = sd->head[k];
     const core_vec3 acc = ld(sd->accel);
@@ -182,6 +204,7 @@ static void strand_substep(sim_pbd *p, int k, uint32_t si, uint64_t *nan)
         const core_vec3 v = core_v3_scale(ld(s.v + 3 * l), sd->drag_keep);
         st(x, core_v3_add(ld(x), core_v3_add(core_v3_scale(v, h), core_v3_scale(acc, h * h))));
     }
+    substep_frames(sd, k, &s, nv);
     memset(s.lg, 0, 3 * nv * sizeof(float));
     memset(s.ll, 0, 3 * nv * sizeof(float));
     memset(s.push, 0, 3 * nv * sizeof(float));
@@ -189,12 +212,11 @@ static void strand_substep(sim_pbd *p, int k, uint32_t si, uint64_t *nan)
     const bool sdf = sd->sdf != NULL;
     for (int it = 0; it < p->params.pbd_iterations; it++) {
         for (uint32_t phase = 0; phase < 3; phase++)
-            for (uint32_t l = 1 + phase; l < nv; l += 3) angular(p, &s, l, k, b);
+            for (uint32_t l = 1 + phase; l < nv; l += 3) angular(p, &s, l, b);
         for (uint32_t l = 1; l < nv; l++) {
             const float kg = p->kg[l];
             if (!(kg > 0.0f)) continue;
-            pull(s.x + 3 * l, NULL, 0.0f, core_xform_point(head, ld(s.r + 3 * l)), carry(sd->carry[k], ld(s.o + 3 * l)),
-                 kg * h * h, kg * h * b, s.lg + 3 * l);
+            pull(s.x + 3 * l, NULL, 0.0f, ld(s.gt + 3 * l), ld(s.gc + 3 * l), kg * h * h, kg * h * b, s.lg + 3 * l);
         }
         for (uint32_t l = 1; l < nv; l += 2) distance(&s, l); /* even segments (from vertex 0, 2, ...) */
         for (uint32_t l = 2; l < nv; l += 2) distance(&s, l); /* odd segments */
@@ -207,7 +229,7 @@ static void strand_substep(sim_pbd *p, int k, uint32_t si, uint64_t *nan)
         }
     }
     if (sd->friction > 0.0f)
-        for (uint32_t l = 1; l < nv; l++) friction(s.x + 3 * l, ld(s.push + 3 * l), carry(sd->carry[k], ld(s.o + 3 * l)), sd->friction);
+        for (uint32_t l = 1; l < nv; l++) friction(s.x + 3 * l, ld(s.push + 3 * l), ld(s.gc + 3 * l), sd->friction);
     /* velocities from the positions; internal damping keeps a share of each vertex's velocity
      * relative to its parent's final one */
     float bad = 0.0f;
@@ -221,7 +243,7 @@ static void strand_substep(sim_pbd *p, int k, uint32_t si, uint64_t *nan)
     for (uint32_t l = 0; l < nv; l++) bad += (s.x[3 * l] - s.x[3 * l]) + (s.x[3 * l + 1] - s.x[3 * l + 1]) + (s.x[3 * l + 2] - s.x[3 * l + 2]);
     if (bad != 0.0f) { /* NaN or inf somewhere along the strand */
         sim_pbd_restore_strand(p, si, head);
-        (*nan)++;
+        p->nan_per_worker[worker]++;
     }
 }
 
@@ -237,7 +259,7 @@ static void substep_task(void *vctx, size_t task, size_t ntasks, int worker)
     (void)ntasks;
     const substep_ctx *c = vctx;
     const uint32_t s0 = (uint32_t)(task * SIM_CHUNK), s1 = s0 + SIM_CHUNK < c->p->ns ? s0 + SIM_CHUNK : c->p->ns;
-    for (uint32_t s = s0; s < s1; s++) strand_substep(c->p, c->k, s, &c->p->nan_per_worker[worker]);
+    for (uint32_t s = s0; s < s1; s++) strand_substep(c->p, c->k, s, worker);
 }
 
 void sim_pbd_substep(sim_pbd *p, int k)
