@@ -49,9 +49,6 @@ static void pbd_destroy(void *self)
     free(p->v);
     free(p->start);
     free(p->rest);
-    free(p->lg);
-    free(p->ll);
-    free(p->push);
     free(p->len);
     free(p->kg);
     free(p->kl);
@@ -88,13 +85,10 @@ static core_status pbd_create(const sim_desc *desc, const core_groom *g, const s
     p->v = malloc(bytes);
     p->start = malloc(bytes);
     p->rest = malloc(bytes);
-    p->lg = malloc(bytes);
-    p->ll = malloc(bytes);
-    p->push = malloc(bytes);
     p->len = malloc(n * sizeof(float));
     p->kg = malloc(p->nv * sizeof(float));
     p->kl = malloc(p->nv * sizeof(float));
-    if (!p->x || !p->v || !p->start || !p->rest || !p->lg || !p->ll || !p->push || !p->len || !p->kg || !p->kl) {
+    if (!p->x || !p->v || !p->start || !p->rest || !p->len || !p->kg || !p->kl) {
         pbd_destroy(p);
         return core_fail(err, CORE_ENOMEM, "out of memory for %zu particles", n);
     }

@@ -11,7 +11,7 @@
 #include "sim_step.h"
 
 /* Floats per vertex of a worker's per-strand scratch (sim_pbd_solve.c strand_view). */
-#define SIM_PBD_SCRATCH 18
+#define SIM_PBD_SCRATCH 27
 
 /* Strand-major arrays in groom order: vertex v of strand s at 3 * (s * nv + v). */
 typedef struct sim_pbd {
@@ -22,10 +22,6 @@ typedef struct sim_pbd {
     float *x, *v;            /* positions and velocities */
     float *start;            /* positions at the substep's start */
     float *rest;             /* rest positions in the head frame */
-    float *lg, *ll;          /* XPBD multipliers of the global and the angular constraint (per
-                                vertex, 3 each: the constraints are vector ones) */
-    float *push;             /* per vertex: the sum of its collision pushes this substep (the
-                                contact normal friction acts against) */
     float *len;              /* rest length of the segment ending at each vertex (0 for roots) */
     float *kg, *kl;          /* per level: global and local stiffness (1/s^2), faded to the tip */
     float *scratch;          /* per worker: SIM_PBD_SCRATCH x nv floats for the strand it solves */

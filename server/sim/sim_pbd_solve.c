@@ -118,13 +118,17 @@ static void friction(float *x, core_vec3 n, core_vec3 oc, float mu)
 }
 
 typedef struct strand_view {
-    float *x, *v, *o, *lg, *ll, *push;
+    float *x, *v, *o;
     const float *r, *len;
     /* per level, fixed over the substep (so not recomputed every iteration): seg = the rest
      * segment ending there under the head, e0 = the unit rest direction of the segment before it
      * under the head, gt = the global target, gc = the start carried by the head, eo = the unit
      * start direction of the segment before it, od = the start segment ending there */
     float *seg, *e0, *gt, *gc, *eo, *od;
+    /* per level, over the substep: the XPBD multipliers of the global and the angular constraint
+     * (3 each: they are vector constraints) and the sum of the collision pushes (the contact
+     * normal friction acts against) */
+    float *lg, *ll, *push;
 } strand_view;
 
 /* The angular constraint of level l >= 1: toward its rest segment turned by the minimal rotation
@@ -187,10 +191,9 @@ static void strand_substep(sim_pbd *p, int k, uint32_t si, int worker)
     const uint32_t nv = p->nv;
     const size_t base = 3 * (size_t)si * nv;
     float *w = p->scratch + (size_t)worker * SIM_PBD_SCRATCH * nv;
-    const strand_view s = { p->x + base,  p->v + base,    p->start + base, p->lg + base,
-                            p->ll + base, p->push + base, p->rest + base,  p->len + (size_t)si * nv,
-                            w,            w + 3 * nv,     w + 6 * nv,      w + 9 * nv,
-                            w + 12 * nv,  w + 15 * nv };
+    const strand_view s = { p->x + base, p->v + base,  p->start + base, p->rest + base, p->len + (size_t)si * nv,
+                            w,           w + 3 * nv,   w + 6 * nv,      w + 9 * nv,     w + 12 * nv,
+                            w + 15 * nv, w + 18 * nv,  w + 21 * nv,     w + 24 * nv };
     const float h = sd->h, inv_h = sd->inv_h, b = 0.5f * fmaxf((float)SIM_SHAPE_DAMPING_STEP - h, 0.0f);
     const core_xform head = sd->head[k];
     const core_vec3 acc = ld(sd->accel);
