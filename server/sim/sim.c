@@ -97,6 +97,7 @@ core_status sim_change(sim *s, const core_groom *groom, const sim_params *params
             next.prior_steps = was.steps;
             next.prior_time = was.sim_time;
             next.prior_nan_resets = was.nan_resets;
+            if (s->cancel) sim_set_cancel(&next, s->cancel, s->cancel_ctx);
             sim_destroy(s);
             *s = next;
         } else {
@@ -114,6 +115,15 @@ void sim_set_motion(sim *s, core_xform head)
     s->vt->set_motion(s->self, head);
 }
 core_status sim_step(sim *s, core_err *err) { return s->vt->step(s->self, err); }
+
+bool sim_set_cancel(sim *s, sim_cancel_fn poll, void *ctx)
+{
+    s->cancel = poll;
+    s->cancel_ctx = ctx;
+    if (!s->vt->set_cancel) return false;
+    s->vt->set_cancel(s->self, poll, ctx);
+    return true;
+}
 core_status sim_read_positions(sim *s, float *xyz, core_err *err) { return s->vt->read_positions(s->self, xyz, err); }
 core_status sim_read_state(sim *s, float *xyz, float *vel, core_err *err) { return s->vt->read_state(s->self, xyz, vel, err); }
 core_status sim_write_state(sim *s, const float *xyz, const float *vel, core_err *err)
