@@ -254,8 +254,16 @@ static void test_dt_independence(void **state)
     }
 }
 
-/* Switching solvers at run time (sim_change) keeps every position and velocity and the head;
- * the switched solver goes on from there (SPH off: see below); hairmesh on a strand groom is refused and leaves the
+/* A cancel poll that never abandons a step and counts how often it is asked. */
+static bool count_polls(void *ctx)
+{
+    (*(int *)ctx)++;
+    return false;
+}
+
+/* Switching solvers at run time (sim_change) keeps every position and velocity, the head, the
+ * counters and the cancel poll; the switched solver goes on from there (SPH off: see below);
+ * hairmesh on a strand groom is refused and leaves the
  * running solver as it was. */
 static void test_switch(void **state)
 {
@@ -299,6 +307,15 @@ static void test_switch(void **state)
         assert_true(rest <= REST_P999);
         assert_true(moved < 0.5e-3);
     }
+    /* the cancel poll goes with the switch: PBD cannot abandon a step, DFTL asks it again */
+    int polls = 0;
+    assert_false(sim_set_cancel(&r.s, count_polls, &polls));
+    p.solver = SIM_SOLVER_DFTL;
+    assert_int_equal(sim_change(&r.s, &r.groom, &p, &err), CORE_OK);
+    run_step(&r, core_xform_identity());
+    assert_true(polls > 0);
+    p.solver = SIM_SOLVER_PBD;
+    assert_int_equal(sim_change(&r.s, &r.groom, &p, &err), CORE_OK);
     p.solver = SIM_SOLVER_HAIRMESH;
     assert_int_equal(sim_change(&r.s, &r.groom, &p, &err), CORE_EINVAL);
     assert_non_null(strstr(err.msg, "hair-mesh groom"));
