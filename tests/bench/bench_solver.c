@@ -1,4 +1,5 @@
-/* strandbench solver: steps/s, ns per particle-step and memory-bandwidth fraction per case. */
+/* strandbench solver: steps/s, ns per particle-step and memory-bandwidth fraction per case and
+ * solver. */
 #include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -27,11 +28,14 @@ static const bench_case default_cases[] = {
 };
 
 static const char *feature_names[] = { "dftl", "dftl+shape", "dftl+shape+sph" };
+/* --solver names and their sim_solver values (hairmesh needs a hair-mesh groom: not benched here) */
+static const char *const solver_names[] = { "dftl", "pbd" };
+static const int solver_ids[] = { SIM_SOLVER_DFTL, SIM_SOLVER_PBD };
 
 static void usage(void)
 {
     puts("usage: strandbench [solver] [--backend cpu|vulkan|both] [--case SxV]... [--features dftl,dftl+shape,dftl+shape+sph]\n"
-         "                  [--groom FILE] [--steps N] [--threads N] [--device N]\n"
+         "                  [--solver dftl,pbd] [--groom FILE] [--steps N] [--threads N] [--device N]\n"
          "                  [--substeps N] [--animate PRESET[,PRESET...]] [--json]\n"
          "Runs the solver on procedural grooms of each case (default: the paper's Table 2 sizes and\n"
          "Table 1 scenes) with each feature set, one step = one 1/60 s frame with one substep (the\n"
@@ -39,6 +43,10 @@ static void usage(void)
          "of the memory bandwidth (a memcpy measured in the same run) the step's traffic reaches.\n"
          "--backend both runs each case on the C and the Vulkan backend and prints them side by side\n"
          "with the ratio; Vulkan rows carry the per-stage GPU time of the last step (timestamps).\n"
+         "--solver dftl,pbd runs each case with each solver (default dftl), the PBD rows with the\n"
+         "ratio of their steps/s to the DFTL row of the same case and features measured just before;\n"
+         "PBD has no hair-hair interaction, so it runs the dftl and dftl+shape feature sets only (shape\n"
+         "on or off, default pbd_iterations) and only on the C backend.\n"
          "--device N picks the Vulkan device (0 = automatic, N >= 1 = vulkaninfo's GPU<N-1>);\n"
          "The SPH smoothing length is automatic (sph_radius 0: 1.75 x the groom's mean root spacing).\n"
          "--substeps N sets the solver substeps (default 1, the paper's; the daemon's default is 4).\n"
@@ -61,6 +69,7 @@ static double step_bytes(size_t n, int feat, int substeps)
 
 typedef struct bench_opts {
     int threads, device, substeps;
+    int solver;               /* sim_solver */
     int preset;               /* app_preset, or -1 for the default slow turn */
     bool json;
     double bandwidth;
@@ -80,6 +89,7 @@ static int measure(const core_groom *g, int feat, sim_backend_kind backend, cons
     sim_params p;
     sim_params_default(&p);
     p.substeps = o->substeps;
+    p.solver = o->solver;
     p.shape = feat >= SIM_FEAT_SHAPE;
     p.sph = feat >= SIM_FEAT_SPH;
     /* the default smoothing length is automatic: it follows the groom's root spacing */
@@ -89,7 +99,8 @@ static int measure(const core_groom *g, int feat, sim_backend_kind backend, cons
     sim_desc d = { .backend = backend, .threads = o->threads, .device = o->device };
     sim s;
     core_err err;
-    core_status st = backend == SIM_BACKEND_VULKAN ? sim_vk_create(&s, &d, NULL, g, &p, &err) : sim_create(&s, &d, g, &p, &err);
+    core_status st = backend == SIM_BACKEND_VULKAN && o->solver == SIM_SOLVER_DFTL ? sim_vk_create(&s, &d, NULL, g, &p, &err)
+                                                                                  : sim_create(&s, &d, g, &p, &err);
     if (st != CORE_OK) {
         fprintf(stderr, "strandbench: %ux%u %s: %s\n", g->nstrands, g->nverts, feature_names[feat], err.msg);
         return 1;
@@ -121,15 +132,18 @@ static int measure(const core_groom *g, int feat, sim_backend_kind backend, cons
     return 0;
 }
 
-static void print_result(const core_groom *g, int feat, const bench_opts *o, const bench_result *r, double vs_cpu)
+static void print_result(const core_groom *g, int feat, const bench_opts *o, const bench_result *r, double vs_cpu,
+                         double vs_dftl)
 {
     if (o->json) {
-        printf("{\"bench\":\"solver\",\"strands\":%u,\"verts\":%u,\"features\":\"%s\",\"backend\":\"%s\","
+        printf("{\"bench\":\"solver\",\"solver\":\"%s\",\"strands\":%u,\"verts\":%u,\"features\":\"%s\",\"backend\":\"%s\","
                "\"threads\":%d,\"steps_per_s\":%.2f,\"ns_per_particle_step\":%.3f,\"bw_fraction\":%.4f,"
                "\"memcpy_bytes_per_s\":%.4g,\"substeps\":%d,\"sph_radius_m\":%.5f,\"animate\":\"%s\"",
-               g->nstrands, g->nverts, feature_names[feat], r->backend, o->threads, r->sps, r->ns_pp, r->bw,
-               o->bandwidth, r->substeps, r->sph_radius, o->preset >= 0 ? app_preset_names[o->preset] : "turn");
+               sim_solver_name(o->solver), g->nstrands, g->nverts, feature_names[feat], r->backend, o->threads, r->sps,
+               r->ns_pp, r->bw, o->bandwidth, r->substeps, r->sph_radius,
+               o->preset >= 0 ? app_preset_names[o->preset] : "turn");
         if (vs_cpu > 0.0) printf(",\"vs_cpu\":%.3f", vs_cpu);
+        if (vs_dftl > 0.0) printf(",\"vs_dftl\":%.3f", vs_dftl);
         if (r->stats.nstages > 0) {
             printf(",\"stage_ms\":{");
             for (int k = 0; k < r->stats.nstages; k++)
@@ -138,9 +152,11 @@ static void print_result(const core_groom *g, int feat, const bench_opts *o, con
         }
         printf("}\n");
     } else {
-        printf("%6u x %-3u %-15s %-7s %3d thr %10.1f steps/s %8.2f ns/particle-step  %5.1f%% of memcpy bw",
-               g->nstrands, g->nverts, feature_names[feat], r->backend, o->threads, r->sps, r->ns_pp, 100.0 * r->bw);
+        printf("%6u x %-3u %-4s %-15s %-7s %3d thr %10.1f steps/s %8.2f ns/particle-step  %5.1f%% of memcpy bw",
+               g->nstrands, g->nverts, sim_solver_name(o->solver), feature_names[feat], r->backend, o->threads, r->sps,
+               r->ns_pp, 100.0 * r->bw);
         if (vs_cpu > 0.0) printf("  %.2fx cpu", vs_cpu);
+        if (vs_dftl > 0.0) printf("  %.3fx dftl", vs_dftl);
         if (o->preset >= 0) printf("  [%s]", app_preset_names[o->preset]);
         printf("\n");
         if (strcmp(r->backend, "vulkan") == 0 && r->stats.nstages > 0) {
@@ -153,27 +169,33 @@ static void print_result(const core_groom *g, int feat, const bench_opts *o, con
     fflush(stdout);
 }
 
-/* One case on one backend, or on both side by side (backend AUTO stands for both). */
-static int run_case(const core_groom *g, int feat, sim_backend_kind backend, const bench_opts *o, int steps)
+/* One case on one backend, or on both side by side (backend AUTO stands for both); *sps gets the
+ * steps/s of the first backend's row, and dftl_sps > 0 is the DFTL row's to compare a PBD row
+ * with. */
+static int run_case(const core_groom *g, int feat, sim_backend_kind backend, const bench_opts *o, int steps,
+                    double dftl_sps, double *sps)
 {
     bench_result cpu, vk;
     if (backend != SIM_BACKEND_AUTO) {
         bench_result *r = backend == SIM_BACKEND_CPU ? &cpu : &vk;
         if (measure(g, feat, backend, o, steps, r) != 0) return 1;
-        print_result(g, feat, o, r, 0.0);
+        print_result(g, feat, o, r, 0.0, dftl_sps > 0.0 ? r->sps / dftl_sps : 0.0);
+        *sps = r->sps;
         return 0;
     }
     if (measure(g, feat, SIM_BACKEND_CPU, o, steps, &cpu) != 0) return 1;
-    print_result(g, feat, o, &cpu, 0.0);
+    print_result(g, feat, o, &cpu, 0.0, dftl_sps > 0.0 ? cpu.sps / dftl_sps : 0.0);
+    *sps = cpu.sps;
+    if (o->solver != SIM_SOLVER_DFTL) return 0; /* no Vulkan backend */
     if (measure(g, feat, SIM_BACKEND_VULKAN, o, steps, &vk) != 0) return 1;
-    print_result(g, feat, o, &vk, vk.sps / cpu.sps);
+    print_result(g, feat, o, &vk, vk.sps / cpu.sps, 0.0);
     return 0;
 }
 
 #define PROG "strandbench"
 
 enum { OPT_JSON = 256, OPT_CASE, OPT_FEATURES, OPT_BACKEND, OPT_DEVICE, OPT_SUBSTEPS, OPT_ANIMATE, OPT_GROOM, OPT_STEPS,
-       OPT_THREADS };
+       OPT_THREADS, OPT_SOLVER };
 
 static const struct option solver_options[] = {
     { "json", no_argument, NULL, OPT_JSON },         { "case", required_argument, NULL, OPT_CASE },
@@ -181,7 +203,8 @@ static const struct option solver_options[] = {
     { "device", required_argument, NULL, OPT_DEVICE },     { "substeps", required_argument, NULL, OPT_SUBSTEPS },
     { "animate", required_argument, NULL, OPT_ANIMATE },   { "groom", required_argument, NULL, OPT_GROOM },
     { "steps", required_argument, NULL, OPT_STEPS },       { "threads", required_argument, NULL, OPT_THREADS },
-    { "help", no_argument, NULL, 'h' },                    { NULL, 0, NULL, 0 },
+    { "solver", required_argument, NULL, OPT_SOLVER },     { "help", no_argument, NULL, 'h' },
+    { NULL, 0, NULL, 0 },
 };
 
 /* Each comma-separated name of v found in names[0, n) into out (at most cap); 0 or the bad-flag status. */
@@ -204,7 +227,7 @@ int bench_solver_main(int argc, char **argv)
     bench_case cases[MAX_CASES];
     int ncases = 0, steps = 0, threads = 0, device = 0;
     bool json = false, feats[3] = { false, false, false }, any_feat = false;
-    int substeps = 1, presets[APP_PRESET_COUNT], npresets = 0;
+    int substeps = 1, presets[APP_PRESET_COUNT], npresets = 0, solvers[2], nsolvers = 0;
     const char *groom_file = NULL;
     sim_backend_kind backend = SIM_BACKEND_CPU; /* AUTO here means both, side by side */
     core_cli_begin();
@@ -245,6 +268,9 @@ int bench_solver_main(int argc, char **argv)
             rc = parse_names(flag, v, app_preset_names, APP_PRESET_COUNT, presets, &npresets, APP_PRESET_COUNT,
                              "expected presets: none, nod, shake, circle, headbang, sway");
             break;
+        case OPT_SOLVER:
+            rc = parse_names(flag, v, solver_names, 2, solvers, &nsolvers, 2, "expected solvers: dftl, pbd");
+            break;
         case OPT_GROOM: groom_file = v; break;
         case OPT_STEPS:
             if (!(rc = core_cli_u64(PROG, flag, v, 1, 1000000, &u))) steps = (int)u;
@@ -274,6 +300,7 @@ int bench_solver_main(int argc, char **argv)
             printf("vulkan device: %s (%s)\n", info.device_name, info.hardware ? "GPU" : "CPU device");
     }
     if (npresets == 0) presets[npresets++] = -1;
+    if (nsolvers == 0) solvers[nsolvers++] = 0;
     int rc = 0;
     int total = ncases + (groom_file ? 1 : 0);
     for (int c = 0; c < total; c++) {
@@ -295,8 +322,15 @@ int bench_solver_main(int argc, char **argv)
         for (int f = 0; f < 3; f++) {
             if (!feats[f]) continue;
             for (int k = 0; k < npresets; k++) {
-                const bench_opts opts = { threads, device, substeps, presets[k], json, bandwidth };
-                rc |= run_case(&g, f, backend, &opts, nsteps);
+                double dftl_sps = 0.0;
+                for (int v = 0; v < nsolvers; v++) {
+                    const int solver = solver_ids[solvers[v]];
+                    if (solver == SIM_SOLVER_PBD && f == SIM_FEAT_SPH) continue; /* no hair-hair interaction */
+                    const bench_opts opts = { threads, device, substeps, solver, presets[k], json, bandwidth };
+                    double sps = 0.0;
+                    rc |= run_case(&g, f, backend, &opts, nsteps, solver == SIM_SOLVER_DFTL ? 0.0 : dftl_sps, &sps);
+                    if (solver == SIM_SOLVER_DFTL) dftl_sps = sps;
+                }
             }
         }
         core_groom_free(&g);

@@ -387,6 +387,27 @@ async function main() {
   }, null, { timeout: 20000, polling: 100 });
   check(true, 'local_stiffness = 1000 set by another client shows at slider position 101 of 601');
 
+  // the solver is a drop-down: picking pbd switches the server (seen by the other client) and
+  // the panel then shows pbd's own parameters and hides dftl's; back to dftl for what follows
+  const solverRows = () => page.evaluate(() => {
+    const row = (n) => document.querySelector(`[data-param="${n}"]`)?.closest('.row');
+    return { pbd: row('pbd_iterations') && !row('pbd_iterations').hidden, dftl: row('dftl_correction') && !row('dftl_correction').hidden };
+  });
+  const onDftl = await solverRows();
+  check(onDftl.dftl && !onDftl.pbd, `on dftl the panel shows dftl_correction, not pbd_iterations (${JSON.stringify(onDftl)})`);
+  await page.selectOption('select[data-param="solver"]', 'pbd');
+  const sw = await waitMessage(other, (m) => m.type === 'params' && m.values && m.values.solver === 'pbd', 60000, 'solver pbd broadcast');
+  check(sw.by === pageClient, `the solver drop-down switched the server to pbd (by client ${sw.by})`);
+  await page.waitForFunction(() => {
+    const row = (n) => document.querySelector(`[data-param="${n}"]`)?.closest('.row');
+    return row('pbd_iterations') && !row('pbd_iterations').hidden && row('dftl_correction').hidden;
+  }, null, { timeout: 20000, polling: 100 });
+  check(true, 'on pbd the panel shows pbd_iterations and hides dftl_correction');
+  other.ws.send(JSON.stringify({ type: 'set_params', id: 'e2e-s', values: { solver: 'dftl' } }));
+  await waitMessage(other, (m) => m.id === 'e2e-s', 20000, 'reply to set_params');
+  await page.waitForFunction(() => document.querySelector('select[data-param="solver"]').value === 'dftl', null, { timeout: 20000, polling: 100 });
+  check(true, 'solver = dftl set by another client shows in the drop-down');
+
   await page.screenshot({ path: path.join(outDir, 'e2e-screenshot.png'), timeout: 180000 });
   console.log(`e2e: screenshot ${path.join(outDir, 'e2e-screenshot.png')}`);
 
