@@ -25,7 +25,8 @@ uint32_t app_stream_strands(uint32_t nstrands, int32_t stride)
 
 static core_status stream_init(const app_streams *ss, app_stream *t, core_err *err)
 {
-    codec_desc cd = { (float)t->max_error, ss->keyframe_interval, (uint32_t)t->stride };
+    codec_desc cd = { .max_error_m = (float)t->max_error, .key_interval = ss->keyframe_interval,
+                      .stride = (uint32_t)t->stride };
     core_status st = codec_encoder_init(&t->enc, &cd, ss->nstrands, ss->nverts, err);
     t->ready = st == CORE_OK;
     t->force_key = true;
