@@ -196,6 +196,8 @@ static core_status setup(app *a, core_err *err)
     a->out.net = a->net;
     app_streams_init(&a->w.streams, a->net, a->d.rate, a->d.max_error, (uint32_t)a->d.keyframe_interval,
                      a->w.groom.g.nstrands, a->w.groom.g.nverts);
+    const core_hairmesh *hm = a->w.groom.g.hairmesh;
+    app_streams_set_hairmesh(&a->w.streams, hm ? hm->ncols : 0, hm ? hm->nlayers : 0);
     app_groom_publish(a->net, &a->w.groom);
     return CORE_OK;
 }
@@ -209,6 +211,7 @@ static void teardown(app *a)
     sim_destroy(&w->sim);
     app_groom_free(&w->groom);
     free(w->xyz);
+    free(w->mesh_xyz);
     app_clients_free(&w->clients);
     app_assets_free(&a->assets);
     app_gate_free(&a->gate);

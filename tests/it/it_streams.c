@@ -140,6 +140,38 @@ void test_stream_slots(void **state)
     assert_int_equal(v->bad, 0);
 }
 
+/* A strand groom has no hair mesh: hello says so (groom.hairmesh null), subscribing to the hair
+ * mesh is refused (bad_state, field source) and changes nothing, and the strands go on; the
+ * strands source is accepted. */
+void test_hairmesh_source_refused(void **state)
+{
+    fixture *fx = *state;
+    view *v;
+    wsc_conn *c = connect_view(fx, &v);
+    cJSON *hello = expect_msg(fx, c, "hello");
+    assert_true(cJSON_IsNull(get(get(hello, "groom"), "hairmesh")));
+    assert_string_equal(str(get(hello, "stream"), "codec"), "strand");
+    cJSON_Delete(hello);
+    wait_frames(fx, v, 3);
+    wsc_send_text(c, "{\"type\":\"subscribe\",\"source\":\"hairmesh\",\"max_rate\":10,\"id\":1}");
+    cJSON *e = expect_msg(fx, c, "error");
+    assert_string_equal(str(e, "code"), "bad_state");
+    assert_string_equal(str(e, "field"), "source");
+    assert_non_null(strstr(str(e, "message"), "groom.hairmesh is null"));
+    assert_true(num(e, "id") == 1);
+    cJSON_Delete(e);
+    uint64_t n = v->ok;
+    wait_frames(fx, v, n + 6); /* the 60 Hz strand stream, unchanged by the refused subscribe */
+    assert_int_equal(v->info.nstrands_sent, NSTRANDS);
+    assert_int_equal(v->info.codec_id, CODEC_ID_STRAND);
+    wsc_send_text(c, "{\"type\":\"subscribe\",\"source\":\"strands\",\"stride\":2,\"id\":2}");
+    cJSON *sub = expect_msg(fx, c, "subscribed");
+    assert_string_equal(str(get(sub, "stream"), "codec"), "strand");
+    assert_true(num(get(sub, "stream"), "stride") == 2);
+    cJSON_Delete(sub);
+    assert_int_equal(v->bad, 0);
+}
+
 /* A groom 2 km up cannot be streamed at 0.01 mm (its lattice coordinates would pass 2^26): that
  * stream's clients are told why, and a 1 mm stream goes on. */
 void test_stream_failure_is_reported(void **state)
