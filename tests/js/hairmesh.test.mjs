@@ -2,6 +2,7 @@
 // render-strand layout and the wireframe.
 import test from 'node:test';
 import assert from 'node:assert/strict';
+import { readFileSync } from 'node:fs';
 import {
   FACE_NONE, MESH_INSTANCE_STRIDE, cornerWeights, growPoint, layerAt, meshStrands, traceStrand, wireframeIndices,
 } from '../../web/hairmesh.js';
@@ -23,6 +24,29 @@ function handMesh() {
 
 const near = (a, b, tol, what) => assert.ok(Math.abs(a - b) <= tol, `${what}: ${a} vs ${b}`);
 const NO_STYLE = { offset: 0, tipSpread: 1, curl: 0, curlTurns: 0, frizz: 0 };
+
+// Strands the C tracing (core_hairmesh_trace) made, written by tests/test_hairmesh_fixture.c.
+const fixture = JSON.parse(readFileSync(new URL('./hairmesh_trace.json', import.meta.url), 'utf8'));
+
+test('the tracing and the grown strands match the C tracing on the fixture', () => {
+  assert.equal(fixture.meshes.length, 2);
+  let checked = 0, triangles = 0;
+  for (const m of fixture.meshes) {
+    const mesh = { nlayers: m.nlayers, pos: Float32Array.from(m.pos), faces: Uint32Array.from(m.faces) };
+    for (const s of m.strands) {
+      const got = traceStrand(mesh, s.face, s.u, s.v, s.nverts, new Float64Array(3 * s.nverts));
+      const p = [0, 0, 0];
+      for (let i = 0; i < 3 * s.nverts; i++) near(got[i], s.xyz[i], 2e-7, `${m.name} face ${s.face} (${s.u}, ${s.v}) coordinate ${i}`);
+      for (let i = 0; i < s.nverts; i++) {
+        growPoint(mesh, { face: s.face, u: s.u, v: s.v, rand: [0.5, 1, 0.5, 0.5] }, i, s.nverts, NO_STYLE, p);
+        for (let c = 0; c < 3; c++) near(p[c], s.xyz[3 * i + c], 2e-7, `${m.name} grown point ${i}`);
+      }
+      if (mesh.faces[4 * s.face + 3] === FACE_NONE) triangles++;
+      checked++;
+    }
+  }
+  assert.ok(checked >= 18 && triangles >= 3);
+});
 
 test('corner weights: bilinear on quads, barycentric on triangles, summing to one', () => {
   const w = [0, 0, 0, 0];
