@@ -38,6 +38,13 @@ core_status sim_set_params(sim *s, const sim_params *params, core_err *err)
 void sim_set_motion(sim *s, core_xform head) { s->vt->set_motion(s->self, head); }
 core_status sim_step(sim *s, core_err *err) { return s->vt->step(s->self, err); }
 core_status sim_read_positions(sim *s, float *xyz, core_err *err) { return s->vt->read_positions(s->self, xyz, err); }
+core_status sim_read_hairmesh(sim *s, float *xyz, core_err *err)
+{
+    if (!s->vt || !s->vt->read_hairmesh)
+        return core_fail(err, CORE_EUNSUPPORTED, "the %s solver simulates strands, not a hair mesh",
+                         s->vt ? s->vt->name : "(none)");
+    return s->vt->read_hairmesh(s->self, xyz, err);
+}
 core_status sim_read_state(sim *s, float *xyz, float *vel, core_err *err) { return s->vt->read_state(s->self, xyz, vel, err); }
 core_status sim_write_state(sim *s, const float *xyz, const float *vel, core_err *err)
 {
