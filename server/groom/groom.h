@@ -184,7 +184,8 @@ bool groom_collider_region(const core_groom *g, const core_mesh *m, core_vec3 *l
 
 /* ---- hair meshes (layered prisms over the scalp; core/hairmesh_types.h) --------------------- */
 
-#define GROOM_HAIRMESH_DEFAULT_GRID 6u    /* faces along each side of the scalp patch */
+#define GROOM_HAIRMESH_DEFAULT_PATCHES 3u /* patches along each side of the scalp region */
+#define GROOM_HAIRMESH_DEFAULT_GRID 2u    /* quads along each side of a patch */
 #define GROOM_HAIRMESH_DEFAULT_LAYERS 9u
 #define GROOM_HAIRMESH_MAX_GRID 256u
 
@@ -192,19 +193,23 @@ bool groom_collider_region(const core_groom *g, const core_mesh *m, core_vec3 *l
 typedef struct groom_hairmesh_desc {
     groom_style style;  /* the layers' offsets: straight, wavy (a planar wave of 1 cm, 3.5 waves
                            per 0.25 m) or curly (a helix of 1 cm radius, 4 turns per 0.25 m) */
-    uint32_t grid;      /* 0 = GROOM_HAIRMESH_DEFAULT_GRID; 1..GROOM_HAIRMESH_MAX_GRID quads per side */
+    uint32_t patches;   /* 0 = GROOM_HAIRMESH_DEFAULT_PATCHES; 1..GROOM_HAIRMESH_MAX_GRID patches per side */
+    uint32_t grid;      /* 0 = GROOM_HAIRMESH_DEFAULT_GRID; 1..GROOM_HAIRMESH_MAX_GRID quads per patch side */
     uint32_t nlayers;   /* 0 = GROOM_HAIRMESH_DEFAULT_LAYERS; 2..CORE_HAIRMESH_MAX_LAYERS */
     float length;       /* root-to-tip path length, m; 0 = GROOM_DEFAULT_LENGTH; finite, (0, 2] */
 } groom_hairmesh_desc;
 
-/* Generates a hair mesh over the upper and back part of the default head ellipsoid: a scalp
- * patch of (grid + 1)^2 columns and grid^2 quads (counter-clockwise seen from outside) 1 mm
- * outside the scalp, each column extruded through nlayers - 1 further layers along a path that
- * grows along the scalp normal, is combed down and back, and is kept outside the head
- * ellipsoid grown by 5 mm + 1 cm x (layer / (nlayers - 1)); the style's offset (the same for
- * every column at a given path length) is added to layers 1 and up. No guides (nguides = 0).
- * Deterministic. out is overwritten; the caller owns it (core_hairmesh_free). CORE_EINVAL for
- * a bad desc. d may be NULL. Pure, any thread. */
+/* Generates a hair mesh over the upper and back part of the default head ellipsoid: patches x
+ * patches scalp patches (85% of their cell each, the rest a parting), each of (grid + 1)^2
+ * columns and grid^2 quads (counter-clockwise seen from outside) 1 mm outside the scalp, swept
+ * through nlayers - 1 further layers along the patch centre's path (it grows along the scalp
+ * normal, is combed down and back, and keeps 5 mm + the patch's half size + 1 cm x (layer /
+ * (nlayers - 1)) outside the default colliders). Each layer is the root patch carried by the
+ * path's parallel-transported frame (so the faces stay across the path and every prism's
+ * corner tetrahedra have a positive volume), narrowed linearly to 60% at the tip, moved by the
+ * style's offset (the same for every column at a given path length) and kept 1 mm outside the
+ * default colliders. No guides (nguides = 0). Deterministic. out is overwritten; the caller
+ * owns it (core_hairmesh_free). CORE_EINVAL for a bad desc. d may be NULL. Pure, any thread. */
 core_status groom_hairmesh_procedural(const groom_hairmesh_desc *d, core_hairmesh *out, core_err *err);
 
 /* Fills out with guide strands traced through m (checked with core_hairmesh_validate):

@@ -40,8 +40,9 @@ core_status sim_step(sim *s, core_err *err) { return s->vt->step(s->self, err); 
 core_status sim_read_positions(sim *s, float *xyz, core_err *err) { return s->vt->read_positions(s->self, xyz, err); }
 core_status sim_read_hairmesh(sim *s, float *xyz, core_err *err)
 {
-    if (!s->vt->read_hairmesh)
-        return core_fail(err, CORE_EUNSUPPORTED, "the %s solver simulates no hair mesh", s->vt->name);
+    if (!s->vt || !s->vt->read_hairmesh)
+        return core_fail(err, CORE_EUNSUPPORTED, "the %s solver simulates strands, not a hair mesh",
+                         s->vt ? s->vt->name : "(none)");
     return s->vt->read_hairmesh(s->self, xyz, err);
 }
 core_status sim_read_state(sim *s, float *xyz, float *vel, core_err *err) { return s->vt->read_state(s->self, xyz, vel, err); }

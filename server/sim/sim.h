@@ -90,8 +90,8 @@ typedef struct sim_vtable {
     void (*reset)(void *self);
     void (*get_stats)(void *self, sim_stats *out);
     void (*destroy)(void *self);
-    /* optional: the hair mesh the solver simulates, 3 * ncols * nlayers floats column-major
-     * (core_hairmesh.pos order); NULL for strand solvers */
+    /* optional (NULL for strand solvers): the hair mesh's vertices, xyz = 3 * ncols * nlayers
+     * floats, column-major as core_hairmesh.pos, world frame */
     core_status (*read_hairmesh)(void *self, float *xyz, core_err *err);
 } sim_vtable;
 
@@ -124,9 +124,9 @@ core_status sim_step(sim *s, core_err *err);
 /* Copies positions out, strand-major xyz (3 * nstrands * nverts floats, caller-owned). */
 core_status sim_read_positions(sim *s, float *xyz, core_err *err);
 
-/* Copies the simulated hair mesh's vertices out (3 * ncols * nlayers floats of the groom's
- * hair mesh, column-major, caller-owned). CORE_EUNSUPPORTED for a solver without a hair mesh.
- * Sim thread. */
+/* Copies the hair mesh's vertices out (3 * ncols * nlayers floats, column-major as
+ * core_hairmesh.pos, world frame, caller-owned) from a solver that simulates one; a strand
+ * solver answers CORE_EUNSUPPORTED. Sim thread. */
 core_status sim_read_hairmesh(sim *s, float *xyz, core_err *err);
 
 /* What sim_time_steps measured. */
