@@ -84,7 +84,8 @@ static void set_params(app_world *w, uint32_t client, const proto_msg *m)
         char *field = (char *)&p + t->offset;
         switch (t->type) {
         case CORE_PARAM_FLOAT: *(float *)field = (float)v->value; break;
-        case CORE_PARAM_INT: *(int32_t *)field = (int32_t)v->value; break;
+        case CORE_PARAM_INT:
+        case CORE_PARAM_ENUM: *(int32_t *)field = (int32_t)v->value; break;
         case CORE_PARAM_BOOL: *(bool *)field = v->value != 0.0; break;
         }
         changed[v->index] = true;
