@@ -280,9 +280,13 @@ static void test_switch(void **state)
         /* mid-motion: the state carries over exactly */
         for (int k = 1; k <= 20; k++) run_step(&r, simcheck_head_motion(k * (double)p.dt, 1.0));
         assert_int_equal(sim_read_state(&r.s, x0, v0, &err), CORE_OK);
+        sim_stats before, after;
+        sim_get_stats(&r.s, &before);
         p.solver = order[round];
         if (sim_change(&r.s, &r.groom, &p, &err) != CORE_OK) fail_msg("sim_change: %s", err.msg);
         assert_int_equal(r.s.solver, order[round]);
+        sim_get_stats(&r.s, &after); /* the counters go on */
+        assert_true(after.steps == before.steps && after.sim_time == before.sim_time);
         assert_int_equal(sim_read_state(&r.s, x1, v1, &err), CORE_OK);
         assert_memory_equal(x0, x1, n3 * 4);
         assert_memory_equal(v0, v1, n3 * 4);

@@ -41,18 +41,21 @@ core_status sim_create(sim *s, const sim_desc *desc, const core_groom *groom, co
     if (st != CORE_OK) return st;
     if (desc->backend == SIM_BACKEND_AUTO && solver_vtable(params->solver, SIM_BACKEND_VULKAN))
         return sim_select_auto(s, desc, groom, params, err);
-    const sim_backend_kind kind = desc->backend == SIM_BACKEND_AUTO ? SIM_BACKEND_CPU : desc->backend;
+    sim_backend_kind kind = desc->backend == SIM_BACKEND_AUTO ? SIM_BACKEND_CPU : desc->backend;
+    if (!solver_vtable(params->solver, kind)) {
+        core_log(CORE_LOG_WARN, "sim", "solver %s has no Vulkan backend; it runs on the CPU backend",
+                 sim_solver_name(params->solver));
+        kind = SIM_BACKEND_CPU;
+    }
     const sim_vtable *vt = solver_vtable(params->solver, kind);
-    if (!vt)
-        return core_fail(err, CORE_EINVAL, "solver %s has no %s backend", sim_solver_name(params->solver),
-                         desc->backend == SIM_BACKEND_VULKAN ? "Vulkan" : "CPU");
-    st = vt->create(desc, groom, params, &s->self, err);
+    sim_desc d = *desc;
+    d.backend = kind;
+    st = vt->create(&d, groom, params, &s->self, err);
     if (st != CORE_OK) return st;
     s->vt = vt;
     s->nstrands = groom->nstrands;
     s->nverts = groom->nverts;
-    s->desc = *desc;
-    s->desc.backend = kind;
+    s->desc = *desc; /* as asked: a switch to a solver that has the backend asked for gets it */
     s->solver = params->solver;
     s->head = core_xform_identity();
     return CORE_OK;
@@ -76,8 +79,7 @@ core_status sim_change(sim *s, const core_groom *groom, const sim_params *params
     if (groom->nstrands != s->nstrands || groom->nverts != s->nverts)
         return core_fail(err, CORE_EINVAL, "solver switch: the groom (%u x %u) is not the running one (%u x %u)",
                          groom->nstrands, groom->nverts, s->nstrands, s->nverts);
-    sim_desc d = s->desc;
-    d.backend = solver_vtable(params->solver, sim_backend(s)) ? sim_backend(s) : SIM_BACKEND_CPU;
+    const sim_desc d = s->desc;
     const size_t n = 3 * (size_t)s->nstrands * s->nverts;
     float *xyz = malloc(n * sizeof(float)), *vel = malloc(n * sizeof(float));
     sim next;
@@ -90,6 +92,11 @@ core_status sim_change(sim *s, const core_groom *groom, const sim_params *params
         if ((st = sim_write_state(&next, xyz, vel, err)) == CORE_OK) {
             core_log(CORE_LOG_INFO, "sim", "solver %s -> %s (%s backend)", sim_solver_name(s->solver),
                      sim_solver_name(params->solver), next.vt->name);
+            sim_stats was;
+            sim_get_stats(s, &was);
+            next.prior_steps = was.steps;
+            next.prior_time = was.sim_time;
+            next.prior_nan_resets = was.nan_resets;
             sim_destroy(s);
             *s = next;
         } else {
@@ -113,11 +120,20 @@ core_status sim_write_state(sim *s, const float *xyz, const float *vel, core_err
 {
     return s->vt->write_state(s->self, xyz, vel, err);
 }
-void sim_reset(sim *s) { s->vt->reset(s->self); }
+void sim_reset(sim *s)
+{
+    s->prior_steps = s->prior_nan_resets = 0;
+    s->prior_time = 0.0;
+    s->vt->reset(s->self);
+}
+
 void sim_get_stats(sim *s, sim_stats *out)
 {
     memset(out, 0, sizeof *out);
     s->vt->get_stats(s->self, out);
+    out->steps += s->prior_steps;
+    out->sim_time += s->prior_time;
+    out->nan_resets += s->prior_nan_resets;
 }
 
 sim_backend_kind sim_backend(const sim *s)

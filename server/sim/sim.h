@@ -113,10 +113,15 @@ typedef struct sim {
     sim_desc desc;
     int32_t solver;
     core_xform head;
+    /* steps, sim_time and nan_resets of the solvers switched away from since the last reset
+     * (sim_get_stats adds them, so the counters go on across a switch) */
+    uint64_t prior_steps, prior_nan_resets;
+    double prior_time;
 } sim;
 
-/* Creates a solver for groom (copied; the caller keeps ownership of groom) with params
- * (validated). backend AUTO uses a hardware Vulkan device when present; with only a CPU Vulkan
+/* Creates solver params->solver for groom (copied; the caller keeps ownership of groom) with
+ * params (validated; sim_solver_check). A solver without a Vulkan backend (pbd) runs on the CPU
+ * backend whatever desc->backend asks, and says so in the log. backend AUTO uses a hardware Vulkan device when present; with only a CPU Vulkan
  * device (lavapipe) it times a few steps of each backend on this groom and keeps the faster;
  * if Vulkan set-up fails it falls back to the CPU backend and logs why. On failure *s is zeroed
  * and err says why. Any thread may create a sim; it is then used from one thread at a time (the
@@ -129,8 +134,8 @@ core_status sim_create(sim *s, const sim_desc *desc, const core_groom *groom, co
 core_status sim_set_params(sim *s, const sim_params *params, core_err *err);
 
 /* Validates and applies params like sim_set_params; when params->solver differs from the running
- * solver it creates that solver for groom (the one s was created with; borrowed) on the same
- * backend (the CPU backend when the solver has no other), carries the positions, velocities and
+ * solver it creates that solver for groom (the one s was created with; borrowed) with the
+ * options s was created with (so on the same backend where the solver has it), carries the positions, velocities and
  * head transform over and destroys the old one. On failure s is unchanged and err says why.
  * Sim thread. */
 core_status sim_change(sim *s, const core_groom *groom, const sim_params *params, core_err *err);
