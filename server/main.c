@@ -29,6 +29,8 @@ static void usage(FILE *f)
             "  --verts N              vertices per strand, 2..%d (default %u; a file keeps its own unless given)\n"
             "  --seed N               procedural groom seed (default: the groom module's fixed seed)\n"
             "Solver\n"
+            "  --solver S             dftl | hairmesh | pbd (default dftl; the solver parameter, changeable at run\n"
+            "                         time; hairmesh needs a hair-mesh groom)\n"
             "  --backend B            auto | cpu | vulkan (default auto: a hardware Vulkan device, else cpu)\n"
             "  --device N             Vulkan device: 0 = automatic (default), N = vulkaninfo's GPU<N-1>\n"
             "  --threads N            CPU solver threads (default 0 = every online core)\n"
@@ -94,7 +96,7 @@ static bool is_dir(const char *p)
 }
 
 enum {
-    OPT_GROOM = 256, OPT_COLLIDER, OPT_STRANDS, OPT_VERTS, OPT_SEED, OPT_BACKEND, OPT_DEVICE, OPT_THREADS, OPT_LISTEN,
+    OPT_GROOM = 256, OPT_COLLIDER, OPT_STRANDS, OPT_VERTS, OPT_SEED, OPT_SOLVER, OPT_BACKEND, OPT_DEVICE, OPT_THREADS, OPT_LISTEN,
     OPT_PORT, OPT_WEB, OPT_ASSETS, OPT_RATE, OPT_MAX_ERROR, OPT_KEY_INTERVAL, OPT_CLIENT_BUFFER, OPT_PING_INTERVAL,
     OPT_PING_TIMEOUT, OPT_MAX_CLIENTS, OPT_MIN_STEP_RATE, OPT_TOKEN_FILE, OPT_INSECURE_OPEN, OPT_ALLOW_ORIGIN, OPT_TLS_CERT, OPT_TLS_KEY,
     OPT_NO_NET, OPT_STEPS, OPT_RECORD, OPT_RECORD_DIGESTS, OPT_REPLAY, OPT_VERSION
@@ -106,6 +108,7 @@ static const struct option options[] = {
     { "strands", required_argument, NULL, OPT_STRANDS },
     { "verts", required_argument, NULL, OPT_VERTS },
     { "seed", required_argument, NULL, OPT_SEED },
+    { "solver", required_argument, NULL, OPT_SOLVER },
     { "backend", required_argument, NULL, OPT_BACKEND },
     { "device", required_argument, NULL, OPT_DEVICE },
     { "threads", required_argument, NULL, OPT_THREADS },
@@ -199,6 +202,13 @@ static int apply(int opt, const char *flag, const char *v, app_desc *d, extra_ar
     case OPT_SEED: /* at most 2^53 - 1: exact in JSON */
         if (!(rc = core_cli_u64(PROG, flag, v, 0, 9007199254740991ull, &u))) d->seed = u;
         break;
+    case OPT_SOLVER: {
+        int32_t k = 0;
+        while (k <= SIM_SOLVER_PBD && strcmp(v, sim_solver_name(k)) != 0) k++;
+        if (k > SIM_SOLVER_PBD) return bad(flag, v, "expected dftl, hairmesh or pbd");
+        d->solver = k;
+        break;
+    }
     case OPT_BACKEND:
         if (strcmp(v, "auto") == 0) d->backend = SIM_BACKEND_AUTO;
         else if (strcmp(v, "cpu") == 0) d->backend = SIM_BACKEND_CPU;

@@ -22,14 +22,33 @@ typedef struct test_params {
 } test_params;
 
 static const core_param_info table[] = {
-    { "gravity", CORE_PARAM_FLOAT, offsetof(test_params, gravity), 0.0, 50.0, 9.81, "m/s^2", "Gravity.", CORE_PARAM_LINEAR },
-    { "substeps", CORE_PARAM_INT, offsetof(test_params, substeps), 1, 16, 1, "", "Substeps.", CORE_PARAM_LINEAR },
-    { "sph", CORE_PARAM_BOOL, offsetof(test_params, sph), 0, 1, 1, "", "SPH on.", CORE_PARAM_LINEAR },
-    { "stiffness", CORE_PARAM_FLOAT, offsetof(test_params, stiffness), 0.0, 0.3, 0.2, "", "Stiffness \"quoted\".", CORE_PARAM_LOG },
+    { "gravity", CORE_PARAM_FLOAT, offsetof(test_params, gravity), 0.0, 50.0, 9.81, "m/s^2", "Gravity.", CORE_PARAM_LINEAR, NULL, NULL },
+    { "substeps", CORE_PARAM_INT, offsetof(test_params, substeps), 1, 16, 1, "", "Substeps.", CORE_PARAM_LINEAR, NULL, NULL },
+    { "sph", CORE_PARAM_BOOL, offsetof(test_params, sph), 0, 1, 1, "", "SPH on.", CORE_PARAM_LINEAR, NULL, NULL },
+    { "stiffness", CORE_PARAM_FLOAT, offsetof(test_params, stiffness), 0.0, 0.3, 0.2, "", "Stiffness \"quoted\".", CORE_PARAM_LOG, NULL, NULL },
 };
 static const char *const presets[] = { "none", "nod", "shake", "circle" };
 static const char *const styles[] = { "straight", "wavy", "curly" };
 static const proto_parser parser = { table, 4, presets, 4, styles, 3 };
+
+/* A table with an enum (the solver) and parameters of one solver each. */
+typedef struct solver_params {
+    int32_t solver;
+    int32_t iterations;
+    float correction;
+} solver_params;
+static const char *const solver_choices[] = { "dftl", "hairmesh", "pbd" };
+static const char *const only_pbd[] = { "pbd", NULL };
+static const char *const only_dftl[] = { "dftl", NULL };
+static const core_param_info stable[] = {
+    { "solver", CORE_PARAM_ENUM, offsetof(solver_params, solver), 0, 2, 0, "", "Solver.", CORE_PARAM_LINEAR,
+      solver_choices, NULL },
+    { "iterations", CORE_PARAM_INT, offsetof(solver_params, iterations), 1, 32, 4, "", "Iterations.", CORE_PARAM_LINEAR,
+      NULL, only_pbd },
+    { "correction", CORE_PARAM_FLOAT, offsetof(solver_params, correction), 0, 1, 0.9, "", "Correction.",
+      CORE_PARAM_LINEAR, NULL, only_dftl },
+};
+static const proto_parser sparser = { stable, 3, presets, 4, styles, 3 };
 
 static proto_msg msg;
 static proto_error err;
@@ -131,6 +150,68 @@ static void test_set_params(void **state)
                "values.stiffness");
     expect_err("{\"type\":\"set_params\",\"values\":{\"gravity\":1,\"sph\":true,\"substeps\":2,\"stiffness\":0,\"x\":1}}",
                PROTO_ERR_TOO_LARGE, "values");
+}
+
+static void make_groom(core_groom *g);
+
+/* An enum parameter: set by the name of a choice (its index in the message), anything else
+ * refused with the choices listed; the schema carries the choices, a string default and the
+ * solvers a parameter applies to; values go out as names. */
+static void test_enum_params(void **state)
+{
+    (void)state;
+    const char *ok = "{\"type\":\"set_params\",\"values\":{\"solver\":\"pbd\",\"iterations\":8}}";
+    assert_int_equal(proto_parse(&sparser, ok, strlen(ok), &msg, &err), CORE_OK);
+    assert_int_equal(msg.u.set_params.count, 2);
+    assert_int_equal(msg.u.set_params.v[0].index, 0);
+    assert_true(msg.u.set_params.v[0].value == 2.0);
+    static const struct { const char *text, *why; proto_code code; } bad[] = {
+        { "{\"type\":\"set_params\",\"values\":{\"solver\":\"verlet\"}}", "one of: dftl, hairmesh, pbd", PROTO_ERR_OUT_OF_RANGE },
+        { "{\"type\":\"set_params\",\"values\":{\"solver\":2}}", "must be a string", PROTO_ERR_BAD_FIELD },
+        { "{\"type\":\"set_params\",\"values\":{\"solver\":\"\"}}", "one of", PROTO_ERR_OUT_OF_RANGE },
+        { "{\"type\":\"set_params\",\"values\":{\"solver\":\"PBD\"}}", "one of", PROTO_ERR_OUT_OF_RANGE },
+        { "{\"type\":\"set_params\",\"values\":{\"solver\":null}}", "must be a string", PROTO_ERR_BAD_FIELD },
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        assert_int_equal(proto_parse(&sparser, bad[i].text, strlen(bad[i].text), &msg, &err), CORE_EINVAL);
+        assert_int_equal(err.code, bad[i].code);
+        assert_string_equal(err.field, "values.solver");
+        if (!strstr(err.message, bad[i].why)) fail_msg("'%s': message '%s' lacks '%s'", bad[i].text, err.message, bad[i].why);
+    }
+    solver_params v = { 2, 8, 0.5f };
+    cJSON *j = json(proto_build_params(NULL, stable, 3, &v, NULL, -1));
+    const cJSON *values = cJSON_GetObjectItemCaseSensitive(j, "values");
+    assert_string_equal(str_of(values, "solver"), "pbd");
+    cJSON_Delete(j);
+    core_groom g = { 0 };
+    make_groom(&g);
+    proto_data_ref dr = { "/groom.bin", "fedcba9876543210", 64 };
+    proto_groom pg = { "procedural:straight", &g, 7, &dr, NULL };
+    proto_groom_json gj;
+    core_err cerr;
+    assert_int_equal(proto_groom_json_build(&gj, &pg, &cerr), CORE_OK);
+    proto_hello h = {
+        .server = "strandcastd", .version = "0.1.0", .client = 5, .groom = &gj, .head = core_xform_identity(),
+        .params = stable, .nparams = 3, .values = &v, .presets = presets, .npresets = 4,
+        .animation = { "nod", 2.0 }, .styles = styles, .nstyles = 3,
+        .stream = { "strand", 1, 3, 1e-4, 0, 60, 60, 30 }, .state = { true, 1.5, 90, { "nod", 2.0 } },
+    };
+    j = json(proto_build_hello(&h));
+    const cJSON *schema = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(j, "params"), "schema");
+    const cJSON *e = cJSON_GetArrayItem(schema, 0);
+    assert_string_equal(str_of(e, "type"), "enum");
+    assert_string_equal(str_of(e, "default"), "dftl");
+    const cJSON *choices = cJSON_GetObjectItemCaseSensitive(e, "choices");
+    assert_int_equal(cJSON_GetArraySize(choices), 3);
+    assert_string_equal(cJSON_GetArrayItem(choices, 2)->valuestring, "pbd");
+    assert_null(cJSON_GetObjectItemCaseSensitive(e, "solvers"));
+    const cJSON *solvers = cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(schema, 1), "solvers");
+    assert_int_equal(cJSON_GetArraySize(solvers), 1);
+    assert_string_equal(cJSON_GetArrayItem(solvers, 0)->valuestring, "pbd");
+    assert_null(cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(schema, 1), "choices"));
+    cJSON_Delete(j);
+    proto_groom_json_free(&gj);
+    core_groom_free(&g);
 }
 
 static void test_motion(void **state)
@@ -852,7 +933,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_simple_messages),   cmocka_unit_test(test_set_params),
-        cmocka_unit_test(test_motion),            cmocka_unit_test(test_animate),
+        cmocka_unit_test(test_motion),            cmocka_unit_test(test_enum_params),
+                   cmocka_unit_test(test_animate),
         cmocka_unit_test(test_step_errors),       cmocka_unit_test(test_set_groom),
         cmocka_unit_test(test_subscribe),         cmocka_unit_test(test_envelope_errors),
         cmocka_unit_test(test_hostile_inputs),    cmocka_unit_test(test_build_error_and_ok),

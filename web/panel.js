@@ -1,6 +1,6 @@
 // The control panel: server parameters (built from the hello schema), motion and presets,
 // groom choice and the viewer's own settings; it follows changes made by other clients.
-import { buildControls, coerceValue, describe, formatNumber, formatValue, fromSlider, sliderPositions, toSlider } from './panel_model.js';
+import { buildControls, coerceValue, describe, formatNumber, formatValue, fromSlider, sliderPositions, toSlider, visibleFor } from './panel_model.js';
 
 const SEND_INTERVAL_MS = 60;
 
@@ -21,12 +21,21 @@ function section(title, open = true) {
   return d;
 }
 
-// A slider + number box (or a checkbox) bound to control spec c. onChange(value, final) is
+// A slider + number box (a checkbox, or a drop-down for an enum) bound to control spec c. onChange(value, final) is
 // called with coerced values; set(v) shows a value without calling onChange.
 function controlRow(c, value, onChange, dataAttr) {
   const row = el('div', { class: 'row', title: describe(c) });
   row.append(el('label', { text: c.label }));
   let set;
+  if (c.kind === 'enum') {
+    const select = el('select', { [dataAttr]: c.name });
+    for (const name of c.choices) select.append(el('option', { value: name, text: name }));
+    select.value = value;
+    select.addEventListener('change', () => onChange(select.value, true));
+    row.append(select);
+    set = (v) => { select.value = v; };
+    return { row, set, dragging: () => false };
+  }
   if (c.kind === 'bool') {
     const box = el('input', { type: 'checkbox', [dataAttr]: c.name });
     box.checked = !!value;
@@ -119,9 +128,11 @@ export class Panel {
       const ui = controlRow(c, v, (nv, final) => this._local(entry, nv, final), 'data-param');
       entry.set = ui.set;
       entry.dragging = ui.dragging;
+      entry.row = ui.row;
       this.params.set(c.name, entry);
       this.paramBox.append(ui.row);
     }
+    this._showSolverParams();
     if (problems.length) this.showStatus(`schema problems: ${problems.join('; ')}`, true);
   }
 
@@ -158,6 +169,13 @@ export class Panel {
       entry.sent = undefined;
       if (!entry.dragging()) entry.set(v);
     }
+    this._showSolverParams();
+  }
+
+  // Shows only the parameters of the active solver (the solver parameter's announced value).
+  _showSolverParams() {
+    const solver = this.params.get('solver');
+    for (const entry of this.params.values()) entry.row.hidden = !visibleFor(entry.c, solver && solver.value);
   }
 
   // Puts a rejected parameter back to the last value the server announced.

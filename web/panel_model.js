@@ -69,9 +69,11 @@ function decimalsOf(step) {
 }
 
 // Builds control specs from a schema array (hello.params.schema). Each valid entry becomes
-// { name, label, kind: 'float'|'int'|'bool', scale: 'linear'|'log', min, max, step, decimals,
-// unit, help, def } (step and decimals are for linear sliders and number boxes);
-// invalid entries are left out and described in problems (strings). Pure.
+// { name, label, kind: 'float'|'int'|'bool'|'enum', scale: 'linear'|'log', min, max, step,
+// decimals, unit, help, def, choices, solvers } (step and decimals are for linear sliders and
+// number boxes; choices, the names an enum takes, null for the others; solvers, the solvers the
+// parameter applies to, null for every one: see visibleFor); invalid entries are left out and
+// described in problems (strings). Pure.
 export function buildControls(schema) {
   const controls = [], problems = [];
   if (!Array.isArray(schema)) return { controls, problems: ['params.schema is not an array'] };
@@ -82,7 +84,7 @@ export function buildControls(schema) {
     if (typeof name !== 'string' || !name) { problems.push(`schema[${i}] has no name`); return; }
     if (seen.has(name)) { problems.push(`schema[${i}]: duplicate parameter ${name}`); return; }
     const kind = e.type;
-    if (kind !== 'float' && kind !== 'int' && kind !== 'bool') {
+    if (kind !== 'float' && kind !== 'int' && kind !== 'bool' && kind !== 'enum') {
       problems.push(`parameter ${name}: unknown type ${JSON.stringify(kind)}`);
       return;
     }
@@ -94,9 +96,27 @@ export function buildControls(schema) {
       unit: typeof e.unit === 'string' ? e.unit : '',
       help: typeof e.help === 'string' ? e.help : '',
       min: 0, max: 1, step: 1, decimals: 0, def: 0,
+      choices: null,
+      solvers: null,
     };
+    if (e.solvers !== undefined) {
+      if (!Array.isArray(e.solvers) || !e.solvers.length || !e.solvers.every((n) => typeof n === 'string' && n)) {
+        problems.push(`parameter ${name}: solvers is not a list of names`);
+        return;
+      }
+      c.solvers = e.solvers.slice();
+    }
     if (kind === 'bool') {
       c.def = e.default === true || e.default === 1;
+    } else if (kind === 'enum') {
+      const ch = e.choices;
+      if (!Array.isArray(ch) || !ch.length || !ch.every((n) => typeof n === 'string' && n) || new Set(ch).size !== ch.length) {
+        problems.push(`parameter ${name}: enum without a list of distinct choice names`);
+        return;
+      }
+      c.choices = ch.slice();
+      c.max = ch.length - 1;
+      c.def = ch.includes(e.default) ? e.default : ch[0];
     } else {
       const min = Number(e.min), max = Number(e.max);
       if (!Number.isFinite(min) || !Number.isFinite(max) || !(max >= min)) {
@@ -117,8 +137,10 @@ export function buildControls(schema) {
 }
 
 // Turns a raw input (number, string from an <input>, boolean) into a valid value for control c,
-// clamped to its range (ints rounded), or null when it is not a finite number / boolean. Pure.
+// clamped to its range (ints rounded), or null when it is not a finite number / boolean (for an
+// enum: the choice's name, or null when raw names none of them). Pure.
 export function coerceValue(c, raw) {
+  if (c.kind === 'enum') return typeof raw === 'string' && c.choices.includes(raw) ? raw : null;
   if (c.kind === 'bool') {
     if (raw === true || raw === 'true' || raw === 1 || raw === '1') return true;
     if (raw === false || raw === 'false' || raw === 0 || raw === '0') return false;
@@ -134,6 +156,7 @@ export function coerceValue(c, raw) {
 // Text shown beside a control: the value with the step's decimals (log controls: three
 // significant digits, 1e5 and up as powers of ten) and the unit.
 export function formatValue(c, v) {
+  if (c.kind === 'enum') return typeof v === 'string' ? v : '—';
   if (c.kind === 'bool') return v ? 'on' : 'off';
   if (typeof v !== 'number' || !Number.isFinite(v)) return '—';
   const s = c.scale === 'log' ? formatNumber(v, LOG_DIGITS) : v.toFixed(c.kind === 'int' ? 0 : c.decimals);
@@ -142,9 +165,16 @@ export function formatValue(c, v) {
 
 // Tooltip for a control: help text, range and default.
 export function describe(c) {
+  if (c.kind === 'enum') return `${c.help}${c.help ? ' ' : ''}Choices: ${c.choices.join(', ')}; default ${c.def}.`;
   if (c.kind === 'bool') return `${c.help}${c.help ? ' ' : ''}(default ${c.def ? 'on' : 'off'})`;
   const u = c.unit ? ` ${c.unit}` : '';
   const f = (v) => formatNumber(v);
   const scale = c.scale === 'log' ? ' Logarithmic slider.' : '';
   return `${c.help}${c.help ? ' ' : ''}Range ${f(c.min)}–${f(c.max)}${u}, default ${f(c.def)}${u}.${scale}`;
+}
+
+// Whether control c applies to the solver named solver (the value of the solver parameter): a
+// control without a solvers list applies to every solver; with no solver known, all show. Pure.
+export function visibleFor(c, solver) {
+  return !c.solvers || typeof solver !== 'string' || c.solvers.includes(solver);
 }

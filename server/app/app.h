@@ -21,6 +21,7 @@ typedef struct app_desc {
     uint32_t strands;          /* procedural strand count; 0 = GROOM_DEFAULT_STRANDS */
     uint32_t verts;            /* vertices per strand; 0 = GROOM_DEFAULT_VERTS (procedural) or the file's own */
     uint64_t seed;             /* procedural seed; 0 = the groom module's default */
+    int32_t solver;            /* sim_solver to start with (the solver parameter); 0 = dftl */
     sim_backend_kind backend;
     int device, threads;
     const char *listen;        /* NULL = 127.0.0.1 */
@@ -48,7 +49,8 @@ typedef struct app_desc {
     const char *record;        /* write the initial state and every input to this file (proto/RECORD.md) */
     bool record_digests;       /* with record: a digest of the positions after every step */
     const char *replay;        /* run this recording (its initial state replaces groom, collider, strands,
-                                * verts, seed, backend and threads); not with record */
+                                * verts, seed, backend, threads and every parameter, solver included);
+                                * not with record */
 } app_desc;
 
 /* The client limit when app_desc.max_clients is 0: APP_CLIENTS_PER_CORE per online core, at

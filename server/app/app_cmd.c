@@ -87,13 +87,15 @@ static void set_params(app_world *w, uint32_t client, const proto_msg *m)
         char *field = (char *)&p + t->offset;
         switch (t->type) {
         case CORE_PARAM_FLOAT: *(float *)field = (float)v->value; break;
-        case CORE_PARAM_INT: *(int32_t *)field = (int32_t)v->value; break;
+        case CORE_PARAM_INT:
+        case CORE_PARAM_ENUM: *(int32_t *)field = (int32_t)v->value; break;
         case CORE_PARAM_BOOL: *(bool *)field = v->value != 0.0; break;
         }
         changed[v->index] = true;
     }
     core_err err;
-    if (sim_set_params(&w->sim, &p, &err) != CORE_OK) {
+    /* a new solver takes the hair over where it is (sim_change) */
+    if (sim_change(&w->sim, &w->groom.g, &p, &err) != CORE_OK) {
         app_reply_fail(w->out, client, &m->id, PROTO_ERR_OUT_OF_RANGE, "values", err.msg);
         return;
     }

@@ -96,7 +96,7 @@ void app_cmd_set_groom(app_world *w, uint32_t client, const proto_msg *m)
 static void swap_groom(app_world *w, app_loader *l)
 {
     core_err err;
-    if (sim_set_params(&l->sim, &w->params, &err) != CORE_OK) /* validated when they were set */
+    if (sim_change(&l->sim, &l->g.g, &w->params, &err) != CORE_OK) /* validated when they were set */
         core_log(CORE_LOG_ERROR, "app", "the new groom's simulation refused the current parameters: %s", err.msg);
     sim old = w->sim;
     w->sim = l->sim;

@@ -13,7 +13,8 @@ static void set_param(sim_params *p, const core_param_info *t, double v)
     char *f = (char *)p + t->offset;
     switch (t->type) {
     case CORE_PARAM_FLOAT: *(float *)f = (float)v; break;
-    case CORE_PARAM_INT: *(int32_t *)f = (int32_t)v; break;
+    case CORE_PARAM_INT:
+    case CORE_PARAM_ENUM: *(int32_t *)f = (int32_t)v; break;
     case CORE_PARAM_BOOL: *(bool *)f = v != 0.0; break;
     }
 }

@@ -97,7 +97,8 @@ static double param_value(const sim_params *p, const core_param_info *t)
     const char *f = (const char *)p + t->offset;
     switch (t->type) {
     case CORE_PARAM_FLOAT: return *(const float *)f;
-    case CORE_PARAM_INT: return *(const int32_t *)f;
+    case CORE_PARAM_INT:
+    case CORE_PARAM_ENUM: return *(const int32_t *)f;
     case CORE_PARAM_BOOL: return *(const bool *)f ? 1.0 : 0.0;
     }
     return 0.0;

@@ -116,6 +116,7 @@ static core_status setup_world(app *a, const core_param_info *ptable, size_t npa
     w->nparams = nparams;
     w->styles = a->styles;
     sim_params_default(&w->params);
+    w->params.solver = a->d.solver;
     if (a->d.replay) w->params = a->replay.start.params;
     app_anim_init(&w->anim);
     core_status st = load_initial_groom(&a->d, &w->groom, err);

@@ -63,6 +63,10 @@ static bool add_param_value(cJSON *obj, const core_param_info *t, const void *va
     case CORE_PARAM_FLOAT: return cJSON_AddNumberToObject(obj, t->name, proto_json_float(*(const float *)field)) != NULL;
     case CORE_PARAM_INT: return cJSON_AddNumberToObject(obj, t->name, *(const int32_t *)field) != NULL;
     case CORE_PARAM_BOOL: return cJSON_AddBoolToObject(obj, t->name, *(const bool *)field) != NULL;
+    case CORE_PARAM_ENUM: {
+        const int32_t k = *(const int32_t *)field; /* validated: a choice's index */
+        return k >= 0 && k <= (int32_t)t->max && cJSON_AddStringToObject(obj, t->name, t->choices[k]) != NULL;
+    }
     }
     return false;
 }
@@ -97,8 +101,23 @@ static const char *param_type_name(core_param_type t)
     case CORE_PARAM_FLOAT: return "float";
     case CORE_PARAM_INT: return "int";
     case CORE_PARAM_BOOL: return "bool";
+    case CORE_PARAM_ENUM: return "enum";
     }
     return "unknown";
+}
+
+/* Adds key: [names...] to obj. */
+static bool add_names(cJSON *obj, const char *key, const char *const *names, size_t n)
+{
+    cJSON *arr = cJSON_AddArrayToObject(obj, key);
+    for (size_t i = 0; arr && i < n; i++) {
+        cJSON *s = cJSON_CreateString(names[i]);
+        if (!s || !cJSON_AddItemToArray(arr, s)) {
+            cJSON_Delete(s);
+            return false;
+        }
+    }
+    return arr != NULL;
 }
 
 static cJSON *param_schema(const core_param_info *table, size_t n)
@@ -113,15 +132,22 @@ static cJSON *param_schema(const core_param_info *table, size_t n)
             cJSON_Delete(e);
             break;
         }
-        bool is_bool = t->type == CORE_PARAM_BOOL;
+        bool is_bool = t->type == CORE_PARAM_BOOL, is_enum = t->type == CORE_PARAM_ENUM;
         ok = cJSON_AddStringToObject(e, "name", t->name) && cJSON_AddStringToObject(e, "type", param_type_name(t->type)) &&
              cJSON_AddNumberToObject(e, "min", t->min) && cJSON_AddNumberToObject(e, "max", t->max) &&
-             (is_bool ? cJSON_AddBoolToObject(e, "default", t->def != 0.0) != NULL
-                      : cJSON_AddNumberToObject(e, "default", t->def) != NULL) &&
+             (is_bool   ? cJSON_AddBoolToObject(e, "default", t->def != 0.0) != NULL
+              : is_enum ? cJSON_AddStringToObject(e, "default", t->choices[(int)t->def]) != NULL
+                        : cJSON_AddNumberToObject(e, "default", t->def) != NULL) &&
              cJSON_AddStringToObject(e, "unit", t->unit ? t->unit : "") &&
              cJSON_AddStringToObject(e, "help", t->help ? t->help : "");
         /* the slider hint: only "log" is sent, an absent "scale" means linear */
         if (ok && t->scale == CORE_PARAM_LOG) ok = cJSON_AddStringToObject(e, "scale", "log") != NULL;
+        if (ok && is_enum) ok = add_names(e, "choices", t->choices, (size_t)t->max + 1);
+        if (ok && t->solvers) {
+            size_t n_solvers = 0;
+            while (t->solvers[n_solvers]) n_solvers++;
+            ok = add_names(e, "solvers", t->solvers, n_solvers);
+        }
     }
     if (!ok) {
         cJSON_Delete(arr);

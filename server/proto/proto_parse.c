@@ -243,6 +243,11 @@ static core_status parse_set_params(const proto_parser *p, const cJSON *root, pr
         if (t->type == CORE_PARAM_BOOL) {
             if (!cJSON_IsBool(c)) return proto_fail(e, PROTO_ERR_BAD_FIELD, field, "%s must be true or false", field);
             v = cJSON_IsTrue(c) ? 1.0 : 0.0;
+        } else if (t->type == CORE_PARAM_ENUM) {
+            if (!cJSON_IsString(c)) return proto_fail(e, PROTO_ERR_BAD_FIELD, field, "%s must be a string: one of its choices", field);
+            uint32_t k;
+            if (lookup_name(field, c->valuestring, t->choices, (size_t)t->max + 1, &k, e) != CORE_OK) return CORE_EINVAL;
+            v = k;
         } else {
             if (!cJSON_IsNumber(c)) return proto_fail(e, PROTO_ERR_BAD_FIELD, field, "%s must be a number", field);
             v = c->valuedouble;

@@ -10,9 +10,13 @@
 #include "../core/param.h"
 #include "sim_limits.h"
 
+/* The solvers (the `solver` parameter's choices, in this order). */
+typedef enum sim_solver { SIM_SOLVER_DFTL = 0, SIM_SOLVER_HAIRMESH = 1, SIM_SOLVER_PBD = 2 } sim_solver;
+
 /* Physical and numerical parameters. Ranges and defaults are in sim_param_table();
  * sim_params_default() fills the defaults. Applied by a backend at a step boundary. */
 typedef struct sim_params {
+    int32_t solver;           /* sim_solver */
     float dt;                 /* seconds per step (one frame) */
     int32_t substeps;         /* solver substeps per step */
     float gravity;            /* m/s^2 along -y (world) */
@@ -34,6 +38,7 @@ typedef struct sim_params {
     float friction;           /* contact friction, [0,1]: a vertex in contact keeps still while its
                                  tangential displacement over a substep is at most friction times
                                  the push out; past that it is reduced by that much (Coulomb) */
+    int32_t pbd_iterations;   /* PBD: constraint iterations per substep */
 } sim_params;
 
 /* Fills p with the defaults of sim_param_table(). Pure. */
@@ -45,6 +50,13 @@ const core_param_info *sim_param_table(size_t *count);
 /* Checks every field against the table (type, finite, range). Returns CORE_EINVAL naming the
  * first bad field and why. Pure. */
 core_status sim_params_validate(const sim_params *p, core_err *err);
+
+/* The name of solver (the `solver` parameter's choice), "unknown" out of range. Pure. */
+const char *sim_solver_name(int32_t solver);
+
+/* Checks that p->solver can run on groom g: hairmesh needs a hair-mesh groom. Returns
+ * CORE_EINVAL with a message naming the solver otherwise. Pure. */
+core_status sim_solver_check(const sim_params *p, const core_groom *g, core_err *err);
 
 /* Feature bits used by benchmarks and logs. */
 typedef enum sim_features {
@@ -95,15 +107,24 @@ typedef struct sim_vtable {
     core_status (*read_hairmesh)(void *self, float *xyz, core_err *err);
 } sim_vtable;
 
-/* A solver instance: a backend table plus its state. */
+/* A solver instance: a backend table plus its state, the options it was created with and the
+ * last head transform it was given (a solver switch carries it over). */
 typedef struct sim {
     const sim_vtable *vt;
     void *self;
     uint32_t nstrands, nverts;
+    sim_desc desc;
+    int32_t solver;
+    core_xform head;
+    /* steps, sim_time and nan_resets of the solvers switched away from since the last reset
+     * (sim_get_stats adds them, so the counters go on across a switch) */
+    uint64_t prior_steps, prior_nan_resets;
+    double prior_time;
 } sim;
 
-/* Creates a solver for groom (copied; the caller keeps ownership of groom) with params
- * (validated). backend AUTO uses a hardware Vulkan device when present; with only a CPU Vulkan
+/* Creates solver params->solver for groom (copied; the caller keeps ownership of groom) with
+ * params (validated; sim_solver_check). A solver without a Vulkan backend (pbd) runs on the CPU
+ * backend whatever desc->backend asks, and says so in the log. backend AUTO uses a hardware Vulkan device when present; with only a CPU Vulkan
  * device (lavapipe) it times a few steps of each backend on this groom and keeps the faster;
  * if Vulkan set-up fails it falls back to the CPU backend and logs why. On failure *s is zeroed
  * and err says why. Any thread may create a sim; it is then used from one thread at a time (the
@@ -111,8 +132,16 @@ typedef struct sim {
 core_status sim_create(sim *s, const sim_desc *desc, const core_groom *groom, const sim_params *params,
                        core_err *err);
 
-/* Validates and applies params from the next step on. Sim thread. */
+/* Validates and applies params from the next step on; params->solver must be the running one
+ * (sim_change switches). Sim thread. */
 core_status sim_set_params(sim *s, const sim_params *params, core_err *err);
+
+/* Validates and applies params like sim_set_params; when params->solver differs from the running
+ * solver it creates that solver for groom (the one s was created with; borrowed) with the
+ * options s was created with (so on the same backend where the solver has it), carries the positions, velocities and
+ * head transform over and destroys the old one. On failure s is unchanged and err says why.
+ * Sim thread. */
+core_status sim_change(sim *s, const core_groom *groom, const sim_params *params, core_err *err);
 
 /* Sets the head transform reached at the end of the next step; roots and colliders are
  * interpolated from the previous one across its substeps. Sim thread. */

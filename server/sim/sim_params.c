@@ -1,43 +1,64 @@
-/* sim: the parameter table (ranges from the DFTL paper), defaults and validation. */
+/* sim: the parameter table (ranges from the DFTL paper and the thesis), defaults and validation. */
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
 #include "sim.h"
 
-#define F(field, lo, hi, d, unit, help) \
-    { #field, CORE_PARAM_FLOAT, offsetof(sim_params, field), lo, hi, d, unit, help, CORE_PARAM_LINEAR }
+/* The solvers a parameter applies to (core_param_info.solvers); ALL = NULL: every one. */
+static const char *const dftl_only[] = { "dftl", NULL };
+static const char *const pbd_only[] = { "pbd", NULL };
+static const char *const strands[] = { "dftl", "pbd", NULL };
+#define ALL NULL
+#define DFTL dftl_only
+#define PBD pbd_only
+#define STRANDS strands
+
+static const char *const solver_names[] = { "dftl", "hairmesh", "pbd" };
+
+#define F(field, lo, hi, d, unit, help, sv) \
+    { #field, CORE_PARAM_FLOAT, offsetof(sim_params, field), lo, hi, d, unit, help, CORE_PARAM_LINEAR, NULL, sv }
 /* a float whose useful values span many decades: sliders use the log mapping (core/param.h) */
-#define FLOG(field, lo, hi, d, unit, help) \
-    { #field, CORE_PARAM_FLOAT, offsetof(sim_params, field), lo, hi, d, unit, help, CORE_PARAM_LOG }
-#define I(field, lo, hi, d, unit, help) \
-    { #field, CORE_PARAM_INT, offsetof(sim_params, field), lo, hi, d, unit, help, CORE_PARAM_LINEAR }
-#define B(field, d, help) \
-    { #field, CORE_PARAM_BOOL, offsetof(sim_params, field), 0, 1, d, "", help, CORE_PARAM_LINEAR }
+#define FLOG(field, lo, hi, d, unit, help, sv) \
+    { #field, CORE_PARAM_FLOAT, offsetof(sim_params, field), lo, hi, d, unit, help, CORE_PARAM_LOG, NULL, sv }
+#define I(field, lo, hi, d, unit, help, sv) \
+    { #field, CORE_PARAM_INT, offsetof(sim_params, field), lo, hi, d, unit, help, CORE_PARAM_LINEAR, NULL, sv }
+#define B(field, d, help, sv) \
+    { #field, CORE_PARAM_BOOL, offsetof(sim_params, field), 0, 1, d, "", help, CORE_PARAM_LINEAR, NULL, sv }
+#define E(field, choices, d, help) \
+    { #field, CORE_PARAM_ENUM, offsetof(sim_params, field), 0, sizeof choices / sizeof choices[0] - 1, d, "", help, \
+      CORE_PARAM_LINEAR, choices, NULL }
 
 static const core_param_info table[] = {
-    F(dt, 0.008, 0.05, 1.0 / 60.0, "s", "Simulated time per step (the paper uses 0.016 s). Stiffness and damping are per unit of time, so they mean the same at any step."),
-    I(substeps, 1, SIM_MAX_SUBSTEPS, 4, "", "Solver substeps per step; roots and colliders are interpolated across them. Stiffness and damping are per unit of time, so they mean the same at any substep count."),
-    F(gravity, 0.0, 50.0, 9.81, "m/s^2", "Gravity along -y."),
-    F(wind_x, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, x component."),
-    F(wind_y, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, y component."),
-    F(wind_z, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, z component."),
-    F(damping, 0.0, 200.0, 30.0, "1/s", "Internal damping: the velocity of each vertex relative to the vertex before it decays at this rate (half-life ln 2 / damping). Stills jitter and whipping tips; the hair still follows the head."),
-    F(air_drag, 0.0, 20.0, 3.0, "1/s", "Air drag: every vertex's velocity (relative to still air) decays at this rate, so hair that swings freely comes to rest; the head's motion is not damped."),
-    F(dftl_correction, 0.0, 1.0, 0.9, "", "s_d: DFTL velocity correction (paper eq. 14, about 0.9): the share of the next vertex's local-shape and inextensibility correction taken off a vertex's velocity, which hides the serial solver's mass bias."),
-    FLOG(global_stiffness, 0.0, 1.0e6, 1.0e5, "1/s^2", "Pull toward the rest pose in the head frame, as a spring per unit mass: a vertex settles g / k from its target. The paper's s_g < 0.1 at 0.016 s is k < 390."),
-    FLOG(local_stiffness, 0.0, 1.0e8, 1.0e6, "1/s^2", "Pull toward the rest shape in the frame of the vertex before, as a spring per unit mass (bending). The paper's s_l < 0.3 at 0.016 s is k < 1,170."),
-    F(stiffness_tip, 0.0, 1.0, 0.25, "", "Both stiffnesses at the tip as a fraction of their root value (linear fade along the strand)."),
-    F(repulsion, 0.0, 0.5, 0.1, "", "SPH pressure coefficient: repulsion between strands that gives the hair volume. The pressure k (rho - rho0) acts through the stiffness that holds a vertex (60 x the shape springs' tip stiffness: the global one, or a tenth of the local one where that is weaker; a 1/60 s frame's worth with shape off) and is smoothed over about 0.09 s, so a vertex in a crowd settles outward by a distance proportional to repulsion x h x (over-density), whatever the stiffness. Up: more volume."),
-    F(viscosity, 0.0, 100.0, 10.0, "1/s", "SPH viscosity (paper eq. 15, Mueller et al. 2003): the velocity of a vertex relative to its neighbours' kernel-weighted mean decays at this rate times its neighbour weight (about 1 in a crowd), integrated exactly over a step so any value is stable: friction between strands. Damps relative motion; no effect on the settled volume."),
-    F(sph_radius, 0.0, 0.05, 0.0, "m", "SPH smoothing length h. 0 = automatic: 1.75 x the groom's mean root spacing (distance from a root to the nearest other root), 3 mm on the default 4,096-strand groom, so it follows the strand count. Values below 1 mm are taken as 1 mm. Up: more volume."),
-    F(rest_density, 0.1, 10.0, 0.25, "", "SPH rest density rho0 as a multiple of the groom's mean rest-pose density; vertices denser than this push apart. Below 1 the authored pose is denser than rho0, so SPH adds volume to a style the shape springs hold (at 1 it adds almost none). Up: less volume."),
-    I(neighbor_cap, 12, SIM_MAX_NEIGHBOR_CAP, 24, "", "SPH neighbours kept per particle, nearest first. At least 12: with fewer, the nearest few switch between candidates at nearly equal distances from step to step and the pressure never lets the hair rest."),
-    B(shape, 1, "Global and local shape constraints."),
-    B(sph, 1, "Hair-hair interaction (SPH pressure and viscosity)."),
-    B(collisions, 1, "Collisions with the character's colliders."),
-    F(friction, 0.0, 1.0, 0.15, "", "Contact friction (Coulomb-like, dimensionless): hair touching the character keeps still while its sliding over a substep is at most this share of how far the contact pushes it out, and slides that much less otherwise. 0 lets hair slide freely over the head; 1 holds it unless it is pulled nearly along the surface."),
+    E(solver, solver_names, SIM_SOLVER_DFTL, "The solver: dftl (Dynamic Follow-The-Leader with shape constraints and SPH hair-hair interaction, the default), hairmesh (the volumetric hair-mesh solver; needs a hair-mesh groom) or pbd (position-based guide strands: Verlet, distance, angular and collision constraints, thesis 3.2). Switching keeps the hair where it is. Only the active solver's parameters apply."),
+    F(dt, 0.008, 0.05, 1.0 / 60.0, "s", "Simulated time per step (the paper uses 0.016 s). Stiffness and damping are per unit of time, so they mean the same at any step.", ALL),
+    I(substeps, 1, SIM_MAX_SUBSTEPS, 4, "", "Solver substeps per step; roots and colliders are interpolated across them. Stiffness and damping are per unit of time, so they mean the same at any substep count.", ALL),
+    F(gravity, 0.0, 50.0, 9.81, "m/s^2", "Gravity along -y.", ALL),
+    F(wind_x, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, x component.", ALL),
+    F(wind_y, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, y component.", ALL),
+    F(wind_z, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, z component.", ALL),
+    F(damping, 0.0, 200.0, 30.0, "1/s", "Internal damping: the velocity of each vertex relative to the vertex before it decays at this rate (half-life ln 2 / damping). Stills jitter and whipping tips; the hair still follows the head.", ALL),
+    F(air_drag, 0.0, 20.0, 3.0, "1/s", "Air drag: every vertex's velocity (relative to still air) decays at this rate, so hair that swings freely comes to rest; the head's motion is not damped.", ALL),
+    F(dftl_correction, 0.0, 1.0, 0.9, "", "s_d: DFTL velocity correction (paper eq. 14, about 0.9): the share of the next vertex's local-shape and inextensibility correction taken off a vertex's velocity, which hides the serial solver's mass bias.", DFTL),
+    FLOG(global_stiffness, 0.0, 1.0e6, 1.0e5, "1/s^2", "Pull toward the rest pose in the head frame, as a spring per unit mass: a vertex settles g / k from its target. The paper's s_g < 0.1 at 0.016 s is k < 390.", STRANDS),
+    FLOG(local_stiffness, 0.0, 1.0e8, 1.0e6, "1/s^2", "Pull toward the rest shape in the frame of the vertex before, as a spring per unit mass (bending). The paper's s_l < 0.3 at 0.016 s is k < 1,170.", STRANDS),
+    F(stiffness_tip, 0.0, 1.0, 0.25, "", "Both stiffnesses at the tip as a fraction of their root value (linear fade along the strand).", STRANDS),
+    F(repulsion, 0.0, 0.5, 0.1, "", "SPH pressure coefficient: repulsion between strands that gives the hair volume. The pressure k (rho - rho0) acts through the stiffness that holds a vertex (60 x the shape springs' tip stiffness: the global one, or a tenth of the local one where that is weaker; a 1/60 s frame's worth with shape off) and is smoothed over about 0.09 s, so a vertex in a crowd settles outward by a distance proportional to repulsion x h x (over-density), whatever the stiffness. Up: more volume.", DFTL),
+    F(viscosity, 0.0, 100.0, 10.0, "1/s", "SPH viscosity (paper eq. 15, Mueller et al. 2003): the velocity of a vertex relative to its neighbours' kernel-weighted mean decays at this rate times its neighbour weight (about 1 in a crowd), integrated exactly over a step so any value is stable: friction between strands. Damps relative motion; no effect on the settled volume.", DFTL),
+    F(sph_radius, 0.0, 0.05, 0.0, "m", "SPH smoothing length h. 0 = automatic: 1.75 x the groom's mean root spacing (distance from a root to the nearest other root), 3 mm on the default 4,096-strand groom, so it follows the strand count. Values below 1 mm are taken as 1 mm. Up: more volume.", DFTL),
+    F(rest_density, 0.1, 10.0, 0.25, "", "SPH rest density rho0 as a multiple of the groom's mean rest-pose density; vertices denser than this push apart. Below 1 the authored pose is denser than rho0, so SPH adds volume to a style the shape springs hold (at 1 it adds almost none). Up: less volume.", DFTL),
+    I(neighbor_cap, 12, SIM_MAX_NEIGHBOR_CAP, 24, "", "SPH neighbours kept per particle, nearest first. At least 12: with fewer, the nearest few switch between candidates at nearly equal distances from step to step and the pressure never lets the hair rest.", DFTL),
+    B(shape, 1, "Global and local shape constraints.", STRANDS),
+    B(sph, 1, "Hair-hair interaction (SPH pressure and viscosity).", DFTL),
+    B(collisions, 1, "Collisions with the character's colliders.", ALL),
+    F(friction, 0.0, 1.0, 0.15, "", "Contact friction (Coulomb-like, dimensionless): hair touching the character keeps still while its sliding over a substep is at most this share of how far the contact pushes it out, and slides that much less otherwise. 0 lets hair slide freely over the head; 1 holds it unless it is pulled nearly along the surface.", STRANDS),
+    I(pbd_iterations, 1, 32, 4, "", "PBD constraint iterations per substep (distance in even/odd pairs, angular, shape, collisions). Up: less stretch and stiffer-looking strands at more cost; the stiffnesses are compliances, so the settled shape does not depend on it.", PBD),
 };
+
+const char *sim_solver_name(int32_t solver)
+{
+    return solver >= 0 && (size_t)solver < sizeof solver_names / sizeof solver_names[0] ? solver_names[solver] : "unknown";
+}
 
 const core_param_info *sim_param_table(size_t *count)
 {
@@ -51,7 +72,8 @@ void sim_params_default(sim_params *p)
         char *field = (char *)p + table[i].offset;
         switch (table[i].type) {
         case CORE_PARAM_FLOAT: *(float *)field = (float)table[i].def; break;
-        case CORE_PARAM_INT: *(int32_t *)field = (int32_t)table[i].def; break;
+        case CORE_PARAM_INT:
+        case CORE_PARAM_ENUM: *(int32_t *)field = (int32_t)table[i].def; break;
         case CORE_PARAM_BOOL: *(bool *)field = table[i].def != 0.0; break;
         }
     }
@@ -69,6 +91,11 @@ core_status sim_params_validate(const sim_params *p, core_err *err)
             if (!isfinite(v)) return core_fail(err, CORE_EINVAL, "parameter %s: value is not finite", t->name);
             break;
         case CORE_PARAM_INT: v = *(const int32_t *)field; break;
+        case CORE_PARAM_ENUM:
+            v = *(const int32_t *)field;
+            if (v < t->min || v > t->max)
+                return core_fail(err, CORE_EINVAL, "parameter %s: %g is not a choice (0 to %g)", t->name, v, t->max);
+            continue;
         default: continue;
         }
         /* float fields are stored in single precision: allow the rounding of the bounds */

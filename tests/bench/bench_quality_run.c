@@ -20,7 +20,8 @@ double bq_param_get(const sim_params *p, const core_param_info *t)
     const char *f = (const char *)p + t->offset;
     switch (t->type) {
     case CORE_PARAM_FLOAT: return *(const float *)f;
-    case CORE_PARAM_INT: return *(const int32_t *)f;
+    case CORE_PARAM_INT:
+    case CORE_PARAM_ENUM: return *(const int32_t *)f;
     case CORE_PARAM_BOOL: return *(const bool *)f ? 1.0 : 0.0;
     }
     return NAN;
@@ -31,7 +32,8 @@ void bq_param_set(sim_params *p, const core_param_info *t, double v)
     char *f = (char *)p + t->offset;
     switch (t->type) {
     case CORE_PARAM_FLOAT: *(float *)f = (float)v; break;
-    case CORE_PARAM_INT: *(int32_t *)f = (int32_t)lround(v); break;
+    case CORE_PARAM_INT:
+    case CORE_PARAM_ENUM: *(int32_t *)f = (int32_t)lround(v); break;
     case CORE_PARAM_BOOL: *(bool *)f = v != 0.0; break;
     }
 }

@@ -3,6 +3,7 @@ import test from 'node:test';
 import assert from 'node:assert/strict';
 import {
   LOG_DECADES, LOG_STEPS, buildControls, coerceValue, describe, formatNumber, formatValue, fromSlider, niceStep, sliderPositions, toSlider,
+  visibleFor,
 } from '../../web/panel_model.js';
 
 const schema = [
@@ -151,4 +152,31 @@ test('large values are shown as powers of ten, with the unit', () => {
   assert.equal(formatNumber(99999), '99999');
   assert.equal(formatNumber(-3e6), '-3e6');
   assert.equal(describe(c), 'Bending. Range 0–1e8 1/s^2, default 1e8 1/s^2. Logarithmic slider.');
+});
+
+test('an enum becomes a choice control; solver-specific parameters show only for their solver', () => {
+  const { controls, problems } = buildControls([
+    { name: 'solver', type: 'enum', min: 0, max: 2, choices: ['dftl', 'hairmesh', 'pbd'], default: 'dftl', unit: '', help: 'The solver.' },
+    { name: 'pbd_iterations', type: 'int', min: 1, max: 32, default: 4, unit: '', help: 'Iterations.', solvers: ['pbd'] },
+    { name: 'gravity', type: 'float', min: 0, max: 50, default: 9.81, unit: 'm/s^2', help: 'Gravity.' },
+    { name: 'bad1', type: 'enum', min: 0, max: 0, default: 'a', unit: '', help: '' },
+    { name: 'bad2', type: 'enum', min: 0, max: 1, choices: ['a', 'a'], default: 'a', unit: '', help: '' },
+    { name: 'bad3', type: 'float', min: 0, max: 1, default: 0, unit: '', help: '', solvers: 'pbd' },
+    { name: 'odd', type: 'enum', min: 0, max: 1, choices: ['x', 'y'], default: 'z', unit: '', help: '' },
+  ]);
+  assert.equal(problems.length, 3);
+  const [solver, it, g, odd] = controls;
+  assert.equal(solver.kind, 'enum');
+  assert.deepEqual(solver.choices, ['dftl', 'hairmesh', 'pbd']);
+  assert.equal(solver.def, 'dftl');
+  assert.equal(odd.def, 'x', 'an unknown default falls back to the first choice');
+  assert.equal(coerceValue(solver, 'pbd'), 'pbd');
+  assert.equal(coerceValue(solver, 'PBD'), null);
+  assert.equal(coerceValue(solver, 2), null);
+  assert.equal(formatValue(solver, 'pbd'), 'pbd');
+  assert.match(describe(solver), /Choices: dftl, hairmesh, pbd; default dftl\./);
+  assert.ok(visibleFor(it, 'pbd'));
+  assert.ok(!visibleFor(it, 'dftl'));
+  assert.ok(visibleFor(g, 'dftl') && visibleFor(g, 'pbd'));
+  assert.ok(visibleFor(it, undefined), 'with no solver known every control shows');
 });

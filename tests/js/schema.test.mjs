@@ -38,6 +38,8 @@ function check(validate, msg, want) {
 const CLIENT_OK = [
   { type: 'get_params', id: 1 },
   { type: 'set_params', id: 'a', values: { gravity: 0, sph: false, substeps: 2 } },
+  { type: 'set_params', values: { solver: 'pbd', pbd_iterations: 6 } },
+  { type: 'set_params', values: { solver: 'dftl' } },
   { type: 'motion', t: 12.5, position: [0, 0.05, 0], orientation: [0, 0.3826834, 0, 0.9238795] },
   { type: 'animate', preset: 'nod', speed: 2 },
   { type: 'reset' }, { type: 'pause' }, { type: 'resume' }, { type: 'step', count: 3 },
@@ -53,7 +55,8 @@ const CLIENT_BAD = [
   { type: 'auth' },
   { type: 'auth', token: 5 },
   { type: 'set_params', values: {} },
-  { type: 'set_params', values: { gravity: 'x' } },
+  { type: 'set_params', values: { gravity: null } },
+  { type: 'set_params', values: { solver: ['pbd'] } },
   { type: 'motion', position: [0, 0], orientation: [0, 0, 0, 1] },
   { type: 'motion', position: [0, 0, 9], orientation: [0, 0, 0, 1] },
   { type: 'step', count: 0 },
@@ -154,7 +157,8 @@ test('every server message validates against its schema', async () => {
       await a.until((r) => r.id === want, `reply to ${m.type}`);
     }
     const bad = [{ type: 'fly' }, { type: 'set_params', values: { nope: 1 } }, { type: 'step' },
-                 { type: 'set_groom', file: 'missing.tfx' }];
+                 { type: 'set_groom', file: 'missing.tfx' }, { type: 'set_params', values: { solver: 'verlet' } },
+                 { type: 'set_params', values: { solver: 'hairmesh' } }];
     send(a, { type: 'resume', id: ++id });
     const ids = [];
     for (const m of bad) { ids.push(++id); send(a, { ...m, id }); }
@@ -191,6 +195,32 @@ test('every server message validates against its schema', async () => {
     check(get('server.hello'), withEntry({ scale: 'linear' }), false);
     check(get('server.hello'), withEntry({ type: 'int' }), false);
     check(get('server.hello'), withEntry({ min: -1 }), false);
+    // the solver is an enum: its choices, a string default; each solver's own parameters say so
+    const solver = hello.params.schema.find((e) => e.name === 'solver');
+    assert.equal(solver.type, 'enum');
+    assert.deepEqual(solver.choices, ['dftl', 'hairmesh', 'pbd']);
+    assert.equal(solver.default, 'dftl');
+    assert.equal(hello.params.values.solver, 'dftl');
+    assert.deepEqual(hello.params.schema.find((e) => e.name === 'pbd_iterations').solvers, ['pbd']);
+    assert.deepEqual(hello.params.schema.find((e) => e.name === 'dftl_correction').solvers, ['dftl']);
+    assert.equal(hello.params.schema.find((e) => e.name === 'gravity').solvers, undefined);
+    check(get('server.hello'), withEntry({ choices: ['a'] }), false); // choices only on an enum
+    const enumEntry = (patch) => {
+      const h = structuredClone(hello);
+      Object.assign(h.params.schema.find((e) => e.name === 'solver'), patch);
+      return h;
+    };
+    check(get('server.hello'), enumEntry({ choices: undefined }), false);
+    check(get('server.hello'), enumEntry({ default: 0 }), false);
+    check(get('server.hello'), enumEntry({ solvers: [] }), false);
+    // the switch was announced to every client with the solver's name
+    for (const c of [a, b]) {
+      const named = c.texts.filter((m) => m.type === 'params' && m.values.solver !== undefined).map((m) => m.values.solver);
+      assert.deepEqual(named.slice(-2), ['pbd', 'dftl']);
+    }
+    const refused = a.texts.filter((m) => m.type === 'error' && String(m.field).startsWith('values')).map((m) => m.message);
+    assert.ok(refused.some((t) => t.includes('one of: dftl, hairmesh, pbd')), `no refusal of an unknown solver: ${refused}`);
+    assert.ok(refused.some((t) => t.includes('hair-mesh groom')), `no refusal of hairmesh on strands: ${refused}`);
     assert.ok(b.texts.some((m) => m.type === 'groom' && m.collider_mesh && m.collider_mesh.source === 'tet.obj'), 'no groom with the mesh');
     assert.deepEqual(b.texts.find((m) => m.type === 'hello').grooms.colliders, ['tet.obj']);
     // the groom's data binary the hello names, read by the viewer's parser (the groom may have

@@ -1,0 +1,355 @@
+/* tests: the PBD guide-strand solver (C backend): the segment-length error falls as the
+ * iterations rise, no vertex ends inside a collider, the hair comes to rest after motion within
+ * the DFTL solver's bound, stiffness and damping mean the same at any dt and substep count, the
+ * run-time solver switch keeps the hair where it is, and its results do not depend on the thread
+ * count. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "groom/groom.h"
+#include "sim/sim.h"
+#include "support/sim_check.h"
+
+/* The rest bound of tests/test_sim_rest.c: p99.9 of the per-frame vertex displacement, metres. */
+#define REST_P999 1e-5
+
+typedef struct run {
+    core_groom groom;
+    sim s;
+    float *x, *prev, *scratch;
+    size_t n;
+} run;
+
+static sim_params pbd_params(void)
+{
+    sim_params p;
+    sim_params_default(&p);
+    p.solver = SIM_SOLVER_PBD;
+    return p;
+}
+
+static void run_open(run *r, const sim_params *p, int threads)
+{
+    core_err err;
+    sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = threads };
+    if (sim_create(&r->s, &d, &r->groom, p, &err) != CORE_OK) fail_msg("sim_create: %s", err.msg);
+    r->n = (size_t)r->groom.nstrands * r->groom.nverts;
+    r->x = malloc(12 * r->n);
+    r->prev = malloc(12 * r->n);
+    r->scratch = malloc(4 * r->n);
+    assert_true(r->x && r->prev && r->scratch);
+    assert_int_equal(sim_read_positions(&r->s, r->prev, &err), CORE_OK);
+}
+
+static void run_close(run *r)
+{
+    sim_destroy(&r->s);
+    core_groom_free(&r->groom);
+    free(r->x);
+    free(r->prev);
+    free(r->scratch);
+}
+
+static int cmp_float(const void *a, const void *b)
+{
+    const float x = *(const float *)a, y = *(const float *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* One step under head h; returns the p99.9 displacement of the non-root vertices. */
+static double run_step(run *r, core_xform h)
+{
+    core_err err;
+    sim_set_motion(&r->s, h);
+    if (sim_step(&r->s, &err) != CORE_OK) fail_msg("sim_step: %s", err.msg);
+    assert_int_equal(sim_read_positions(&r->s, r->x, &err), CORE_OK);
+    size_t m = 0;
+    for (size_t i = 0; i < r->n; i++) {
+        if (i % r->groom.nverts == 0) continue;
+        const double d = simcheck_dist3(r->x + 3 * i, r->prev + 3 * i);
+        r->scratch[m++] = isfinite(d) ? (float)d : INFINITY;
+    }
+    memcpy(r->prev, r->x, 12 * r->n);
+    qsort(r->scratch, m, sizeof(float), cmp_float);
+    return r->scratch[(size_t)(0.999 * (double)(m - 1))];
+}
+
+/* The head: the violent test script for `moving` s, then a 0.25 s blend back to the identity. */
+static core_xform head_at(double t, double moving)
+{
+    if (t <= moving) return simcheck_head_motion(t, 1.0);
+    const double w = fmin((t - moving) / 0.25, 1.0);
+    core_xform from = simcheck_head_motion(moving, 1.0), h;
+    h.pos = core_v3_scale(from.pos, (float)(1.0 - w));
+    h.rot = core_q_norm(core_q_nlerp(from.rot, core_q_identity(), (float)w));
+    return h;
+}
+
+/* Moves the head for `moving` s, holds it still for `still` s; returns the last frame's p99.9
+ * displacement per 1/60 s and in *settle the time after the stop when it last exceeded
+ * REST_P999 (per 1/60 s). */
+static double motion_then_rest(run *r, float dt, double moving, double still, double *settle)
+{
+    const int steps = (int)lround((moving + still) / dt);
+    double last = 0.0, above = 0.0;
+    for (int k = 1; k <= steps; k++) {
+        const double t = k * (double)dt;
+        last = run_step(r, head_at(t, moving));
+        if (!(last <= REST_P999 * (dt * 60.0))) above = t - moving;
+    }
+    if (settle) *settle = above;
+    return last / (dt * 60.0);
+}
+
+/* Mean relative segment-length error of positions x (laid out as g->pos). */
+static double stretch(const core_groom *g, const float *x)
+{
+    double sum = 0.0;
+    size_t m = 0;
+    for (uint32_t s = 0; s < g->nstrands; s++)
+        for (uint32_t v = 1; v < g->nverts; v++) {
+            const size_t i = 3 * ((size_t)s * g->nverts + v);
+            const double L = simcheck_dist3(g->pos + i, g->pos + i - 3);
+            sum += fabs(simcheck_dist3(x + i, x + i - 3) - L) / L;
+            m++;
+        }
+    return sum / (double)m;
+}
+
+/* The distance constraints converge: the mean segment-length error under violent motion (shape
+ * off, so nothing else holds the lengths) at least halves from 1 to 4 and from 4 to 16
+ * pbd_iterations (Gauss-Seidel over even/odd pairs carries a correction about one segment per
+ * iteration, so a 24-vertex strand stretches: 45%, 15%, 4%). */
+static void test_stretch_falls_with_iterations(void **state)
+{
+    (void)state;
+    const int iterations[] = { 1, 4, 16 };
+    double err[3];
+    for (int i = 0; i < 3; i++) {
+        sim_params p = pbd_params();
+        p.shape = false;
+        p.pbd_iterations = iterations[i];
+        run r = { 0 };
+        simcheck_groom(&r.groom, GROOM_STRAIGHT, 64, 24, 3);
+        run_open(&r, &p, 2);
+        double sum = 0.0;
+        for (int k = 1; k <= 60; k++) {
+            run_step(&r, simcheck_head_motion(k * (double)p.dt, 1.5));
+            sum += stretch(&r.groom, r.x);
+        }
+        err[i] = sum / 60.0;
+        printf("pbd_iterations %2d: mean segment-length error %.3e\n", iterations[i], err[i]);
+        run_close(&r);
+    }
+    assert_true(err[1] < 0.5 * err[0]);
+    assert_true(err[2] < 0.5 * err[1]);
+}
+
+/* No vertex ends a step inside a collider by more than 1% of its radius, through violent motion,
+ * at 1 iteration and at the default. */
+static void test_no_penetration(void **state)
+{
+    (void)state;
+    const int iterations[] = { 1, 4 };
+    for (int i = 0; i < 2; i++) {
+        sim_params p = pbd_params();
+        p.pbd_iterations = iterations[i];
+        run r = { 0 };
+        simcheck_groom(&r.groom, GROOM_WAVY, 256, 24, 7);
+        assert_true(r.groom.ncolliders >= 2);
+        run_open(&r, &p, 2);
+        double worst = -1.0;
+        for (int k = 1; k <= 300; k++) {
+            const core_xform h = simcheck_head_motion(k * (double)p.dt, 1.5);
+            run_step(&r, h);
+            worst = simcheck_worse(worst, simcheck_deepest_penetration(&r.groom, h, r.x));
+        }
+        printf("pbd_iterations %d: deepest penetration %.3g of the collider radius\n", iterations[i], worst);
+        assert_true(worst <= 0.01);
+        run_close(&r);
+    }
+}
+
+/* After violent motion the hair is at rest within 3 s (the DFTL solver's bound), at the
+ * defaults, with shape off, at the fewest and the most iterations. */
+static void test_rest(void **state)
+{
+    (void)state;
+    const struct { const char *what; bool shape; int it; } cases[] = {
+        { "defaults", true, 4 }, { "shape off", false, 4 }, { "1 iteration", true, 1 }, { "32 iterations", true, 32 },
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        sim_params p = pbd_params();
+        p.shape = cases[i].shape;
+        p.pbd_iterations = cases[i].it;
+        run r = { 0 };
+        simcheck_groom(&r.groom, GROOM_WAVY, 96, 16, 11);
+        run_open(&r, &p, 2);
+        double settle;
+        const double rest = motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+        printf("pbd %s: rest p99.9 %.2e mm/frame, settled after %.2f s\n", cases[i].what, rest * 1e3, settle);
+        assert_true(rest <= REST_P999);
+        run_close(&r);
+    }
+}
+
+/* Strands sticking out sideways from a row of roots (a cantilever that gravity bends). */
+static void cantilever_groom(core_groom *g)
+{
+    core_err err;
+    const uint32_t ns = 64, nv = 16;
+    assert_int_equal(core_groom_alloc(g, ns, nv, &err), CORE_OK);
+    for (uint32_t s = 0; s < ns; s++)
+        for (uint32_t v = 0; v < nv; v++) {
+            float *o = g->pos + 3 * ((size_t)s * nv + v);
+            o[0] = 0.1f * (float)v / (float)(nv - 1);
+            o[1] = 0.002f * (float)v * (float)v / (float)((nv - 1) * (nv - 1));
+            o[2] = 0.004f * (float)s;
+        }
+}
+
+/* Mean tip drop after settling from the rest pose, and the time until the hair is at rest. */
+static void sag_and_decay(float dt, int substeps, double *sag, double *decay)
+{
+    sim_params p = pbd_params();
+    p.dt = dt;
+    p.substeps = substeps;
+    p.global_stiffness = 2000.0f;
+    p.local_stiffness = 20000.0f;
+    run r = { 0 };
+    cantilever_groom(&r.groom);
+    run_open(&r, &p, 2);
+    double settle;
+    const double rest = motion_then_rest(&r, dt, 0.0, 3.0, &settle);
+    printf("cantilever dt %.4f, %d substeps: rest %.3e mm/frame\n", dt, substeps, rest * 1e3);
+    assert_true(rest <= REST_P999);
+    double drop = 0.0;
+    for (uint32_t s = 0; s < r.groom.nstrands; s++) {
+        const size_t tip = ((size_t)s + 1) * r.groom.nverts - 1;
+        drop += r.groom.pos[3 * tip + 1] - r.x[3 * tip + 1];
+    }
+    *sag = drop / r.groom.nstrands;
+    *decay = settle;
+    run_close(&r);
+}
+
+/* The stiffnesses are compliances (per unit of time): settled sag and decay time agree within
+ * 10% at (1/60 s, 4 substeps), (1/60 s, 8) and (1/30 s, 8). */
+static void test_dt_independence(void **state)
+{
+    (void)state;
+    const struct { float dt; int k; } cases[] = { { 1.0f / 60.0f, 4 }, { 1.0f / 60.0f, 8 }, { 1.0f / 30.0f, 8 } };
+    double sag[3], decay[3];
+    for (int i = 0; i < 3; i++) {
+        sag_and_decay(cases[i].dt, cases[i].k, &sag[i], &decay[i]);
+        printf("pbd dt %.4f s, %d substeps: tip sag %.3f mm, at rest after %.3f s\n", cases[i].dt, cases[i].k,
+               sag[i] * 1e3, decay[i]);
+    }
+    assert_true(sag[0] > 1e-3);
+    for (int i = 1; i < 3; i++) {
+        assert_true(fabs(sag[i] / sag[0] - 1.0) <= 0.10);
+        assert_true(fabs(decay[i] - decay[0]) <= 0.10 * decay[0]);
+    }
+}
+
+/* Switching solvers at run time (sim_change) keeps every position and velocity and the head;
+ * the switched solver goes on from there (SPH off: see below); hairmesh on a strand groom is refused and leaves the
+ * running solver as it was. */
+static void test_switch(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    p.sph = false; /* DFTL's SPH spreads the hair that PBD (no hair-hair forces) lets lie closer */
+    run r = { 0 };
+    simcheck_groom(&r.groom, GROOM_WAVY, 64, 16, 5);
+    run_open(&r, &p, 2);
+    core_err err;
+    const size_t n3 = 3 * r.n;
+    float *x0 = malloc(n3 * 4), *v0 = malloc(n3 * 4), *x1 = malloc(n3 * 4), *v1 = malloc(n3 * 4);
+    assert_true(x0 && v0 && x1 && v1);
+    const int32_t order[] = { SIM_SOLVER_PBD, SIM_SOLVER_DFTL, SIM_SOLVER_PBD };
+    for (int round = 0; round < 3; round++) {
+        /* mid-motion: the state carries over exactly */
+        for (int k = 1; k <= 20; k++) run_step(&r, simcheck_head_motion(k * (double)p.dt, 1.0));
+        assert_int_equal(sim_read_state(&r.s, x0, v0, &err), CORE_OK);
+        sim_stats before, after;
+        sim_get_stats(&r.s, &before);
+        p.solver = order[round];
+        if (sim_change(&r.s, &r.groom, &p, &err) != CORE_OK) fail_msg("sim_change: %s", err.msg);
+        assert_int_equal(r.s.solver, order[round]);
+        sim_get_stats(&r.s, &after); /* the counters go on */
+        assert_true(after.steps == before.steps && after.sim_time == before.sim_time);
+        assert_int_equal(sim_read_state(&r.s, x1, v1, &err), CORE_OK);
+        assert_memory_equal(x0, x1, n3 * 4);
+        assert_memory_equal(v0, v1, n3 * 4);
+        /* the switched solver takes the hair on from there: it comes to rest, and a switch back
+         * and forth at rest hardly moves it (the two solvers hold the same style, up to how far
+         * each lets gravity pull it: 0.25 mm at the tips) */
+        const double rest = motion_then_rest(&r, p.dt, 0.5, 2.0, NULL);
+        p.solver = order[round] == SIM_SOLVER_PBD ? SIM_SOLVER_DFTL : SIM_SOLVER_PBD;
+        assert_int_equal(sim_change(&r.s, &r.groom, &p, &err), CORE_OK);
+        const double moved = run_step(&r, core_xform_identity());
+        p.solver = order[round];
+        assert_int_equal(sim_change(&r.s, &r.groom, &p, &err), CORE_OK);
+        printf("on %s: rest p99.9 %.2e mm/frame; a step of the other solver from there moves p99.9 %.4f mm\n",
+               sim_solver_name(p.solver), rest * 1e3, moved * 1e3);
+        assert_true(rest <= REST_P999);
+        assert_true(moved < 0.5e-3);
+    }
+    p.solver = SIM_SOLVER_HAIRMESH;
+    assert_int_equal(sim_change(&r.s, &r.groom, &p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "hair-mesh groom"));
+    assert_int_equal(r.s.solver, SIM_SOLVER_PBD);
+    assert_int_equal(sim_set_params(&r.s, &p, &err), CORE_EINVAL);
+    sim_params_default(&p);
+    p.solver = SIM_SOLVER_HAIRMESH;
+    sim s2;
+    assert_int_equal(sim_create(&s2, NULL, &r.groom, &p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "solver hairmesh needs a hair-mesh groom"));
+    p.solver = 3;
+    assert_int_equal(sim_params_validate(&p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "solver"));
+    free(x0), free(v0), free(x1), free(v1);
+    run_close(&r);
+}
+
+/* Strands are solved independently: 1 and 3 threads give the same bits. */
+static void test_threads_agree(void **state)
+{
+    (void)state;
+    sim_params p = pbd_params();
+    run a = { 0 }, b = { 0 };
+    simcheck_groom(&a.groom, GROOM_CURLY, 200, 16, 9);
+    simcheck_groom(&b.groom, GROOM_CURLY, 200, 16, 9);
+    run_open(&a, &p, 1);
+    run_open(&b, &p, 3);
+    for (int k = 1; k <= 40; k++) {
+        const core_xform h = simcheck_head_motion(k * (double)p.dt, 1.5);
+        run_step(&a, h);
+        run_step(&b, h);
+    }
+    assert_memory_equal(a.x, b.x, 12 * a.n);
+    run_close(&a);
+    run_close(&b);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_stretch_falls_with_iterations),
+        cmocka_unit_test(test_no_penetration),
+        cmocka_unit_test(test_rest),
+        cmocka_unit_test(test_dt_independence),
+        cmocka_unit_test(test_switch),
+        cmocka_unit_test(test_threads_agree),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
