@@ -186,7 +186,7 @@ static void test_enum_params(void **state)
     core_groom g = { 0 };
     make_groom(&g);
     proto_data_ref dr = { "/groom.bin", "fedcba9876543210", 64 };
-    proto_groom pg = { "procedural:straight", &g, 7, &dr, NULL };
+    proto_groom pg = { "procedural:straight", &g, 7, &dr, NULL, NULL };
     proto_groom_json gj;
     core_err cerr;
     assert_int_equal(proto_groom_json_build(&gj, &pg, &cerr), CORE_OK);

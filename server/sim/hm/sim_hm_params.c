@@ -5,13 +5,13 @@
 #include "sim_hm.h"
 
 #define F(field, lo, hi, d, unit, help) \
-    { #field, CORE_PARAM_FLOAT, offsetof(sim_hm_params, field), lo, hi, d, unit, help, CORE_PARAM_LINEAR }
+    { #field, CORE_PARAM_FLOAT, offsetof(sim_hm_params, field), lo, hi, d, unit, help, CORE_PARAM_LINEAR, NULL, NULL }
 #define FLOG(field, lo, hi, d, unit, help) \
-    { #field, CORE_PARAM_FLOAT, offsetof(sim_hm_params, field), lo, hi, d, unit, help, CORE_PARAM_LOG }
+    { #field, CORE_PARAM_FLOAT, offsetof(sim_hm_params, field), lo, hi, d, unit, help, CORE_PARAM_LOG, NULL, NULL }
 #define I(field, lo, hi, d, unit, help) \
-    { #field, CORE_PARAM_INT, offsetof(sim_hm_params, field), lo, hi, d, unit, help, CORE_PARAM_LINEAR }
+    { #field, CORE_PARAM_INT, offsetof(sim_hm_params, field), lo, hi, d, unit, help, CORE_PARAM_LINEAR, NULL, NULL }
 #define B(field, d, help) \
-    { #field, CORE_PARAM_BOOL, offsetof(sim_hm_params, field), 0, 1, d, "", help, CORE_PARAM_LINEAR }
+    { #field, CORE_PARAM_BOOL, offsetof(sim_hm_params, field), 0, 1, d, "", help, CORE_PARAM_LINEAR, NULL, NULL }
 
 static const core_param_info table[] = {
     FLOG(stretch_stiffness, 0.0, 1.0e6, 1.0e5, "1/s^2", "Stretch (Baraff-Witkin condition |x_i - x_j| - L): springs along the hair mesh's columns and its layers' edges, per unit mass. Up: less stretch under gravity."),
@@ -38,6 +38,7 @@ void sim_hm_params_default(sim_hm_params *p)
         case CORE_PARAM_FLOAT: *(float *)field = (float)table[i].def; break;
         case CORE_PARAM_INT: *(int32_t *)field = (int32_t)table[i].def; break;
         case CORE_PARAM_BOOL: *(bool *)field = table[i].def != 0.0; break;
+        case CORE_PARAM_ENUM: *(int32_t *)field = (int32_t)table[i].def; break;
         }
     }
 }
