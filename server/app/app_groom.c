@@ -63,6 +63,24 @@ core_status app_groom_load_style(const char *style, uint32_t strands, uint32_t v
     return finish(out, err);
 }
 
+core_status app_groom_load_hairmesh(const char *style, uint32_t strands, uint32_t verts, app_groom *out, core_err *err)
+{
+    memset(out, 0, sizeof *out);
+    groom_hairmesh_desc hd = { 0 };
+    core_status st = groom_style_parse(style, &hd.style, err);
+    if (st != CORE_OK) return st;
+    core_hairmesh m;
+    if ((st = groom_hairmesh_procedural(&hd, &m, err)) != CORE_OK) return st;
+    uint32_t want = strands ? strands : GROOM_DEFAULT_STRANDS;
+    uint32_t per_face = (want + m.nfaces - 1) / m.nfaces;
+    st = groom_from_hairmesh(&m, per_face, verts ? verts : GROOM_DEFAULT_VERTS, &out->g, err);
+    core_hairmesh_free(&m);
+    if (st != CORE_OK) return st;
+    groom_default_colliders(&out->g);
+    snprintf(out->source, sizeof out->source, "hairmesh:%s", groom_style_name(hd.style));
+    return finish(out, err);
+}
+
 core_status app_groom_load_path(const char *path, const char *label, uint32_t verts, app_groom *out, core_err *err)
 {
     memset(out, 0, sizeof *out);

@@ -33,6 +33,11 @@ typedef struct app_groom {
  * GROOM_DEFAULT_VERTS) and seed (0 = GROOM_DEFAULT_SEED). */
 core_status app_groom_load_style(const char *style, uint32_t strands, uint32_t verts, uint64_t seed, app_groom *out,
                                  core_err *err);
+/* A groom traced through the procedural hair mesh of a style (groom_hairmesh_procedural) into
+ * *out (zeroed on failure), shown as "hairmesh:<style>": strands (0 = GROOM_DEFAULT_STRANDS)
+ * rounded up to whole strands per face, verts vertices each (0 = GROOM_DEFAULT_VERTS), the
+ * default colliders. */
+core_status app_groom_load_hairmesh(const char *style, uint32_t strands, uint32_t verts, app_groom *out, core_err *err);
 /* A .tfx/.hair file at path into *out, shown to clients as "file:<label>"; verts 0 = the file's
  * count. */
 core_status app_groom_load_path(const char *path, const char *label, uint32_t verts, app_groom *out, core_err *err);

@@ -74,6 +74,8 @@ static core_status load_initial_groom(const app_desc *d, app_groom *g, core_err 
     unsigned long long t0 = core_now_ns();
     if (groom_style_parse(d->groom, &style, NULL) == CORE_OK) {
         st = app_groom_load_style(d->groom, d->strands, d->verts, d->seed, g, err);
+    } else if (strncmp(d->groom, "hairmesh:", 9) == 0) {
+        st = app_groom_load_hairmesh(d->groom + 9, d->strands, d->verts, g, err);
     } else {
         const char *base = strrchr(d->groom, '/');
         st = app_groom_load_path(d->groom, base ? base + 1 : d->groom, d->verts, g, err);
