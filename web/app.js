@@ -471,7 +471,8 @@ export class App {
   // Current statistics (also read by the end-to-end test).
   snapshot(now = performance.now()) {
     const fps = this.frames.perSecond(now), bps = this.frames.bytesPerSecond(now);
-    const verts = this.groom ? this.groom.strands * this.groom.verts : 0;
+    const hm = this.meshStream && this.hairmesh;
+    const verts = hm ? this.hairmesh.ncols * this.hairmesh.nlayers : this.groom ? this.groom.strands * this.groom.verts : 0;
     const s = this.serverStats || {};
     return {
       renderFps: this.fps.perSecond(now),
