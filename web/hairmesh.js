@@ -3,6 +3,8 @@
 // vertex shader (shaders.js HAIRMESH_VS) computes exactly growPoint for every ribbon point; the
 // tests check these functions against the C tracing.
 
+import { rng } from './interp.js';
+
 // Marks the missing fourth corner of a triangle (CORE_HAIRMESH_NONE).
 export const FACE_NONE = 0xffffffff;
 
@@ -65,18 +67,6 @@ export function traceStrand(mesh, f, u, v, nverts, out) {
   return out;
 }
 
-// A small deterministic PRNG (mulberry32): floats in [0, 1).
-function rng(seed) {
-  let a = seed >>> 0;
-  return () => {
-    a = (a + 0x6d2b79f5) >>> 0;
-    let t = a;
-    t = Math.imul(t ^ (t >>> 15), t | 1);
-    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
-    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
-  };
-}
-
 // The render strands of a mesh of nfaces faces (faces: 4 column indices per face): perFace
 // strands at uniformly random points of each face (seeded, so every client draws the same),
 // each with its random styling values. Returns { data: ArrayBuffer (MESH_INSTANCE_STRIDE bytes per
@@ -98,8 +88,6 @@ export function meshStrands(faces, nfaces, perFace, seed = 17) {
   return { data, count };
 }
 
-// Styling values the View panel sets (view_settings.js): offset (m, at the root), tipSpread
-// (its growth to the tip), curl radius (m) and turns per strand, frizz amplitude (m at the tip).
 const TAU = 2 * Math.PI;
 
 // Frizz: a smooth pseudo-random wobble of the strand at parameter t (two sine octaves with
@@ -113,7 +101,9 @@ export function frizz(t, phase, amp, out) {
 
 // The centre of ribbon point i of pts (pts >= 2) of render strand inst = { face, u, v, rand:
 // [angle, radius, phase, shade] } grown from the mesh { nlayers, pos, faces } with style s
-// ({ offset, tipSpread, curl, curlTurns, frizz }) into out[0..2]; its unit tangent (the layer
+// ({ offset: m at the root, tipSpread: its factor at the tip, curl: radius in m, curlTurns: turns
+// from root to tip, frizz: m at the tip }; the View panel's meshOffset, tipSpread, curl,
+// curlTurns and frizz) into out[0..2]; its unit tangent (the layer
 // direction, bent by the curl) into tan[0..2] when given. The traced point (traceStrand with pts
 // vertices) plus, in the frame (E, F) of the face at that point (E: corner 0 to corner 1,
 // normalised; F = T x E, normalised; T the layer direction), the offset
