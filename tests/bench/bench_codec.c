@@ -256,16 +256,18 @@ static void usage(void)
          "     and coded with meshopt (default 30); the meshopt row and ratio use those frames.\n"
          "  --cpu-time: time with the CPU clock of the thread (C) and process (Node), not the wall\n"
          "     clock (for a host that other jobs load).\n"
-         "  --hairmesh STYLE [--grid G] [--layers L] [--per-face P] [--verts V] [--seconds S] [--fps F]:\n"
+         "  --hairmesh STYLE [--grid G] [--layers L] [--per-face P] [--verts V] [--seconds S] [--fps F] [--sim]:\n"
          "     bytes per frame of one hairstyle streamed as strands and as its hair mesh: a procedural\n"
-         "     hair mesh (straight | wavy | curly, G x G faces (12), L layers (9)) swaying under the\n"
-         "     synthetic head motion, P strands of V vertices per face (28, 32) traced through it.");
+         "     hair mesh (straight | wavy | curly, G x G quads per scalp patch (the generator's default),\n"
+         "     L layers (9)) swaying under the synthetic head motion, P strands of V vertices per face\n"
+         "     (114, 32) traced through it;\n"
+         "     --sim: the hair-mesh solver's frames under that head motion instead (one per step).");
 }
 
 #define PROG "strandbench codec"
 
 enum { OPT_JSON = 256, OPT_CPU_TIME, OPT_SYNTHETIC, OPT_SAVE_FRAMES, OPT_FRAMES, OPT_SECONDS, OPT_FPS, OPT_STRANDS, OPT_VERTS,
-       OPT_JS_FRAMES, OPT_HAIRMESH, OPT_GRID, OPT_LAYERS, OPT_PER_FACE };
+       OPT_JS_FRAMES, OPT_HAIRMESH, OPT_GRID, OPT_LAYERS, OPT_PER_FACE, OPT_SIM };
 
 static const struct option codec_options[] = {
     { "json", no_argument, NULL, OPT_JSON },
@@ -282,6 +284,7 @@ static const struct option codec_options[] = {
     { "grid", required_argument, NULL, OPT_GRID },
     { "layers", required_argument, NULL, OPT_LAYERS },
     { "per-face", required_argument, NULL, OPT_PER_FACE },
+    { "sim", no_argument, NULL, OPT_SIM },
     { "help", no_argument, NULL, 'h' },
     { NULL, 0, NULL, 0 },
 };
@@ -294,7 +297,7 @@ int bench_codec_main(int argc, char **argv)
     frame_src src = { .nstrands = 4096, .nverts = 32, .fps = 60.0 };
     uint32_t js_frames = 30;
     const char *save = NULL;
-    bench_hairmesh_opts hm = { .grid = 12, .nlayers = 9, .per_face = 28, .nverts = 32, .fps = 60.0 };
+    bench_hairmesh_opts hm = { .nlayers = 9, .per_face = 114, .nverts = 32, .fps = 60.0 };
     core_cli_begin();
     char flag[32];
     int opt, status;
@@ -321,8 +324,9 @@ int bench_codec_main(int argc, char **argv)
             if (!(rc = core_cli_u64(PROG, flag, v, 0, 1000000, &u))) js_frames = (uint32_t)u;
             break;
         case OPT_HAIRMESH: hm.style = v; break;
+        case OPT_SIM: hm.sim = 1; break;
         case OPT_GRID:
-            if (!(rc = core_cli_u64(PROG, flag, v, 1, 256, &u))) hm.grid = (uint32_t)u;
+            if (!(rc = core_cli_u64(PROG, flag, v, 1, GROOM_HAIRMESH_MAX_GRID, &u))) hm.grid = (uint32_t)u;
             break;
         case OPT_LAYERS:
             if (!(rc = core_cli_u64(PROG, flag, v, 2, 1024, &u))) hm.nlayers = (uint32_t)u;
