@@ -223,6 +223,17 @@ static void test_interface(void **state)
 
     hm_run r;
     open_run(&r, 2, 4, true, &p);
+    /* a hair mesh that does not record the groom's strands, or a broken one, is refused */
+    core_groom bad;
+    assert_int_equal(core_groom_copy(&bad, &r.groom, &err), CORE_OK);
+    bad.hairmesh->nguides = 3;
+    assert_int_equal(sim_hm_open(&s, NULL, &bad, &p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "guides"));
+    bad.hairmesh->nguides = bad.nstrands;
+    bad.hairmesh->faces[0] = 1u << 30;
+    assert_int_equal(sim_hm_open(&s, NULL, &bad, &p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "out of range"));
+    core_groom_free(&bad);
     /* at rest the strands are the groom's traced guides */
     size_t n = (size_t)r.groom.nstrands * r.groom.nverts;
     float *pos = malloc(12 * n);
