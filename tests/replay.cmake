@@ -51,6 +51,23 @@ strandcast_replay_daemon_test(replay_record_disk_full --expect "steps held" --ex
   -- ${replay_sh} -c "\"$1\" run --port \"$2\" \"$3\" && sleep 0.5 && curl -s http://127.0.0.1:$2/metrics | grep -E '^strandcast_record_errors_total [1-9]'"
      sh $<TARGET_FILE:strandcastc> {port} ${replay_dir}/full.json)
 
+# Steps abandoned for a change (sim_set_cancel) leave no trace: a session whose parameter changes
+# abandon steps in progress (abandon.json expects strandcast_steps_abandoned_total >= 1) on a
+# groom of 3,072 x 32 with SPH and two threads, recorded and replayed bit for bit. Timing decides
+# which steps are abandoned: run alone, and not under the sanitizers, whose steps fall behind real
+# time (no step is abandoned then); test_sim_cancel covers the undoing there.
+set(abandon_file ${CMAKE_CURRENT_BINARY_DIR}/replay_abandon.screc)
+strandcast_replay_daemon_test(replay_record_abandon --expect "steps held"
+  --daemon --strands --daemon 3072 --daemon --verts --daemon 32 --daemon --threads --daemon 2
+  --daemon --record --daemon ${abandon_file} --daemon --record-digests
+  -- $<TARGET_FILE:strandcastc> run --port {port} ${replay_dir}/abandon.json)
+set_tests_properties(replay_record_abandon PROPERTIES FIXTURES_SETUP replay_abandon_file
+                     LABELS "integration;no_asan;serial" RUN_SERIAL TRUE)
+strandcast_replay_daemon_test(replay_abandon_bit_exact --expect "every step's positions ("
+  -- $<TARGET_FILE:strandcastd> --replay ${abandon_file} --no-net)
+set_tests_properties(replay_abandon_bit_exact PROPERTIES FIXTURES_REQUIRED replay_abandon_file
+                     LABELS "integration;no_asan")
+
 # strandcastc --compare on small SCFR files (tests/replay/compare_*.scfr): b differs from a by
 # (3, 4, 0) mm at frame 1, strand 1, vertex 2; shape has another strand count; cut is truncated.
 set(cmp $<TARGET_FILE:strandcastc> --compare)

@@ -22,6 +22,13 @@ set(fail ${CMAKE_CURRENT_SOURCE_DIR}/scenarios/fail)
 strandcast_scenario_test(scenario_fails_expect --exit 1
   --expect "FAIL step 2 expect" --expect "step 2 (expect) failed: params.gravity = 2 (want 3)"
   -- $<TARGET_FILE:strandcastc> run --port {port} ${fail}/expect_fails.json)
+strandcast_scenario_test(scenario_fails_metrics --exit 1
+  --expect "step 1 (expect) failed: metrics.strandcast_steps_total = "
+  --expect "(want in [1e+12, inf])"
+  -- $<TARGET_FILE:strandcastc> run --port {port} ${fail}/metrics_fails.json)
+strandcast_scenario_test(scenario_fails_metrics_absent --exit 1
+  --expect "step 0 (expect) failed: metrics.strandcast_no_such_sample = (absent)"
+  -- $<TARGET_FILE:strandcastc> run --port {port} ${fail}/metrics_absent.json)
 strandcast_scenario_test(scenario_fails_reply --exit 1
   --expect "step 1 (reply) failed: reply to id \"x\": error out_of_range, field \"values.gravity\" (want error bad_field, field \"values.gravity\")"
   -- $<TARGET_FILE:strandcastc> run --port {port} ${fail}/reply_fails.json)

@@ -499,6 +499,13 @@ static void test_script_reads_steps(void **state)
     assert_true(s.steps[11].id_kind == 2);
     assert_string_equal(s.steps[11].id_str, "s");
     scen_script_free(&s);
+
+    const char *metrics = "{\"steps\":[{\"expect\":\"metrics\",\"path\":\"strandcast_steps_total\",\"min\":1}]}";
+    if (scen_script_parse(&s, metrics, strlen(metrics), &err) != CORE_OK) fail_msg("%s", err.msg);
+    assert_true(s.nsteps == 1 && s.steps[0].kind == SCEN_EXPECT && s.steps[0].min == 1);
+    assert_string_equal(s.steps[0].what, "metrics");
+    assert_string_equal(s.steps[0].path, "strandcast_steps_total");
+    scen_script_free(&s);
 }
 
 static void test_script_errors_name_step_and_field(void **state)
@@ -523,7 +530,8 @@ static void test_script_errors_name_step_and_field(void **state)
     bad_script("{\"steps\":[{\"reply\":1,\"field\":\"x\"}]}", "field \"field\": goes with \"error\"");
     bad_script("{\"steps\":[{\"send\":3}]}", "step 0 (send): field \"send\": must be a message object");
     bad_script("{\"steps\":[{\"send\":{},\"at_ms\":1,\"at_step\":2}]}", "give at most one of");
-    bad_script("{\"steps\":[{\"expect\":\"hellos\",\"path\":\"a\",\"equals\":1}]}", "field \"expect\": must be");
+    bad_script("{\"steps\":[{\"expect\":\"hellos\",\"path\":\"a\",\"equals\":1}]}",
+               "field \"expect\": must be \"hello\", \"params\", \"state\", \"groom\", \"frame\" or \"metrics\"");
     bad_script("{\"steps\":[{\"expect\":\"hello\",\"equals\":1}]}", "field \"path\": is required");
     bad_script("{\"steps\":[{\"expect\":\"hello\",\"path\":\"a\"}]}", "give equals, min or max");
     bad_script("{\"steps\":[{\"check\":{\"frames\":10,\"max_strech\":1}}]}", "field \"check.max_strech\": unknown");

@@ -138,11 +138,12 @@ static int cmp_double(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
-/* The deepest a vertex sits inside the default head ellipsoid, neck or shoulders (0 if none). */
-static double deepest(const core_groom *g, const float *x, uint32_t n)
+/* The deepest a vertex (of those mask marks, all when NULL) sits inside g's colliders (0 if none). */
+static double deepest(const core_groom *g, const float *x, uint32_t n, const uint8_t *mask)
 {
     double worst = 0.0;
     for (uint32_t i = 0; i < n; i++) {
+        if (mask && !mask[i]) continue;
         const float *p = x + 3 * i;
         for (uint32_t k = 0; k < g->ncolliders; k++) {
             const core_collider *c = &g->colliders[k];
@@ -165,6 +166,27 @@ static double deepest(const core_groom *g, const float *x, uint32_t n)
         }
     }
     return worst;
+}
+
+/* 1 for each vertex on the mesh's outer surface (the tip layer, and every layer past the root of
+ * a column on an edge used by one face), 0 elsewhere; the caller frees it. */
+static uint8_t *surface_of(const core_hairmesh *m)
+{
+    uint8_t *s = calloc((size_t)m->ncols * m->nlayers, 1);
+    assert_non_null(s);
+    for (uint32_t f = 0; f < m->nfaces; f++)
+        for (uint32_t k = 0; k < 4; k++) {
+            uint32_t a = m->faces[4 * f + k], b = m->faces[4 * f + (k + 1) % 4], uses = 0;
+            for (uint32_t g = 0; g < m->nfaces; g++)
+                for (uint32_t j = 0; j < 4; j++) {
+                    uint32_t c = m->faces[4 * g + j], d = m->faces[4 * g + (j + 1) % 4];
+                    uses += (c == a && d == b) || (c == b && d == a);
+                }
+            if (uses == 1)
+                for (uint32_t l = 1; l < m->nlayers; l++) s[a * m->nlayers + l] = s[b * m->nlayers + l] = 1;
+        }
+    for (uint32_t c = 0; c < m->ncols; c++) s[c * m->nlayers + m->nlayers - 1] = 1;
+    return s;
 }
 
 /* Settles the mesh under gravity with no collider, the reference rest shape. */
@@ -201,6 +223,17 @@ static void test_interface(void **state)
 
     hm_run r;
     open_run(&r, 2, 4, true, &p);
+    /* a hair mesh that does not record the groom's strands, or a broken one, is refused */
+    core_groom bad;
+    assert_int_equal(core_groom_copy(&bad, &r.groom, &err), CORE_OK);
+    bad.hairmesh->nguides = 3;
+    assert_int_equal(sim_hm_open(&s, NULL, &bad, &p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "guides"));
+    bad.hairmesh->nguides = bad.nstrands;
+    bad.hairmesh->faces[0] = 1u << 30;
+    assert_int_equal(sim_hm_open(&s, NULL, &bad, &p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "out of range"));
+    core_groom_free(&bad);
     /* at rest the strands are the groom's traced guides */
     size_t n = (size_t)r.groom.nstrands * r.groom.nverts;
     float *pos = malloc(12 * n);
@@ -254,12 +287,13 @@ static void test_rest(void **state)
     sim_params_default(&p);
     hm_run r;
     open_run(&r, 2, 7, true, &p);
+    uint8_t *surf = surface_of(r.groom.hairmesh);
     const double v0 = mesh_volume(r.groom.hairmesh, r.groom.hairmesh->pos);
     double worst = 0.0;
     for (int i = 0; i < 300; i++) {
         steps(&r, 1);
         mesh_now(&r, r.x);
-        worst = fmax(worst, deepest(&r.groom, r.x, r.nv));
+        worst = fmax(worst, deepest(&r.groom, r.x, r.nv, surf));
     }
     const int frames = 60;
     double *d = malloc(sizeof *d * (size_t)frames * r.nv);
@@ -267,7 +301,7 @@ static void test_rest(void **state)
     for (int f = 0; f < frames; f++) {
         steps(&r, 1);
         mesh_now(&r, r.x);
-        worst = fmax(worst, deepest(&r.groom, r.x, r.nv));
+        worst = fmax(worst, deepest(&r.groom, r.x, r.nv, surf));
         for (uint32_t i = 0; i < r.nv; i++) d[(size_t)f * r.nv + i] = dist(r.x + 3 * i, r.prev + 3 * i);
         memcpy(r.prev, r.x, 12 * (size_t)r.nv);
     }
@@ -283,6 +317,7 @@ static void test_rest(void **state)
     sim_get_stats(&r.s, &st);
     assert_int_equal(st.nan_resets, 0);
     free(d);
+    free(surf);
     close_run(&r);
 }
 
@@ -342,7 +377,8 @@ static void test_collapse_recovers(void **state)
     close_run(&r);
 }
 
-/* Figure 7: 10x-speed head motion (a 0.6 rad shake at 15 Hz for a second), then still: the mesh
+/* Figure 7: head motion at 10x speed (a 1.5 Hz, 0.6 rad shake and 1 Hz, 5 cm sway played at 15 and
+ * 10 Hz for a second), then still: the mesh
  * returns to its settled shape. */
 static void test_fast_motion_recovers(void **state)
 {
@@ -353,6 +389,8 @@ static void test_fast_motion_recovers(void **state)
     open_run(&r, 2, 6, true, &p);
     float *ref = malloc(12 * (size_t)r.nv);
     settled_reference(2, 6, true, &p, ref);
+    uint8_t *surf = surface_of(r.groom.hairmesh);
+    double worst = 0.0;
     for (int i = 0; i < 60; i++) {
         float a = 0.6f * sinf(2.0f * 3.14159265f * 15.0f * (float)(i + 1) * p.dt);
         core_xform head = core_xform_identity();
@@ -360,6 +398,12 @@ static void test_fast_motion_recovers(void **state)
         head.pos.x = 0.05f * sinf(2.0f * 3.14159265f * 10.0f * (float)(i + 1) * p.dt);
         sim_set_motion(&r.s, head);
         steps(&r, 1);
+        mesh_now(&r, r.x);
+        for (uint32_t v = 0; v < r.nv; v++) { /* the colliders in the head frame */
+            core_vec3 q = core_q_rotate(core_q_conj(head.rot), core_v3_sub(core_v3(r.x[3 * v], r.x[3 * v + 1], r.x[3 * v + 2]), head.pos));
+            r.prev[3 * v] = q.x, r.prev[3 * v + 1] = q.y, r.prev[3 * v + 2] = q.z;
+        }
+        worst = fmax(worst, deepest(&r.groom, r.prev, r.nv, surf));
     }
     sim_set_motion(&r.s, core_xform_identity());
     steps(&r, 360);
@@ -367,8 +411,11 @@ static void test_fast_motion_recovers(void **state)
     const double md = mean_dist(r.x, ref, r.nv);
     sim_stats st;
     sim_get_stats(&r.s, &st);
-    print_message("fast motion: mean distance from the settled shape %.3f mm 6 s after\n", md * 1e3);
+    print_message("fast motion: mean distance from the settled shape %.3f mm 6 s after; deepest surface contact %.3f mm\n",
+                  md * 1e3, worst * 1e3);
     assert_int_equal(st.nan_resets, 0);
+    assert_true(worst <= CONTACT_DEPTH);
+    free(surf);
     assert_true(md < 1e-3);
     free(ref);
     close_run(&r);
@@ -404,6 +451,63 @@ static void test_deform_min_keeps_volume(void **state)
     assert_true(loss[1] < loss[0]);
 }
 
+/* The character's collision mesh (a box under the hair, as its distance grid): the mesh comes to
+ * rest on it, no surface vertex ends a step more than CONTACT_DEPTH inside it. */
+static void test_sdf_contact(void **state)
+{
+    (void)state;
+    core_err err;
+    core_hairmesh m;
+    groom_hairmesh_desc d = { .patches = 2, .nlayers = 6 };
+    assert_int_equal(groom_hairmesh_procedural(&d, &m, &err), CORE_OK);
+    float tip = 1.0f;
+    for (uint32_t c = 0; c < m.ncols; c++) tip = fminf(tip, m.pos[3 * ((size_t)c * m.nlayers + m.nlayers - 1) + 1]);
+    hm_run r;
+    assert_int_equal(groom_from_hairmesh(&m, 1, 8, &r.groom, &err), CORE_OK);
+    core_hairmesh_free(&m);
+    static const uint32_t quads[6][4] = { { 0, 2, 3, 1 }, { 4, 5, 7, 6 }, { 0, 1, 5, 4 }, { 2, 6, 7, 3 }, { 0, 4, 6, 2 }, { 1, 3, 7, 5 } };
+    core_mesh box;
+    assert_int_equal(core_mesh_alloc(&box, 8, 12, &err), CORE_OK);
+    const float top = tip + 0.03f; /* 3 cm above the lowest tip */
+    for (uint32_t i = 0; i < 8; i++) {
+        box.pos[3 * i] = i & 1 ? 0.4f : -0.4f;
+        box.pos[3 * i + 1] = i & 2 ? top : top - 0.1f;
+        box.pos[3 * i + 2] = i & 4 ? 0.4f : -0.4f;
+    }
+    for (uint32_t q = 0; q < 6; q++) {
+        const uint32_t *v = quads[q];
+        uint32_t t[6] = { v[0], v[1], v[2], v[0], v[2], v[3] };
+        memcpy(box.tri + 6 * q, t, sizeof t);
+    }
+    r.groom.sdf = malloc(sizeof *r.groom.sdf);
+    groom_sdf_desc sd = { .cell = 0.008f };
+    assert_int_equal(groom_sdf_build(&box, &sd, r.groom.sdf, &err), CORE_OK);
+    sim_params p;
+    sim_params_default(&p);
+    assert_int_equal(sim_hm_open(&r.s, NULL, &r.groom, &p, &err), CORE_OK);
+    r.nv = r.groom.hairmesh->ncols * r.groom.hairmesh->nlayers;
+    r.x = malloc(12 * (size_t)r.nv);
+    r.prev = malloc(12 * (size_t)r.nv);
+    uint8_t *surf = surface_of(r.groom.hairmesh);
+    double worst = 0.0, lowest = 1.0;
+    for (int i = 0; i < 120; i++) {
+        steps(&r, 1);
+        mesh_now(&r, r.x);
+        for (uint32_t v = 0; v < r.nv; v++) {
+            const float *q = r.x + 3 * v;
+            lowest = fmin(lowest, q[1]);
+            if (!surf[v]) continue;
+            worst = fmax(worst, (double)(top - q[1]));
+        }
+    }
+    print_message("collision mesh: deepest surface vertex %.3f mm below the box top (lowest vertex %.1f mm above it)\n",
+                  worst * 1e3, (lowest - top) * 1e3);
+    assert_true(worst <= CONTACT_DEPTH);
+    core_mesh_free(&box);
+    free(surf);
+    close_run(&r);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -413,6 +517,7 @@ int main(void)
         cmocka_unit_test(test_collapse_recovers),
         cmocka_unit_test(test_fast_motion_recovers),
         cmocka_unit_test(test_deform_min_keeps_volume),
+        cmocka_unit_test(test_sdf_contact),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

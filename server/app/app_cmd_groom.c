@@ -7,6 +7,7 @@
 #include "app_cmd.h"
 #include "app_cmd_groom.h"
 #include "app_play.h"
+#include "app_sim.h"
 
 /* The end of a set_groom: the next may come (from the reply on, a client may send it). */
 static void done(app_world *w) { atomic_fetch_sub(w->grooms_pending, 1); }
@@ -107,6 +108,7 @@ static void swap_groom(app_world *w, app_loader *l)
     app_groom_free(&w->groom);
     w->groom = l->g;
     memset(&l->g, 0, sizeof l->g);
+    app_sim_arm(w);
     app_world_set_head(w, app_anim_pose(&w->anim));
     app_world_reset(w);
     const core_hairmesh *hm = w->groom.g.hairmesh;

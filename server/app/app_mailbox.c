@@ -28,6 +28,14 @@ void app_mailbox_free(app_mailbox *m)
     memset(m, 0, sizeof *m);
 }
 
+/* Commands a step in progress may be abandoned for: the changes a tuning user waits to see. A
+ * motion is not one (clients stream them every frame; they take the next step). */
+static bool is_change(const app_cmd *c)
+{
+    if (c->kind != APP_CMD_MSG) return false;
+    return c->msg.type == PROTO_SET_PARAMS || c->msg.type == PROTO_ANIMATE || c->msg.type == PROTO_RESET;
+}
+
 core_status app_mailbox_post(app_mailbox *m, const app_cmd *c)
 {
     bool motion = c->kind == APP_CMD_MSG && c->msg.type == PROTO_MOTION;
@@ -47,10 +55,13 @@ core_status app_mailbox_post(app_mailbox *m, const app_cmd *c)
     }
     m->ring[(m->head + m->len) % APP_MAILBOX] = *c;
     m->len++;
+    if (is_change(c)) atomic_store(&m->change, true);
     pthread_cond_signal(&m->cv);
     pthread_mutex_unlock(&m->mu);
     return CORE_OK;
 }
+
+bool app_mailbox_change_waiting(app_mailbox *m) { return atomic_load(&m->change); }
 
 bool app_mailbox_take(app_mailbox *m, app_cmd *out)
 {
@@ -61,6 +72,7 @@ bool app_mailbox_take(app_mailbox *m, app_cmd *out)
         m->head = (m->head + 1) % APP_MAILBOX;
         m->len--;
     }
+    if (m->len == 0) atomic_store(&m->change, false);
     pthread_mutex_unlock(&m->mu);
     return got;
 }

@@ -4,6 +4,7 @@
 #define APP_MAILBOX_H
 
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stdint.h>
 
@@ -27,6 +28,7 @@ typedef struct app_mailbox {
     app_cmd *ring;
     int head, len;
     bool wake;                /* set by app_mailbox_wake */
+    atomic_bool change;       /* a set_params, animate or reset is queued (app_mailbox_change_waiting) */
 } app_mailbox;
 
 /* An empty mailbox of APP_MAILBOX commands; CORE_ENOMEM. The caller owns it (app_mailbox_free). */
@@ -36,6 +38,10 @@ void app_mailbox_free(app_mailbox *m);
  * one with an id is kept, for its reply).
  * CORE_ENOMEM when full. Any thread. */
 core_status app_mailbox_post(app_mailbox *m, const app_cmd *c);
+/* True while a command that changes the simulation at once (set_params, animate, reset) is
+ * queued: the sim thread may then abandon the step in progress to take it (sim_set_cancel).
+ * Cleared when the mailbox is emptied. Lock-free; sim thread. */
+bool app_mailbox_change_waiting(app_mailbox *m);
 /* Takes the oldest command into *out; false when empty. Sim thread. */
 bool app_mailbox_take(app_mailbox *m, app_cmd *out);
 /* Blocks until a post, app_mailbox_wake, or the monotonic deadline (ns). Sim thread. */

@@ -9,6 +9,35 @@
 #include "app_sim.h"
 
 #define NS 1000000000ull
+/* Wall time abandoned steps may throw away per stats window (a tenth of it): a slider dragged
+ * at the frame rate shows its first changes at once without taking the steps' rate below
+ * real time. */
+#define ABANDON_BUDGET_NS (NS / 10)
+/* Steps the simulation may run ahead of real time to show commands at once (app_sim_main). */
+#define APP_SIM_AHEAD 2
+
+/* sim_set_cancel's poll, between the stages of a step: abandon it when a change is queued, the
+ * step is in its first half (later, finishing it costs less than starting again), it was not
+ * abandoned already, the simulation keeps real time (behind it, the work thrown away would put
+ * it further behind) and the window's budget allows. The change then waits for its own step
+ * only. Sim thread. */
+static bool abandon_for_change(void *ctx)
+{
+    app_world *w = ctx;
+    app_pace *pc = &w->pace;
+    if (pc->abandoned || pc->behind || !app_mailbox_change_waiting(w->mb)) return false;
+    const unsigned long long spent = core_now_ns() - pc->step_t0_ns;
+    if (2 * spent > pc->last_step_ns || pc->abandoned_ns + spent > ABANDON_BUDGET_NS) return false;
+    pc->abandoned = true;
+    pc->abandoned_ns += spent;
+    return true;
+}
+
+void app_sim_arm(app_world *w)
+{
+    /* a replay takes no changes from clients, and its steps must run as recorded */
+    if (!w->replay) sim_set_cancel(&w->sim, abandon_for_change, w);
+}
 
 /* Applies every queued command; true when there was one. */
 static bool take_commands(app_world *w)
@@ -24,12 +53,27 @@ static bool take_commands(app_world *w)
     return took;
 }
 
+/* One step; CORE_ECANCELED when it was abandoned for a change (abandon_for_change): the head
+ * motion is then as before it, and the caller takes the commands and steps again. */
 static core_status step_once(app_world *w)
 {
+    const app_anim anim = w->anim;
+    const core_xform head = w->head;
     app_anim_advance(&w->anim, w->params.dt);
     app_world_set_head(w, app_anim_pose(&w->anim));
     unsigned long long t0 = core_now_ns();
+    w->pace.step_t0_ns = t0;
     core_status st = sim_step(&w->sim, &w->fatal_err);
+    if (st == CORE_ECANCELED) {
+        w->anim = anim;
+        app_world_set_head(w, head);
+        pthread_mutex_lock(&w->board->mu);
+        w->board->s.steps_abandoned++;
+        pthread_mutex_unlock(&w->board->mu);
+        return st;
+    }
+    w->pace.abandoned = false;
+    w->pace.last_step_ns = core_now_ns() - t0;
     double ms = (double)(core_now_ns() - t0) / 1e6;
     w->pace.step_ms_acc += ms;
     w->pace.log_step_ms_acc += ms;
@@ -131,6 +175,7 @@ static void update_stats(app_world *w, unsigned long long now)
     pc->win_steps = 0;
     pc->step_ms_acc = pc->encode_ms_acc = 0.0;
     pc->encode_rounds = 0;
+    pc->abandoned_ns = 0;
 
     double log_secs = (double)(now - pc->log_start_ns) / 1e9;
     if (log_secs >= APP_LOG_INTERVAL_S) {
@@ -166,19 +211,23 @@ void *app_sim_main(void *arg)
     unsigned long long next = core_now_ns();
     w->pace.win_start_ns = w->pace.log_start_ns = next;
     uint64_t total = 0;
+    app_sim_arm(w);
     /* A command that comes while the thread waits for the next step's time is shown at once:
-     * the step runs then, ahead of the clock, and the slot it took is skipped when its time
-     * comes. At most one step ahead, so the simulation never runs faster than real time by more
-     * than a step, and a change waits for at most the step in progress and its own. */
-    bool ahead = false;
+     * the step runs then, ahead of the clock, and the next slot that finds the simulation ahead
+     * and nothing new to show is skipped. At most APP_SIM_AHEAD steps ahead, so the simulation
+     * keeps real time on average; a command taken when it is that far ahead runs at the next
+     * slot (never skipped while a command waits to be shown). With abandoned steps
+     * (abandon_for_change), a change waits for about its own step only. */
+    int ahead = 0;       /* steps taken ahead of their slots */
+    bool pending = false; /* a command taken that no step has shown yet */
     while (!atomic_load(&w->quit)) {
         /* wait for the next step's wall-clock time, handling commands as they come */
         bool early = false;
         for (;;) {
-            const bool took = take_commands(w);
+            pending |= take_commands(w);
             unsigned long long now = core_now_ns();
             if (now >= next || atomic_load(&w->quit)) break;
-            if (took && !ahead && (!w->paused || w->step_budget > 0)) {
+            if (pending && ahead < APP_SIM_AHEAD && (!w->paused || w->step_budget > 0)) {
                 early = true;
                 break;
             }
@@ -186,14 +235,17 @@ void *app_sim_main(void *arg)
             app_mailbox_wait(w->mb, next);
         }
         if (atomic_load(&w->quit)) break;
-        if (ahead && !early) { /* this slot's step already ran */
-            ahead = false;
+        if (!early && ahead > 0 && !pending) { /* this slot's step already ran */
+            ahead--;
             next += (unsigned long long)(w->params.dt * 1e9);
             continue;
         }
         bool run = !w->paused || w->step_budget > 0;
         if (run) {
-            if ((w->fatal = step_once(w)) != CORE_OK) {
+            w->pace.behind = core_now_ns() > next + (unsigned long long)(w->params.dt * 0.5e9);
+            core_status st = step_once(w);
+            if (st == CORE_ECANCELED) continue; /* the change is taken above, then this step again */
+            if ((w->fatal = st) != CORE_OK) {
                 core_log(CORE_LOG_ERROR, "sim", "step failed: %s", w->fatal_err.msg);
                 break;
             }
@@ -208,12 +260,13 @@ void *app_sim_main(void *arg)
                 app_send(w->out, NET_ALL, proto_build_state(NULL, &s), APP_ANNOUNCE_STATE);
             }
         }
+        pending = false;
         maybe_publish(w, run);
         unsigned long long now = core_now_ns();
         update_stats(w, now);
         if (w->d->steps && total >= w->d->steps) break;
         if (early) {
-            ahead = true;
+            ahead++;
             continue;
         }
         next += (unsigned long long)(w->params.dt * 1e9);

@@ -9,4 +9,8 @@
  * returns). Runs until w->quit, d->steps steps, or a failed step (w->fatal); sets w->done. */
 void *app_sim_main(void *arg);
 
+/* Lets steps of w->sim be abandoned for a queued parameter change (sim_set_cancel; not while
+ * replaying). Called for every simulation the sim thread takes over. Sim thread. */
+void app_sim_arm(app_world *w);
+
 #endif

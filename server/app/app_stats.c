@@ -40,6 +40,8 @@ size_t app_stats_metrics(const app_stats *sp, uint64_t accepted, uint64_t reject
                      "# TYPE strandcast_frames_encoded_total counter\nstrandcast_frames_encoded_total %llu\n"
                      "# HELP strandcast_encoded_bytes_total Bytes of encoded frames.\n"
                      "# TYPE strandcast_encoded_bytes_total counter\nstrandcast_encoded_bytes_total %llu\n"
+                     "# HELP strandcast_steps_abandoned_total Steps abandoned part way to take a parameter change at once, then taken again.\n"
+                     "# TYPE strandcast_steps_abandoned_total counter\nstrandcast_steps_abandoned_total %llu\n"
                      "# HELP strandcast_nan_resets_total Strands restored to rest after a non-finite value, since the daemon started.\n"
                      "# TYPE strandcast_nan_resets_total counter\nstrandcast_nan_resets_total %llu\n"
                      "# HELP strandcast_control_messages_total Client control messages by outcome.\n"
@@ -48,7 +50,7 @@ size_t app_stats_metrics(const app_stats *sp, uint64_t accepted, uint64_t reject
                      "strandcast_control_messages_total{result=\"rejected\"} %llu\n",
                      s.steps_per_s, s.step_ms / 1e3, (unsigned long long)s.steps_run, (unsigned long long)s.steps,
                      s.sim_time, s.encode_ms / 1e3, (unsigned long long)s.frames_encoded,
-                     (unsigned long long)s.encode_bytes, (unsigned long long)s.nan_resets_run, (unsigned long long)accepted,
+                     (unsigned long long)s.encode_bytes, (unsigned long long)s.steps_abandoned, (unsigned long long)s.nan_resets_run, (unsigned long long)accepted,
                      (unsigned long long)rejected);
     if (w < 0) return 0;
     return (size_t)w < cap ? (size_t)w : cap - 1;

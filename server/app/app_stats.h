@@ -10,6 +10,7 @@
 typedef struct app_stats {
     uint64_t steps_run;       /* steps since the daemon started (never reset) */
     uint64_t nan_resets_run;  /* NaN restores since the daemon started (never reset) */
+    uint64_t steps_abandoned; /* steps abandoned for a change and taken again (never reset) */
     uint64_t steps;           /* the sim's own count: since start, reset or groom change */
     double sim_time;
     double steps_per_s;       /* over the last stats window */

@@ -28,6 +28,7 @@ const char *core_status_name(core_status st)
     case CORE_EUNSUPPORTED: return "unsupported";
     case CORE_EBACKEND: return "backend_error";
     case CORE_ESTATE: return "bad_state";
+    case CORE_ECANCELED: return "canceled";
     }
     return "unknown";
 }

@@ -13,7 +13,8 @@ typedef enum core_status {
     CORE_EFORMAT,     /* malformed input data (file, frame, message) */
     CORE_EUNSUPPORTED,/* valid request the build or device cannot serve */
     CORE_EBACKEND,    /* a compute backend (Vulkan, threads) failed */
-    CORE_ESTATE       /* call not valid in the current state */
+    CORE_ESTATE,      /* call not valid in the current state */
+    CORE_ECANCELED    /* the work was abandoned on request and undone (sim_set_cancel); not a failure */
 } core_status;
 
 #define CORE_ERR_MAX 256

@@ -162,7 +162,7 @@ typedef struct scen_step {
     char field[96];         /* reply: expected error field (with error; "" not checked) */
     bool field_given;
     double count;           /* frames: how many; until_*: target; sleep: ms; check: frames */
-    char what[16];          /* expect: hello, params, state, groom or frame */
+    char what[16];          /* expect: hello, params, state, groom, frame or metrics */
     char path[128];         /* expect: dotted path */
     char *equals;           /* expect: the expected JSON value as text (owned; NULL: none) */
     double tolerance, min, max; /* expect: numbers (min/max NaN when not given) */

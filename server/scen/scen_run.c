@@ -13,6 +13,7 @@
 
 #define SCEN_CONNECT_MS 5000
 #define SCEN_SLICE_MS 20
+#define SCEN_METRICS_MS 100 /* expect "metrics": /metrics is fetched at most this often while a step waits */
 
 /* A received text message that may answer a request. */
 typedef struct scen_msg {
@@ -63,6 +64,8 @@ typedef struct runner {
     size_t nmsgs, cap_msgs;
     scen_check *check; /* the check in progress, or NULL */
     cJSON *frame_json; /* the last frame's header as JSON, for expect "frame" (rebuilt when asked) */
+    cJSON *metric_json;          /* expect "metrics": the sample last read (NULL: absent) */
+    unsigned long long metric_ns; /* when /metrics was last fetched (0: never) */
     /* the step in progress: its result */
     char detail[1024];
     char *seen; /* JSON text of what was seen (owned), or NULL */
@@ -344,8 +347,55 @@ static bool json_close(const cJSON *a, const cJSON *b, double tol)
 /* The value at path in what: the world's, or for "frame" the last frame's header (seq,
  * sim_time, step, head_position, head_orientation, keyframe, strands, strands_total, verts,
  * stride, max_error). */
+/* The value of the sample named `name` (with its labels as the server prints them, e.g.
+ * strandcast_control_messages_total{result="accepted"}) in a Prometheus text body; false when
+ * no line carries it. */
+static bool metric_sample(const char *body, size_t len, const char *name, double *out)
+{
+    const size_t n = strlen(name);
+    for (const char *line = body, *end = body + len; line < end;) {
+        const char *eol = memchr(line, '\n', (size_t)(end - line));
+        if (!eol) eol = end;
+        if (line[0] != '#' && (size_t)(eol - line) > n && !memcmp(line, name, n) && line[n] == ' ') {
+            char num[64];
+            size_t k = (size_t)(eol - line) - n - 1;
+            if (k >= sizeof num) return false;
+            memcpy(num, line + n + 1, k);
+            num[k] = '\0';
+            char *stop;
+            *out = strtod(num, &stop);
+            return stop != num && *stop == '\0';
+        }
+        line = eol + 1;
+    }
+    return false;
+}
+
+/* expect "metrics": GETs /metrics from the daemon (at most every SCEN_METRICS_MS while a step
+ * waits) and keeps the sample named path as a JSON number. */
+static const cJSON *metric_of(runner *r, const char *path)
+{
+    unsigned long long now = core_now_ns();
+    if (r->metric_ns && now - r->metric_ns < (unsigned long long)SCEN_METRICS_MS * 1000000ull) return r->metric_json;
+    r->metric_ns = now;
+    cJSON_Delete(r->metric_json);
+    r->metric_json = NULL;
+    wsc_http_desc d = { .host = r->host, .port = r->port, .path = "/metrics", .timeout_ms = SCEN_CONNECT_MS };
+    wsc_http_reply rep;
+    if (!wsc_http_get(r->w, &d, &rep)) {
+        snprintf(r->fatal, sizeof r->fatal, "GET http://%s:%d/metrics: %s", r->host, r->port, rep.error);
+        return NULL;
+    }
+    double v;
+    if (rep.status == 200 && rep.body && metric_sample((const char *)rep.body, rep.len, path, &v))
+        r->metric_json = cJSON_CreateNumber(v);
+    wsc_http_reply_free(&rep);
+    return r->metric_json;
+}
+
 static const cJSON *value_of(runner *r, const char *what, const char *path)
 {
+    if (!strcmp(what, "metrics")) return metric_of(r, path);
     if (strcmp(what, "frame") != 0) return scen_world_value(&r->world, what, path);
     if (!r->have_frame) return NULL;
     cJSON_Delete(r->frame_json);
@@ -483,6 +533,7 @@ static bool run_wait(runner *r, const scen_step *st)
 static bool run_expect(runner *r, const scen_step *st)
 {
     cJSON *want = st->equals ? cJSON_Parse(st->equals) : NULL;
+    r->metric_ns = 0; /* each step starts from a fresh /metrics */
     bool ok = wait_until(r, st, value_holds, want, st->timeout_ms);
     const cJSON *v = value_of(r, st->what, st->path);
     char *seen = v ? cJSON_PrintUnformatted(v) : NULL;
@@ -653,5 +704,6 @@ done:
     free(r.msgs);
     free(r.seen);
     cJSON_Delete(r.frame_json);
+    cJSON_Delete(r.metric_json);
     return rc;
 }

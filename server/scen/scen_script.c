@@ -193,8 +193,9 @@ static core_status read_step(const cJSON *o, scen_step *st, size_t i, double tim
     case SCEN_EXPECT: {
         if (!cJSON_IsString(v) || (strcmp(v->valuestring, "hello") && strcmp(v->valuestring, "params") &&
                                    strcmp(v->valuestring, "state") && strcmp(v->valuestring, "groom") &&
-                                   strcmp(v->valuestring, "frame")))
-            return bad(err, i, k, "expect", "must be \"hello\", \"params\", \"state\", \"groom\" or \"frame\"");
+                                   strcmp(v->valuestring, "frame") && strcmp(v->valuestring, "metrics")))
+            return bad(err, i, k, "expect",
+                       "must be \"hello\", \"params\", \"state\", \"groom\", \"frame\" or \"metrics\"");
         snprintf(st->what, sizeof st->what, "%s", v->valuestring);
         if (!cJSON_GetObjectItemCaseSensitive(o, "path")) return bad(err, i, k, "path", "is required");
         st->tolerance = 0.0;

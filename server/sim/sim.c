@@ -119,6 +119,13 @@ void sim_set_motion(sim *s, core_xform head)
     s->vt->set_motion(s->self, head);
 }
 core_status sim_step(sim *s, core_err *err) { return s->vt->step(s->self, err); }
+
+bool sim_set_cancel(sim *s, sim_cancel_fn poll, void *ctx)
+{
+    if (!s->vt->set_cancel) return false;
+    s->vt->set_cancel(s->self, poll, ctx);
+    return true;
+}
 core_status sim_read_positions(sim *s, float *xyz, core_err *err) { return s->vt->read_positions(s->self, xyz, err); }
 core_status sim_read_hairmesh(sim *s, float *xyz, core_err *err)
 {

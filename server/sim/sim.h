@@ -89,6 +89,9 @@ typedef struct sim_stats {
     int nstages;
 } sim_stats;
 
+/* Asked by a backend between the stages of a step (sim_set_cancel): true abandons the step. */
+typedef bool (*sim_cancel_fn)(void *ctx);
+
 typedef struct sim_vtable {
     const char *name;
     core_status (*create)(const sim_desc *desc, const core_groom *groom, const sim_params *params,
@@ -102,6 +105,7 @@ typedef struct sim_vtable {
     void (*reset)(void *self);
     void (*get_stats)(void *self, sim_stats *out);
     void (*destroy)(void *self);
+    void (*set_cancel)(void *self, sim_cancel_fn poll, void *ctx); /* NULL: steps cannot be abandoned */
     /* optional (NULL for strand solvers): the hair mesh's vertices, xyz = 3 * ncols * nlayers
      * floats, column-major as core_hairmesh.pos, world frame */
     core_status (*read_hairmesh)(void *self, float *xyz, core_err *err);
@@ -149,6 +153,17 @@ void sim_set_motion(sim *s, core_xform head);
 
 /* Advances one step of params.dt. Sim thread. */
 core_status sim_step(sim *s, core_err *err);
+
+/* Lets the step in progress be abandoned: between its stages (after the SPH pass, after each
+ * substep but the last) the backend calls poll(ctx) on the sim thread, and when it returns true
+ * it puts back the state it had before the step, bit for bit as far as any later step can tell,
+ * and sim_step returns CORE_ECANCELED (err says so) without counting a step. The caller then
+ * applies whatever made it ask (a parameter change) and steps again, so a change waits for its
+ * own step only, not also for the rest of the one in progress. The backend keeps a copy of the
+ * positions and velocities while poll is set (a few MB per step); poll NULL turns this off
+ * (the default). Returns false, and changes nothing, for a backend that cannot abandon a step
+ * (Vulkan: its step is one submission). Sim thread. */
+bool sim_set_cancel(sim *s, sim_cancel_fn poll, void *ctx);
 
 /* Copies positions out, strand-major xyz (3 * nstrands * nverts floats, caller-owned). */
 core_status sim_read_positions(sim *s, float *xyz, core_err *err);

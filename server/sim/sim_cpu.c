@@ -41,6 +41,9 @@ static void cpu_destroy(void *self)
         free(c->v[k]);
         free(c->a[k]);
         free(c->rest[k]);
+        free(c->saved_x[k]);
+        free(c->saved_v[k]);
+        free(c->saved_a[k]);
     }
     free(c->sw);
     free(c->perm);
@@ -143,9 +146,54 @@ static void cpu_set_motion(void *self, core_xform head)
     c->head = head;
 }
 
+static void cpu_set_cancel(void *self, sim_cancel_fn poll, void *ctx)
+{
+    sim_cpu *c = self;
+    c->cancel = poll;
+    c->cancel_ctx = ctx;
+}
+
+/* Copies the three components of src into dst (n floats each). */
+static void copy3(float *const dst[3], float *const src[3], size_t n)
+{
+    for (int k = 0; k < 3; k++) memcpy(dst[k], src[k], n * sizeof(float));
+}
+
+/* Before the step changes anything: the copies a cancelled step goes back to. false when they
+ * cannot be allocated (the step then runs without the option of abandoning it). */
+static bool save_state(sim_cpu *c)
+{
+    for (int k = 0; k < 3; k++) {
+        float **bufs[3] = { &c->saved_x[k], &c->saved_v[k], &c->saved_a[k] };
+        for (int b = 0; b < 3; b++)
+            if (!*bufs[b] && !(*bufs[b] = malloc(c->n * sizeof(float)))) return false;
+    }
+    copy3(c->saved_x, c->x, c->n);
+    copy3(c->saved_v, c->v, c->n);
+    copy3(c->saved_a, c->a, c->n);
+    c->saved_clock = c->sph_clock;
+    memcpy(c->saved_nan, c->nan_per_thread, sizeof c->saved_nan);
+    return true;
+}
+
+/* Abandons the step in progress: back to the state save_state kept. The SPH lists stay as the
+ * step's pass left them: built from the positions the step began with (or kept), exactly what
+ * the pass of the step taken again decides from the same positions, so no later step differs. */
+static core_status cancel_step(sim_cpu *c, core_err *err)
+{
+    copy3(c->x, c->saved_x, c->n);
+    copy3(c->v, c->saved_v, c->n);
+    copy3(c->a, c->saved_a, c->n);
+    c->sph_clock = c->saved_clock;
+    memcpy(c->nan_per_thread, c->saved_nan, sizeof c->saved_nan);
+    return core_fail(err, CORE_ECANCELED, "step abandoned on request");
+}
+
 static core_status cpu_step(void *self, core_err *err)
 {
     sim_cpu *c = self;
+    if (c->cancel && c->cancel(c->cancel_ctx)) return core_fail(err, CORE_ECANCELED, "step abandoned on request");
+    const bool cancellable = c->cancel && save_state(c);
     unsigned long long t0 = core_now_ns(), t1 = t0;
     const float dt = c->params.dt;
     const sim_groom_info gi = { c->ncolliders, c->colliders, c->sdf.d ? &c->sdf : NULL,
@@ -159,8 +207,12 @@ static core_status cpu_step(void *self, core_err *err)
         st = sim_cpu_sph_pass(c, c->x, c->v, dt, c->prev_head, NULL, err);
         if (st != CORE_OK) return st;
         t1 = core_now_ns();
+        if (cancellable && c->cancel(c->cancel_ctx)) return cancel_step(c, err);
     }
-    for (int k = 0; k < c->step.substeps; k++) sim_cpu_chain_pass(c, k);
+    for (int k = 0; k < c->step.substeps; k++) {
+        if (k > 0 && cancellable && c->cancel(c->cancel_ctx)) return cancel_step(c, err);
+        sim_cpu_chain_pass(c, k);
+    }
     c->prev_head = c->head;
     unsigned long long t2 = core_now_ns();
     uint64_t nan = 0;
@@ -255,6 +307,7 @@ static const sim_vtable cpu_vtable = {
     .reset = cpu_reset,
     .get_stats = cpu_get_stats,
     .destroy = cpu_destroy,
+    .set_cancel = cpu_set_cancel,
 };
 
 const sim_vtable *sim_cpu_vtable(void) { return &cpu_vtable; }

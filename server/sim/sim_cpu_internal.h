@@ -59,6 +59,12 @@ typedef struct sim_cpu {
     float sph_auto_h;        /* the groom's automatic smoothing length (sim_sph_auto_radius) */
     uint64_t nan_per_thread[256];
     sim_stats stats;
+    /* sim_set_cancel: the poll, and the state before the step in progress to go back to */
+    sim_cancel_fn cancel;
+    void *cancel_ctx;
+    float *saved_x[3], *saved_v[3], *saved_a[3]; /* allocated on the first cancellable step */
+    sim_sph_clock saved_clock;
+    uint64_t saved_nan[256];
 } sim_cpu;
 
 /* Computes SPH accelerations into c->a from c->x, c->v (positions `pos` may be c->rest for the

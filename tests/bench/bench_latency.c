@@ -19,14 +19,19 @@
 #define WAIT_MS 10000
 
 static const char *const LATENCY_USAGE =
-    "usage: strandbench latency [--changes N] [--strands N --verts N] [--daemon PATH] [--json]\n"
+    "usage: strandbench latency [--changes N] [--gap-ms N] [--strands N --verts N] [--daemon PATH] [--json]\n"
     "Starts strandcastd with its default scene (or a straight groom of --strands x --verts) on a loopback port, connects one client and sends N\n"
-    "parameter changes one after another (gravity, alternating between two values), each once the\n"
-    "previous one shows. For each it measures, on the client's monotonic clock, the time from\n"
+    "parameter changes one after another (gravity, alternating between two values), each a random\n"
+    "pause after the previous one shows (uniform in [0, --gap-ms], the same sequence every run: a\n"
+    "user's changes come at any point of the server's step, and on average no faster than its real\n"
+    "time). For each it measures, on the client's monotonic clock, the time from\n"
     "sending set_params to its ok reply, and to the first frame decoded after the reply whose\n"
     "sim_step is at least the reply's step (the first frame showing the change). Prints p50, p99\n"
     "and the maximum of both (target: p99 change-to-frame <= 25 ms).\n"
     "  --changes N    parameter changes to time, 1..100000 (default 1000)\n"
+    "  --gap-ms N     longest random pause between one change showing and the next, 0..1000 ms\n"
+    "                 (default 33: two frames at 60 Hz; 0: back to back, which a fast server answers\n"
+    "                 faster than real time, so the real-time pacing shows in the figures)\n"
     "  --strands N    strands of the daemon's groom (with --verts; default: its default scene)\n"
     "  --verts N      vertices per strand of the daemon's groom\n"
     "  --daemon PATH  the strandcastd to run (default: next to this program's folder)\n"
@@ -34,15 +39,17 @@ static const char *const LATENCY_USAGE =
 
 typedef struct latency_opts {
     unsigned changes;
+    unsigned gap_ms;
     const char *strands, *verts; /* passed to the daemon as given (it checks them) */
     const char *daemon;
     bool json;
 } latency_opts;
 
-enum { OPT_CHANGES = 256, OPT_STRANDS, OPT_VERTS, OPT_DAEMON, OPT_JSON };
+enum { OPT_CHANGES = 256, OPT_GAP, OPT_STRANDS, OPT_VERTS, OPT_DAEMON, OPT_JSON };
 
 static const struct option latency_options[] = {
     { "changes", required_argument, NULL, OPT_CHANGES },
+    { "gap-ms", required_argument, NULL, OPT_GAP },
     { "strands", required_argument, NULL, OPT_STRANDS },
     { "verts", required_argument, NULL, OPT_VERTS },
     { "daemon", required_argument, NULL, OPT_DAEMON },
@@ -56,6 +63,7 @@ static int parse_opts(int argc, char **argv, latency_opts *o)
 {
     memset(o, 0, sizeof *o);
     o->changes = 1000;
+    o->gap_ms = 33;
     core_cli_begin();
     char flag[64];
     int opt, status;
@@ -66,6 +74,9 @@ static int parse_opts(int argc, char **argv, latency_opts *o)
         case 'h': fputs(LATENCY_USAGE, stdout); return -1;
         case OPT_CHANGES:
             if (!(rc = core_cli_u64(PROG, flag, optarg, 1, 100000, &u))) o->changes = (unsigned)u;
+            break;
+        case OPT_GAP:
+            if (!(rc = core_cli_u64(PROG, flag, optarg, 0, 1000, &u))) o->gap_ms = (unsigned)u;
             break;
         case OPT_STRANDS: o->strands = optarg; break;
         case OPT_VERTS: o->verts = optarg; break;
@@ -182,6 +193,7 @@ static double quantile(const double *v, size_t n, double q)
 static int measure(const latency_opts *o, wsc *w, wsc_conn *conn, latency_rx *rx, double *to_reply, double *to_frame)
 {
     until_reply u = { conn, 0, 0.0, NULL };
+    uint64_t lcg = 0x2545f4914f6cdd1dull; /* the pauses: the same sequence every run */
     size_t n;
     wsc_texts(conn, &n);
     u.next = n;
@@ -215,6 +227,8 @@ static int measure(const latency_opts *o, wsc *w, wsc_conn *conn, latency_rx *rx
         }
         to_reply[i] = (double)(t1 - t0) / 1e6;
         to_frame[i] = (double)(rx->shown_ns - t0) / 1e6;
+        lcg = lcg * 6364136223846793005ull + 1442695040888963407ull;
+        if (o->gap_ms) wsc_run(w, (int)((lcg >> 33) % (o->gap_ms + 1u)));
     }
     qsort(to_reply, o->changes, sizeof *to_reply, cmp_double);
     qsort(to_frame, o->changes, sizeof *to_frame, cmp_double);
@@ -266,14 +280,15 @@ int bench_latency_main(int argc, char **argv)
         const double p50 = quantile(to_frame, n, 0.5), p99 = quantile(to_frame, n, 0.99), max = to_frame[n - 1];
         const double r50 = quantile(to_reply, n, 0.5), r99 = quantile(to_reply, n, 0.99);
         if (o.json)
-            printf("{\"bench\":\"latency\",\"changes\":%zu,\"p50_ms\":%.3f,\"p99_ms\":%.3f,\"max_ms\":%.3f,"
+            printf("{\"bench\":\"latency\",\"changes\":%zu,\"gap_ms\":%u,\"p50_ms\":%.3f,\"p99_ms\":%.3f,\"max_ms\":%.3f,"
                    "\"reply_p50_ms\":%.3f,\"reply_p99_ms\":%.3f,\"frames\":%llu,\"target_p99_ms\":25,\"nproc\":%ld}\n",
-                   n, p50, p99, max, r50, r99, (unsigned long long)rx.frames, sysconf(_SC_NPROCESSORS_ONLN));
+                   n, o.gap_ms, p50, p99, max, r50, r99, (unsigned long long)rx.frames, sysconf(_SC_NPROCESSORS_ONLN));
         else
-            printf("strandbench latency: %zu parameter changes on loopback, default scene (%ld cores)\n"
+            printf("strandbench latency: %zu parameter changes on loopback, pauses up to %u ms, %s (%ld cores)\n"
                    "  change to first frame showing it: p50 %.2f ms, p99 %.2f ms, max %.2f ms (target p99 <= 25 ms)\n"
                    "  change to its reply:              p50 %.2f ms, p99 %.2f ms\n",
-                   n, sysconf(_SC_NPROCESSORS_ONLN), p50, p99, max, r50, r99);
+                   n, o.gap_ms, o.strands ? "the given groom" : "default scene", sysconf(_SC_NPROCESSORS_ONLN), p50, p99,
+                   max, r50, r99);
     }
     free(to_reply);
     free(to_frame);

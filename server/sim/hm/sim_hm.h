@@ -37,7 +37,8 @@ core_status sim_hm_params_validate(const sim_hm_params *p, core_err *err);
  * floats, strand-major, world frame); read_state / write_state / read_hairmesh work on the mesh
  * vertices (3 * ncols * nlayers floats each, column-major as core_hairmesh.pos, world frame);
  * reset puts the mesh back to its rest shape under the current head; get_stats fills the stage
- * times of the last step (forces, cg, collisions, deform_min). One thread at a time. */
+ * times of the last step (forces, cg, collisions, deform_min); set_cancel is NULL (a step cannot
+ * be abandoned). One thread at a time. */
 extern const sim_vtable sim_hm_vtable;
 
 /* Fills s with a hair-mesh solver for groom (copied) and params (validated), as sim_create does

@@ -20,7 +20,7 @@ static const core_param_info table[] = {
     FLOG(volume_stiffness, 0.0, 1.0e6, 2.0e4, "1/s^2", "Volume force on the eight (six) overlapping corner tetrahedra of every prism (paper eq. 1-2), per unit mass and scaled by each tetrahedron's size. Recovers the volume even from flattened or inverted tetrahedra."),
     F(damping, 0.0, 100.0, 4.0, "1/s", "Each spring's damper: the relative velocity of its two ends along it decays at this rate."),
     I(cg_iterations, 1, 1000, 200, "", "Most modified conjugate gradient iterations per solve (the implicit step, the deformation minimization)."),
-    FLOG(cg_tolerance, 1.0e-8, 1.0e-1, 1.0e-4, "", "CG stops once the preconditioned residual norm is below this share of its starting value."),
+    FLOG(cg_tolerance, 1.0e-8, 1.0e-1, 1.0e-2, "", "CG stops once the preconditioned residual norm is below this share of its starting value."),
     B(deform_min, 1, "Deformation minimization after collisions (paper eq. 3-4): the other vertices follow the pushed surface so the mesh keeps its local shape and volume."),
 };
 
