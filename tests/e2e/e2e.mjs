@@ -390,8 +390,9 @@ async function main() {
   // the solver is a drop-down: picking pbd switches the server (seen by the other client) and
   // the panel then shows pbd's own parameters and hides dftl's; back to dftl for what follows
   const solverRows = () => page.evaluate(() => {
-    const row = (n) => document.querySelector(`[data-param="${n}"]`)?.closest('.row');
-    return { pbd: row('pbd_iterations') && !row('pbd_iterations').hidden, dftl: row('dftl_correction') && !row('dftl_correction').hidden };
+    // drawn, not only flagged hidden: a stylesheet's display may override the hidden attribute
+    const shown = (n) => { const r = document.querySelector(`[data-param="${n}"]`)?.closest('.row'); return !!r && getComputedStyle(r).display !== 'none'; };
+    return { pbd: shown('pbd_iterations'), dftl: shown('dftl_correction') };
   });
   const onDftl = await solverRows();
   check(onDftl.dftl && !onDftl.pbd, `on dftl the panel shows dftl_correction, not pbd_iterations (${JSON.stringify(onDftl)})`);
@@ -399,8 +400,8 @@ async function main() {
   const sw = await waitMessage(other, (m) => m.type === 'params' && m.values && m.values.solver === 'pbd', 60000, 'solver pbd broadcast');
   check(sw.by === pageClient, `the solver drop-down switched the server to pbd (by client ${sw.by})`);
   await page.waitForFunction(() => {
-    const row = (n) => document.querySelector(`[data-param="${n}"]`)?.closest('.row');
-    return row('pbd_iterations') && !row('pbd_iterations').hidden && row('dftl_correction').hidden;
+    const shown = (n) => { const r = document.querySelector(`[data-param="${n}"]`)?.closest('.row'); return !!r && getComputedStyle(r).display !== 'none'; };
+    return shown('pbd_iterations') && !shown('dftl_correction');
   }, null, { timeout: 20000, polling: 100 });
   check(true, 'on pbd the panel shows pbd_iterations and hides dftl_correction');
   other.ws.send(JSON.stringify({ type: 'set_params', id: 'e2e-s', values: { solver: 'dftl' } }));
