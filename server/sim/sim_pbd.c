@@ -106,7 +106,7 @@ static core_status pbd_create(const sim_desc *desc, const core_groom *g, const s
         pbd_destroy(p);
         return st;
     }
-    p->scratch = malloc((size_t)p->pool.nthreads * SIM_PBD_SCRATCH * p->nv * sizeof(float));
+    p->scratch = malloc((size_t)p->pool.nthreads * SIM_PBD_SCRATCH * p->nv * SIM_PBD_LANES * sizeof(float));
     if (!p->scratch) {
         pbd_destroy(p);
         return core_fail(err, CORE_ENOMEM, "out of memory for the solver's scratch");

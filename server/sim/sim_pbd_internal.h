@@ -10,8 +10,11 @@
 #include "sim_pool.h"
 #include "sim_step.h"
 
-/* Floats per vertex of a worker's per-strand scratch (sim_pbd_solve.c strand_view). */
-#define SIM_PBD_SCRATCH 27
+/* Strands solved side by side in one group (sim_pbd_solve.c group_view); divides SIM_CHUNK. */
+#define SIM_PBD_LANES 8
+
+/* Floats per vertex and lane of a worker's scratch for the group it solves (group_view). */
+#define SIM_PBD_SCRATCH 40
 
 /* Strand-major arrays in groom order: vertex v of strand s at 3 * (s * nv + v). */
 typedef struct sim_pbd {
@@ -24,7 +27,7 @@ typedef struct sim_pbd {
     float *rest;             /* rest positions in the head frame */
     float *len;              /* rest length of the segment ending at each vertex (0 for roots) */
     float *kg, *kl;          /* per level: global and local stiffness (1/s^2), faded to the tip */
-    float *scratch;          /* per worker: SIM_PBD_SCRATCH x nv floats for the strand it solves */
+    float *scratch;          /* per worker: SIM_PBD_SCRATCH x nv x SIM_PBD_LANES floats for its group */
     uint32_t ncolliders;
     core_collider colliders[CORE_MAX_COLLIDERS];
     core_sdf sdf;            /* copy of the groom's distance grid (sdf.d NULL = none) */

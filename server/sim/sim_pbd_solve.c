@@ -11,7 +11,8 @@ static inline __attribute__((always_inline)) core_vec3 min_rotate(core_vec3 a, c
 {
     const core_vec3 k = core_v3_cross(a, b);
     const float co = core_v3_dot(a, b);
-    const float kv = core_v3_dot(k, v) / fmaxf(1.0f + co, 1e-6f);
+    const float den = 1.0f + co;
+    const float kv = core_v3_dot(k, v) / (den > 1e-6f ? den : 1e-6f); /* fmaxf(den, 1e-6f) */
     return core_v3_add(core_v3_add(core_v3_scale(v, co), core_v3_cross(k, v)), core_v3_scale(k, kv));
 }
 
@@ -31,26 +32,15 @@ static core_vec3 carry(const float *C, core_vec3 p)
                    C[8] * p.x + C[9] * p.y + C[10] * p.z + C[11]);
 }
 
-/* One XPBD projection of the vector constraint x - t = 0 (t carried by a parent vertex xp of
- * inverse mass wp, NULL when the target is fixed; x has inverse mass 1) with compliance 1 / k
- * (k per unit mass, 1/s^2) and its stiffness-proportional damper k b acting on x - xc (xc: the
- * vertex's start carried by the target's frame), multiplier lam (3 floats). In terms of
- * w = k h^2 and c = k h b the first projection on a fixed target moves x by
- * (w (t - x) + c (xc - x)) / (1 + w + c), the implicit step of the DFTL solver's springs; the
- * multiplier keeps later iterations from pulling further, so the settled offset is g / k for
- * any h and iteration count. A parent takes its share of the reaction. */
-static inline __attribute__((always_inline)) void pull(float *x, float *xp, float wp, core_vec3 t, core_vec3 xc,
-                                                       float w, float c, float *lam)
-{
-    const float inv_den = 1.0f / (1.0f + (w + c) * (1.0f + wp));
-    const float tv[3] = { t.x, t.y, t.z }, cv[3] = { xc.x, xc.y, xc.z };
-    for (int d = 0; d < 3; d++) {
-        const float dl = (w * (tv[d] - x[d]) - c * (x[d] - cv[d]) - lam[d]) * inv_den;
-        lam[d] += dl;
-        x[d] += dl;
-        if (xp) xp[d] -= wp * dl;
-    }
-}
+/* The XPBD projection (angular and global): one projection of the vector constraint x - t = 0
+ * (t carried by a parent vertex of inverse mass wp, 0 when the target is fixed; x has inverse
+ * mass 1) with compliance 1 / k (k per unit mass, 1/s^2) and its stiffness-proportional damper
+ * k b acting on x - xc (xc: the vertex's start carried by the target's frame), multiplier lam
+ * (3 floats): dl = (w (t - x) - c (x - xc) - lam) / (1 + (w + c) (1 + wp)) per component, added
+ * to lam and x, wp dl taken from the parent. In terms of w = k h^2 and c = k h b the first
+ * projection on a fixed target moves x by (w (t - x) + c (xc - x)) / (1 + w + c), the implicit
+ * step of the DFTL solver's springs; the multiplier keeps later iterations from pulling
+ * further, so the settled offset is g / k for any h and iteration count. */
 
 /* Pushes point x out of one collider (onto its surface); the box test skips far ones. */
 static void push_collider(const sim_wcollider *w, float *x)
@@ -117,9 +107,12 @@ static void friction(float *x, core_vec3 n, core_vec3 oc, float mu)
     st(x, core_v3_sub(ld(x), core_v3_scale(t, tl <= lim ? 1.0f : lim / tl)));
 }
 
-typedef struct strand_view {
-    float *x, *v, *o;
-    const float *r, *len;
+/* A group of SIM_PBD_LANES strands in the worker's scratch, lane-minor: component d of vertex l
+ * of lane j at (3 * l + d) * SIM_PBD_LANES + j (len: l * SIM_PBD_LANES + j). Every constraint runs
+ * the scalar arithmetic of one strand per lane, in the same order, so the compiler can vectorize
+ * across the strands without changing a bit of any strand's result. */
+typedef struct group_view {
+    float *x, *v, *o, *r, *len;
     /* per level, fixed over the substep (so not recomputed every iteration): seg = the rest
      * segment ending there under the head, e0 = the unit rest direction of the segment before it
      * under the head, gt = the global target, gc = the start carried by the head, eo = the unit
@@ -129,124 +122,215 @@ typedef struct strand_view {
      * (3 each: they are vector constraints) and the sum of the collision pushes (the contact
      * normal friction acts against) */
     float *lg, *ll, *push;
-} strand_view;
+} group_view;
 
-/* The angular constraint of level l >= 1: toward its rest segment turned by the minimal rotation
- * of its parent segment from rest (under the head) to now; at level 1 the head's frame. Reads
- * level l-2 and writes l and its parent l-1 (which takes the reaction), so the levels of one
- * residue mod 3 touch disjoint vertices and can be solved in parallel. Its damper acts on the
- * motion relative to the start carried by the same frame. */
-static void angular(const sim_pbd *p, const strand_view *s, uint32_t l, float b)
+#define W SIM_PBD_LANES
+_Static_assert(SIM_CHUNK % SIM_PBD_LANES == 0, "a task holds whole groups");
+
+/* Lane j of vertex l of a lane-minor array. */
+static inline __attribute__((always_inline)) core_vec3 ldl(const float *a, uint32_t l, int j)
+{
+    const float *q = a + 3 * (size_t)l * W + j;
+    return core_v3(q[0], q[W], q[2 * W]);
+}
+
+static inline __attribute__((always_inline)) void stl(float *a, uint32_t l, int j, core_vec3 v)
+{
+    float *q = a + 3 * (size_t)l * W + j;
+    q[0] = v.x, q[W] = v.y, q[2 * W] = v.z;
+}
+
+/* The angular constraint of level l >= 1 on every lane: toward its rest segment turned by the
+ * minimal rotation of its parent segment from rest (under the head) to now; at level 1 the
+ * head's frame. Reads level l-2 and writes l and its parent l-1 (which takes the reaction), so
+ * the levels of one residue mod 3 touch disjoint vertices and can be solved in parallel. Its
+ * damper acts on the motion relative to the start carried by the same frame. */
+static void angular(const sim_pbd *p, const group_view *s, uint32_t l, float b)
 {
     const float kl = p->kl[l];
     if (!(kl > 0.0f)) return;
     const float h = p->step.h, w = kl * h * h, c = kl * h * b;
-    const float *x = s->x;
-    const core_vec3 seg = ld(s->seg + 3 * l), parent = ld(x + 3 * (l - 1));
-    core_vec3 t, xc;
+    float *x = s->x + 3 * (size_t)l * W, *xp = s->x + 3 * (size_t)(l - 1) * W, *lam = s->ll + 3 * (size_t)l * W;
     if (l == 1) {
-        t = core_v3_add(parent, seg);
-        xc = ld(s->gc + 3);
-    } else {
-        const core_vec3 e1 = unit(core_v3_sub(parent, ld(x + 3 * (l - 2))));
-        t = core_v3_add(parent, min_rotate(ld(s->e0 + 3 * l), e1, seg));
-        xc = core_v3_add(parent, min_rotate(ld(s->eo + 3 * l), e1, ld(s->od + 3 * l)));
+        const float inv_den = 1.0f / (1.0f + (w + c));
+        for (int j = 0; j < W; j++) {
+            const core_vec3 t = core_v3_add(ldl(s->x, 0, j), ldl(s->seg, 1, j)), xc = ldl(s->gc, 1, j);
+            const float tv[3] = { t.x, t.y, t.z }, cv[3] = { xc.x, xc.y, xc.z };
+            for (int d = 0; d < 3; d++) {
+                const float dl = (w * (tv[d] - x[d * W + j]) - c * (x[d * W + j] - cv[d]) - lam[d * W + j]) * inv_den;
+                lam[d * W + j] += dl;
+                x[d * W + j] += dl;
+                xp[d * W + j] -= 0.0f * dl; /* the fixed root takes no share (but a NaN, as before) */
+            }
+        }
+        return;
     }
-    pull(s->x + 3 * l, s->x + 3 * (l - 1), l == 1 ? 0.0f : 1.0f, t, xc, w, c, s->ll + 3 * l);
+    const float inv_den = 1.0f / (1.0f + (w + c) * 2.0f);
+    for (int j = 0; j < W; j++) {
+        const core_vec3 parent = ldl(s->x, l - 1, j), seg = ldl(s->seg, l, j);
+        const core_vec3 e1 = unit(core_v3_sub(parent, ldl(s->x, l - 2, j)));
+        const core_vec3 t = core_v3_add(parent, min_rotate(ldl(s->e0, l, j), e1, seg));
+        const core_vec3 xc = core_v3_add(parent, min_rotate(ldl(s->eo, l, j), e1, ldl(s->od, l, j)));
+        const float tv[3] = { t.x, t.y, t.z }, cv[3] = { xc.x, xc.y, xc.z };
+        for (int d = 0; d < 3; d++) {
+            const float dl = (w * (tv[d] - x[d * W + j]) - c * (x[d * W + j] - cv[d]) - lam[d * W + j]) * inv_den;
+            lam[d * W + j] += dl;
+            x[d * W + j] += dl;
+            xp[d * W + j] -= dl;
+        }
+    }
 }
 
-/* The distance constraint of the segment ending at level l (the root does not move). */
-static void distance(const strand_view *s, uint32_t l)
+/* The global shape constraint of level l on every lane: toward the rest pose under the head
+ * (a fixed target). */
+static void global(const sim_pbd *p, const group_view *s, uint32_t l, float b)
 {
-    float *a = s->x + 3 * (l - 1), *b = s->x + 3 * l;
-    const core_vec3 d = core_v3_sub(ld(b), ld(a));
-    const float dl = core_v3_len(d);
-    if (!(dl > 1e-12f)) return;
-    const float wa = l == 1 ? 0.0f : 0.5f, wb = 1.0f - wa;
-    const core_vec3 n = core_v3_scale(d, (dl - s->len[l]) / dl);
-    st(a, core_v3_add(ld(a), core_v3_scale(n, wa)));
-    st(b, core_v3_sub(ld(b), core_v3_scale(n, wb)));
+    const float kg = p->kg[l];
+    if (!(kg > 0.0f)) return;
+    const float h = p->step.h, w = kg * h * h, c = kg * h * b;
+    const float inv_den = 1.0f / (1.0f + (w + c));
+    float *x = s->x + 3 * (size_t)l * W, *lam = s->lg + 3 * (size_t)l * W;
+    const float *t = s->gt + 3 * (size_t)l * W, *xc = s->gc + 3 * (size_t)l * W;
+    for (int i = 0; i < 3 * W; i++) {
+        const float dl = (w * (t[i] - x[i]) - c * (x[i] - xc[i]) - lam[i]) * inv_den;
+        lam[i] += dl;
+        x[i] += dl;
+    }
 }
 
-/* Fills the per-substep fields of s (strand_view) from the starts and the rest pose. */
-static void substep_frames(const sim_step_desc *sd, int k, const strand_view *s, uint32_t nv)
+/* The distance constraint of the segment ending at level l on every lane (the root does not
+ * move). */
+static void distance(const group_view *s, uint32_t l)
+{
+    const float wa = l == 1 ? 0.0f : 0.5f, wb = 1.0f - wa;
+    float *a = s->x + 3 * (size_t)(l - 1) * W, *bb = s->x + 3 * (size_t)l * W;
+    const float *len = s->len + (size_t)l * W;
+    for (int j = 0; j < W; j++) {
+        const core_vec3 pa = core_v3(a[j], a[W + j], a[2 * W + j]), pb = core_v3(bb[j], bb[W + j], bb[2 * W + j]);
+        const core_vec3 d = core_v3_sub(pb, pa);
+        const float dl = core_v3_len(d);
+        const bool ok = dl > 1e-12f;
+        const core_vec3 n = core_v3_scale(d, (dl - len[j]) / dl);
+        const core_vec3 na = core_v3_add(pa, core_v3_scale(n, wa)), nb = core_v3_sub(pb, core_v3_scale(n, wb));
+        a[j] = ok ? na.x : pa.x, a[W + j] = ok ? na.y : pa.y, a[2 * W + j] = ok ? na.z : pa.z;
+        bb[j] = ok ? nb.x : pb.x, bb[W + j] = ok ? nb.y : pb.y, bb[2 * W + j] = ok ? nb.z : pb.z;
+    }
+}
+
+/* Fills the per-substep fields of s (group_view) from the starts and the rest pose. */
+static void substep_frames(const sim_step_desc *sd, int k, const group_view *s, uint32_t nv)
 {
     const core_xform head = sd->head[k];
-    for (uint32_t l = 0; l < nv; l++) {
-        const core_vec3 r = ld(s->r + 3 * l), o = ld(s->o + 3 * l);
-        st(s->gt + 3 * l, core_xform_point(head, r));
-        st(s->gc + 3 * l, carry(sd->carry[k], o));
-        if (l == 0) continue;
-        st(s->seg + 3 * l, core_q_rotate(head.rot, core_v3_sub(r, ld(s->r + 3 * (l - 1)))));
-        st(s->od + 3 * l, core_v3_sub(o, ld(s->o + 3 * (l - 1))));
-        if (l == 1) continue;
-        st(s->e0 + 3 * l, unit(ld(s->seg + 3 * (l - 1))));
-        st(s->eo + 3 * l, unit(ld(s->od + 3 * (l - 1))));
+    for (uint32_t l = 0; l < nv; l++)
+        for (int j = 0; j < W; j++) {
+            const core_vec3 r = ldl(s->r, l, j), o = ldl(s->o, l, j);
+            stl(s->gt, l, j, core_xform_point(head, r));
+            stl(s->gc, l, j, carry(sd->carry[k], o));
+            if (l == 0) continue;
+            stl(s->seg, l, j, core_q_rotate(head.rot, core_v3_sub(r, ldl(s->r, l - 1, j))));
+            stl(s->od, l, j, core_v3_sub(o, ldl(s->o, l - 1, j)));
+            if (l == 1) continue;
+            stl(s->e0, l, j, unit(ldl(s->seg, l - 1, j)));
+            stl(s->eo, l, j, unit(ldl(s->od, l - 1, j)));
+        }
+}
+
+/* Copies strands s0 .. s0 + W - 1 (the last one repeated past ns) of x, v and rest into the
+ * group's lanes. */
+static void group_load(const sim_pbd *p, uint32_t s0, const group_view *s)
+{
+    const uint32_t nv = p->nv;
+    for (int j = 0; j < W; j++) {
+        const uint32_t si = s0 + (uint32_t)j < p->ns ? s0 + (uint32_t)j : p->ns - 1;
+        const size_t base = 3 * (size_t)si * nv;
+        for (uint32_t l = 0; l < nv; l++) {
+            stl(s->x, l, j, ld(p->x + base + 3 * l));
+            stl(s->v, l, j, ld(p->v + base + 3 * l));
+            stl(s->r, l, j, ld(p->rest + base + 3 * l));
+            s->len[(size_t)l * W + j] = p->len[(size_t)si * nv + l];
+        }
     }
 }
 
-static void strand_substep(sim_pbd *p, int k, uint32_t si, int worker)
+/* One substep of the strands s0 .. s0 + W - 1 (those below ns) in worker's scratch. */
+static void group_substep(sim_pbd *p, int k, uint32_t s0, int worker)
 {
     const sim_step_desc *sd = &p->step;
     const uint32_t nv = p->nv;
-    const size_t base = 3 * (size_t)si * nv;
-    float *w = p->scratch + (size_t)worker * SIM_PBD_SCRATCH * nv;
-    const strand_view s = { p->x + base, p->v + base,  p->start + base, p->rest + base, p->len + (size_t)si * nv,
-                            w,           w + 3 * nv,   w + 6 * nv,      w + 9 * nv,     w + 12 * nv,
-                            w + 15 * nv, w + 18 * nv,  w + 21 * nv,     w + 24 * nv };
+    const size_t m = 3 * (size_t)nv * W;
+    float *w = p->scratch + (size_t)worker * SIM_PBD_SCRATCH * nv * W;
+    const group_view s = { w,          w + m,      w + 2 * m,  w + 3 * m,  w + 4 * m,  w + 4 * m + nv * W,
+                           w + 5 * m + nv * W,      w + 6 * m + nv * W,     w + 7 * m + nv * W,
+                           w + 8 * m + nv * W,      w + 9 * m + nv * W,     w + 10 * m + nv * W,
+                           w + 11 * m + nv * W,     w + 12 * m + nv * W };
     const float h = sd->h, inv_h = sd->inv_h, b = 0.5f * fmaxf((float)SIM_SHAPE_DAMPING_STEP - h, 0.0f);
     const core_xform head = sd->head[k];
     const core_vec3 acc = ld(sd->accel);
+    group_load(p, s0, &s);
     /* the root follows the head; the others: Verlet with air drag */
-    const core_vec3 root = core_xform_point(head, ld(s.r));
-    memcpy(s.o, s.x, 3 * nv * sizeof(float));
-    st(s.v, core_v3_scale(core_v3_sub(root, ld(s.x)), inv_h));
-    st(s.x, root);
-    for (uint32_t l = 1; l < nv; l++) {
-        float *x = s.x + 3 * l;
-        const core_vec3 v = core_v3_scale(ld(s.v + 3 * l), sd->drag_keep);
-        st(x, core_v3_add(ld(x), core_v3_add(core_v3_scale(v, h), core_v3_scale(acc, h * h))));
+    memcpy(s.o, s.x, m * sizeof(float));
+    for (int j = 0; j < W; j++) {
+        const core_vec3 root = core_xform_point(head, ldl(s.r, 0, j));
+        stl(s.v, 0, j, core_v3_scale(core_v3_sub(root, ldl(s.x, 0, j)), inv_h));
+        stl(s.x, 0, j, root);
     }
+    for (uint32_t l = 1; l < nv; l++)
+        for (int j = 0; j < W; j++) {
+            const core_vec3 v = core_v3_scale(ldl(s.v, l, j), sd->drag_keep);
+            stl(s.x, l, j, core_v3_add(ldl(s.x, l, j), core_v3_add(core_v3_scale(v, h), core_v3_scale(acc, h * h))));
+        }
     substep_frames(sd, k, &s, nv);
-    memset(s.lg, 0, 3 * nv * sizeof(float));
-    memset(s.ll, 0, 3 * nv * sizeof(float));
-    memset(s.push, 0, 3 * nv * sizeof(float));
+    memset(s.lg, 0, m * sizeof(float));
+    memset(s.ll, 0, m * sizeof(float));
+    memset(s.push, 0, m * sizeof(float));
     const sim_wcollider *wc = sd->col[k];
     const bool sdf = sd->sdf != NULL;
     for (int it = 0; it < p->params.pbd_iterations; it++) {
         for (uint32_t phase = 0; phase < 3; phase++)
             for (uint32_t l = 1 + phase; l < nv; l += 3) angular(p, &s, l, b);
-        for (uint32_t l = 1; l < nv; l++) {
-            const float kg = p->kg[l];
-            if (!(kg > 0.0f)) continue;
-            pull(s.x + 3 * l, NULL, 0.0f, ld(s.gt + 3 * l), ld(s.gc + 3 * l), kg * h * h, kg * h * b, s.lg + 3 * l);
-        }
+        for (uint32_t l = 1; l < nv; l++) global(p, &s, l, b);
         for (uint32_t l = 1; l < nv; l += 2) distance(&s, l); /* even segments (from vertex 0, 2, ...) */
         for (uint32_t l = 2; l < nv; l += 2) distance(&s, l); /* odd segments */
-        for (uint32_t l = 1; l < nv; l++) {
-            float *x = s.x + 3 * l;
-            const core_vec3 before = ld(x);
-            for (uint32_t c = 0; c < sd->ncolliders; c++) push_collider(&wc[c], x);
-            if (sdf) push_sdf(sd->sdf, &sd->wsdf[k], x);
-            st(s.push + 3 * l, core_v3_add(ld(s.push + 3 * l), core_v3_sub(ld(x), before)));
-        }
+        for (uint32_t l = 1; l < nv; l++)
+            for (int j = 0; j < W; j++) {
+                const core_vec3 before = ldl(s.x, l, j);
+                float x[3] = { before.x, before.y, before.z };
+                for (uint32_t c = 0; c < sd->ncolliders; c++) push_collider(&wc[c], x);
+                if (sdf) push_sdf(sd->sdf, &sd->wsdf[k], x);
+                stl(s.x, l, j, ld(x));
+                stl(s.push, l, j, core_v3_add(ldl(s.push, l, j), core_v3_sub(ld(x), before)));
+            }
     }
     if (sd->friction > 0.0f)
-        for (uint32_t l = 1; l < nv; l++) friction(s.x + 3 * l, ld(s.push + 3 * l), ld(s.gc + 3 * l), sd->friction);
+        for (uint32_t l = 1; l < nv; l++)
+            for (int j = 0; j < W; j++) {
+                float x[3] = { s.x[3 * l * W + j], s.x[(3 * l + 1) * W + j], s.x[(3 * l + 2) * W + j] };
+                friction(x, ldl(s.push, l, j), ldl(s.gc, l, j), sd->friction);
+                stl(s.x, l, j, ld(x));
+            }
     /* velocities from the positions; internal damping keeps a share of each vertex's velocity
      * relative to its parent's final one */
-    float bad = 0.0f;
-    for (uint32_t l = 1; l < nv; l++) {
-        const core_vec3 vn = core_v3_scale(core_v3_sub(ld(s.x + 3 * l), ld(s.o + 3 * l)), inv_h);
-        const core_vec3 pv = ld(s.v + 3 * (l - 1));
-        const core_vec3 v = core_v3_add(pv, core_v3_scale(core_v3_sub(vn, pv), sd->keep));
-        st(s.v + 3 * l, v);
-        bad += (v.x - v.x) + (v.y - v.y) + (v.z - v.z);
-    }
-    for (uint32_t l = 0; l < nv; l++) bad += (s.x[3 * l] - s.x[3 * l]) + (s.x[3 * l + 1] - s.x[3 * l + 1]) + (s.x[3 * l + 2] - s.x[3 * l + 2]);
-    if (bad != 0.0f) { /* NaN or inf somewhere along the strand */
-        sim_pbd_restore_strand(p, si, head);
-        p->nan_per_worker[worker]++;
+    for (uint32_t l = 1; l < nv; l++)
+        for (int j = 0; j < W; j++) {
+            const core_vec3 vn = core_v3_scale(core_v3_sub(ldl(s.x, l, j), ldl(s.o, l, j)), inv_h);
+            const core_vec3 pv = ldl(s.v, l - 1, j);
+            stl(s.v, l, j, core_v3_add(pv, core_v3_scale(core_v3_sub(vn, pv), sd->keep)));
+        }
+    for (int j = 0; j < W && s0 + (uint32_t)j < p->ns; j++) {
+        const uint32_t si = s0 + (uint32_t)j;
+        float *x = p->x + 3 * (size_t)si * nv, *v = p->v + 3 * (size_t)si * nv;
+        float bad = 0.0f;
+        for (uint32_t l = 0; l < nv; l++) {
+            const core_vec3 xl = ldl(s.x, l, j), vl = ldl(s.v, l, j);
+            st(x + 3 * l, xl);
+            st(v + 3 * l, vl);
+            if (l > 0) bad += (vl.x - vl.x) + (vl.y - vl.y) + (vl.z - vl.z);
+            bad += (xl.x - xl.x) + (xl.y - xl.y) + (xl.z - xl.z);
+        }
+        if (bad != 0.0f) { /* NaN or inf somewhere along the strand */
+            sim_pbd_restore_strand(p, si, head);
+            p->nan_per_worker[worker]++;
+        }
     }
 }
 
@@ -255,14 +339,14 @@ typedef struct substep_ctx {
     int k;
 } substep_ctx;
 
-/* One task = SIM_CHUNK strands; strands are independent, so results do not depend on the
- * thread count. */
+/* One task = SIM_CHUNK strands (a multiple of SIM_PBD_LANES); strands are independent, so
+ * results do not depend on the thread count. */
 static void substep_task(void *vctx, size_t task, size_t ntasks, int worker)
 {
     (void)ntasks;
     const substep_ctx *c = vctx;
     const uint32_t s0 = (uint32_t)(task * SIM_CHUNK), s1 = s0 + SIM_CHUNK < c->p->ns ? s0 + SIM_CHUNK : c->p->ns;
-    for (uint32_t s = s0; s < s1; s++) strand_substep(c->p, c->k, s, worker);
+    for (uint32_t s = s0; s < s1; s += W) group_substep(c->p, c->k, s, worker);
 }
 
 void sim_pbd_substep(sim_pbd *p, int k)
