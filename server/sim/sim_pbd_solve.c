@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "sim_pbd_internal.h"
+#include "sim_pbd_lane.h"
 
 /* Rotates v by the minimal rotation taking unit a onto unit b. */
 static inline __attribute__((always_inline)) core_vec3 min_rotate(core_vec3 a, core_vec3 b, core_vec3 v)
@@ -140,6 +141,23 @@ static inline __attribute__((always_inline)) void stl(float *a, uint32_t l, int 
     q[0] = v.x, q[W] = v.y, q[2 * W] = v.z;
 }
 
+/* min_rotate and unit on every lane. */
+static inline __attribute__((always_inline)) sim_lv3 lane_min_rotate(sim_lv3 a, sim_lv3 b, sim_lv3 v)
+{
+    const sim_lv3 k = sim_lv3_cross(a, b);
+    const sim_lane co = sim_lv3_dot(a, b), den = 1.0f + co, lo = den - den + 1e-6f;
+    const sim_lane kv = sim_lv3_dot(k, v) / sim_lane_sel(den > lo, den, lo); /* fmaxf(den, 1e-6f) */
+    return sim_lv3_add(sim_lv3_add(sim_lv3_scale(v, co), sim_lv3_cross(k, v)), sim_lv3_scale(k, kv));
+}
+
+static inline __attribute__((always_inline)) sim_lv3 lane_unit(sim_lv3 a)
+{
+    const sim_lane l2 = sim_lv3_dot(a, a), zero = l2 - l2, one = zero + 1.0f;
+    const sim_lane_mask ok = l2 > 1e-30f;
+    const sim_lv3 u = sim_lv3_scale(a, 1.0f / sim_lane_sqrt(l2));
+    return (sim_lv3){ sim_lane_sel(ok, u.x, zero), sim_lane_sel(ok, u.y, one), sim_lane_sel(ok, u.z, zero) };
+}
+
 /* The angular constraint of level l >= 1 on every lane: toward its rest segment turned by the
  * minimal rotation of its parent segment from rest (under the head) to now; at level 1 the
  * head's frame. Reads level l-2 and writes l and its parent l-1 (which takes the reaction), so
@@ -150,34 +168,27 @@ static void angular(const sim_pbd *p, const group_view *s, uint32_t l, float b)
     const float kl = p->kl[l];
     if (!(kl > 0.0f)) return;
     const float h = p->step.h, w = kl * h * h, c = kl * h * b;
-    float *x = s->x + 3 * (size_t)l * W, *xp = s->x + 3 * (size_t)(l - 1) * W, *lam = s->ll + 3 * (size_t)l * W;
+    const sim_lv3 parent = sim_lv3_ld(s->x, l - 1), seg = sim_lv3_ld(s->seg, l);
+    sim_lv3 t, xc;
+    float wp, inv_den;
     if (l == 1) {
-        const float inv_den = 1.0f / (1.0f + (w + c));
-        for (int j = 0; j < W; j++) {
-            const core_vec3 t = core_v3_add(ldl(s->x, 0, j), ldl(s->seg, 1, j)), xc = ldl(s->gc, 1, j);
-            const float tv[3] = { t.x, t.y, t.z }, cv[3] = { xc.x, xc.y, xc.z };
-            for (int d = 0; d < 3; d++) {
-                const float dl = (w * (tv[d] - x[d * W + j]) - c * (x[d * W + j] - cv[d]) - lam[d * W + j]) * inv_den;
-                lam[d * W + j] += dl;
-                x[d * W + j] += dl;
-                xp[d * W + j] -= 0.0f * dl; /* the fixed root takes no share (but a NaN, as before) */
-            }
-        }
-        return;
+        t = sim_lv3_add(parent, seg);
+        xc = sim_lv3_ld(s->gc, 1);
+        wp = 0.0f, inv_den = 1.0f / (1.0f + (w + c));
+    } else {
+        const sim_lv3 e1 = lane_unit(sim_lv3_sub(parent, sim_lv3_ld(s->x, l - 2)));
+        t = sim_lv3_add(parent, lane_min_rotate(sim_lv3_ld(s->e0, l), e1, seg));
+        xc = sim_lv3_add(parent, lane_min_rotate(sim_lv3_ld(s->eo, l), e1, sim_lv3_ld(s->od, l)));
+        wp = 1.0f, inv_den = 1.0f / (1.0f + (w + c) * 2.0f);
     }
-    const float inv_den = 1.0f / (1.0f + (w + c) * 2.0f);
-    for (int j = 0; j < W; j++) {
-        const core_vec3 parent = ldl(s->x, l - 1, j), seg = ldl(s->seg, l, j);
-        const core_vec3 e1 = unit(core_v3_sub(parent, ldl(s->x, l - 2, j)));
-        const core_vec3 t = core_v3_add(parent, min_rotate(ldl(s->e0, l, j), e1, seg));
-        const core_vec3 xc = core_v3_add(parent, min_rotate(ldl(s->eo, l, j), e1, ldl(s->od, l, j)));
-        const float tv[3] = { t.x, t.y, t.z }, cv[3] = { xc.x, xc.y, xc.z };
-        for (int d = 0; d < 3; d++) {
-            const float dl = (w * (tv[d] - x[d * W + j]) - c * (x[d * W + j] - cv[d]) - lam[d * W + j]) * inv_den;
-            lam[d * W + j] += dl;
-            x[d * W + j] += dl;
-            xp[d * W + j] -= dl;
-        }
+    const sim_lane tv[3] = { t.x, t.y, t.z }, cv[3] = { xc.x, xc.y, xc.z };
+    float *x = s->x + 3 * (size_t)l * W, *xp = s->x + 3 * (size_t)(l - 1) * W, *lam = s->ll + 3 * (size_t)l * W;
+    for (int d = 0; d < 3; d++) {
+        const sim_lane xd = sim_lane_ld(x + d * W), ld_ = sim_lane_ld(lam + d * W);
+        const sim_lane dl = (w * (tv[d] - xd) - c * (xd - cv[d]) - ld_) * inv_den;
+        sim_lane_st(lam + d * W, ld_ + dl);
+        sim_lane_st(x + d * W, xd + dl);
+        sim_lane_st(xp + d * W, sim_lane_ld(xp + d * W) - wp * dl);
     }
 }
 
@@ -203,18 +214,15 @@ static void global(const sim_pbd *p, const group_view *s, uint32_t l, float b)
 static void distance(const group_view *s, uint32_t l)
 {
     const float wa = l == 1 ? 0.0f : 0.5f, wb = 1.0f - wa;
-    float *a = s->x + 3 * (size_t)(l - 1) * W, *bb = s->x + 3 * (size_t)l * W;
-    const float *len = s->len + (size_t)l * W;
-    for (int j = 0; j < W; j++) {
-        const core_vec3 pa = core_v3(a[j], a[W + j], a[2 * W + j]), pb = core_v3(bb[j], bb[W + j], bb[2 * W + j]);
-        const core_vec3 d = core_v3_sub(pb, pa);
-        const float dl = core_v3_len(d);
-        const bool ok = dl > 1e-12f;
-        const core_vec3 n = core_v3_scale(d, (dl - len[j]) / dl);
-        const core_vec3 na = core_v3_add(pa, core_v3_scale(n, wa)), nb = core_v3_sub(pb, core_v3_scale(n, wb));
-        a[j] = ok ? na.x : pa.x, a[W + j] = ok ? na.y : pa.y, a[2 * W + j] = ok ? na.z : pa.z;
-        bb[j] = ok ? nb.x : pb.x, bb[W + j] = ok ? nb.y : pb.y, bb[2 * W + j] = ok ? nb.z : pb.z;
-    }
+    const sim_lv3 pa = sim_lv3_ld(s->x, l - 1), pb = sim_lv3_ld(s->x, l);
+    const sim_lv3 d = sim_lv3_sub(pb, pa);
+    const sim_lane dl = sim_lane_sqrt(sim_lv3_dot(d, d));
+    const sim_lane_mask ok = dl > 1e-12f;
+    const sim_lv3 n = sim_lv3_scale(d, (dl - sim_lane_ld(s->len + (size_t)l * W)) / dl);
+    const sim_lv3 na = sim_lv3_add(pa, sim_lv3_scale(n, wa - (sim_lane){ 0 })),
+                  nb = sim_lv3_sub(pb, sim_lv3_scale(n, wb - (sim_lane){ 0 }));
+    sim_lv3_st(s->x, l - 1, (sim_lv3){ sim_lane_sel(ok, na.x, pa.x), sim_lane_sel(ok, na.y, pa.y), sim_lane_sel(ok, na.z, pa.z) });
+    sim_lv3_st(s->x, l, (sim_lv3){ sim_lane_sel(ok, nb.x, pb.x), sim_lane_sel(ok, nb.y, pb.y), sim_lane_sel(ok, nb.z, pb.z) });
 }
 
 /* Fills the per-substep fields of s (group_view) from the starts and the rest pose. */
