@@ -243,6 +243,27 @@ static void substep_frames(const sim_step_desc *sd, int k, const group_view *s, 
         }
 }
 
+/* Whether any lane's vertex l is inside the box lo..hi (or NaN): the lanes the collision
+ * pushes' own box tests would not skip. */
+static bool any_in_box(const group_view *s, uint32_t l, const float lo[3], const float hi[3])
+{
+    const sim_lv3 x = sim_lv3_ld(s->x, l);
+    const sim_lane_mask out = (x.x < lo[0]) | (x.x > hi[0]) | (x.y < lo[1]) | (x.y > hi[1]) | (x.z < lo[2]) | (x.z > hi[2]);
+    int32_t all = -1;
+    for (int j = 0; j < W; j++) all &= out[j];
+    return all == 0;
+}
+
+/* push_collider (w) or push_sdf (sdf, ws) on lane j of vertex l. */
+static void push_lane(const group_view *s, uint32_t l, int j, const sim_wcollider *w, const core_sdf *sdf,
+                      const sim_wsdf *ws)
+{
+    float x[3] = { s->x[3 * l * W + j], s->x[(3 * l + 1) * W + j], s->x[(3 * l + 2) * W + j] };
+    if (w) push_collider(w, x);
+    else push_sdf(sdf, ws, x);
+    stl(s->x, l, j, ld(x));
+}
+
 /* Copies strands s0 .. s0 + W - 1 (the last one repeated past ns) of x, v and rest into the
  * group's lanes. */
 static void group_load(const sim_pbd *p, uint32_t s0, const group_view *s)
@@ -299,15 +320,15 @@ static void group_substep(sim_pbd *p, int k, uint32_t s0, int worker)
         for (uint32_t l = 1; l < nv; l++) global(p, &s, l, b);
         for (uint32_t l = 1; l < nv; l += 2) distance(&s, l); /* even segments (from vertex 0, 2, ...) */
         for (uint32_t l = 2; l < nv; l += 2) distance(&s, l); /* odd segments */
-        for (uint32_t l = 1; l < nv; l++)
-            for (int j = 0; j < W; j++) {
-                const core_vec3 before = ldl(s.x, l, j);
-                float x[3] = { before.x, before.y, before.z };
-                for (uint32_t c = 0; c < sd->ncolliders; c++) push_collider(&wc[c], x);
-                if (sdf) push_sdf(sd->sdf, &sd->wsdf[k], x);
-                stl(s.x, l, j, ld(x));
-                stl(s.push, l, j, core_v3_add(ldl(s.push, l, j), core_v3_sub(ld(x), before)));
-            }
+        for (uint32_t l = 1; l < nv; l++) {
+            const sim_lv3 before = sim_lv3_ld(s.x, l);
+            for (uint32_t c = 0; c < sd->ncolliders; c++)
+                if (any_in_box(&s, l, wc[c].lo, wc[c].hi))
+                    for (int j = 0; j < W; j++) push_lane(&s, l, j, &wc[c], NULL, NULL);
+            if (sdf && any_in_box(&s, l, sd->wsdf[k].lo, sd->wsdf[k].hi))
+                for (int j = 0; j < W; j++) push_lane(&s, l, j, NULL, sd->sdf, &sd->wsdf[k]);
+            sim_lv3_st(s.push, l, sim_lv3_add(sim_lv3_ld(s.push, l), sim_lv3_sub(sim_lv3_ld(s.x, l), before)));
+        }
     }
     if (sd->friction > 0.0f)
         for (uint32_t l = 1; l < nv; l++)
