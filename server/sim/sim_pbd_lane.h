@@ -39,6 +39,13 @@ static inline sim_lane sim_lane_sqrt(sim_lane a)
     return r;
 }
 
+static inline sim_lane sim_lane_splat(float f)
+{
+    sim_lane r;
+    for (int j = 0; j < SIM_PBD_LANES; j++) r[j] = f;
+    return r;
+}
+
 /* Vertex l of a lane-minor array (component d of lane j at (3 l + d) SIM_PBD_LANES + j). */
 static inline sim_lv3 sim_lv3_ld(const float *a, uint32_t l)
 {
@@ -62,6 +69,19 @@ static inline sim_lane sim_lv3_dot(sim_lv3 a, sim_lv3 b) { return a.x * b.x + a.
 static inline sim_lv3 sim_lv3_cross(sim_lv3 a, sim_lv3 b)
 {
     return (sim_lv3){ a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x };
+}
+
+static inline sim_lv3 sim_lv3_splat(core_vec3 a)
+{
+    return (sim_lv3){ sim_lane_splat(a.x), sim_lane_splat(a.y), sim_lane_splat(a.z) };
+}
+
+/* core_q_rotate of every lane by q. */
+static inline sim_lv3 sim_lv3_q_rotate(core_quat q, sim_lv3 v)
+{
+    const sim_lv3 u = sim_lv3_splat(core_v3(q.x, q.y, q.z));
+    const sim_lv3 t = sim_lv3_scale(sim_lv3_cross(u, v), sim_lane_splat(2.0f));
+    return sim_lv3_add(sim_lv3_add(v, sim_lv3_scale(t, sim_lane_splat(q.w))), sim_lv3_cross(u, t));
 }
 
 #endif

@@ -26,12 +26,6 @@ static inline __attribute__((always_inline)) core_vec3 unit(core_vec3 a)
 static core_vec3 ld(const float *a) { return core_v3(a[0], a[1], a[2]); }
 static void st(float *a, core_vec3 v) { a[0] = v.x, a[1] = v.y, a[2] = v.z; }
 
-/* Where the rigid motion of the colliders (the head) over the substep takes p (rows m0 m1 m2 t). */
-static core_vec3 carry(const float *C, core_vec3 p)
-{
-    return core_v3(C[0] * p.x + C[1] * p.y + C[2] * p.z + C[3], C[4] * p.x + C[5] * p.y + C[6] * p.z + C[7],
-                   C[8] * p.x + C[9] * p.y + C[10] * p.z + C[11]);
-}
 
 /* The XPBD projection (angular and global): one projection of the vector constraint x - t = 0
  * (t carried by a parent vertex of inverse mass wp, 0 when the target is fixed; x has inverse
@@ -225,22 +219,36 @@ static void distance(const group_view *s, uint32_t l)
     sim_lv3_st(s->x, l, (sim_lv3){ sim_lane_sel(ok, nb.x, pb.x), sim_lane_sel(ok, nb.y, pb.y), sim_lane_sel(ok, nb.z, pb.z) });
 }
 
+/* core_xform_point on every lane. */
+static inline __attribute__((always_inline)) sim_lv3 lane_xform_point(core_xform x, sim_lv3 p)
+{
+    return sim_lv3_add(sim_lv3_q_rotate(x.rot, p), sim_lv3_splat(x.pos));
+}
+
+/* Where the rigid motion of the colliders (the head) over the substep takes p, on every lane
+ * (C: rows m0 m1 m2 t). */
+static inline __attribute__((always_inline)) sim_lv3 lane_carry(const float *C, sim_lv3 p)
+{
+    return (sim_lv3){ C[0] * p.x + C[1] * p.y + C[2] * p.z + C[3], C[4] * p.x + C[5] * p.y + C[6] * p.z + C[7],
+                      C[8] * p.x + C[9] * p.y + C[10] * p.z + C[11] };
+}
+
 /* Fills the per-substep fields of s (group_view) from the starts and the rest pose. */
 static void substep_frames(const sim_step_desc *sd, int k, const group_view *s, uint32_t nv)
 {
     const core_xform head = sd->head[k];
-    for (uint32_t l = 0; l < nv; l++)
-        for (int j = 0; j < W; j++) {
-            const core_vec3 r = ldl(s->r, l, j), o = ldl(s->o, l, j);
-            stl(s->gt, l, j, core_xform_point(head, r));
-            stl(s->gc, l, j, carry(sd->carry[k], o));
-            if (l == 0) continue;
-            stl(s->seg, l, j, core_q_rotate(head.rot, core_v3_sub(r, ldl(s->r, l - 1, j))));
-            stl(s->od, l, j, core_v3_sub(o, ldl(s->o, l - 1, j)));
-            if (l == 1) continue;
-            stl(s->e0, l, j, unit(ldl(s->seg, l - 1, j)));
-            stl(s->eo, l, j, unit(ldl(s->od, l - 1, j)));
-        }
+    const float *C = sd->carry[k];
+    for (uint32_t l = 0; l < nv; l++) {
+        const sim_lv3 r = sim_lv3_ld(s->r, l), o = sim_lv3_ld(s->o, l);
+        sim_lv3_st(s->gt, l, lane_xform_point(head, r));
+        sim_lv3_st(s->gc, l, lane_carry(C, o));
+        if (l == 0) continue;
+        sim_lv3_st(s->seg, l, sim_lv3_q_rotate(head.rot, sim_lv3_sub(r, sim_lv3_ld(s->r, l - 1))));
+        sim_lv3_st(s->od, l, sim_lv3_sub(o, sim_lv3_ld(s->o, l - 1)));
+        if (l == 1) continue;
+        sim_lv3_st(s->e0, l, lane_unit(sim_lv3_ld(s->seg, l - 1)));
+        sim_lv3_st(s->eo, l, lane_unit(sim_lv3_ld(s->od, l - 1)));
+    }
 }
 
 /* Whether any lane's vertex l is inside the box lo..hi (or NaN): the lanes the collision
@@ -298,16 +306,14 @@ static void group_substep(sim_pbd *p, int k, uint32_t s0, int worker)
     group_load(p, s0, &s);
     /* the root follows the head; the others: Verlet with air drag */
     memcpy(s.o, s.x, m * sizeof(float));
-    for (int j = 0; j < W; j++) {
-        const core_vec3 root = core_xform_point(head, ldl(s.r, 0, j));
-        stl(s.v, 0, j, core_v3_scale(core_v3_sub(root, ldl(s.x, 0, j)), inv_h));
-        stl(s.x, 0, j, root);
+    const sim_lv3 root = lane_xform_point(head, sim_lv3_ld(s.r, 0));
+    sim_lv3_st(s.v, 0, sim_lv3_scale(sim_lv3_sub(root, sim_lv3_ld(s.x, 0)), sim_lane_splat(inv_h)));
+    sim_lv3_st(s.x, 0, root);
+    const sim_lv3 ah = sim_lv3_splat(core_v3_scale(acc, h * h));
+    for (uint32_t l = 1; l < nv; l++) {
+        const sim_lv3 v = sim_lv3_scale(sim_lv3_ld(s.v, l), sim_lane_splat(sd->drag_keep));
+        sim_lv3_st(s.x, l, sim_lv3_add(sim_lv3_ld(s.x, l), sim_lv3_add(sim_lv3_scale(v, sim_lane_splat(h)), ah)));
     }
-    for (uint32_t l = 1; l < nv; l++)
-        for (int j = 0; j < W; j++) {
-            const core_vec3 v = core_v3_scale(ldl(s.v, l, j), sd->drag_keep);
-            stl(s.x, l, j, core_v3_add(ldl(s.x, l, j), core_v3_add(core_v3_scale(v, h), core_v3_scale(acc, h * h))));
-        }
     substep_frames(sd, k, &s, nv);
     memset(s.lg, 0, m * sizeof(float));
     memset(s.ll, 0, m * sizeof(float));
@@ -339,12 +345,11 @@ static void group_substep(sim_pbd *p, int k, uint32_t s0, int worker)
             }
     /* velocities from the positions; internal damping keeps a share of each vertex's velocity
      * relative to its parent's final one */
-    for (uint32_t l = 1; l < nv; l++)
-        for (int j = 0; j < W; j++) {
-            const core_vec3 vn = core_v3_scale(core_v3_sub(ldl(s.x, l, j), ldl(s.o, l, j)), inv_h);
-            const core_vec3 pv = ldl(s.v, l - 1, j);
-            stl(s.v, l, j, core_v3_add(pv, core_v3_scale(core_v3_sub(vn, pv), sd->keep)));
-        }
+    for (uint32_t l = 1; l < nv; l++) {
+        const sim_lv3 vn = sim_lv3_scale(sim_lv3_sub(sim_lv3_ld(s.x, l), sim_lv3_ld(s.o, l)), sim_lane_splat(inv_h));
+        const sim_lv3 pv = sim_lv3_ld(s.v, l - 1);
+        sim_lv3_st(s.v, l, sim_lv3_add(pv, sim_lv3_scale(sim_lv3_sub(vn, pv), sim_lane_splat(sd->keep))));
+    }
     for (int j = 0; j < W && s0 + (uint32_t)j < p->ns; j++) {
         const uint32_t si = s0 + (uint32_t)j;
         float *x = p->x + 3 * (size_t)si * nv, *v = p->v + 3 * (size_t)si * nv;
