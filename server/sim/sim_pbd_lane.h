@@ -34,14 +34,14 @@ static inline sim_lane sim_lane_sel(sim_lane_mask m, sim_lane a, sim_lane b)
 
 static inline sim_lane sim_lane_sqrt(sim_lane a)
 {
-    sim_lane r;
+    sim_lane r = a;
     for (int j = 0; j < SIM_PBD_LANES; j++) r[j] = sqrtf(a[j]);
     return r;
 }
 
 static inline sim_lane sim_lane_splat(float f)
 {
-    sim_lane r;
+    sim_lane r = { 0 };
     for (int j = 0; j < SIM_PBD_LANES; j++) r[j] = f;
     return r;
 }
