@@ -7,25 +7,8 @@
 #include "sim_pbd_internal.h"
 #include "sim_pbd_lane.h"
 
-/* Rotates v by the minimal rotation taking unit a onto unit b. */
-static inline __attribute__((always_inline)) core_vec3 min_rotate(core_vec3 a, core_vec3 b, core_vec3 v)
-{
-    const core_vec3 k = core_v3_cross(a, b);
-    const float co = core_v3_dot(a, b);
-    const float den = 1.0f + co;
-    const float kv = core_v3_dot(k, v) / (den > 1e-6f ? den : 1e-6f); /* fmaxf(den, 1e-6f) */
-    return core_v3_add(core_v3_add(core_v3_scale(v, co), core_v3_cross(k, v)), core_v3_scale(k, kv));
-}
-
-static inline __attribute__((always_inline)) core_vec3 unit(core_vec3 a)
-{
-    const float l2 = core_v3_dot(a, a);
-    return l2 > 1e-30f ? core_v3_scale(a, 1.0f / sqrtf(l2)) : core_v3(0.0f, 1.0f, 0.0f);
-}
-
 static core_vec3 ld(const float *a) { return core_v3(a[0], a[1], a[2]); }
 static void st(float *a, core_vec3 v) { a[0] = v.x, a[1] = v.y, a[2] = v.z; }
-
 
 /* The XPBD projection (angular and global): one projection of the vector constraint x - t = 0
  * (t carried by a parent vertex of inverse mass wp, 0 when the target is fixed; x has inverse
@@ -135,7 +118,7 @@ static inline __attribute__((always_inline)) void stl(float *a, uint32_t l, int 
     q[0] = v.x, q[W] = v.y, q[2 * W] = v.z;
 }
 
-/* min_rotate and unit on every lane. */
+/* Rotates v by the minimal rotation taking unit a onto unit b, on every lane. */
 static inline __attribute__((always_inline)) sim_lv3 lane_min_rotate(sim_lv3 a, sim_lv3 b, sim_lv3 v)
 {
     const sim_lv3 k = sim_lv3_cross(a, b);
@@ -144,6 +127,7 @@ static inline __attribute__((always_inline)) sim_lv3 lane_min_rotate(sim_lv3 a, 
     return sim_lv3_add(sim_lv3_add(sim_lv3_scale(v, co), sim_lv3_cross(k, v)), sim_lv3_scale(k, kv));
 }
 
+/* a normalized on every lane ((0, 1, 0) where its length is about 0). */
 static inline __attribute__((always_inline)) sim_lv3 lane_unit(sim_lv3 a)
 {
     const sim_lane l2 = sim_lv3_dot(a, a), zero = l2 - l2, one = zero + 1.0f;
