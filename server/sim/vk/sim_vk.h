@@ -8,10 +8,12 @@
 #include "../../core/core.h"
 #include "../sim.h"
 
-/* The Vulkan backend's function table (static storage). Its create uses desc->device as in
- * sim_vk_probe. The serial chain along each strand runs with the paper's particle-level
+/* The Vulkan backend's function table (static storage), for the DFTL and the PBD solver
+ * (params.solver, fixed for an instance). Its create uses desc->device as in sim_vk_probe. The
+ * DFTL solver's serial chain along each strand runs with the paper's particle-level
  * parallelism: one dispatch per level (all strands of a level in parallel, a barrier between
- * levels). */
+ * levels); the PBD solver runs one thread per strand, one dispatch per substep, with the C
+ * backend's constraint order and arithmetic. */
 const sim_vtable *sim_vk_vtable(void);
 
 /* Options beyond sim_desc; zero means default. */
