@@ -234,7 +234,8 @@ static void test_nan_guard(void **state)
 }
 
 /* pbd on backend vulkan is the Vulkan backend; auto follows the DFTL solver's rule (on this
- * machine, lavapipe or the C backend, whichever the trial steps found faster) and steps. */
+ * machine, lavapipe or the C backend, whichever the trial steps found faster) and steps;
+ * sim_vk_create takes the solver along and refuses hairmesh; a bad device index is refused. */
 static void test_backend_choice(void **state)
 {
     (void)state;
@@ -257,6 +258,17 @@ static void test_backend_choice(void **state)
     assert_int_equal(sim_step(&s, &err), CORE_OK);
     sim_destroy(&s);
     d.backend = SIM_BACKEND_VULKAN;
+    assert_int_equal(sim_vk_create(&s, &d, NULL, &g, &p, &err), CORE_OK); /* the solver goes with it */
+    assert_int_equal(s.solver, SIM_SOLVER_PBD);
+    p.pbd_iterations = 2;
+    assert_int_equal(sim_set_params(&s, &p, &err), CORE_OK);
+    assert_int_equal(sim_step(&s, &err), CORE_OK);
+    sim_destroy(&s);
+    p.solver = SIM_SOLVER_HAIRMESH;
+    assert_int_equal(sim_vk_create(&s, &d, NULL, &g, &p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "hair-mesh groom"));
+    assert_null(s.vt);
+    p.solver = SIM_SOLVER_PBD;
     d.device = 99;
     assert_int_equal(sim_create(&s, &d, &g, &p, &err), CORE_EINVAL);
     assert_non_null(strstr(err.msg, "device 99"));

@@ -571,6 +571,7 @@ core_status sim_vk_create(sim *out, const sim_desc *desc, const sim_vk_options *
 {
     memset(out, 0, sizeof *out);
     core_status st = sim_params_validate(params, err);
+    if (st == CORE_OK) st = sim_solver_check(params, groom, err);
     if (st != CORE_OK) return st;
     sim_vk *s = NULL;
     st = create_impl(desc, opt, groom, params, &s, err);
@@ -579,6 +580,10 @@ core_status sim_vk_create(sim *out, const sim_desc *desc, const sim_vk_options *
     out->self = s;
     out->nstrands = groom->nstrands;
     out->nverts = groom->nverts;
+    out->solver = params->solver;
+    out->head = core_xform_identity();
+    if (desc) out->desc = *desc;
+    out->desc.backend = SIM_BACKEND_VULKAN;
     return CORE_OK;
 }
 
