@@ -22,7 +22,9 @@ static void usage(FILE *f)
             "usage: strandcastd [options]\n"
             "Simulates strand hair in real time and streams it to WebSocket clients; serves the viewer page.\n\n"
             "Scene\n"
-            "  --groom STYLE|FILE     straight | wavy | curly (procedural), or a .tfx / .hair file (default straight)\n"
+            "  --groom STYLE|FILE     straight | wavy | curly (procedural), hairmesh:STYLE (the strands traced\n"
+            "                         through the procedural hair mesh of that style), or a .tfx / .hair file\n"
+            "                         (default straight)\n"
             "  --collider FILE        character collision mesh, .obj or .tfxmesh, in the groom's frame (default none);\n"
             "                         the hair collides with it as well as with the head ellipsoid and capsules\n"
             "  --strands N            procedural strand count, 1..%d (default %u)\n"
@@ -327,7 +329,7 @@ int main(int argc, char **argv)
         return bad("--ping-timeout", value, why);
     }
     bool procedural = !d.groom || strcmp(d.groom, "straight") == 0 || strcmp(d.groom, "wavy") == 0 ||
-                      strcmp(d.groom, "curly") == 0;
+                      strcmp(d.groom, "curly") == 0 || strncmp(d.groom, "hairmesh:", 9) == 0;
     if (!procedural && d.strands) return bad("--strands", NULL, "a groom file sets its own strand count");
     uint64_t strands = d.strands ? d.strands : GROOM_DEFAULT_STRANDS, verts = d.verts ? d.verts : GROOM_DEFAULT_VERTS;
     if (procedural && strands * verts > PROTO_MAX_VERTICES) return bad("--strands", NULL, "strands x verts is over 2097152");

@@ -31,3 +31,12 @@ target_link_libraries(test_codec_portable PRIVATE strandcast PkgConfig::CMOCKA)
 add_test(NAME test_codec_portable COMMAND test_codec_portable)
 set_tests_properties(test_codec_portable PROPERTIES
   ENVIRONMENT "STRANDCAST_SOURCE_DIR=${PROJECT_SOURCE_DIR}" TIMEOUT 900)
+# `strandbench codec --hairmesh`: the same hairstyle as strands and as its hair mesh, every bound
+# met by both, the mesh frames a small fraction of the strand frames.
+add_test(NAME bench_codec_hairmesh_smoke
+         COMMAND ${STRANDCAST_NODE} ${STRANDCAST_EXPECT_ROWS}
+           --row "r => r.codec === 'hairmesh' && r.error_bound_m === 1e-4 && r.max_error_m <= 1e-4 && r.ratio_to_strands < 0.5 && r.bytes_per_frame > 0"
+           --row "r => r.codec === 'strand' && r.error_bound_m === 2e-5 && r.max_error_m <= 2e-5 && r.ratio_to_strands === 1"
+           --none "r => r.max_error_m > r.error_bound_m"
+           -- $<TARGET_FILE:strandbench> codec --hairmesh wavy --grid 4 --per-face 8 --verts 16 --seconds 0.25 --json)
+set_tests_properties(bench_codec_hairmesh_smoke PROPERTIES TIMEOUT 60)

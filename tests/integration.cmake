@@ -48,6 +48,14 @@ add_test(NAME bench_latency_smoke
            --row "r => r.bench === 'latency' && r.changes === 20 && r.p50_ms > 0 && r.p50_ms <= r.p99_ms && r.p99_ms <= r.max_ms && r.max_ms < 10000 && r.reply_p50_ms > 0 && r.reply_p50_ms <= r.p50_ms && r.frames >= 20"
            -- $<TARGET_FILE:strandbench> latency --changes 20 --json)
 set_tests_properties(bench_latency_smoke PROPERTIES TIMEOUT 120 LABELS integration)
+# The hair-mesh benchmark runs its three sizes and reports every stage (figures: BENCHMARKS.md).
+add_test(NAME bench_hairmesh_smoke
+         COMMAND ${STRANDCAST_NODE} ${STRANDCAST_EXPECT_ROWS}
+           --row "r => r.bench === 'hairmesh' && r.vertices === 216 && r.threads === 1 && r.ms_per_frame > 0 && r.cg_ms > 0 && r.forces_ms > 0"
+           --row "r => r.bench === 'hairmesh' && r.vertices === 360 && r.paper_vertices === 361"
+           --row "r => r.bench === 'hairmesh' && r.vertices === 2304 && r.cpu_ms_per_frame > 0 && r.collisions_ms >= 0 && r.deform_min_ms >= 0"
+           -- $<TARGET_FILE:strandbench> hairmesh --frames 5 --json)
+set_tests_properties(bench_hairmesh_smoke PROPERTIES TIMEOUT 120 LABELS integration)
 # A change that comes while the sim thread waits for the next step's time shows at once (the
 # step runs ahead of the clock, app_sim.c): on a tiny groom in about a millisecond, where waiting
 # for the next 60 Hz slot took a whole step (16.7 ms). A timing bound: nothing runs beside it.

@@ -252,26 +252,26 @@ static void test_streams_share_and_fall_back(void **state)
     (void)state;
     app_streams a;
     tiny_streams(&a);
-    int full = app_stream_acquire(&a, 1, 1e-4, 0), half = app_stream_acquire(&a, 1, 1e-4, 30);
+    int full = app_stream_acquire(&a, PROTO_SOURCE_STRANDS, 1, 1e-4, 0), half = app_stream_acquire(&a, PROTO_SOURCE_STRANDS, 1, 1e-4, 30);
     assert_true(full >= 0 && half >= 0 && full != half);
-    assert_int_equal(app_stream_acquire(&a, 1, 1e-4, 25), half); /* 25 Hz: the 30 Hz stream */
+    assert_int_equal(app_stream_acquire(&a, PROTO_SOURCE_STRANDS, 1, 1e-4, 25), half); /* 25 Hz: the 30 Hz stream */
     assert_int_equal(a.s[half].subscribers, 2);
     assert_int_equal(a.s[half].decimation, 2);
     assert_true(a.s[half].ready);
     /* fill every other slot with other settings */
-    for (int i = 2; i < NET_MAX_STREAMS; i++) assert_true(app_stream_acquire(&a, 1 + i, 1e-4, 0) >= 0);
-    assert_int_equal(app_stream_acquire(&a, 99, 1e-4, 0), -1);
+    for (int i = 2; i < NET_MAX_STREAMS; i++) assert_true(app_stream_acquire(&a, PROTO_SOURCE_STRANDS, 1 + i, 1e-4, 0) >= 0);
+    assert_int_equal(app_stream_acquire(&a, PROTO_SOURCE_STRANDS, 99, 1e-4, 0), -1);
     /* full table: 10 Hz shares the nearest faster stream of the same stride and error (30 Hz) */
-    assert_int_equal(app_stream_acquire(&a, 1, 1e-4, 10), half);
+    assert_int_equal(app_stream_acquire(&a, PROTO_SOURCE_STRANDS, 1, 1e-4, 10), half);
     assert_int_equal(a.s[half].subscribers, 3);
     /* a faster rate than any stream of those settings has no fallback */
-    assert_int_equal(app_stream_acquire(&a, 1, 2e-4, 0), -1);
+    assert_int_equal(app_stream_acquire(&a, PROTO_SOURCE_STRANDS, 1, 2e-4, 0), -1);
     /* with the default stream gone, its slot is kept for it: other settings are refused */
     app_stream_release(&a, full);
     assert_false(a.s[full].used);
-    assert_int_equal(app_stream_acquire(&a, 99, 1e-4, 0), -1);
-    assert_int_equal(app_stream_acquire(&a, 1, 1e-4, 45), full); /* 45 Hz: every round, the default stream */
-    assert_int_equal(app_stream_acquire(&a, 1, 1e-4, 0), full);
+    assert_int_equal(app_stream_acquire(&a, PROTO_SOURCE_STRANDS, 99, 1e-4, 0), -1);
+    assert_int_equal(app_stream_acquire(&a, PROTO_SOURCE_STRANDS, 1, 1e-4, 45), full); /* 45 Hz: every round, the default stream */
+    assert_int_equal(app_stream_acquire(&a, PROTO_SOURCE_STRANDS, 1, 1e-4, 0), full);
     assert_int_equal(a.s[full].subscribers, 2);
     app_stream_release(&a, full);
     app_stream_release(&a, full);
@@ -287,8 +287,8 @@ static void test_streams_due_schedule(void **state)
     (void)state;
     app_streams a;
     tiny_streams(&a);
-    int full = app_stream_acquire(&a, 1, 1e-4, 0), third = app_stream_acquire(&a, 1, 1e-4, 20);
-    int idle = app_stream_acquire(&a, 2, 1e-4, 0);
+    int full = app_stream_acquire(&a, PROTO_SOURCE_STRANDS, 1, 1e-4, 0), third = app_stream_acquire(&a, PROTO_SOURCE_STRANDS, 1, 1e-4, 20);
+    int idle = app_stream_acquire(&a, PROTO_SOURCE_STRANDS, 2, 1e-4, 0);
     app_stream_release(&a, idle);
     assert_int_equal(a.s[third].decimation, 3);
     int nfull = 0, nthird = 0;

@@ -770,10 +770,88 @@ static void test_v2_rejections(void **state)
     free_frames(&f);
 }
 
+/* ---------------------------------------------------------------- hair mesh frames */
+
+/* Hair mesh frames (codec id 2): a violent animation of 37 columns x 6 layers round-trips within
+ * the bound, keyframes and deltas, and the header says what it is; the encoder refuses a stride
+ * or an unknown codec; a decoder refuses a mesh frame of stride 2 and a mesh delta against a
+ * strand keyframe of the same layout. */
+static void test_hairmesh_frames(void **state)
+{
+    (void)state;
+    const uint32_t ncols = 37, nlayers = 6;
+    const size_t n = (size_t)ncols * nlayers * 3u;
+    codec_encoder enc, senc;
+    codec_decoder dec;
+    core_err err;
+    codec_desc bad = { .codec_id = CODEC_ID_HAIRMESH, .stride = 2 };
+    assert_int_equal(codec_encoder_init(&enc, &bad, ncols, nlayers, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "stride 1"));
+    bad = (codec_desc){ .codec_id = 3 };
+    assert_int_equal(codec_encoder_init(&enc, &bad, ncols, nlayers, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "unknown codec id 3"));
+    codec_desc d = { .max_error_m = 5e-5f, .key_interval = 4, .codec_id = CODEC_ID_HAIRMESH };
+    codec_desc sd = { .max_error_m = 5e-5f, .key_interval = 4 };
+    assert_int_equal(codec_encoder_init(&enc, &d, ncols, nlayers, &err), CORE_OK);
+    assert_int_equal(codec_encoder_init(&senc, &sd, ncols, nlayers, &err), CORE_OK);
+    codec_decoder_init(&dec);
+    float *in = malloc(n * sizeof *in), *out = malloc(n * sizeof *out);
+    codec_buf buf = { 0 }, sbuf = { 0 };
+    int keys = 0, deltas = 0;
+    for (int f = 0; f < 12; f++) {
+        double t = 0.05 * f;
+        codec_synth_frame(ncols, nlayers, t, CODEC_SYNTH_VIOLENT, in);
+        assert_int_equal(encode_at(&enc, in, 10u + (uint64_t)f, t, false, &buf, &err), CORE_OK);
+        codec_frame_info info;
+        assert_int_equal(codec_peek_header(buf.data, buf.len, &info, &err), CORE_OK);
+        assert_int_equal(info.codec_id, CODEC_ID_HAIRMESH);
+        assert_int_equal(buf.data[6], CODEC_ID_HAIRMESH);
+        assert_int_equal(codec_decode(&dec, buf.data, buf.len, out, n, &info, &err), CORE_OK);
+        assert_true(info.nstrands_sent == ncols && info.nverts == nlayers && info.stride == 1);
+        assert_true(max_abs_err(in, out, n) <= 5e-5);
+        if (info.keyframe) keys++;
+        else deltas++;
+        /* the same positions as strands: the strand keyframe does not serve the mesh's deltas */
+        assert_int_equal(encode_at(&senc, in, 10u + (uint64_t)f, t, false, &sbuf, &err), CORE_OK);
+        assert_int_equal(sbuf.data[6], CODEC_ID_STRAND);
+    }
+    assert_true(keys >= 2 && deltas >= 6);
+    codec_synth_frame(ncols, nlayers, 0.6, CODEC_SYNTH_VIOLENT, in);
+    assert_int_equal(encode_at(&senc, in, 30, 0.6, true, &sbuf, &err), CORE_OK);  /* strand key 30 */
+    assert_int_equal(encode_at(&enc, in, 30, 0.6, true, &buf, &err), CORE_OK);    /* mesh key 30 */
+    assert_int_equal(encode_at(&enc, in, 31, 0.65, false, &buf, &err), CORE_OK);  /* mesh delta of 30 */
+    codec_decoder sdec;
+    codec_decoder_init(&sdec);
+    assert_int_equal(codec_decode(&sdec, sbuf.data, sbuf.len, out, n, NULL, &err), CORE_OK);
+    expect_reject(&sdec, buf.data, buf.len, out, n, CORE_EFORMAT);
+    assert_int_equal(codec_decode(&sdec, buf.data, buf.len, out, n, NULL, &err), CORE_EFORMAT);
+    assert_non_null(strstr(err.msg, "keyframe's layout"));
+    /* a mesh frame must carry every column */
+    uint8_t *c = malloc(sbuf.len);
+    memcpy(c, sbuf.data, sbuf.len);
+    c[6] = CODEC_ID_HAIRMESH;
+    put32(c + 56, 2);
+    put32(c + 48, (ncols + 1u) / 2u);
+    restamp_crc(c, sbuf.len);
+    codec_frame_info info;
+    assert_int_equal(codec_peek_header(c, sbuf.len, &info, &err), CORE_EFORMAT);
+    assert_non_null(strstr(err.msg, "a hair mesh frame has stride 1, not 2"));
+    free(c);
+    free(in);
+    free(out);
+    codec_buf_free(&buf);
+    codec_buf_free(&sbuf);
+    codec_decoder_free(&dec);
+    codec_decoder_free(&sdec);
+    codec_encoder_free(&enc);
+    codec_encoder_free(&senc);
+}
+
 /* ---------------------------------------------------------------- test vectors */
 
 typedef struct vstream {
     const char *name;
+    uint32_t codec_id; /* CODEC_ID_HAIRMESH: the "strands" are a hair mesh's columns, nverts its layers */
     uint32_t nstrands, nverts, stride, key_interval;
     float bound;
     codec_synth_style style;
@@ -783,10 +861,11 @@ typedef struct vstream {
 } vstream;
 
 static const vstream VSTREAMS[] = {
-    { "basic", 24, 12, 1, 3, 1e-4f, CODEC_SYNTH_GENTLE, 5, 0.0, 1.0 / 30.0, -1 },
-    { "stride3", 24, 12, 3, 30, 5e-4f, CODEC_SYNTH_VIOLENT, 4, 0.25, 1.0 / 60.0, 2 },
-    { "teleport", 16, 9, 1, 30, 2e-5f, CODEC_SYNTH_TELEPORT, 3, 0.95, 0.05, -1 },
-    { "partial", 13, 10, 1, 4, 2e-4f, CODEC_SYNTH_VIOLENT, 6, 0.4, 1.0 / 30.0, -1 },
+    { "basic", CODEC_ID_STRAND, 24, 12, 1, 3, 1e-4f, CODEC_SYNTH_GENTLE, 5, 0.0, 1.0 / 30.0, -1 },
+    { "stride3", CODEC_ID_STRAND, 24, 12, 3, 30, 5e-4f, CODEC_SYNTH_VIOLENT, 4, 0.25, 1.0 / 60.0, 2 },
+    { "teleport", CODEC_ID_STRAND, 16, 9, 1, 30, 2e-5f, CODEC_SYNTH_TELEPORT, 3, 0.95, 0.05, -1 },
+    { "partial", CODEC_ID_STRAND, 13, 10, 1, 4, 2e-4f, CODEC_SYNTH_VIOLENT, 6, 0.4, 1.0 / 30.0, -1 },
+    { "hairmesh", CODEC_ID_HAIRMESH, 21, 5, 1, 3, 1e-4f, CODEC_SYNTH_VIOLENT, 5, 0.1, 1.0 / 30.0, -1 },
 };
 
 static char *vpath(const char *dir, const char *name, int frame, const char *ext)
@@ -844,7 +923,8 @@ static void test_vectors(void **state)
                                    CODEC_VERSION);
     for (size_t s = 0; s < sizeof VSTREAMS / sizeof VSTREAMS[0]; s++) {
         const vstream *v = &VSTREAMS[s];
-        codec_desc d = { .max_error_m = v->bound, .key_interval = v->key_interval, .stride = v->stride };
+        codec_desc d = { .max_error_m = v->bound, .key_interval = v->key_interval, .stride = v->stride,
+                         .codec_id = v->codec_id };
         codec_encoder enc;
         codec_decoder dec;
         core_err err;
@@ -854,9 +934,9 @@ static void test_vectors(void **state)
         size_t n = (size_t)v->nstrands * v->nverts * 3u, nsent = (size_t)enc.nstrands_sent * v->nverts * 3u;
         float *in = malloc(n * sizeof *in), *want = malloc(nsent * sizeof *want), *out = malloc(nsent * sizeof *out);
         mlen += (size_t)snprintf(manifest + mlen, sizeof manifest - mlen,
-                                 "    {\"name\": \"%s\", \"nstrands\": %u, \"nverts\": %u, \"stride\": %u, "
+                                 "    {\"name\": \"%s\", \"codec\": %u, \"nstrands\": %u, \"nverts\": %u, \"stride\": %u, "
                                  "\"nstrands_sent\": %u, \"max_error_m\": %.9g, \"key_interval\": %u, \"frames\": [\n",
-                                 v->name, v->nstrands, v->nverts, v->stride, enc.nstrands_sent, (double)v->bound,
+                                 v->name, v->codec_id, v->nstrands, v->nverts, v->stride, enc.nstrands_sent, (double)v->bound,
                                  v->key_interval);
         for (int f = 0; f < v->nframes; f++) {
             double t = v->t0 + v->dt * f;
@@ -888,6 +968,7 @@ static void test_vectors(void **state)
                                      (double)snap.head_pos[2], (double)snap.head_rot[0], (double)snap.head_rot[1],
                                      (double)snap.head_rot[2], (double)snap.head_rot[3], info.keyframe ? "true" : "false",
                                      buf.len, f + 1 < v->nframes ? "," : "");
+            assert_int_equal(info.codec_id, v->codec_id);
             assert_true(info.sim.sim_step == snap.sim_step);
             assert_memory_equal(info.sim.head_pos, snap.head_pos, sizeof snap.head_pos);
             assert_memory_equal(info.sim.head_rot, snap.head_rot, sizeof snap.head_rot);
@@ -933,6 +1014,7 @@ static void test_vectors_decode(void **state)
                     if (st) fail_msg("%s_%d: %s", v->name, f, err.msg);
                     assert_int_equal(info.nverts, v->nverts);
                     assert_int_equal(info.stride, v->stride);
+                    assert_int_equal(info.codec_id, v->codec_id);
                     assert_memory_equal(out, want, olen);
                     free(out);
                     decoded++;
@@ -996,6 +1078,7 @@ int main(void)
         cmocka_unit_test(test_absurd_headers),
         cmocka_unit_test(test_bad_head),
         cmocka_unit_test(test_v2_rejections),
+        cmocka_unit_test(test_hairmesh_frames),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

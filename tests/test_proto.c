@@ -186,7 +186,7 @@ static void test_enum_params(void **state)
     core_groom g = { 0 };
     make_groom(&g);
     proto_data_ref dr = { "/groom.bin", "fedcba9876543210", 64 };
-    proto_groom pg = { "procedural:straight", &g, 7, &dr, NULL };
+    proto_groom pg = { "procedural:straight", &g, 7, &dr, NULL, NULL };
     proto_groom_json gj;
     core_err cerr;
     assert_int_equal(proto_groom_json_build(&gj, &pg, &cerr), CORE_OK);
@@ -351,6 +351,17 @@ static void test_subscribe(void **state)
     expect_err("{\"type\":\"subscribe\",\"max_rate\":-5}", PROTO_ERR_OUT_OF_RANGE, "max_rate");
     expect_err("{\"type\":\"subscribe\",\"max_rate\":1e999}", PROTO_ERR_NOT_FINITE, "max_rate");
     expect_err("{\"type\":\"subscribe\",\"strands\":\"all\"}", PROTO_ERR_BAD_FIELD, "strands");
+    /* the source: strands or the hair mesh; absent keeps the current one */
+    assert_false(msg.u.subscribe.has_source);
+    expect_ok("{\"type\":\"subscribe\",\"source\":\"hairmesh\",\"max_rate\":30}", PROTO_SUBSCRIBE);
+    assert_true(msg.u.subscribe.has_source && msg.u.subscribe.source == PROTO_SOURCE_HAIRMESH);
+    assert_string_equal(proto_source_name(msg.u.subscribe.source), "hairmesh");
+    expect_ok("{\"type\":\"subscribe\",\"source\":\"strands\"}", PROTO_SUBSCRIBE);
+    assert_true(msg.u.subscribe.has_source && msg.u.subscribe.source == PROTO_SOURCE_STRANDS);
+    expect_err("{\"type\":\"subscribe\",\"source\":\"mesh\"}", PROTO_ERR_OUT_OF_RANGE, "source");
+    assert_non_null(strstr(err.message, "strands, hairmesh"));
+    expect_err("{\"type\":\"subscribe\",\"source\":2}", PROTO_ERR_BAD_FIELD, "source");
+    expect_err("{\"type\":\"subscribe\",\"source\":\"hairmeshhairmeshhairmesh\"}", PROTO_ERR_TOO_LARGE, "source");
 }
 
 static void test_envelope_errors(void **state)
@@ -577,7 +588,7 @@ static void test_build_hello_and_groom(void **state)
     (void)state;
     core_groom g = { 0 };
     make_groom(&g);
-    proto_groom pg = { "procedural:straight", &g, 7, NULL, NULL };
+    proto_groom pg = { "procedural:straight", &g, 7, NULL, NULL, NULL };
     proto_groom_json gj;
     core_err cerr;
     assert_int_equal(proto_groom_json_build(&gj, &pg, &cerr), CORE_EINVAL); /* the data must be described */
@@ -618,6 +629,7 @@ static void test_build_hello_and_groom(void **state)
     assert_string_equal(str_of(gr, "url"), "/groom.bin");
     assert_string_equal(str_of(gr, "etag"), "fedcba9876543210");
     assert_true(num_of(gr, "bytes") == 64);
+    assert_true(cJSON_IsNull(cJSON_GetObjectItemCaseSensitive(gr, "hairmesh"))); /* a strand groom */
     const cJSON *bounds = cJSON_GetObjectItemCaseSensitive(gr, "bounds");
     assert_true(fabs(cJSON_GetArrayItem(bounds, 1)->valuedouble + 0.09) < 1e-6 && cJSON_GetArrayItem(bounds, 4)->valuedouble == 0.0);
     const cJSON *col = cJSON_GetObjectItemCaseSensitive(j, "colliders");
@@ -772,6 +784,97 @@ static void test_groom_bin(void **state)
     core_groom_free(&g);
 }
 
+/* A hair mesh of 5 columns x 3 layers: a quad (0 1 2 3) and a triangle (1 4 2), two guides. */
+static uint32_t hm_faces[8] = { 0, 1, 2, 3, 1, 4, 2, CORE_HAIRMESH_NONE };
+static uint32_t hm_gface[2] = { 0, 1 };
+static float hm_guv[4] = { 0.25f, 0.5f, 0.2f, 0.3f };
+static float hm_pos[45];
+
+static core_hairmesh hand_hairmesh(void)
+{
+    for (int i = 0; i < 45; i++) hm_pos[i] = 0.01f * (float)i;
+    return (core_hairmesh){ .ncols = 5, .nlayers = 3, .pos = hm_pos, .nfaces = 2, .faces = hm_faces, .nguides = 2,
+                            .guide_face = hm_gface, .guide_uv = hm_guv };
+}
+
+/* The hair mesh topology binary: header, faces, guides, rest vertices; every inconsistency
+ * refused with the reason. */
+static void test_hairmesh_bin(void **state)
+{
+    (void)state;
+    core_hairmesh m = hand_hairmesh();
+    size_t n = proto_hairmesh_bin_size(&m);
+    assert_int_equal(n, 24 + 16 * 2 + 12 * 2 + 12 * 15);
+    unsigned char bin[24 + 32 + 24 + 180];
+    proto_hairmesh_bin_write(&m, bin);
+    assert_memory_equal(bin, "SCHT\1\0\0\0\5\0\0\0\3\0\0\0\2\0\0\0\2\0\0\0", 24);
+    assert_memory_equal(bin + 24 + 16 + 12, "\xff\xff\xff\xff", 4); /* the triangle's 4th corner */
+    float f;
+    memcpy(&f, bin + 24 + 32 + 8 + 4 * 3, 4); /* guide 1's v */
+    assert_true(f == 0.3f);
+    memcpy(&f, bin + 24 + 32 + 24 + 4 * 44, 4); /* column 4, layer 2, z */
+    assert_true(f == 0.44f);
+    proto_hairmesh_counts c;
+    core_err cerr;
+    assert_int_equal(proto_hairmesh_bin_read(bin, n, &c, &cerr), CORE_OK);
+    assert_true(c.ncols == 5 && c.nlayers == 3 && c.nfaces == 2 && c.nguides == 2);
+    assert_int_equal(proto_hairmesh_bin_read(bin, n - 4, &c, &cerr), CORE_EFORMAT); /* short */
+    assert_non_null(strstr(cerr.msg, "need 260 bytes, got 256"));
+    assert_int_equal(proto_hairmesh_bin_read(bin, 20, &c, &cerr), CORE_EFORMAT);
+    static const struct {
+        size_t at;
+        uint32_t value;
+        const char *why;
+    } bad[] = {
+        { 24 + 4, 9, "face 0 corner 1 is column 9, past the 5 columns" },
+        { 24 + 8, 0, "face 0 uses column 0 twice" },
+        { 24 + 16 + 12, 4, "face 1 uses column 4 twice" },
+        { 24 + 32 + 4, 2, "guide 1 is in face 2, past the 2 faces" },
+        { 24 + 32 + 8, 0x7fc00000u, "guide 0's coordinates are not finite" },
+        { 24 + 32 + 24 + 4 * 40, 0x7f800000u, "column 4 layer 1 is not finite" },
+        { 12, 1, "1 layers" },
+        { 8, 0, "0 columns" },
+        { 4, 2, "version 2" },
+        { 0, 0x54484358u, "without the \"SCHT\" header" },
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        proto_hairmesh_bin_write(&m, bin);
+        for (int k = 0; k < 4; k++) bin[bad[i].at + (size_t)k] = (unsigned char)(bad[i].value >> (8 * k));
+        assert_int_equal(proto_hairmesh_bin_read(bin, n, &c, &cerr), CORE_EFORMAT);
+        if (!strstr(cerr.msg, bad[i].why)) fail_msg("case %zu: %s", i, cerr.msg);
+        assert_true(c.ncols == 0 && c.nfaces == 0);
+    }
+}
+
+/* A groom traced through a hair mesh names the topology binary in its JSON. */
+static void test_groom_json_hairmesh(void **state)
+{
+    (void)state;
+    core_groom g = { 0 };
+    make_groom(&g);
+    core_hairmesh m = hand_hairmesh();
+    g.hairmesh = &m;
+    proto_data_ref dr = { "/groom.bin", "fedcba9876543210", 64 };
+    proto_groom pg = { "hairmesh:test", &g, 7, &dr, NULL, NULL };
+    proto_groom_json gj;
+    core_err cerr;
+    assert_int_equal(proto_groom_json_build(&gj, &pg, &cerr), CORE_EINVAL);
+    assert_non_null(strstr(cerr.msg, "hair mesh binary"));
+    proto_data_ref hr = { "/hairmesh.bin", "0123456789abcdef", 260 };
+    pg.hairmesh = &hr;
+    assert_int_equal(proto_groom_json_build(&gj, &pg, &cerr), CORE_OK);
+    cJSON *j = json(proto_build_groom(&gj));
+    const cJSON *h = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(j, "groom"), "hairmesh");
+    assert_true(num_of(h, "ncols") == 5 && num_of(h, "nlayers") == 3 && num_of(h, "nfaces") == 2 && num_of(h, "nguides") == 2);
+    assert_string_equal(str_of(h, "url"), "/hairmesh.bin");
+    assert_string_equal(str_of(h, "etag"), "0123456789abcdef");
+    assert_true(num_of(h, "bytes") == 260);
+    cJSON_Delete(j);
+    proto_groom_json_free(&gj);
+    g.hairmesh = NULL; /* the mesh's arrays are static */
+    core_groom_free(&g);
+}
+
 static void test_read_envelope(void **state)
 {
     (void)state;
@@ -836,6 +939,7 @@ int main(void)
         cmocka_unit_test(test_subscribe),         cmocka_unit_test(test_envelope_errors),
         cmocka_unit_test(test_hostile_inputs),    cmocka_unit_test(test_build_error_and_ok),
         cmocka_unit_test(test_build_params),      cmocka_unit_test(test_build_hello_and_groom), cmocka_unit_test(test_groom_bin),
+        cmocka_unit_test(test_hairmesh_bin),      cmocka_unit_test(test_groom_json_hairmesh),
         cmocka_unit_test(test_build_state_stats_subscribed),
         cmocka_unit_test(test_read_envelope),
     };

@@ -25,3 +25,11 @@ add_test(NAME web_e2e
   COMMAND ${STRANDCAST_NODE} ${CMAKE_CURRENT_SOURCE_DIR}/e2e/e2e.mjs
           --daemon $<TARGET_FILE:strandcastd> --web ${PROJECT_SOURCE_DIR}/web --out ${CMAKE_BINARY_DIR}/e2e)
 set_tests_properties(web_e2e PROPERTIES LABELS "web;e2e;no_asan" TIMEOUT 2400 RUN_SERIAL TRUE)
+# The hair grown from a streamed hair mesh in the browser (tests/e2e/hairmesh.mjs): strandcastd
+# on the hair-mesh solver, the viewer subscribed to the mesh, the canvas checked for shaded hair,
+# the wireframe overlay, and the fall-back to strands when the solver changes. Screenshots in
+# <build>/e2e/hairmesh-*.png.
+add_test(NAME web_e2e_hairmesh
+  COMMAND ${STRANDCAST_NODE} ${CMAKE_CURRENT_SOURCE_DIR}/e2e/hairmesh.mjs
+          --daemon $<TARGET_FILE:strandcastd> --web ${PROJECT_SOURCE_DIR}/web --out ${CMAKE_BINARY_DIR}/e2e)
+set_tests_properties(web_e2e_hairmesh PROPERTIES LABELS "web;e2e;no_asan" TIMEOUT 900 RUN_SERIAL TRUE)

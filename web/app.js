@@ -13,6 +13,8 @@ import { Panel } from './panel.js';
 import { pickColliders } from './pick.js';
 import { ColliderMeshLoader, httpBase } from './collider_mesh.js';
 import { GroomDataLoader } from './groom_data.js';
+import { meshStrands } from './hairmesh.js';
+import { parseHairmeshData } from './hairmesh_data.js';
 import { Renderer } from './renderer.js';
 import { StreamClient } from './stream_client.js';
 import { Ema, LatencyEstimator, RateMeter } from './stats.js';
@@ -50,7 +52,10 @@ export class App {
     this.drag = null;           // { mode, pos, q, worldPerPx } while dragging the head
     this.dragHead = { position: new Float64Array(3), orientation: new Float64Array([0, 0, 0, 1]) };
     this.motionDirty = false;
-    this.guideConfig = null;    // { pts, texW, texH, tanOffset } from the worker
+    this.guideConfig = null;    // { mode, pts, texW, texH, tanOffset } from the worker
+    this.hairmesh = null;       // the groom's hair mesh topology (hairmesh_data.js), or null
+    this.hairmeshEtag = null;   // the version of it held or being fetched
+    this.meshStream = false;    // subscribed to the hair mesh (frames are hair mesh frames)
     this.layoutPerGuide = 0;
     this.paused = false;
     // statistics
@@ -125,6 +130,7 @@ export class App {
       this.renderer = new Renderer(canvas, gl);
       this.layoutPerGuide = 0;
       this.dirty = true;
+      this.hairmeshEtag = null;
       if (this.groom) this._applyGroom(this.groom, this.colliders, this.groomData);
       this.renderer.head.setMesh(this.colliderMesh);
       this.banner.hide();
@@ -167,7 +173,9 @@ export class App {
     if (rebuild === null) return false;
     this.dirty = true;
     if (rebuild === 'layout') this._buildLayout();
-    if (rebuild === 'smoothing') this._configureWorker();
+    if (rebuild === 'smoothing') { this._buildMeshStrands(); this._configureWorker(); }
+    if (rebuild === 'meshLayout') this._buildMeshStrands();
+    if (rebuild === 'source') this._chooseSource();
     return true;
   }
 
@@ -233,6 +241,12 @@ export class App {
         this.meshLoader.update(m.collider_mesh);
         break;
       case 'stats': this.serverStats = m; break;
+      case 'subscribed': // without an id: the server moved this client (its hair mesh went away)
+        if (m.stream && m.stream.codec === 'strand' && this.meshStream) {
+          this._setMeshStream(false);
+          this.panel.showStatus('the solver has no hair mesh any more: drawing the strands', true);
+        }
+        break;
       case 'error': this._refused(new ProtocolError(m)); break; // one without an id (a stream's)
       default: break;
     }
@@ -253,6 +267,62 @@ export class App {
     this.renderer.hair.hasFrame = false;
     this.dirty = true;
     this._buildLayout();
+    if (this.meshStream) this._setMeshStream(false); // a new groom starts on the strands
+    this._loadHairmesh(groom.hairmesh);
+    this._configureWorker();
+  }
+
+  // ---- hair mesh: topology, render strands, the stream's source ------------------------
+
+  // Fetches the hair mesh topology a groom description names (null: the groom has none).
+  _loadHairmesh(desc) {
+    if (!desc || typeof desc.url !== 'string') {
+      this.hairmesh = null;
+      this.hairmeshEtag = null;
+      return;
+    }
+    if (desc.etag === this.hairmeshEtag && this.hairmesh) { this._chooseSource(); return; }
+    const etag = this.hairmeshEtag = desc.etag;
+    this.hairmesh = null;
+    fetch(new URL(desc.url, httpBase(this.url)).toString(), { cache: 'no-cache' })
+      .then((r) => { if (!r.ok) throw new Error(`GET ${desc.url}: HTTP ${r.status}`); return r.arrayBuffer(); })
+      .then((buf) => {
+        if (this.hairmeshEtag !== etag) return; // superseded by a newer groom
+        const m = parseHairmeshData(buf);
+        if (m.ncols !== desc.ncols || m.nlayers !== desc.nlayers || m.nfaces !== desc.nfaces) throw new Error('hair mesh binary: its counts are not the groom\'s');
+        this.hairmesh = m;
+        if (!this.contextLost) this.renderer.meshHair.setTopology(m.faces, m.nfaces, m.ncols, m.nlayers, this.maxTexW);
+        this._buildMeshStrands();
+        this._chooseSource();
+      })
+      .catch((e) => { if (this.hairmeshEtag === etag) this.panel.showStatus(`hair mesh not drawn: ${e.message}`, true); });
+  }
+
+  // Render points per grown strand: segs per layer span.
+  _meshPts() { return this.hairmesh ? (this.hairmesh.nlayers - 1) * this.settings.segs + 1 : 2; }
+
+  _buildMeshStrands() {
+    if (!this.hairmesh || this.contextLost) return;
+    this.renderer.meshHair.setStrands(meshStrands(this.hairmesh.faces, this.hairmesh.nfaces, this.settings.perFace), this._meshPts());
+    this.dirty = true;
+  }
+
+  // Subscribes to the hair mesh when the view setting asks for it and the groom has one, to the
+  // strands otherwise; a refusal (the solver has no hair mesh) keeps the strands.
+  _chooseSource() {
+    const want = !!(this.settings.hairmesh && this.hairmesh);
+    if (want === this.meshStream) return;
+    const reply = this.stream.request({ type: 'subscribe', source: want ? 'hairmesh' : 'strands' });
+    if (!reply) return;
+    reply.then((m) => this._setMeshStream(m.stream && m.stream.codec === 'hairmesh'))
+      .catch((e) => this.panel.showStatus(`${want ? 'hair mesh' : 'strands'} not streamed: ${e.message}`, true));
+  }
+
+  _setMeshStream(on) {
+    this.meshStream = on;
+    this.renderer.fromMesh = on;
+    this.renderer.meshHair.hasFrame = false;
+    this.dirty = true;
     this._configureWorker();
   }
 
@@ -267,12 +337,17 @@ export class App {
   _configureWorker() {
     if (!this.groom) return;
     this.guideConfig = null;
-    this.stream.configure(this.groom.strands, this.groom.verts, this.settings.segs, this.maxTexW);
+    if (this.meshStream && this.hairmesh) {
+      this.stream.configure(this.hairmesh.ncols, this.hairmesh.nlayers, this.settings.segs, this.maxTexW, 'hairmesh');
+    } else {
+      this.stream.configure(this.groom.strands, this.groom.verts, this.settings.segs, this.maxTexW);
+    }
   }
 
   _onConfigured(cfg) {
     this.guideConfig = cfg;
-    if (!this.contextLost) this.renderer.hair.setGuides(this.groom.strands, cfg.pts, cfg.texW, cfg.texH);
+    if (cfg.mode === 'hairmesh' || this.contextLost) return; // the mesh texture is sized with the topology
+    this.renderer.hair.setGuides(this.groom.strands, cfg.pts, cfg.texW, cfg.texH);
   }
 
   _onDecoded(m) {
@@ -350,10 +425,14 @@ export class App {
     this.dirty = false;
     const f = this.stream.take();
     if (f) {
-      if (this.guideConfig && f.gen === this.stream.gen && this.renderer.hair.texW === this.guideConfig.texW) {
+      const cfg = this.guideConfig, mesh = cfg && cfg.mode === 'hairmesh';
+      const fits = cfg && (mesh ? this.renderer.meshHair.meshW === cfg.texW && this.renderer.meshHair.meshH === cfg.texH
+        : this.renderer.hair.texW === cfg.texW);
+      if (fits && f.gen === this.stream.gen) {
         if (this.benchmarkTiming) this._sync();
         const t0 = performance.now();
-        this.renderer.hair.upload(f.buf, this.guideConfig.tanOffset);
+        if (mesh) this.renderer.meshHair.upload(f.buf);
+        else this.renderer.hair.upload(f.buf, cfg.tanOffset);
         if (this.benchmarkTiming) this._sync();
         const dt = performance.now() - t0;
         this.uploadMs.add(dt);
@@ -392,7 +471,8 @@ export class App {
   // Current statistics (also read by the end-to-end test).
   snapshot(now = performance.now()) {
     const fps = this.frames.perSecond(now), bps = this.frames.bytesPerSecond(now);
-    const verts = this.groom ? this.groom.strands * this.groom.verts : 0;
+    const hm = this.meshStream && this.hairmesh;
+    const verts = hm ? this.hairmesh.ncols * this.hairmesh.nlayers : this.groom ? this.groom.strands * this.groom.verts : 0;
     const s = this.serverStats || {};
     return {
       renderFps: this.fps.perSecond(now),
@@ -409,7 +489,9 @@ export class App {
       seq: this.seq,
       guides: this.groom ? this.groom.strands : 0,
       verts: this.groom ? this.groom.verts : 0,
-      renderStrands: this.renderer.hair.count,
+      renderStrands: this.meshStream ? this.renderer.meshHair.count : this.renderer.hair.count,
+      source: this.meshStream ? 'hairmesh' : 'strands',
+      meshFrames: this.renderer.meshHair.hasFrame,
       perGuide: this.layoutPerGuide,
       framesRendered: this.framesRendered,
       framesUploaded: this.framesUploaded,

@@ -44,7 +44,7 @@ export function frameHeader(info) {
     seq: info.seq, refSeq: info.refSeq, simTime: info.simTime, simStep: info.simStep, keyframe: info.keyframe,
     head: { position: Array.from(info.headPosition), orientation: Array.from(info.headOrientation) },
     nstrandsTotal: info.nstrandsTotal, nstrandsSent: info.nstrandsSent, nverts: info.nverts, stride: info.stride,
-    maxError: info.maxError, bytes: info.frameLen,
+    maxError: info.maxError, bytes: info.frameLen, codec: info.codec,
   };
 }
 

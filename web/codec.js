@@ -1,4 +1,4 @@
-// Strand frame decoder (proto/CODEC.md); browser, Worker or Node. The decoding is the decode core
+// Strand and hair mesh frame decoder (proto/CODEC.md); browser, Worker or Node. The decoding is the decode core
 // of the daemon (server/codec/codec_core.c, compiled to WebAssembly by web/wasm/build.sh): this
 // module loads it, gives it memory and turns its failures into messages.
 
@@ -7,6 +7,8 @@ import { KERNEL_WASM } from './codec_kernel_wasm.js';
 export const HEADER_SIZE = 104;
 export const FORMAT_VERSION = 3;
 export const CODEC_ID_STRAND = 1;
+// A hair mesh's vertices: its columns as strands of nlayers vertices (nverts), stride 1.
+export const CODEC_ID_HAIRMESH = 2;
 export const FLAG_KEY = 1;
 
 // Readable bytes a frame needs after it in the core's memory (CODEC_CORE_SLACK).
@@ -55,7 +57,9 @@ const MESSAGES = new Map([
   [E.BOUND, (h) => `error bound ${h.maxError} m outside [1e-5, 0.1]`],
   [E.STEP, (h) => `quantization step ${h.step} m does not meet bound ${h.maxError} m`],
   [E.NVERTS, (h) => `${h.nverts} vertices per strand outside [2, 4096]`],
-  [E.COUNTS, (h) => `stride ${h.stride} / strand count ${h.nstrandsTotal} must be positive`],
+  [E.COUNTS, (h) => (h.codec === CODEC_ID_HAIRMESH && h.stride >= 1 && h.nstrandsTotal >= 1
+    ? `a hair mesh frame has stride 1, not ${h.stride}`
+    : `stride ${h.stride} / strand count ${h.nstrandsTotal} must be positive`)],
   [E.SENT, (h, e) => `${h.nstrandsSent} strands sent but ${h.nstrandsTotal} strands at stride ${h.stride} give ${e.a}`],
   [E.TOO_MANY, (h) => `${h.nstrandsSent} x ${h.nverts} vertices exceed the limit ${1 << 24}`],
   [E.LENGTH, (h, e, len) => `frame is ${len} bytes but its header says ${HEADER_SIZE + h.payloadLen} (${len < HEADER_SIZE + h.payloadLen ? 'truncated' : 'trailing bytes'})`],
@@ -161,6 +165,7 @@ function readInfo(dv, at, info) {
   info.keyframe = dv.getUint32(at + 36, true) !== 0; info.nstrandsTotal = dv.getUint32(at + 40, true);
   info.nstrandsSent = dv.getUint32(at + 44, true); info.nverts = dv.getUint32(at + 48, true);
   info.stride = dv.getUint32(at + 52, true); info.payloadLen = dv.getUint32(at + 56, true);
+  info.codec = dv.getUint32(at + 60, true);
   info.frameLen = HEADER_SIZE + info.payloadLen;
   info.simStep = u64(dv, at + 64);
   for (let i = 0; i < 3; i++) info.headPosition[i] = dv.getFloat32(at + 72 + 4 * i, true);
@@ -187,14 +192,15 @@ function throwFailure(dv, at, hat, len) {
 }
 
 /**
- * A fresh header record (fields as in codec_frame_info): simStep is the simulation's step counter
+ * A fresh header record (fields as in codec_frame_info; codec is the codec id, CODEC_ID_STRAND or
+ * CODEC_ID_HAIRMESH, whose strands are the mesh's columns and nverts its layers): simStep is the simulation's step counter
  * (exact below 2^53), headPosition [x, y, z] (m) and headOrientation [x, y, z, w] (a unit
  * quaternion) the head transform that step used.
  */
 export function newFrameInfo() {
   return {
     seq: 0, refSeq: 0, simTime: 0, simStep: 0, headPosition: new Float64Array(3),
-    headOrientation: Float64Array.of(0, 0, 0, 1), step: 0, maxError: 0, keyframe: false,
+    headOrientation: Float64Array.of(0, 0, 0, 1), step: 0, maxError: 0, keyframe: false, codec: 0,
     nstrandsTotal: 0, nstrandsSent: 0, nverts: 0, stride: 0, payloadLen: 0, frameLen: 0,
   };
 }
@@ -235,7 +241,8 @@ export function coreLayout(heap, nq, seg, frameCap) {
 }
 
 /**
- * Decodes a stream of strand frames. decode() returns a record (reused between calls) holding the
+ * Decodes a stream of strand frames or of hair mesh frames (the same decoding; info.codec says
+ * which, and a delta must be of its keyframe's codec). decode() returns a record (reused between calls) holding the
  * header fields and `positions`, a Float32Array (3 * nstrandsSent * nverts, strand-major xyz)
  * owned by the decoder. Successive successful decodes return two such arrays in turn (the
  * decoder writes a frame where the previous frame's positions are not, so that a bad frame

@@ -1,5 +1,8 @@
-// The frame: camera and light set-up, the shadow pass and the shaded pass of head and hair.
+// The frame: camera and light set-up, the shadow pass and the shaded pass of head and hair (the
+// guides' render strands, or those grown from the hair mesh when the mesh is streamed), and the
+// hair mesh's wireframe when asked.
 import { HairRenderer } from './hair_renderer.js';
+import { HairMeshRenderer } from './hairmesh_renderer.js';
 import { HeadRenderer } from './head_renderer.js';
 import { ShadowMap } from './shadow_map.js';
 import { quatRotate } from './mat4.js';
@@ -12,6 +15,8 @@ export class Renderer {
     this.canvas = canvas;
     this.gl = gl;
     this.hair = new HairRenderer(gl);
+    this.meshHair = new HairMeshRenderer(gl);
+    this.fromMesh = false; // draw the hair grown from the hair mesh (meshHair) instead of hair
     this.head = new HeadRenderer(gl);
     this.shadow = new ShadowMap(gl, 1024);
     this.light = new Float64Array(3);
@@ -68,7 +73,7 @@ export class Renderer {
       for (let c = 0; c < 3; c++) { lv.viewDir[c] = -this.light[c]; lv.fwd[c] = -this.light[c]; }
       lv.pxScale[0] = 0; lv.pxScale[1] = this.shadow.texelWorld;
       this.shadow.begin();
-      this.hair.drawDepth(lv, settings);
+      (this.fromMesh ? this.meshHair : this.hair).drawDepth(lv, settings);
       if (settings.colliders) this.head.drawDepth(this.shadow.viewProj);
     }
     gl.bindFramebuffer(gl.FRAMEBUFFER, null);
@@ -85,6 +90,7 @@ export class Renderer {
     mv.fwd = camera.forward;
     mv.pxScale[0] = camera.pixelSize(1, this.height);
     mv.pxScale[1] = 0;
-    this.hair.draw(mv, settings, this.light, this.shadow);
+    (this.fromMesh ? this.meshHair : this.hair).draw(mv, settings, this.light, this.shadow);
+    if (this.fromMesh && settings.meshWire) this.meshHair.drawWire(camera.viewProj);
   }
 }

@@ -77,6 +77,131 @@ void main() {
 }
 `;
 
+// Hair-mesh vertex shader: render strands grown from a hair mesh (web/hairmesh.js growPoint,
+// which this computes for every ribbon point; the tracing rule of server/core/hairmesh_types.h).
+// The mesh's vertices are an RGBA32F texture (texel c * uNLayers + l: column c, layer l; xyz),
+// its faces an RGBA32UI texture (texel f: the 4 column indices, 0xffffffff for a triangle's
+// 4th). Each instance is one render strand: its face, (u, v) in it and random styling values
+// [offset angle / 2 pi, offset radius, curl phase / 2 pi, shade], and its length fraction.
+// Outputs as HAIR_VS (Kajiya-Kay in HAIR_FS, the shadow pass with DEPTH_FS).
+export const HAIRMESH_VS = `#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+precision highp usampler2D;
+uniform sampler2D uMesh;
+uniform usampler2D uFaces;
+uniform int uMeshW;
+uniform int uFaceW;
+uniform int uNLayers;
+uniform int uPts;
+uniform mat4 uViewProj;
+uniform vec3 uEye;
+uniform vec3 uViewDir;
+uniform int uOrtho;
+uniform vec3 uFwd;
+uniform vec2 uPxScale;
+uniform float uWidthPx;
+uniform float uTipWidth;
+uniform float uOffset;
+uniform float uTipSpread;
+uniform float uCurl;
+uniform float uCurlTurns;
+uniform float uFrizz;
+layout(location = 0) in uint aFace;
+layout(location = 1) in vec2 aUV;
+layout(location = 2) in vec4 aRand;
+layout(location = 3) in float aLength;
+out vec3 vPos;
+out vec3 vTan;
+out float vT;
+out float vShade;
+const float TAU = 6.28318530718;
+
+vec3 meshVertex(uint c, int l) {
+  int k = int(c) * uNLayers + l;
+  return texelFetch(uMesh, ivec2(k % uMeshW, k / uMeshW), 0).xyz;
+}
+
+vec3 layerPoint(uvec4 f, vec4 w, int l) {
+  vec3 p = w.x * meshVertex(f.x, l) + w.y * meshVertex(f.y, l) + w.z * meshVertex(f.z, l);
+  if (f.w != 0xffffffffu) p += w.w * meshVertex(f.w, l);
+  return p;
+}
+
+vec3 unitOr(vec3 v, vec3 fallback) {
+  float n = length(v);
+  return n > 1e-12 ? v / n : fallback;
+}
+
+void main() {
+  int last = max(1, int(float(uPts - 1) * aLength + 0.5));
+  int i = min(gl_VertexID >> 1, last);
+  float side = (gl_VertexID & 1) == 0 ? -0.5 : 0.5;
+  int fi = int(aFace);
+  uvec4 f = texelFetch(uFaces, ivec2(fi % uFaceW, fi / uFaceW), 0);
+  float u = aUV.x, v = aUV.y;
+  vec4 w = f.w == 0xffffffffu ? vec4(1.0 - u - v, u, v, 0.0)
+                               : vec4((1.0 - u) * (1.0 - v), u * (1.0 - v), u * v, (1.0 - u) * v);
+  float lt = float(i) * float(uNLayers - 1) / float(uPts - 1);
+  int l = min(int(floor(lt)), uNLayers - 2);
+  float a = lt - float(l);
+  vec3 p0 = layerPoint(f, w, l), p1 = layerPoint(f, w, l + 1);
+  vec3 e0 = meshVertex(f.y, l) - meshVertex(f.x, l), e1 = meshVertex(f.y, l + 1) - meshVertex(f.x, l + 1);
+  vec3 T = unitOr(p1 - p0, vec3(0.0, -1.0, 0.0));
+  vec3 e = mix(e0, e1, a);
+  vec3 axis = abs(T.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
+  vec3 E = unitOr(e - dot(e, T) * T, unitOr(axis - dot(axis, T) * T, vec3(0.0, 0.0, 1.0)));
+  vec3 F = cross(T, E);
+  float t = float(i) / float(uPts - 1);
+  float sp = uOffset * (1.0 + (uTipSpread - 1.0) * t) * aRand.y;
+  float cph = TAU * (uCurlTurns * t + aRand.z);
+  float g = uFrizz * t * t;
+  float fx = g * (0.6 * sin(TAU * (7.0 * t + aRand.z)) + 0.4 * sin(TAU * (17.0 * t + 2.3 * aRand.z)));
+  float fy = g * (0.6 * cos(TAU * (5.0 * t + 1.7 * aRand.z)) + 0.4 * sin(TAU * (13.0 * t + aRand.z)));
+  float x = sp * cos(TAU * aRand.x) + uCurl * cos(cph) + fx;
+  float y = sp * sin(TAU * aRand.x) + uCurl * sin(cph) + fy;
+  vec3 p = mix(p0, p1, a) + x * E + y * F;
+  float span = length(p1 - p0) * float(uNLayers - 1);
+  float dc = TAU * uCurlTurns * uCurl;
+  vec3 Tc = unitOr(span * T + dc * (-sin(cph) * E + cos(cph) * F), T);
+  vec3 view = uOrtho == 1 ? uViewDir : p - uEye;
+  vec3 s = cross(Tc, view);
+  float sl = length(s);
+  s = sl > 1e-12 ? s / sl : E;
+  float depth = uOrtho == 1 ? 0.0 : dot(p - uEye, uFwd);
+  float width = uWidthPx * (uPxScale.x * depth + uPxScale.y) * mix(1.0, uTipWidth, t);
+  vec3 q = p + s * (side * width);
+  vPos = q;
+  vTan = Tc;
+  vT = t;
+  vShade = aRand.w;
+  gl_Position = uViewProj * vec4(q, 1.0);
+}
+`;
+
+// Hair-mesh wireframe: mesh vertices fetched from the mesh texture by index (gl_VertexID of
+// the index buffer: vertex c * nlayers + l), one flat colour.
+export const WIRE_VS = `#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+uniform sampler2D uMesh;
+uniform int uMeshW;
+uniform mat4 uViewProj;
+void main() {
+  int k = gl_VertexID;
+  gl_Position = uViewProj * vec4(texelFetch(uMesh, ivec2(k % uMeshW, k / uMeshW), 0).xyz, 1.0);
+}
+`;
+
+export const WIRE_FS = `#version 300 es
+precision mediump float;
+uniform vec3 uColor;
+out vec4 outColor;
+void main() { outColor = vec4(uColor, 1.0); }
+`;
+
 // Shadow-map passes only write depth.
 export const DEPTH_FS = `#version 300 es
 precision mediump float;

@@ -47,11 +47,12 @@ export class StreamClient {
     return reply;
   }
 
-  // (Re)configures for nstrands x nverts guides smoothed with segs points per span.
-  configure(nstrands, nverts, segs, maxTexW) {
+  // (Re)configures for nstrands x nverts guides smoothed with segs points per span; with mode
+  // 'hairmesh', for hair mesh frames of nstrands columns x nverts layers instead.
+  configure(nstrands, nverts, segs, maxTexW, mode = 'strands') {
     this.gen++;
     this.pending = null;
-    this.worker.postMessage({ type: 'config', gen: this.gen, nstrands, nverts, segs, maxTexW });
+    this.worker.postMessage({ type: 'config', gen: this.gen, nstrands, nverts, segs, maxTexW, mode });
   }
 
   // The newest decoded frame, once; the caller uploads it and then calls recycle(frame).

@@ -7,7 +7,10 @@
 // g * pts + k: (position xyz, normal coordinate a), then (tangent xyz, normal coordinate b).
 // Each frame carries the head transform the simulation used for it (its header), which goes
 // with it to the page. Control messages pass through to the page as parsed objects.
-import { StrandDecoder } from './codec.js';
+// Configured for a hair mesh instead (config mode 'hairmesh'), it takes the hair mesh frames
+// (codec id 2) and posts the mesh's vertices as one RGBA32F image of texW x texH texels (texel
+// c * nlayers + l: column c, layer l; xyz, w unused); frames of the other codec are skipped.
+import { CODEC_ID_HAIRMESH, CODEC_ID_STRAND, StrandDecoder } from './codec.js';
 import { frameHeader } from './client.js';
 import { catmullWeights, smoothedCount, smoothStrands } from './catmull.js';
 import { strandFrames } from './frames.js';
@@ -18,6 +21,7 @@ const KEYFRAME_REQUEST_MS = 1000;
 
 const st = {
   gen: 0,
+  mesh: false,        // configured for hair mesh frames (nstrands = columns, nverts = layers)
   nstrands: 0,
   nverts: 0,
   segs: 2,
@@ -35,13 +39,14 @@ const st = {
   lastKeyRequest: -Infinity,
 };
 
-// { type: 'config', gen, nstrands, nverts, segs, maxTexW }
+// { type: 'config', gen, nstrands, nverts, segs, maxTexW, mode: 'strands' | 'hairmesh' }
 function configure(m) {
   st.gen = m.gen;
+  st.mesh = m.mode === 'hairmesh';
   st.nstrands = m.nstrands;
   st.nverts = m.nverts;
   st.segs = m.segs;
-  st.pts = smoothedCount(m.nverts, m.segs);
+  st.pts = st.mesh ? m.nverts : smoothedCount(m.nverts, m.segs);
   const texels = st.nstrands * st.pts;
   st.texW = Math.max(1, Math.min(m.maxTexW, texels));
   st.texH = Math.max(1, Math.ceil(texels / st.texW));
@@ -50,14 +55,14 @@ function configure(m) {
   st.allocated = 0;
   st.weights = catmullWeights(m.segs);
   st.rootState = new Float32Array(3 * st.nstrands);
-  postMessage({ type: 'configured', gen: st.gen, pts: st.pts, texW: st.texW, texH: st.texH, tanOffset: st.block });
+  postMessage({ type: 'configured', gen: st.gen, mode: st.mesh ? 'hairmesh' : 'strands', pts: st.pts, texW: st.texW, texH: st.texH, tanOffset: st.block });
 }
 
 function takeBuffer() {
   if (st.free.length) return st.free.pop();
   if (st.allocated < POOL) {
     st.allocated++;
-    return new Float32Array(2 * st.block);
+    return new Float32Array(st.mesh ? st.block : 2 * st.block);
   }
   return null;
 }
@@ -85,10 +90,17 @@ function onFrame(data) {
   const decoded = info.positions;
   const t1 = performance.now();
   if (info.nstrandsSent !== st.nstrands || info.nverts !== st.nverts) return; // not configured for it (yet)
+  if (info.codec !== (st.mesh ? CODEC_ID_HAIRMESH : CODEC_ID_STRAND)) return; // the other source's frames
   const buf = takeBuffer();
   if (!buf) return; // the page has not drawn the previous ones yet: skip this frame
-  smoothStrands(buf, 0, 4, decoded, 0, st.nstrands, st.nverts, st.segs, st.weights);
-  strandFrames(buf, 0, buf, st.block, st.nstrands, st.pts, st.rootState, st.basis);
+  if (st.mesh) {
+    for (let k = 0, n = st.nstrands * st.nverts; k < n; k++) {
+      buf[4 * k] = decoded[3 * k]; buf[4 * k + 1] = decoded[3 * k + 1]; buf[4 * k + 2] = decoded[3 * k + 2];
+    }
+  } else {
+    smoothStrands(buf, 0, 4, decoded, 0, st.nstrands, st.nverts, st.segs, st.weights);
+    strandFrames(buf, 0, buf, st.block, st.nstrands, st.pts, st.rootState, st.basis);
+  }
   const t2 = performance.now();
   // the header as the client module gives it (seq, simTime, simStep, keyframe, head, counts, bytes)
   postMessage({ type: 'frame', gen: st.gen, buf, arrival, ...frameHeader(info), decodeMs: t1 - t0, prepareMs: t2 - t1 }, [buf.buffer]);
@@ -112,5 +124,5 @@ self.onmessage = (ev) => {
   if (m.type === 'start') start(m.url, m.backoff, m.token);
   else if (m.type === 'send') st.connection.send(m.message);
   else if (m.type === 'config') configure(m);
-  else if (m.type === 'recycle') { if (m.gen === st.gen && m.buf.length === 2 * st.block && st.free.length < POOL) st.free.push(m.buf); }
+  else if (m.type === 'recycle') { if (m.gen === st.gen && m.buf.length === (st.mesh ? 1 : 2) * st.block && st.free.length < POOL) st.free.push(m.buf); }
 };

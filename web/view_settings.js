@@ -1,8 +1,9 @@
 // Viewer-side settings (not sent to the server): defaults and the specs the View panel shows.
 
 // Each spec: name, label, kind ('float' | 'int' | 'bool' | 'color'), range, step, help, and
-// whether changing it needs a new render-strand layout ('layout') or new worker buffers
-// ('smoothing'); the rest are shader uniforms read every frame.
+// whether changing it needs a new render-strand layout ('layout'), new worker buffers
+// ('smoothing'), another stream source ('source': strands or the hair mesh) or new render
+// strands of the hair mesh ('meshLayout'); the rest are shader uniforms read every frame.
 export const VIEW_SPECS = [
   { name: 'perGuide', label: 'strands per guide', kind: 'int', min: 1, max: 32, step: 1, def: 4, rebuild: 'layout', help: 'Render strands drawn per simulated guide (single- and multi-strand interpolation).' },
   { name: 'segs', label: 'segments per span', kind: 'int', min: 1, max: 8, step: 1, def: 2, rebuild: 'smoothing', help: 'Catmull-Rom points per guide segment.' },
@@ -24,6 +25,13 @@ export const VIEW_SPECS = [
   { name: 'absorb', label: 'shadow density', kind: 'float', min: 0, max: 1000, step: 5, def: 160, help: 'Light absorbed per metre of hair along the light, 1/m.' },
   { name: 'lightAzimuth', label: 'light azimuth', kind: 'float', min: -180, max: 180, step: 1, def: 35, help: 'Light direction around the vertical axis, degrees.' },
   { name: 'lightElevation', label: 'light elevation', kind: 'float', min: -89, max: 89, step: 1, def: 40, help: 'Light height above the horizon, degrees.' },
+  { name: 'hairmesh', label: 'grow from hair mesh', kind: 'bool', def: false, rebuild: 'source', help: 'Stream the simulated hair mesh instead of the strands and grow the render strands from it on the GPU (needs the hairmesh solver).' },
+  { name: 'perFace', label: 'strands per mesh face', kind: 'int', min: 1, max: 2000, step: 1, def: 300, rebuild: 'meshLayout', help: 'Render strands grown in each hair mesh face.' },
+  { name: 'meshOffset', label: 'mesh strand offset', kind: 'float', min: 0, max: 0.02, step: 0.0005, def: 0.003, help: 'Random offset of each grown strand from its traced path at the root (m); the tip spread scales it at the tip.' },
+  { name: 'curl', label: 'curl radius', kind: 'float', min: 0, max: 0.02, step: 0.0005, def: 0, help: 'Radius of the helix each grown strand winds around its traced path (m).' },
+  { name: 'curlTurns', label: 'curl turns', kind: 'float', min: 0, max: 20, step: 0.5, def: 4, help: 'Turns of the curl from root to tip.' },
+  { name: 'frizz', label: 'frizz', kind: 'float', min: 0, max: 0.02, step: 0.0005, def: 0.003, help: 'Irregular waviness of grown strands, growing towards the tip (m at the tip).' },
+  { name: 'meshWire', label: 'show hair mesh', kind: 'bool', def: false, help: 'Draw the streamed hair mesh as a wireframe over the hair.' },
   { name: 'colliders', label: 'show head', kind: 'bool', def: true, help: 'Draw the head and colliders.' },
   { name: 'continuous', label: 'redraw every frame', kind: 'bool', def: false, help: 'Draw on every display frame, not only when something changed (to measure the render rate).' },
 ];

@@ -7,10 +7,13 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "proto/proto.h"
+
 typedef struct app_client {
     uint32_t id;
     int stream;               /* index into app_streams, or -1 */
-    int32_t stride;
+    proto_source source;      /* what the stream carries: strands or the hair mesh */
+    int32_t stride;           /* of the strands (kept while on the hair mesh) */
     double max_error, max_rate;
     bool has_t;
     double last_t;            /* newest motion timestamp from this client */

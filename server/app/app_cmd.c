@@ -32,6 +32,9 @@ static void broadcast_state(app_world *w)
 static proto_stream stream_info(const app_world *w, const app_client *c)
 {
     uint32_t k = c->stream >= 0 ? w->streams.s[c->stream].decimation : app_stream_decimation(w->d->rate, c->max_rate);
+    if (c->source == PROTO_SOURCE_HAIRMESH)
+        return (proto_stream){ "hairmesh", 1, w->streams.ncols, c->max_error, c->max_rate, w->d->rate, w->d->rate / k,
+                               w->d->keyframe_interval };
     proto_stream s = { "strand", c->stride, app_stream_strands(w->groom.g.nstrands, c->stride), c->max_error, c->max_rate,
                        w->d->rate, w->d->rate / k, w->d->keyframe_interval };
     return s;
@@ -43,7 +46,7 @@ static void client_open(app_world *w, uint32_t id)
     if (!c) return;
     c->stride = 1;
     c->max_error = w->d->max_error;
-    c->stream = app_stream_acquire(&w->streams, c->stride, c->max_error, c->max_rate);
+    c->stream = app_stream_acquire(&w->streams, PROTO_SOURCE_STRANDS, c->stride, c->max_error, c->max_rate);
     const app_assets *as = w->assets;
     proto_hello h = {
         .server = "strandcastd", .version = STRANDCAST_VERSION, .client = id, .groom = &w->groom.json,
@@ -101,6 +104,7 @@ static void set_params(app_world *w, uint32_t client, const proto_msg *m)
     app_reply_ok(w->out, client, m, next_step(w));
     app_send(w->out, NET_ALL, proto_build_params(NULL, w->ptable, w->nparams, &w->params, changed, client),
              APP_ANNOUNCE_PARAMS);
+    app_cmd_hairmesh_fallback(w); /* a solver without a hair mesh: its subscribers back to strands */
 }
 
 static void motion(app_world *w, uint32_t client, const proto_msg *m)
@@ -126,6 +130,37 @@ static void motion(app_world *w, uint32_t client, const proto_msg *m)
     if (stopped) broadcast_state(w);
 }
 
+/* True when the active solver simulates the groom's hair mesh (hair mesh streams can be fed). */
+static bool has_hairmesh(const app_world *w)
+{
+    return w->groom.g.hairmesh && w->streams.ncols && w->sim.vt && w->sim.vt->read_hairmesh;
+}
+
+/* Moves client c to the strand stream of its settings and tells it with an unsolicited
+ * subscribed (its hair mesh went away). Keeps it where it is when no stream slot is left. */
+static void fall_back(app_world *w, app_client *c)
+{
+    int stream = app_stream_acquire(&w->streams, PROTO_SOURCE_STRANDS, c->stride, c->max_error, c->max_rate);
+    if (stream < 0) {
+        core_log(CORE_LOG_WARN, "app", "client %u: no stream slot to move it from the hair mesh to strands", c->id);
+        return;
+    }
+    app_stream_release(&w->streams, c->stream);
+    c->stream = stream;
+    c->source = PROTO_SOURCE_STRANDS;
+    if (w->out->net) net_subscribe(w->out->net, c->id, (uint32_t)stream, c->max_rate);
+    proto_stream s = stream_info(w, c);
+    app_send(w->out, c->id, proto_build_subscribed(&(proto_id){ .kind = PROTO_ID_NONE }, &s), 0);
+    w->dirty = true;
+}
+
+void app_cmd_hairmesh_fallback(app_world *w)
+{
+    if (has_hairmesh(w)) return;
+    for (size_t i = 0; i < w->clients.n; i++)
+        if (w->clients.v[i].source == PROTO_SOURCE_HAIRMESH) fall_back(w, &w->clients.v[i]);
+}
+
 static void subscribe(app_world *w, uint32_t client, const proto_msg *m)
 {
     app_client *c = app_clients_find(&w->clients, client);
@@ -133,7 +168,18 @@ static void subscribe(app_world *w, uint32_t client, const proto_msg *m)
     int32_t stride = m->u.subscribe.has_stride ? m->u.subscribe.stride : c->stride;
     double max_error = m->u.subscribe.has_max_error ? m->u.subscribe.max_error : c->max_error;
     double max_rate = m->u.subscribe.has_max_rate ? m->u.subscribe.max_rate : c->max_rate;
-    int stream = app_stream_acquire(&w->streams, stride, max_error, max_rate);
+    proto_source source = m->u.subscribe.has_source ? m->u.subscribe.source : c->source;
+    if (source == PROTO_SOURCE_HAIRMESH && !has_hairmesh(w)) {
+        char why[160];
+        if (w->groom.g.hairmesh)
+            snprintf(why, sizeof why, "source hairmesh needs the hairmesh solver: the %s solver simulates strands",
+                     w->sim.vt ? w->sim.vt->name : "current");
+        else
+            snprintf(why, sizeof why, "source hairmesh needs a groom traced through a hair mesh (groom.hairmesh is null)");
+        app_reply_fail(w->out, client, &m->id, PROTO_ERR_BAD_STATE, "source", why);
+        return;
+    }
+    int stream = app_stream_acquire(&w->streams, source, stride, max_error, max_rate);
     if (stream < 0) {
         app_reply_fail(w->out, client, &m->id, PROTO_ERR_BUSY, "",
                        "every stream slot is taken by other stride/max_error/rate settings; pick settings another client uses");
@@ -146,6 +192,7 @@ static void subscribe(app_world *w, uint32_t client, const proto_msg *m)
     }
     app_stream_release(&w->streams, c->stream);
     c->stream = stream;
+    c->source = source;
     c->stride = stride;
     c->max_error = max_error;
     c->max_rate = max_rate;

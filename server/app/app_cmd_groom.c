@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "app_cmd.h"
 #include "app_cmd_groom.h"
 #include "app_play.h"
 #include "app_sim.h"
@@ -110,7 +111,8 @@ static void swap_groom(app_world *w, app_loader *l)
     app_sim_arm(w);
     app_world_set_head(w, app_anim_pose(&w->anim));
     app_world_reset(w);
-    app_streams_regroom(&w->streams, w->groom.g.nstrands, w->groom.g.nverts);
+    const core_hairmesh *hm = w->groom.g.hairmesh;
+    app_streams_regroom(&w->streams, w->groom.g.nstrands, w->groom.g.nverts, hm ? hm->ncols : 0, hm ? hm->nlayers : 0);
     w->dirty = true;
     sim_destroy(&old);
 }
@@ -137,6 +139,7 @@ void app_cmd_groom_poll(app_world *w)
                  l->total_ms, (double)(core_now_ns() - t0) / 1e6);
         app_reply_ok(w->out, client, m, 0); /* the new groom's simulation starts at step 0 */
         app_send(w->out, NET_ALL, proto_build_groom(&w->groom.json), APP_ANNOUNCE_GROOM);
+        app_cmd_hairmesh_fallback(w); /* after the groom message, before any frame of the new groom */
     }
     app_loader_clear(l);
 }

@@ -76,5 +76,6 @@ void app_groom_publish(net *n, const app_groom *g)
 {
     if (!n) return;
     publish(n, APP_GROOM_PATH, g->groom_bin, g->groom_etag);
+    publish(n, APP_HAIRMESH_PATH, g->hairmesh_bin, g->hairmesh_etag);
     publish(n, APP_MESH_PATH, g->mesh_bin, g->mesh_etag);
 }

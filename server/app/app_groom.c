@@ -10,12 +10,27 @@ core_status app_groom_render(app_groom *g, core_err *err)
 {
     proto_data_ref dr = { APP_GROOM_PATH, g->groom_etag, g->groom_bin ? net_buf_len(g->groom_bin) : 0 };
     proto_mesh_ref mr = { g->collider, APP_MESH_PATH, g->mesh_etag, g->mesh_bin ? net_buf_len(g->mesh_bin) : 0 };
-    proto_groom pg = { g->source, &g->g, g->seed, &dr, g->g.mesh && g->mesh_bin ? &mr : NULL };
+    proto_data_ref hr = { APP_HAIRMESH_PATH, g->hairmesh_etag, g->hairmesh_bin ? net_buf_len(g->hairmesh_bin) : 0 };
+    proto_groom pg = { g->source, &g->g, g->seed, &dr, g->g.mesh && g->mesh_bin ? &mr : NULL,
+                       g->g.hairmesh && g->hairmesh_bin ? &hr : NULL };
     proto_groom_json_free(&g->json);
     return proto_groom_json_build(&g->json, &pg, err);
 }
 
-/* The groom data binary, then the JSON that names it. */
+/* The hair mesh topology binary of out's hair mesh (none without one). */
+static core_status hairmesh_bin(app_groom *out, core_err *err)
+{
+    const core_hairmesh *m = out->g.hairmesh;
+    if (!m) return CORE_OK;
+    size_t n = proto_hairmesh_bin_size(m);
+    out->hairmesh_bin = net_buf_new(n);
+    if (!out->hairmesh_bin) return core_fail(err, CORE_ENOMEM, "out of memory for the hair mesh binary (%zu bytes)", n);
+    proto_hairmesh_bin_write(m, net_buf_data(out->hairmesh_bin));
+    proto_bin_etag(net_buf_data(out->hairmesh_bin), n, out->hairmesh_etag);
+    return CORE_OK;
+}
+
+/* The groom data binary (and the hair mesh's), then the JSON that names them. */
 static core_status finish(app_groom *out, core_err *err)
 {
     size_t n = proto_groom_bin_size(&out->g);
@@ -26,7 +41,8 @@ static core_status finish(app_groom *out, core_err *err)
     }
     proto_groom_bin_write(&out->g, net_buf_data(out->groom_bin));
     proto_bin_etag(net_buf_data(out->groom_bin), n, out->groom_etag);
-    core_status st = app_groom_render(out, err);
+    core_status st = hairmesh_bin(out, err);
+    if (st == CORE_OK) st = app_groom_render(out, err);
     if (st != CORE_OK) app_groom_free(out);
     return st;
 }
@@ -44,6 +60,24 @@ core_status app_groom_load_style(const char *style, uint32_t strands, uint32_t v
     if ((st = groom_procedural(&gd, &out->g, err)) != CORE_OK) return st;
     snprintf(out->source, sizeof out->source, "procedural:%s", groom_style_name(gd.style));
     out->seed = gd.seed;
+    return finish(out, err);
+}
+
+core_status app_groom_load_hairmesh(const char *style, uint32_t strands, uint32_t verts, app_groom *out, core_err *err)
+{
+    memset(out, 0, sizeof *out);
+    groom_hairmesh_desc hd = { 0 };
+    core_status st = groom_style_parse(style, &hd.style, err);
+    if (st != CORE_OK) return st;
+    core_hairmesh m;
+    if ((st = groom_hairmesh_procedural(&hd, &m, err)) != CORE_OK) return st;
+    uint32_t want = strands ? strands : GROOM_DEFAULT_STRANDS;
+    uint32_t per_face = (want + m.nfaces - 1) / m.nfaces;
+    st = groom_from_hairmesh(&m, per_face, verts ? verts : GROOM_DEFAULT_VERTS, &out->g, err);
+    core_hairmesh_free(&m);
+    if (st != CORE_OK) return st;
+    groom_default_colliders(&out->g);
+    snprintf(out->source, sizeof out->source, "hairmesh:%s", groom_style_name(hd.style));
     return finish(out, err);
 }
 
@@ -68,6 +102,7 @@ void app_groom_free(app_groom *g)
 {
     core_groom_free(&g->g);
     net_buf_unref(g->groom_bin);
+    net_buf_unref(g->hairmesh_bin);
     net_buf_unref(g->mesh_bin);
     proto_groom_json_free(&g->json);
     memset(g, 0, sizeof *g);

@@ -12,6 +12,7 @@
 
 #define APP_MESH_PATH "/collider.bin" /* where clients GET the collision mesh binary */
 #define APP_GROOM_PATH "/groom.bin"   /* where clients GET the groom data binary (rest lengths, roots) */
+#define APP_HAIRMESH_PATH "/hairmesh.bin" /* where clients GET the hair mesh topology binary */
 
 typedef struct app_groom {
     core_groom g;             /* g.mesh / g.sdf: the collision mesh and its distance grid, if any */
@@ -19,6 +20,8 @@ typedef struct app_groom {
     uint64_t seed;
     net_buf *groom_bin;       /* proto_groom_bin_write of g: built once, shared by every client */
     char groom_etag[17];
+    net_buf *hairmesh_bin;    /* proto_hairmesh_bin_write of g.hairmesh (NULL = none) */
+    char hairmesh_etag[17];
     char collider[PROTO_MAX_NAME + 1]; /* the mesh's name ("" = none) */
     net_buf *mesh_bin;        /* proto_mesh_bin_write of g.mesh (NULL = none) */
     char mesh_etag[17];
@@ -30,6 +33,11 @@ typedef struct app_groom {
  * GROOM_DEFAULT_VERTS) and seed (0 = GROOM_DEFAULT_SEED). */
 core_status app_groom_load_style(const char *style, uint32_t strands, uint32_t verts, uint64_t seed, app_groom *out,
                                  core_err *err);
+/* A groom traced through the procedural hair mesh of a style (groom_hairmesh_procedural) into
+ * *out (zeroed on failure), shown as "hairmesh:<style>": strands (0 = GROOM_DEFAULT_STRANDS)
+ * rounded up to whole strands per face, verts vertices each (0 = GROOM_DEFAULT_VERTS), the
+ * default colliders. */
+core_status app_groom_load_hairmesh(const char *style, uint32_t strands, uint32_t verts, app_groom *out, core_err *err);
 /* A .tfx/.hair file at path into *out, shown to clients as "file:<label>"; verts 0 = the file's
  * count. */
 core_status app_groom_load_path(const char *path, const char *label, uint32_t verts, app_groom *out, core_err *err);
@@ -45,8 +53,9 @@ core_status app_groom_check_size(const app_groom *g, core_err *err);
  * the hair cannot reach the mesh), its binary and the re-rendered JSON. mesh NULL removes
  * g's mesh. (app_collider.c) */
 core_status app_groom_set_collider(app_groom *g, core_mesh *mesh, const char *label, core_err *err);
-/* Hands g's binaries to n: its groom data at APP_GROOM_PATH, its mesh at APP_MESH_PATH (or
- * none); before any message naming their tags is sent. n NULL does nothing. Sim thread. */
+/* Hands g's binaries to n: its groom data at APP_GROOM_PATH, its mesh at APP_MESH_PATH and its
+ * hair mesh topology at APP_HAIRMESH_PATH (or none); before any message naming their tags is
+ * sent. n NULL does nothing. Sim thread. */
 void app_groom_publish(net *n, const app_groom *g);
 
 #endif

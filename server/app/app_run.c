@@ -74,6 +74,8 @@ static core_status load_initial_groom(const app_desc *d, app_groom *g, core_err 
     unsigned long long t0 = core_now_ns();
     if (groom_style_parse(d->groom, &style, NULL) == CORE_OK) {
         st = app_groom_load_style(d->groom, d->strands, d->verts, d->seed, g, err);
+    } else if (strncmp(d->groom, "hairmesh:", 9) == 0) {
+        st = app_groom_load_hairmesh(d->groom + 9, d->strands, d->verts, g, err);
     } else {
         const char *base = strrchr(d->groom, '/');
         st = app_groom_load_path(d->groom, base ? base + 1 : d->groom, d->verts, g, err);
@@ -189,7 +191,7 @@ static core_status setup(app *a, core_err *err)
             .listen = a->d.listen, .port = a->d.port, .web_dir = a->d.web_dir, .subprotocol = PROTO_SUBPROTOCOL,
             .max_message = PROTO_MAX_MESSAGE, .sndbuf = a->d.client_buffer, .max_clients = a->d.max_clients,
             .allow_origins = a->d.allow_origins, .tls_cert = a->d.tls_cert, .tls_key = a->d.tls_key,
-            .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout, .blobs = { APP_MESH_PATH, APP_GROOM_PATH },
+            .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout, .blobs = { APP_MESH_PATH, APP_GROOM_PATH, APP_HAIRMESH_PATH },
             .cb = { &a->gate, app_on_open, app_on_text, app_on_close, app_metrics },
         };
         if ((st = net_create(&a->net, &nd, err)) != CORE_OK) return st;
@@ -197,6 +199,8 @@ static core_status setup(app *a, core_err *err)
     a->out.net = a->net;
     app_streams_init(&a->w.streams, a->net, a->d.rate, a->d.max_error, (uint32_t)a->d.keyframe_interval,
                      a->w.groom.g.nstrands, a->w.groom.g.nverts);
+    const core_hairmesh *hm = a->w.groom.g.hairmesh;
+    app_streams_set_hairmesh(&a->w.streams, hm ? hm->ncols : 0, hm ? hm->nlayers : 0);
     app_groom_publish(a->net, &a->w.groom);
     return CORE_OK;
 }
@@ -210,6 +214,7 @@ static void teardown(app *a)
     sim_destroy(&w->sim);
     app_groom_free(&w->groom);
     free(w->xyz);
+    free(w->mesh_xyz);
     app_clients_free(&w->clients);
     app_assets_free(&a->assets);
     app_gate_free(&a->gate);

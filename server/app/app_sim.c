@@ -1,5 +1,6 @@
 /* app: the sim thread: commands at step boundaries, real-time fixed steps, publishing, stats. */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/prctl.h>
 
@@ -81,12 +82,35 @@ static core_status step_once(app_world *w)
     return st;
 }
 
+/* The simulated hair mesh's vertices when a due stream carries them, else (or when they cannot
+ * be read: logged) NULL. */
+static const float *read_mesh(app_world *w)
+{
+    if (!app_streams_mesh_due(&w->streams)) return NULL;
+    size_t n = 3u * (size_t)w->streams.ncols * w->streams.nlayers;
+    if (n > w->mesh_cap) {
+        float *p = realloc(w->mesh_xyz, n * sizeof *p);
+        if (!p) {
+            core_log(CORE_LOG_WARN, "sim", "out of memory for the hair mesh's %zu floats", n);
+            return NULL;
+        }
+        w->mesh_xyz = p;
+        w->mesh_cap = n;
+    }
+    core_err err;
+    if (sim_read_hairmesh(&w->sim, w->mesh_xyz, &err) != CORE_OK) {
+        core_log(CORE_LOG_WARN, "sim", "hair mesh not read for streaming: %s", err.msg);
+        return NULL;
+    }
+    return w->mesh_xyz;
+}
+
 /* Encodes and publishes the positions to the due streams; counts for the stats. */
 static void publish(app_world *w)
 {
     unsigned long long t0 = core_now_ns();
     const codec_sim_info snap = app_world_snapshot(w);
-    app_publish_result r = app_streams_publish(&w->streams, w->xyz, &snap);
+    app_publish_result r = app_streams_publish(&w->streams, w->xyz, read_mesh(w), &snap);
     for (uint32_t m = r.began_failing; m; m &= m - 1) /* usually none: no loop per frame */
         app_cmd_tell_failure(w, __builtin_ctz(m), NET_ALL);
     if (!w->out->net) return;

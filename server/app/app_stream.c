@@ -1,4 +1,4 @@
-/* app: the frame streams: one codec encoder per distinct (stride, max_error, decimation),
+/* app: the frame streams: one codec encoder per distinct (source, stride, max_error, decimation),
  * published to net. */
 #include <math.h>
 #include <string.h>
@@ -25,8 +25,11 @@ uint32_t app_stream_strands(uint32_t nstrands, int32_t stride)
 
 static core_status stream_init(const app_streams *ss, app_stream *t, core_err *err)
 {
-    codec_desc cd = { (float)t->max_error, ss->keyframe_interval, (uint32_t)t->stride };
-    core_status st = codec_encoder_init(&t->enc, &cd, ss->nstrands, ss->nverts, err);
+    bool mesh = t->source == PROTO_SOURCE_HAIRMESH;
+    codec_desc cd = { .max_error_m = (float)t->max_error, .key_interval = ss->keyframe_interval,
+                      .stride = (uint32_t)t->stride, .codec_id = mesh ? CODEC_ID_HAIRMESH : CODEC_ID_STRAND };
+    core_status st = mesh && !ss->ncols ? core_fail(err, CORE_ESTATE, "the groom has no hair mesh")
+                     : codec_encoder_init(&t->enc, &cd, mesh ? ss->ncols : ss->nstrands, mesh ? ss->nlayers : ss->nverts, err);
     t->ready = st == CORE_OK;
     t->force_key = true;
     return st;
@@ -41,14 +44,16 @@ uint32_t app_stream_decimation(double rate, double max_rate)
 }
 
 /* The settings every new client starts on: every strand, the server's bound, every round. */
-static bool default_settings(const app_streams *ss, int32_t stride, double max_error, uint32_t decimation)
+static bool default_settings(const app_streams *ss, proto_source source, int32_t stride, double max_error,
+                             uint32_t decimation)
 {
-    return stride == 1 && max_error == ss->max_error && decimation == 1;
+    return source == PROTO_SOURCE_STRANDS && stride == 1 && max_error == ss->max_error && decimation == 1;
 }
 
-int app_stream_acquire(app_streams *ss, int32_t stride, double max_error, double max_rate)
+int app_stream_acquire(app_streams *ss, proto_source source, int32_t stride, double max_error, double max_rate)
 {
     uint32_t decimation = app_stream_decimation(ss->rate, max_rate);
+    if (source == PROTO_SOURCE_HAIRMESH) stride = 1;
     int free_slot = -1, nfree = 0, faster = -1;
     bool have_default = false;
     for (int i = 0; i < NET_MAX_STREAMS; i++) {
@@ -58,8 +63,8 @@ int app_stream_acquire(app_streams *ss, int32_t stride, double max_error, double
             nfree++;
             continue;
         }
-        have_default = have_default || default_settings(ss, t->stride, t->max_error, t->decimation);
-        if (t->stride != stride || t->max_error != max_error || t->decimation > decimation) continue;
+        have_default = have_default || default_settings(ss, t->source, t->stride, t->max_error, t->decimation);
+        if (t->source != source || t->stride != stride || t->max_error != max_error || t->decimation > decimation) continue;
         if (t->decimation == decimation) {
             t->subscribers++;
             return i;
@@ -67,7 +72,7 @@ int app_stream_acquire(app_streams *ss, int32_t stride, double max_error, double
         if (faster < 0 || t->decimation > ss->s[faster].decimation) faster = i;
     }
     /* the last free slot is kept for the default stream, which every new client starts on */
-    if (free_slot >= 0 && nfree == 1 && !have_default && !default_settings(ss, stride, max_error, decimation))
+    if (free_slot >= 0 && nfree == 1 && !have_default && !default_settings(ss, source, stride, max_error, decimation))
         free_slot = -1;
     if (free_slot < 0) {
         if (faster >= 0) ss->s[faster].subscribers++;
@@ -76,6 +81,7 @@ int app_stream_acquire(app_streams *ss, int32_t stride, double max_error, double
     app_stream *t = &ss->s[free_slot];
     memset(t, 0, sizeof *t);
     t->used = true;
+    t->source = source;
     t->stride = stride;
     t->max_error = max_error;
     t->decimation = decimation;
@@ -95,10 +101,24 @@ void app_stream_release(app_streams *ss, int stream)
     if (ss->net) net_drop_stream(ss->net, (uint32_t)stream);
 }
 
-void app_streams_regroom(app_streams *ss, uint32_t nstrands, uint32_t nverts)
+void app_streams_set_hairmesh(app_streams *ss, uint32_t ncols, uint32_t nlayers)
+{
+    ss->ncols = ncols;
+    ss->nlayers = ncols ? nlayers : 0;
+}
+
+bool app_streams_mesh_due(const app_streams *ss)
+{
+    for (int i = 0; i < NET_MAX_STREAMS; i++)
+        if (ss->s[i].due && ss->s[i].ready && ss->s[i].source == PROTO_SOURCE_HAIRMESH) return true;
+    return false;
+}
+
+void app_streams_regroom(app_streams *ss, uint32_t nstrands, uint32_t nverts, uint32_t ncols, uint32_t nlayers)
 {
     ss->nstrands = nstrands;
     ss->nverts = nverts;
+    app_streams_set_hairmesh(ss, ncols, nlayers);
     for (int i = 0; i < NET_MAX_STREAMS; i++) {
         app_stream *t = &ss->s[i];
         if (!t->used) continue;
@@ -155,22 +175,23 @@ bool app_stream_failure(const app_streams *ss, int stream, proto_error *e)
     if (stream < 0 || stream >= NET_MAX_STREAMS || !ss->s[stream].failing) return false;
     const app_stream *t = &ss->s[stream];
     proto_fail(e, PROTO_ERR_FAILED, "stream",
-               "the frames of this stream (stride %d, max_error %g m) cannot be encoded from seq %llu on: %s; "
+               "the frames of this stream (%s, stride %d, max_error %g m) cannot be encoded from seq %llu on: %s; "
                "none are sent until they can be (or subscribe with a larger max_error)",
-               t->stride, t->max_error, (unsigned long long)t->fail_seq, t->fail_err.msg);
+               proto_source_name(t->source), t->stride, t->max_error, (unsigned long long)t->fail_seq, t->fail_err.msg);
     return true;
 }
 
-app_publish_result app_streams_publish(app_streams *ss, const float *xyz, const codec_sim_info *sim)
+app_publish_result app_streams_publish(app_streams *ss, const float *xyz, const float *mesh, const codec_sim_info *sim)
 {
     app_publish_result r = { 0, 0, 0 };
     if (!ss->net) return r;
     uint64_t seq = ++ss->frame_seq;
     for (int i = 0; i < NET_MAX_STREAMS; i++) {
         app_stream *t = &ss->s[i];
-        if (!t->due || !t->ready) continue;
+        const float *src = t->source == PROTO_SOURCE_HAIRMESH ? mesh : xyz;
+        if (!t->due || !t->ready || !src) continue;
         core_err err;
-        if (codec_encode(&t->enc, xyz, seq, sim, t->force_key, &ss->enc_buf, &err) != CORE_OK) {
+        if (codec_encode(&t->enc, src, seq, sim, t->force_key, &ss->enc_buf, &err) != CORE_OK) {
             if (!t->failing) {
                 core_log(CORE_LOG_WARN, "app", "stream %d: frames not sent from %llu on: %s", i, (unsigned long long)seq, err.msg);
                 t->failing = true;

@@ -47,6 +47,9 @@ typedef struct app_world {
     sim_params params;
     app_groom groom;
     float *xyz;               /* positions of the current groom, strand-major */
+    float *mesh_xyz;          /* the simulated hair mesh's vertices for hair mesh streams
+                                 (mesh_cap floats, grown when read) */
+    size_t mesh_cap;
     app_anim anim;            /* head motion: client base pose, preset, blend */
     core_xform head;          /* the head transform the positions belong to: the last one handed
                                  to the simulation (app_world_set_head), rotation normalised */

@@ -11,7 +11,9 @@
 /* The wire format is specified byte by byte in proto/CODEC.md. */
 #define CODEC_MAGIC "SCF1"
 #define CODEC_VERSION 3u
-#define CODEC_ID_STRAND 1u         /* the only codec of format version 3 */
+#define CODEC_ID_STRAND 1u         /* strand positions: strands of nverts vertices */
+#define CODEC_ID_HAIRMESH 2u       /* hair mesh vertices: its columns as "strands" of nlayers
+                                      vertices, all of them (stride 1) */
 #define CODEC_HEADER_SIZE 104u
 #define CODEC_FLAG_KEY 1u          /* keyframe: intra-coded, no reference */
 #define CODEC_DEFAULT_MAX_ERROR 1e-4f
@@ -26,6 +28,7 @@ typedef struct codec_desc {
     float max_error_m;     /* per-axis bound |decoded - input| <= this; 0 -> 1e-4 m; [1e-5, 1e-1] */
     uint32_t key_interval; /* a keyframe at least every this many frames; 0 -> 30 */
     uint32_t stride;       /* send strands 0, k, 2k, ...; 0 -> 1 (all strands) */
+    uint32_t codec_id;     /* the frames' codec id: 0 -> CODEC_ID_STRAND; CODEC_ID_HAIRMESH (stride 1) */
 } codec_desc;
 
 /* A caller-owned growable byte buffer. Zero-initialise it; codec_buf_free releases it. */
@@ -50,6 +53,8 @@ typedef struct codec_frame_info {
     double step;             /* quantization step, m */
     float max_error_m;       /* the per-axis error bound the encoder guaranteed */
     bool keyframe;
+    uint32_t codec_id;       /* CODEC_ID_STRAND or CODEC_ID_HAIRMESH (strands are then the mesh's
+                                columns, nverts its layers) */
     uint32_t nstrands_total; /* strands in the simulation */
     uint32_t nstrands_sent;  /* strands in this frame: ceil(total / stride) */
     uint32_t nverts;         /* vertices per strand (vertex 0 = root) */

@@ -451,7 +451,8 @@ int codec_core_header(codec_core_info *h, codec_core_error *e, const uint8_t *p,
         return fail_at(e, CODEC_E_MAGIC, 0, 0, 0, 0);
     const uint32_t version = get16(p + CODEC_OFF_VERSION), flags = p[CODEC_OFF_FLAGS];
     if (version != CODEC_VERSION) return fail_at(e, CODEC_E_VERSION, CODEC_OFF_VERSION, 0, version, CODEC_VERSION);
-    if (p[CODEC_OFF_CODEC] != CODEC_ID_STRAND) return fail_at(e, CODEC_E_CODEC, CODEC_OFF_CODEC, 0, p[CODEC_OFF_CODEC], 0);
+    if (p[CODEC_OFF_CODEC] != CODEC_ID_STRAND && p[CODEC_OFF_CODEC] != CODEC_ID_HAIRMESH)
+        return fail_at(e, CODEC_E_CODEC, CODEC_OFF_CODEC, 0, p[CODEC_OFF_CODEC], 0);
     if (flags & ~CODEC_FLAG_KEY) return fail_at(e, CODEC_E_FLAGS, CODEC_OFF_FLAGS, 0, flags, 0);
     const uint64_t time_bits = get64(p + CODEC_OFF_TIME);
     h->keyframe = flags & CODEC_FLAG_KEY;
@@ -465,7 +466,8 @@ int codec_core_header(codec_core_info *h, codec_core_error *e, const uint8_t *p,
     h->nverts = get32(p + CODEC_OFF_NVERTS);
     h->stride = get32(p + CODEC_OFF_STRIDE);
     h->payload_len = get32(p + CODEC_OFF_PAYLOAD);
-    h->pad = h->pad2 = 0;
+    h->codec = p[CODEC_OFF_CODEC];
+    h->pad2 = 0;
     h->sim_step = get64(p + CODEC_OFF_SIM_STEP);
     /* written out: a copy loop would become a call to memcpy, which the freestanding core lacks */
     h->head_pos[0] = as_f32(get32(p + CODEC_OFF_HEAD_POS));
@@ -487,7 +489,8 @@ int codec_core_header(codec_core_info *h, codec_core_error *e, const uint8_t *p,
     if (!(h->max_error_m >= CODEC_MIN_ERROR && h->max_error_m <= CODEC_MAX_ERROR)) return fail_at(e, CODEC_E_BOUND, CODEC_OFF_BOUND, 0, 0, 0);
     if (!(h->step > 0.0 && h->step <= 2.0 * (double)h->max_error_m)) return fail_at(e, CODEC_E_STEP, CODEC_OFF_STEP, 0, 0, 0);
     if (h->nverts < 2 || h->nverts > CODEC_MAX_NVERTS) return fail_at(e, CODEC_E_NVERTS, CODEC_OFF_NVERTS, 0, 0, 0);
-    if (h->stride < 1 || h->nstrands_total < 1) return fail_at(e, CODEC_E_COUNTS, h->stride < 1 ? CODEC_OFF_STRIDE : CODEC_OFF_TOTAL, 0, 0, 0);
+    if (h->stride < 1 || h->nstrands_total < 1 || (h->codec == CODEC_ID_HAIRMESH && h->stride != 1))
+        return fail_at(e, CODEC_E_COUNTS, h->nstrands_total < 1 ? CODEC_OFF_TOTAL : CODEC_OFF_STRIDE, 0, 0, 0);
     const uint64_t sent = ((uint64_t)h->nstrands_total + h->stride - 1u) / h->stride;
     if (h->nstrands_sent != sent) return fail_at(e, CODEC_E_SENT, CODEC_OFF_SENT, 0, sent, 0);
     if ((uint64_t)h->nstrands_sent * h->nverts > CODEC_MAX_VERTICES)
@@ -1087,8 +1090,8 @@ int codec_core_check(codec_core *k, const uint8_t *p, size_t len)
     if (!h->keyframe) {
         const codec_core_info *key = &k->key;
         if (!k->key_valid || key->seq != h->ref_seq) return fail(k, CODEC_E_NO_KEY, CODEC_OFF_REF, 0, 0, 0);
-        if (key->nstrands_total != h->nstrands_total || key->nverts != h->nverts || key->stride != h->stride ||
-            key->step != h->step)
+        if (key->codec != h->codec || key->nstrands_total != h->nstrands_total || key->nverts != h->nverts ||
+            key->stride != h->stride || key->step != h->step)
             return fail(k, CODEC_E_KEY_LAYOUT, CODEC_OFF_STEP, 0, 0, 0);
     }
     return 0;
@@ -1109,7 +1112,8 @@ static void copy_info(codec_core_info *d, const codec_core_info *s)
     d->nverts = s->nverts;
     d->stride = s->stride;
     d->payload_len = s->payload_len;
-    d->pad = d->pad2 = 0;
+    d->codec = s->codec;
+    d->pad2 = 0;
     d->sim_step = s->sim_step;
     d->head_pos[0] = s->head_pos[0];
     d->head_pos[1] = s->head_pos[1];

@@ -30,7 +30,7 @@ enum codec_core_code {
     CODEC_E_BOUND,       /* the header's max_error_m */
     CODEC_E_STEP,        /* the header's step and max_error_m */
     CODEC_E_NVERTS,      /* the header's nverts */
-    CODEC_E_COUNTS,      /* the header's stride and nstrands_total */
+    CODEC_E_COUNTS,      /* the header's stride and nstrands_total (stride 1 for a hair mesh) */
     CODEC_E_SENT,        /* a: the strands the header's total and stride give */
     CODEC_E_TOO_MANY,    /* the header's nstrands_sent and nverts */
     CODEC_E_LENGTH,      /* a: the frame's length */
@@ -73,7 +73,7 @@ typedef struct codec_core_info {
     uint32_t nverts;         /* 48 */
     uint32_t stride;         /* 52 */
     uint32_t payload_len;    /* 56 */
-    uint32_t pad;            /* 60 */
+    uint32_t codec;          /* 60: CODEC_ID_STRAND or CODEC_ID_HAIRMESH */
     uint64_t sim_step;       /* 64 */
     float head_pos[3];       /* 72: x, y, z */
     float head_rot[4];       /* 84: x, y, z, w */

@@ -90,6 +90,8 @@ static core_status report(const codec_core_error *e, const codec_core_info *h, s
         return core_fail(err, st, "codec: %u vertices per strand outside [2, %u] [%s]", h->nverts,
                          CODEC_MAX_NVERTS, at);
     case CODEC_E_COUNTS:
+        if (h->codec == CODEC_ID_HAIRMESH && h->stride >= 1 && h->nstrands_total >= 1)
+            return core_fail(err, st, "codec: a hair mesh frame has stride 1, not %u [%s]", h->stride, at);
         return core_fail(err, st, "codec: stride %u / strand count %u must be positive [%s]", h->stride,
                          h->nstrands_total, at);
     case CODEC_E_SENT:
@@ -161,6 +163,7 @@ static codec_frame_info frame_info(const codec_core_info *h)
     memcpy(sim.head_rot, h->head_rot, sizeof sim.head_rot);
     return (codec_frame_info){ .seq = h->seq, .ref_seq = h->ref_seq, .sim = sim, .step = h->step,
                                .max_error_m = h->max_error_m, .keyframe = h->keyframe != 0,
+                               .codec_id = h->codec,
                                .nstrands_total = h->nstrands_total, .nstrands_sent = h->nstrands_sent,
                                .nverts = h->nverts, .stride = h->stride, .payload_len = h->payload_len,
                                .frame_len = (size_t)CODEC_HEADER_SIZE + h->payload_len };

@@ -48,6 +48,11 @@ core_status codec_encoder_init(codec_encoder *enc, const codec_desc *desc, uint3
     if (d.max_error_m == 0.0f) d.max_error_m = CODEC_DEFAULT_MAX_ERROR;
     if (d.key_interval == 0) d.key_interval = CODEC_DEFAULT_KEY_INTERVAL;
     if (d.stride == 0) d.stride = 1;
+    if (d.codec_id == 0) d.codec_id = CODEC_ID_STRAND;
+    if (d.codec_id != CODEC_ID_STRAND && d.codec_id != CODEC_ID_HAIRMESH)
+        return core_fail(err, CORE_EINVAL, "codec: unknown codec id %u", d.codec_id);
+    if (d.codec_id == CODEC_ID_HAIRMESH && d.stride != 1)
+        return core_fail(err, CORE_EINVAL, "codec: a hair mesh is sent whole (stride 1, not %u)", d.stride);
     if (!(d.max_error_m >= CODEC_MIN_ERROR && d.max_error_m <= CODEC_MAX_ERROR))
         return core_fail(err, CORE_EINVAL, "codec: max_error_m %g outside [%g, %g] m", (double)d.max_error_m,
                          (double)CODEC_MIN_ERROR, (double)CODEC_MAX_ERROR);
@@ -319,7 +324,7 @@ core_status codec_encode(codec_encoder *enc, const float *xyz, uint64_t seq, con
 
     codec_frame_info h = {
         .seq = seq, .ref_seq = key ? seq : enc->key_seq, .sim = *sim, .step = enc->step,
-        .max_error_m = enc->desc.max_error_m, .keyframe = key, .nstrands_total = enc->nstrands_total,
+        .max_error_m = enc->desc.max_error_m, .keyframe = key, .codec_id = enc->desc.codec_id, .nstrands_total = enc->nstrands_total,
         .nstrands_sent = enc->nstrands_sent, .nverts = enc->nverts, .stride = enc->desc.stride,
         .payload_len = (uint32_t)payload,
     };

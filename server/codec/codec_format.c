@@ -17,7 +17,7 @@ void codec_header_write(uint8_t *p, const codec_frame_info *info)
     uint32_t u32;
     memcpy(p, CODEC_MAGIC, 4);
     codec_put_u16(p + CODEC_OFF_VERSION, CODEC_VERSION);
-    p[CODEC_OFF_CODEC] = CODEC_ID_STRAND;
+    p[CODEC_OFF_CODEC] = (uint8_t)info->codec_id;
     p[CODEC_OFF_FLAGS] = info->keyframe ? CODEC_FLAG_KEY : 0u;
     codec_put_u64(p + CODEC_OFF_SEQ, info->seq);
     codec_put_u64(p + CODEC_OFF_REF, info->ref_seq);

@@ -25,8 +25,10 @@ void core_groom_free(core_groom *g)
     free(g->pos);
     if (g->mesh) core_mesh_free(g->mesh);
     if (g->sdf) core_sdf_free(g->sdf);
+    if (g->hairmesh) core_hairmesh_free(g->hairmesh);
     free(g->mesh);
     free(g->sdf);
+    free(g->hairmesh);
     memset(g, 0, sizeof *g);
 }
 
@@ -46,6 +48,11 @@ core_status core_groom_copy(core_groom *dst, const core_groom *src, core_err *er
         dst->sdf = malloc(sizeof *dst->sdf);
         st = dst->sdf ? core_sdf_copy(dst->sdf, src->sdf, err)
                       : core_fail(err, CORE_ENOMEM, "out of memory copying the groom's distance grid");
+    }
+    if (st == CORE_OK && src->hairmesh) {
+        dst->hairmesh = malloc(sizeof *dst->hairmesh);
+        st = dst->hairmesh ? core_hairmesh_copy(dst->hairmesh, src->hairmesh, err)
+                           : core_fail(err, CORE_ENOMEM, "out of memory copying the groom's hair mesh");
     }
     if (st != CORE_OK) core_groom_free(dst);
     return st;

@@ -5,6 +5,7 @@
 #include <stdint.h>
 
 #include "core.h"
+#include "hairmesh_types.h"
 #include "math3.h"
 #include "sdf.h"
 
@@ -30,7 +31,8 @@ typedef struct core_collider {
  * pos is strand-major: vertex v of strand s is pos[3 * (s * nverts + v) + {0,1,2}].
  * mesh and sdf are the optional character collision shape (head frame; NULL = none): the
  * closed triangle mesh and its signed distance grid.
- * The groom owns pos, mesh and sdf; release them with core_groom_free. A groom may be moved
+ * hairmesh is the optional hair mesh the strands were traced through (core/hairmesh_types.h).
+ * The groom owns pos, mesh, sdf and hairmesh; release them with core_groom_free. A groom may be moved
  * by struct assignment only when the source is then zeroed, never copied (core_groom_copy). */
 typedef struct core_groom {
     uint32_t nstrands;
@@ -40,17 +42,19 @@ typedef struct core_groom {
     core_collider colliders[CORE_MAX_COLLIDERS];
     core_mesh *mesh; /* owned, NULL = none */
     core_sdf *sdf;   /* owned, NULL = none */
+    core_hairmesh *hairmesh; /* owned, NULL = none: the strands are guides traced through it
+                                (guide s = guide_face[s], guide_uv[s]) */
 } core_groom;
 
-/* Allocates a zeroed groom of nstrands x nverts (nverts >= 2; no mesh, no sdf). Caller owns the result and
+/* Allocates a zeroed groom of nstrands x nverts (nverts >= 2; no mesh, no sdf, no hair mesh). Caller owns the result and
  * frees it with core_groom_free. Any thread. */
 core_status core_groom_alloc(core_groom *g, uint32_t nstrands, uint32_t nverts, core_err *err);
 
-/* Frees g->pos, g->mesh and g->sdf and zeroes the struct; safe on a zeroed or already freed
+/* Frees g->pos, g->mesh, g->sdf and g->hairmesh and zeroes the struct; safe on a zeroed or already freed
  * groom. Any thread. */
 void core_groom_free(core_groom *g);
 
-/* Deep copy of src into dst, mesh and sdf included (dst must be zeroed or freed; on failure
+/* Deep copy of src into dst, mesh, sdf and hairmesh included (dst must be zeroed or freed; on failure
  * it is left zeroed). The caller owns dst. Any thread. */
 core_status core_groom_copy(core_groom *dst, const core_groom *src, core_err *err);
 

@@ -182,4 +182,63 @@ core_status groom_sdf_build(const core_mesh *m, const groom_sdf_desc *d, core_sd
  * they do not overlap or g has no finite root. Pure, any thread. */
 bool groom_collider_region(const core_groom *g, const core_mesh *m, core_vec3 *lo, core_vec3 *hi);
 
+/* ---- hair meshes (layered prisms over the scalp; core/hairmesh_types.h) --------------------- */
+
+#define GROOM_HAIRMESH_DEFAULT_PATCHES 3u /* patches along each side of the scalp region */
+#define GROOM_HAIRMESH_DEFAULT_GRID 2u    /* quads along each side of a patch */
+#define GROOM_HAIRMESH_DEFAULT_LAYERS 9u
+#define GROOM_HAIRMESH_MAX_GRID 256u
+
+/* Procedural hair mesh settings; zero means default for every field. */
+typedef struct groom_hairmesh_desc {
+    groom_style style;  /* the layers' offsets: straight, wavy (a planar wave of 1 cm, 3.5 waves
+                           per 0.25 m) or curly (a helix of 1 cm radius, 4 turns per 0.25 m) */
+    uint32_t patches;   /* 0 = GROOM_HAIRMESH_DEFAULT_PATCHES; 1..GROOM_HAIRMESH_MAX_GRID patches per side */
+    uint32_t grid;      /* 0 = GROOM_HAIRMESH_DEFAULT_GRID; 1..GROOM_HAIRMESH_MAX_GRID quads per patch side */
+    uint32_t nlayers;   /* 0 = GROOM_HAIRMESH_DEFAULT_LAYERS; 2..CORE_HAIRMESH_MAX_LAYERS */
+    float length;       /* root-to-tip path length, m; 0 = GROOM_DEFAULT_LENGTH; finite, (0, 2] */
+} groom_hairmesh_desc;
+
+/* Generates a hair mesh over the upper and back part of the default head ellipsoid: patches x
+ * patches scalp patches (85% of their cell each, the rest a parting), each of (grid + 1)^2
+ * columns and grid^2 quads (counter-clockwise seen from outside) 1 mm outside the scalp, swept
+ * through nlayers - 1 further layers along the patch centre's path (it grows along the scalp
+ * normal, is combed down and back, and keeps 5 mm + the patch's half size + 1 cm x (layer /
+ * (nlayers - 1)) outside the default colliders). Each layer is the root patch carried by the
+ * path's parallel-transported frame (so the faces stay across the path and every prism's
+ * corner tetrahedra have a positive volume), narrowed linearly to 60% at the tip, moved by the
+ * style's offset (the same for every column at a given path length) and kept 1 mm outside the
+ * default colliders. No guides (nguides = 0). Deterministic. out is overwritten; the caller
+ * owns it (core_hairmesh_free). CORE_EINVAL for a bad desc. d may be NULL. Pure, any thread. */
+core_status groom_hairmesh_procedural(const groom_hairmesh_desc *d, core_hairmesh *out, core_err *err);
+
+/* Fills out with guide strands traced through m (checked with core_hairmesh_validate):
+ * per_face >= 1 strands in every face at fixed, well spread coordinates (strand i of a face at
+ * u = frac(0.5 + 0.7548777 i), v = frac(0.5 + 0.5698403 i) on a quad, the same pair mapped
+ * uniformly onto a triangle: weights of corners 1 and 2 = (sqrt(u) (1 - v), sqrt(u) v)), strand
+ * f * per_face + i, each of nverts (2..GROOM_MAX_VERTS) vertices by core_hairmesh_trace.
+ * out->hairmesh is a copy of m whose guide arrays record those strands (m's own guides are
+ * not used). No colliders. Counts past GROOM_MAX_STRANDS / GROOM_MAX_TOTAL: CORE_EINVAL.
+ * out must be zeroed or freed; the caller owns it (core_groom_free). Pure, any thread. */
+core_status groom_from_hairmesh(const core_hairmesh *m, uint32_t per_face, uint32_t nverts, core_groom *out,
+                                core_err *err);
+
+/* Loads a layered hair mesh from a Wavefront .obj image of size bytes (never read outside
+ * data[0, size)). The convention (README.md, "Hair meshes"): `v x y z` lines list the layers
+ * one after another, the root layer first, every layer with the same number C of vertices in
+ * the same column order (vertex l * C + c + 1 is column c of layer l); `f` lines (3 or 4
+ * vertices, `i`, `i/t`, `i//n`, `i/t/n` forms, negative indices count back from the last
+ * vertex read) are the root layer's faces, counter-clockwise seen from outside the scalp, and
+ * use only vertices 1..C; C is the largest vertex index a face uses, the vertex count must be
+ * a multiple of it (nlayers = vertices / C >= 2). Comments (#) and other line types are
+ * ignored. The result must pass core_hairmesh_validate. A malformed image is refused with
+ * CORE_EFORMAT naming the line or face. out is overwritten; the caller owns it. Pure. */
+core_status groom_hairmesh_load_obj(const void *data, size_t size, core_hairmesh *out, core_err *err);
+
+/* Writes m in the convention of groom_hairmesh_load_obj (a comment line, the layers' `v` lines,
+ * the root faces; 9 significant digits, so the loader reads the same floats back) into a
+ * NUL-terminated buffer *out (*len bytes without the NUL); the caller frees it. Guides are not
+ * written. CORE_ENOMEM. Pure, any thread. */
+core_status groom_hairmesh_write_obj(const core_hairmesh *m, char **out, size_t *len, core_err *err);
+
 #endif

@@ -89,6 +89,15 @@ typedef struct proto_param_value {
 typedef enum proto_collider_mode { PROTO_COLLIDER_KEEP = 0, PROTO_COLLIDER_NONE, PROTO_COLLIDER_FILE } proto_collider_mode;
 
 /* One parsed client message. */
+/* What a client's stream carries (subscribe's "source"). */
+typedef enum proto_source {
+    PROTO_SOURCE_STRANDS = 0, /* the strands (codec "strand") */
+    PROTO_SOURCE_HAIRMESH     /* the hair mesh's vertices (codec "hairmesh"), while the solver has one */
+} proto_source;
+
+/* The source's name in subscribe ("strands", "hairmesh"). Pure. */
+const char *proto_source_name(proto_source s);
+
 typedef struct proto_msg {
     proto_type type;
     proto_id id;
@@ -121,7 +130,8 @@ typedef struct proto_msg {
             char collider[PROTO_MAX_NAME + 1]; /* PROTO_COLLIDER_FILE: a name under the asset folder */
         } set_groom;
         struct {
-            bool has_stride, has_max_error, has_max_rate;
+            bool has_stride, has_max_error, has_max_rate, has_source;
+            proto_source source;
             int32_t stride;
             double max_error;
             double max_rate;
@@ -195,6 +205,8 @@ typedef struct proto_groom {
     uint64_t seed;
     const proto_data_ref *data;   /* the rest lengths and roots (required) */
     const proto_mesh_ref *mesh;   /* required when groom->mesh is set, ignored otherwise */
+    const proto_data_ref *hairmesh; /* the hair mesh topology binary (proto_hairmesh_bin_write):
+                                       required when groom->hairmesh is set, ignored otherwise */
 } proto_groom;
 
 /* Pre-rendered JSON of a groom ("groom", "colliders" and "collider_mesh" values); built once
@@ -228,7 +240,8 @@ char *proto_build_state(const proto_id *id, const proto_state *s);
 
 /* The stream a client receives. */
 typedef struct proto_stream {
-    const char *codec;
+    const char *codec;     /* "strand", or "hairmesh" for a client subscribed to the hair mesh
+                              (then stride is 1 and strands the mesh's columns) */
     int32_t stride;        /* every stride-th strand, starting with strand 0 */
     uint32_t strands;      /* strands per frame */
     double max_error;      /* m */
@@ -296,6 +309,27 @@ void proto_groom_bin_write(const core_groom *g, unsigned char *out);
  * bin + PROTO_GROOM_HEADER, the roots 4 nstrands bytes later. CORE_EFORMAT with the reason in
  * err. Pure, any thread. */
 core_status proto_groom_bin_read(const unsigned char *bin, size_t len, uint32_t *nstrands, uint32_t *nverts, core_err *err);
+
+/* ---- the hair mesh topology binary (GET /hairmesh.bin; layout in proto/PROTOCOL.md) ---- */
+#define PROTO_HAIRMESH_MAGIC "SCHT"
+#define PROTO_HAIRMESH_VERSION 1u
+#define PROTO_HAIRMESH_HEADER 24u /* magic, version, ncols, nlayers, nfaces, nguides (uint32 LE each) */
+
+/* The counts of a hair mesh topology binary. */
+typedef struct proto_hairmesh_counts {
+    uint32_t ncols, nlayers, nfaces, nguides;
+} proto_hairmesh_counts;
+
+/* Bytes of m's binary: PROTO_HAIRMESH_HEADER + 16 nfaces + 12 nguides + 12 ncols nlayers. Pure. */
+size_t proto_hairmesh_bin_size(const core_hairmesh *m);
+/* Writes m's binary (proto_hairmesh_bin_size bytes) to out: its faces, its guides' faces and
+ * coordinates, then its rest vertices. Pure, any thread. */
+void proto_hairmesh_bin_write(const core_hairmesh *m, unsigned char *out);
+/* Checks a binary of len bytes (magic, version, counts, exact size, face corners in range and
+ * distinct with a triangle's 4th CORE_HAIRMESH_NONE, guide faces in range, finite guide
+ * coordinates and vertices) and gives its counts; the faces start at bin +
+ * PROTO_HAIRMESH_HEADER. CORE_EFORMAT with the reason in err. Pure, any thread. */
+core_status proto_hairmesh_bin_read(const unsigned char *bin, size_t len, proto_hairmesh_counts *out, core_err *err);
 
 /* A served binary's version tag: 16 lowercase hex digits of its 64-bit FNV-1a hash, into out
  * (17 bytes with the NUL). Pure. */

@@ -27,8 +27,10 @@ static void put_vec(proto_sb *sb, core_vec3 v)
     proto_sb_floats(sb, f, 3, 1);
 }
 
-/* {"source":..,"strands":..,"verts":..,"seed":..,"bounds":[..],"url":..,"etag":..,"bytes":..}:
- * the per-strand arrays are in the binary at url, not in the JSON. */
+/* {"source":..,"strands":..,"verts":..,"seed":..,"bounds":[..],"url":..,"etag":..,"bytes":..,
+ * "hairmesh":{"ncols":..,"nlayers":..,"nfaces":..,"nguides":..,"url":..,"etag":..,"bytes":..}|null}:
+ * the per-strand arrays and the hair mesh's topology are in the binaries at the urls, not in the
+ * JSON. */
 static char *groom_text(const proto_groom *pg, core_err *err, core_status *st)
 {
     const core_groom *g = pg->groom;
@@ -53,8 +55,22 @@ static char *groom_text(const proto_groom *pg, core_err *err, core_status *st)
     put_json_string(&sb, d && d->url ? d->url : "");
     put_str(&sb, ",\"etag\":");
     put_json_string(&sb, d && d->etag ? d->etag : "");
-    snprintf(buf, sizeof buf, ",\"bytes\":%llu}", d ? (unsigned long long)d->bytes : 0ull);
+    snprintf(buf, sizeof buf, ",\"bytes\":%llu,\"hairmesh\":", d ? (unsigned long long)d->bytes : 0ull);
     put_str(&sb, buf);
+    const core_hairmesh *m = g->hairmesh;
+    const proto_data_ref *h = pg->hairmesh;
+    if (m && h) {
+        snprintf(buf, sizeof buf, "{\"ncols\":%u,\"nlayers\":%u,\"nfaces\":%u,\"nguides\":%u,\"url\":", m->ncols,
+                 m->nlayers, m->nfaces, m->nguides);
+        put_str(&sb, buf);
+        put_json_string(&sb, h->url ? h->url : "");
+        put_str(&sb, ",\"etag\":");
+        put_json_string(&sb, h->etag ? h->etag : "");
+        snprintf(buf, sizeof buf, ",\"bytes\":%llu}}", (unsigned long long)h->bytes);
+        put_str(&sb, buf);
+    } else {
+        put_str(&sb, "null}");
+    }
     char *t = proto_sb_take(&sb);
     if (!t) *st = core_fail(err, CORE_ENOMEM, "out of memory rendering the groom");
     return t;
@@ -150,6 +166,8 @@ core_status proto_groom_json_build(proto_groom_json *out, const proto_groom *g, 
     core_status st = CORE_OK;
     memset(out, 0, sizeof *out);
     if (!g->data) return core_fail(err, CORE_EINVAL, "the groom's data binary is not described (proto_groom.data)");
+    if (g->groom->hairmesh && !g->hairmesh)
+        return core_fail(err, CORE_EINVAL, "the groom's hair mesh binary is not described (proto_groom.hairmesh)");
     out->groom = groom_text(g, err, &st);
     if (st == CORE_OK) out->colliders = colliders_text(g->groom, err, &st);
     if (st == CORE_OK) out->mesh = mesh_text(g, err, &st);

@@ -65,7 +65,7 @@ static const char *const *allowed_fields(proto_type t)
     static const char *const animate[] = { "preset", "speed", NULL };
     static const char *const step[] = { "count", NULL };
     static const char *const set_groom[] = { "style", "file", "strands", "verts", "seed", "collider", NULL };
-    static const char *const subscribe[] = { "stride", "max_error", "max_rate", NULL };
+    static const char *const subscribe[] = { "stride", "max_error", "max_rate", "source", NULL };
     static const char *const auth[] = { "token", NULL };
     switch (t) {
     case PROTO_SET_PARAMS: return set_params;
@@ -383,7 +383,19 @@ static core_status parse_subscribe(const cJSON *root, proto_msg *m, proto_error 
     if (st != CORE_OK) return st;
     m->u.subscribe.has_max_rate =
         get_ranged(root, "max_rate", false, false, 0.0, PROTO_MAX_RATE, &m->u.subscribe.max_rate, e, &st);
-    return st;
+    if (st != CORE_OK) return st;
+    static const char *const sources[] = { "strands", "hairmesh" };
+    const char *source;
+    if (!(m->u.subscribe.has_source = get_string(root, "source", false, 16, &source, e, &st))) return st;
+    uint32_t k;
+    if ((st = lookup_name("source", source, sources, 2, &k, e)) != CORE_OK) return st;
+    m->u.subscribe.source = (proto_source)k;
+    return CORE_OK;
+}
+
+const char *proto_source_name(proto_source s)
+{
+    return s == PROTO_SOURCE_HAIRMESH ? "hairmesh" : "strands";
 }
 
 static core_status parse_root(const proto_parser *p, const cJSON *root, proto_msg *m, proto_error *e)

@@ -7,15 +7,16 @@
 #include "sim_cpu.h"
 #include "sim_pbd.h"
 #include "sim_select.h"
+#include "hm/sim_hm.h"
 #include "vk/sim_vk.h"
 
 core_status sim_solver_check(const sim_params *p, const core_groom *g, core_err *err)
 {
-    (void)g;
     switch (p->solver) {
     case SIM_SOLVER_DFTL:
     case SIM_SOLVER_PBD: return CORE_OK;
-    case SIM_SOLVER_HAIRMESH: return core_fail(err, CORE_EINVAL, "solver hairmesh needs a hair-mesh groom");
+    case SIM_SOLVER_HAIRMESH:
+        return g && g->hairmesh ? CORE_OK : core_fail(err, CORE_EINVAL, "solver hairmesh needs a hair-mesh groom");
     }
     return core_fail(err, CORE_EINVAL, "solver %d is not one of dftl, hairmesh, pbd", (int)p->solver);
 }
@@ -26,6 +27,7 @@ static const sim_vtable *solver_vtable(int32_t solver, sim_backend_kind kind)
     switch (solver) {
     case SIM_SOLVER_DFTL: return kind == SIM_BACKEND_VULKAN ? sim_vk_vtable() : sim_cpu_vtable();
     case SIM_SOLVER_PBD: return kind == SIM_BACKEND_VULKAN ? sim_vk_vtable() : sim_pbd_vtable();
+    case SIM_SOLVER_HAIRMESH: return kind == SIM_BACKEND_VULKAN ? NULL : &sim_hm_vtable;
     }
     return NULL;
 }
@@ -84,12 +86,15 @@ core_status sim_change(sim *s, const core_groom *groom, const sim_params *params
     float *xyz = malloc(n * sizeof(float)), *vel = malloc(n * sizeof(float));
     sim next;
     if (!xyz || !vel) st = core_fail(err, CORE_ENOMEM, "solver switch: out of memory for %zu floats", 2 * n);
-    if (st == CORE_OK) st = sim_read_state(s, xyz, vel, err);
+    /* the state carries over between strand solvers; the hair-mesh solver's is its mesh, so a
+     * switch to or from it starts the new solver at rest */
+    const bool carry = s->solver != SIM_SOLVER_HAIRMESH && params->solver != SIM_SOLVER_HAIRMESH;
+    if (st == CORE_OK && carry) st = sim_read_state(s, xyz, vel, err);
     if (st == CORE_OK && (st = sim_create(&next, &d, groom, params, err)) == CORE_OK) {
         /* under the head the old solver last had, as if it had always run there */
         sim_set_motion(&next, s->head);
         sim_reset(&next);
-        if ((st = sim_write_state(&next, xyz, vel, err)) == CORE_OK) {
+        if (!carry || (st = sim_write_state(&next, xyz, vel, err)) == CORE_OK) {
             core_log(CORE_LOG_INFO, "sim", "solver %s -> %s (%s backend)", sim_solver_name(s->solver),
                      sim_solver_name(params->solver), next.vt->name);
             sim_stats was;
@@ -125,6 +130,13 @@ bool sim_set_cancel(sim *s, sim_cancel_fn poll, void *ctx)
     return true;
 }
 core_status sim_read_positions(sim *s, float *xyz, core_err *err) { return s->vt->read_positions(s->self, xyz, err); }
+core_status sim_read_hairmesh(sim *s, float *xyz, core_err *err)
+{
+    if (!s->vt || !s->vt->read_hairmesh)
+        return core_fail(err, CORE_EUNSUPPORTED, "the %s solver simulates strands, not a hair mesh",
+                         s->vt ? s->vt->name : "(none)");
+    return s->vt->read_hairmesh(s->self, xyz, err);
+}
 core_status sim_read_state(sim *s, float *xyz, float *vel, core_err *err) { return s->vt->read_state(s->self, xyz, vel, err); }
 core_status sim_write_state(sim *s, const float *xyz, const float *vel, core_err *err)
 {

@@ -106,6 +106,9 @@ typedef struct sim_vtable {
     void (*get_stats)(void *self, sim_stats *out);
     void (*destroy)(void *self);
     void (*set_cancel)(void *self, sim_cancel_fn poll, void *ctx); /* NULL: steps cannot be abandoned */
+    /* optional (NULL for strand solvers): the hair mesh's vertices, xyz = 3 * ncols * nlayers
+     * floats, column-major as core_hairmesh.pos, world frame */
+    core_status (*read_hairmesh)(void *self, float *xyz, core_err *err);
 } sim_vtable;
 
 /* A solver instance: a backend table plus its state, the options it was created with and the
@@ -126,8 +129,8 @@ typedef struct sim {
 } sim;
 
 /* Creates solver params->solver for groom (copied; the caller keeps ownership of groom) with
- * params (validated; sim_solver_check). dftl and pbd run on both backends; a solver without a
- * Vulkan backend runs on the CPU backend whatever desc->backend asks, and says so in the log.
+ * params (validated; sim_solver_check). dftl and pbd run on both backends; hairmesh has no
+ * Vulkan backend and runs on the CPU backend whatever desc->backend asks, saying so in the log.
  * backend AUTO (for a solver with a Vulkan backend) uses a hardware Vulkan device when present;
  * with only a CPU Vulkan device (lavapipe) it times a few steps of each backend on this groom and keeps the faster;
  * if Vulkan set-up fails it falls back to the CPU backend and logs why. On failure *s is zeroed
@@ -168,6 +171,11 @@ bool sim_set_cancel(sim *s, sim_cancel_fn poll, void *ctx);
 
 /* Copies positions out, strand-major xyz (3 * nstrands * nverts floats, caller-owned). */
 core_status sim_read_positions(sim *s, float *xyz, core_err *err);
+
+/* Copies the hair mesh's vertices out (3 * ncols * nlayers floats, column-major as
+ * core_hairmesh.pos, world frame, caller-owned) from a solver that simulates one; a strand
+ * solver answers CORE_EUNSUPPORTED. Sim thread. */
+core_status sim_read_hairmesh(sim *s, float *xyz, core_err *err);
 
 /* What sim_time_steps measured. */
 typedef struct sim_timing {

@@ -11,6 +11,7 @@ int bench_codec_main(int argc, char **argv);
 int bench_quality_main(int argc, char **argv);
 int bench_latency_main(int argc, char **argv);
 int bench_record_main(int argc, char **argv);
+int bench_hairmesh_main(int argc, char **argv);
 
 /* Measures memory-copy bandwidth (bytes read + written per second) with a buffer of `bytes`,
  * best of a few runs, on the calling thread plus nthreads-1 helpers. */

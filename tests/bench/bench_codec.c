@@ -11,6 +11,7 @@
 #include <zlib.h>
 
 #include "bench.h"
+#include "bench_codec_hairmesh.h"
 #include "codec/codec.h"
 #include "codec_synth.h"
 #include "core/cli.h"
@@ -254,13 +255,19 @@ static void usage(void)
          "  K: consecutive frames from the middle (from a keyframe) also decoded in Node (strand, JS)\n"
          "     and coded with meshopt (default 30); the meshopt row and ratio use those frames.\n"
          "  --cpu-time: time with the CPU clock of the thread (C) and process (Node), not the wall\n"
-         "     clock (for a host that other jobs load).");
+         "     clock (for a host that other jobs load).\n"
+         "  --hairmesh STYLE [--grid G] [--layers L] [--per-face P] [--verts V] [--seconds S] [--fps F] [--sim]:\n"
+         "     bytes per frame of one hairstyle streamed as strands and as its hair mesh: a procedural\n"
+         "     hair mesh (straight | wavy | curly, G x G quads per scalp patch (the generator's default),\n"
+         "     L layers (9)) swaying under the synthetic head motion, P strands of V vertices per face\n"
+         "     (114, 32) traced through it;\n"
+         "     --sim: the hair-mesh solver's frames under that head motion instead (one per step).");
 }
 
 #define PROG "strandbench codec"
 
 enum { OPT_JSON = 256, OPT_CPU_TIME, OPT_SYNTHETIC, OPT_SAVE_FRAMES, OPT_FRAMES, OPT_SECONDS, OPT_FPS, OPT_STRANDS, OPT_VERTS,
-       OPT_JS_FRAMES };
+       OPT_JS_FRAMES, OPT_HAIRMESH, OPT_GRID, OPT_LAYERS, OPT_PER_FACE, OPT_SIM };
 
 static const struct option codec_options[] = {
     { "json", no_argument, NULL, OPT_JSON },
@@ -273,6 +280,11 @@ static const struct option codec_options[] = {
     { "strands", required_argument, NULL, OPT_STRANDS },
     { "verts", required_argument, NULL, OPT_VERTS },
     { "js-frames", required_argument, NULL, OPT_JS_FRAMES },
+    { "hairmesh", required_argument, NULL, OPT_HAIRMESH },
+    { "grid", required_argument, NULL, OPT_GRID },
+    { "layers", required_argument, NULL, OPT_LAYERS },
+    { "per-face", required_argument, NULL, OPT_PER_FACE },
+    { "sim", no_argument, NULL, OPT_SIM },
     { "help", no_argument, NULL, 'h' },
     { NULL, 0, NULL, 0 },
 };
@@ -285,6 +297,7 @@ int bench_codec_main(int argc, char **argv)
     frame_src src = { .nstrands = 4096, .nverts = 32, .fps = 60.0 };
     uint32_t js_frames = 30;
     const char *save = NULL;
+    bench_hairmesh_opts hm = { .nlayers = 9, .per_face = 114, .nverts = 32, .fps = 60.0 };
     core_cli_begin();
     char flag[32];
     int opt, status;
@@ -310,10 +323,28 @@ int bench_codec_main(int argc, char **argv)
         case OPT_JS_FRAMES:
             if (!(rc = core_cli_u64(PROG, flag, v, 0, 1000000, &u))) js_frames = (uint32_t)u;
             break;
+        case OPT_HAIRMESH: hm.style = v; break;
+        case OPT_SIM: hm.sim = 1; break;
+        case OPT_GRID:
+            if (!(rc = core_cli_u64(PROG, flag, v, 1, GROOM_HAIRMESH_MAX_GRID, &u))) hm.grid = (uint32_t)u;
+            break;
+        case OPT_LAYERS:
+            if (!(rc = core_cli_u64(PROG, flag, v, 2, 1024, &u))) hm.nlayers = (uint32_t)u;
+            break;
+        case OPT_PER_FACE:
+            if (!(rc = core_cli_u64(PROG, flag, v, 1, 4096, &u))) hm.per_face = (uint32_t)u;
+            break;
         }
         if (rc) return rc;
     }
     if (status) return status;
+    if (hm.style) {
+        hm.json = json;
+        hm.seconds = seconds;
+        hm.fps = src.fps;
+        hm.nverts = src.nverts;
+        return bench_codec_hairmesh(&hm);
+    }
     if (path) {
         if (src_open_file(&src, path)) return 1;
     } else if (!src.synthetic) {

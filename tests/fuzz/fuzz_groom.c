@@ -1,5 +1,5 @@
 /* fuzz_groom: libFuzzer targets for the file loaders from bytes. Built once per loader with
- * FUZZ_LOADER set to 1 (.tfx), 2 (.hair), 3 (.obj) or 4 (.tfxmesh). */
+ * FUZZ_LOADER set to 1 (.tfx), 2 (.hair), 3 (.obj), 4 (.tfxmesh) or 5 (layered hair mesh .obj). */
 #include <stdint.h>
 #include <string.h>
 
@@ -41,6 +41,18 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 #if FUZZ_LOADER <= 2
     load_groom(data, size, 0);
     load_groom(data, size, 3);
+#elif FUZZ_LOADER == 5
+    core_err err;
+    core_hairmesh m;
+    core_status st = groom_hairmesh_load_obj(data, size, &m, &err);
+    if (st != CORE_OK) {
+        check_refusal(st, &err);
+        return 0;
+    }
+    core_groom g; /* a loaded mesh traces */
+    if (groom_from_hairmesh(&m, 2, 5, &g, &err) != CORE_OK) __builtin_trap();
+    core_groom_free(&g);
+    core_hairmesh_free(&m);
 #else
     core_err err;
     core_mesh m;

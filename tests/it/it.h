@@ -130,6 +130,8 @@ int setup_ratboy(void **state);
 int setup_two_clients(void **state);
 /* The common fixture with a groom budget of 100 steps/s (it_lifecycle.c). */
 int setup_budget(void **state);
+/* The hair-mesh solver on a groom traced through a procedural hair mesh (it_streams.c). */
+int setup_hairmesh(void **state);
 /* The common fixture on a 65,536 x 4 groom (it_lifecycle.c). */
 int setup_large_groom(void **state);
 /* it_access.c: with --token-file (IT_TOKEN); with --allow-origin https://good.example; with a

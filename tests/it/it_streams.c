@@ -140,6 +140,106 @@ void test_stream_slots(void **state)
     assert_int_equal(v->bad, 0);
 }
 
+/* A strand groom has no hair mesh: hello says so (groom.hairmesh null), subscribing to the hair
+ * mesh is refused (bad_state, field source) and changes nothing, and the strands go on; the
+ * strands source is accepted. */
+void test_hairmesh_source_refused(void **state)
+{
+    fixture *fx = *state;
+    view *v;
+    wsc_conn *c = connect_view(fx, &v);
+    cJSON *hello = expect_msg(fx, c, "hello");
+    assert_true(cJSON_IsNull(get(get(hello, "groom"), "hairmesh")));
+    assert_string_equal(str(get(hello, "stream"), "codec"), "strand");
+    cJSON_Delete(hello);
+    wait_frames(fx, v, 3);
+    wsc_send_text(c, "{\"type\":\"subscribe\",\"source\":\"hairmesh\",\"max_rate\":10,\"id\":1}");
+    cJSON *e = expect_msg(fx, c, "error");
+    assert_string_equal(str(e, "code"), "bad_state");
+    assert_string_equal(str(e, "field"), "source");
+    assert_non_null(strstr(str(e, "message"), "groom.hairmesh is null"));
+    assert_true(num(e, "id") == 1);
+    cJSON_Delete(e);
+    uint64_t n = v->ok;
+    wait_frames(fx, v, n + 6); /* the 60 Hz strand stream, unchanged by the refused subscribe */
+    assert_int_equal(v->info.nstrands_sent, NSTRANDS);
+    assert_int_equal(v->info.codec_id, CODEC_ID_STRAND);
+    wsc_send_text(c, "{\"type\":\"subscribe\",\"source\":\"strands\",\"stride\":2,\"id\":2}");
+    cJSON *sub = expect_msg(fx, c, "subscribed");
+    assert_string_equal(str(get(sub, "stream"), "codec"), "strand");
+    assert_true(num(get(sub, "stream"), "stride") == 2);
+    cJSON_Delete(sub);
+    assert_int_equal(v->bad, 0);
+}
+
+int setup_hairmesh(void **state)
+{
+    static const char *const extra[] = { "--groom", "hairmesh:wavy", "--strands", "256", "--verts", "12", "--solver",
+                                         "hairmesh", NULL };
+    return setup_with(state, extra);
+}
+
+/* The hair mesh as a stream: hello describes it, its topology binary is served and reads back
+ * with the hello's counts, subscribe source hairmesh gives hair mesh frames of every column and
+ * layer (within the bound of the rest mesh at rest), and a change to a strand solver moves the
+ * client back to the strands with an unsolicited subscribed, after which the mesh is refused. */
+void test_hairmesh_stream(void **state)
+{
+    fixture *fx = *state;
+    view *v;
+    wsc_conn *c = connect_view(fx, &v);
+    cJSON *hello = expect_msg(fx, c, "hello");
+    const cJSON *hm = get(get(hello, "groom"), "hairmesh");
+    const uint32_t ncols = (uint32_t)num(hm, "ncols"), nlayers = (uint32_t)num(hm, "nlayers");
+    const uint32_t nstrands = (uint32_t)num(get(hello, "groom"), "strands");
+    assert_true(ncols >= 3 && nlayers >= 2 && num(hm, "nguides") == num(get(hello, "groom"), "strands"));
+    http_reply r;
+    assert_int_equal(http_get(fx->d.port, str(hm, "url"), &r), 0);
+    assert_int_equal(r.status, 200);
+    assert_true(r.body_len == (size_t)num(hm, "bytes"));
+    proto_hairmesh_counts counts;
+    core_err err;
+    if (proto_hairmesh_bin_read((const unsigned char *)r.body, r.body_len, &counts, &err) != CORE_OK) fail_msg("%s", err.msg);
+    assert_true(counts.ncols == ncols && counts.nlayers == nlayers && counts.nfaces == num(hm, "nfaces"));
+    char etag[17];
+    proto_bin_etag((const unsigned char *)r.body, r.body_len, etag);
+    assert_string_equal(etag, str(hm, "etag"));
+    http_reply_free(&r);
+    cJSON_Delete(hello);
+    wait_frames(fx, v, 3);
+    assert_int_equal(v->info.codec_id, CODEC_ID_STRAND);
+
+    wsc_send_text(c, "{\"type\":\"subscribe\",\"source\":\"hairmesh\",\"id\":1}");
+    cJSON *sub = expect_msg(fx, c, "subscribed");
+    const cJSON *so = get(sub, "stream");
+    assert_string_equal(str(so, "codec"), "hairmesh");
+    assert_true(num(so, "stride") == 1 && num(so, "strands") == ncols && num(sub, "id") == 1);
+    cJSON_Delete(sub);
+    count_arg shape = { v, ncols, nlayers };
+    assert_true(wsc_until(fx->w, frame_shape, &shape, WAIT_MS));
+    uint64_t n = v->ok;
+    wait_frames(fx, v, n + 5);
+    assert_int_equal(v->info.codec_id, CODEC_ID_HAIRMESH);
+    assert_true(v->info.stride == 1 && v->info.nstrands_total == ncols);
+    assert_true(v->info.frame_len < 16u * ncols * nlayers); /* far below the 12 bytes of raw float32 xyz */
+
+    /* a strand solver: back to the strands, told without an id */
+    wsc_send_text(c, "{\"type\":\"set_params\",\"values\":{\"solver\":\"dftl\"},\"id\":2}");
+    cJSON *moved = expect_msg(fx, c, "subscribed");
+    assert_null(cJSON_GetObjectItemCaseSensitive(moved, "id"));
+    assert_string_equal(str(get(moved, "stream"), "codec"), "strand");
+    cJSON_Delete(moved);
+    count_arg strands = { v, nstrands, 12 };
+    assert_true(wsc_until(fx->w, frame_shape, &strands, WAIT_MS));
+    assert_int_equal(v->info.codec_id, CODEC_ID_STRAND);
+    wsc_send_text(c, "{\"type\":\"subscribe\",\"source\":\"hairmesh\",\"id\":3}");
+    cJSON *e = expect_msg(fx, c, "error");
+    assert_string_equal(str(e, "code"), "bad_state");
+    assert_non_null(strstr(str(e, "message"), "needs the hairmesh solver"));
+    cJSON_Delete(e);
+    assert_int_equal(v->bad, 0);
+}
+
 /* A groom 2 km up cannot be streamed at 0.01 mm (its lattice coordinates would pass 2^26): that
  * stream's clients are told why, and a 1 mm stream goes on. */
 void test_stream_failure_is_reported(void **state)

@@ -11,7 +11,9 @@ import { readFileSync, writeFileSync } from 'node:fs';
 import { dirname, join } from 'node:path';
 import { fileURLToPath } from 'node:url';
 
-import { StrandDecoder, peekHeader, crc32 as codecCrc32, HEADER_SIZE, coreLayout, READ_SLACK } from '../../web/codec.js';
+import {
+  StrandDecoder, peekHeader, crc32 as codecCrc32, HEADER_SIZE, coreLayout, READ_SLACK, CODEC_ID_STRAND, CODEC_ID_HAIRMESH,
+} from '../../web/codec.js';
 import { KERNEL_WASM } from '../../web/codec_kernel_wasm.js';
 import { encodeFrame, stampCrc } from './codec_encode.mjs';
 import { MODE_SHAPES, MODE_STEP, modeStream } from './mode_vectors.mjs';
@@ -60,6 +62,8 @@ test('manifest describes the format this decoder reads', () => {
   assert.ok(manifest.streams.some((s) => s.stride > 1));
   assert.ok(manifest.streams.some((s) => s.nstrands_sent % 8 !== 0), 'a stream with a partial group of 8');
   assert.ok(manifest.streams.some((s) => s.nstrands_sent > 8), 'a stream with more than one group');
+  assert.ok(manifest.streams.some((s) => s.codec === CODEC_ID_HAIRMESH), 'a hair mesh stream');
+  assert.ok(manifest.streams.every((s) => s.codec === CODEC_ID_STRAND || s.codec === CODEC_ID_HAIRMESH));
 });
 
 test('every vector decodes bit for bit, in order and with frames skipped', () => {
@@ -83,6 +87,7 @@ test('every vector decodes bit for bit, in order and with frames skipped', () =>
         assert.equal(info.nstrandsTotal, s.nstrands);
         assert.equal(info.nverts, s.nverts);
         assert.equal(info.stride, s.stride);
+        assert.equal(info.codec, s.codec);
         assert.equal(info.maxError, Math.fround(s.max_error_m));
         assert.equal(info.positions.length, s.nstrands_sent * s.nverts * 3);
         sameBits(info.positions, f.file + '.out.f32');
@@ -647,4 +652,25 @@ test('the core module imports only its memory and exports the core', () => {
   const k = new WebAssembly.Instance(mod, { env: { memory: new WebAssembly.Memory({ initial: 2 }) } }).exports;
   assert.ok(k.__heap_base.value >= 65536 && k.__heap_base.value < 2 * 65536, `heap base ${k.__heap_base.value}`);
   assert.equal(k.codec_core_seg_len(9, 3), 2 * 32 * 3);
+});
+
+test('hair mesh frames: every column is sent, and a delta needs a keyframe of its own codec', () => {
+  const s = manifest.streams.find((m) => m.codec === CODEC_ID_HAIRMESH);
+  const key = load(s.frames[0].file + '.bin'), delta = load(s.frames[1].file + '.bin');
+  assert.equal(peekHeader(key).codec, CODEC_ID_HAIRMESH);
+  const strided = key.slice();
+  const dv = new DataView(strided.buffer);
+  dv.setUint32(56, 2, true);
+  dv.setUint32(48, Math.ceil(s.nstrands / 2), true);
+  restampCrc(strided);
+  assert.throws(() => peekHeader(strided), /^Error: codec: a hair mesh frame has stride 1, not 2 \[stride \/ nstrands_total, byte 56\]$/);
+  rejects(new StrandDecoder(), strided, /a hair mesh frame has stride 1, not 2/);
+  const asStrands = key.slice();
+  asStrands[6] = CODEC_ID_STRAND;
+  restampCrc(asStrands);
+  const dec = new StrandDecoder();
+  assert.equal(dec.decode(asStrands).codec, CODEC_ID_STRAND);
+  rejects(dec, delta, /does not match its keyframe's layout or step/);
+  assert.equal(dec.decode(key).codec, CODEC_ID_HAIRMESH);
+  sameBits(dec.decode(delta).positions, s.frames[1].file + '.out.f32');
 });

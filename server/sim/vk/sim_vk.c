@@ -571,8 +571,9 @@ core_status sim_vk_create(sim *out, const sim_desc *desc, const sim_vk_options *
 {
     memset(out, 0, sizeof *out);
     core_status st = sim_params_validate(params, err);
-    if (st == CORE_OK) st = sim_solver_check(params, groom, err);
     if (st != CORE_OK) return st;
+    if (params->solver != SIM_SOLVER_DFTL && params->solver != SIM_SOLVER_PBD)
+        return core_fail(err, CORE_EINVAL, "vulkan: solver %s has no Vulkan backend", sim_solver_name(params->solver));
     sim_vk *s = NULL;
     st = create_impl(desc, opt, groom, params, &s, err);
     if (st != CORE_OK) return st;

@@ -37,7 +37,7 @@ typedef struct sim_vk_probe_info {
 core_status sim_vk_probe(int device, sim_vk_probe_info *info, core_err *err);
 
 /* Creates a Vulkan sim like sim_create with backend VULKAN (the solver of params->solver, which
- * must have a Vulkan backend: dftl or pbd), with extra options (opt may be NULL). params must
+ * must have a Vulkan backend: dftl or pbd, else CORE_EINVAL), with extra options (opt may be NULL). params must
  * be valid (sim_params_validate). *s is zeroed on failure. Sim thread. */
 core_status sim_vk_create(sim *s, const sim_desc *desc, const sim_vk_options *opt, const core_groom *groom,
                           const sim_params *params, core_err *err);

@@ -1,0 +1,124 @@
+/* sim_hm: forces (Baraff-Witkin stretch, shear and bend conditions; the corner tetrahedra's volume
+ * force, paper eq. 1-2) and the implicit Euler system they give. */
+#include <math.h>
+#include <string.h>
+
+#include "sim_hm_internal.h"
+
+/* Adds the 3x3 block a u u^T + b I to the symmetric block p (xx yy zz xy xz yz). */
+static void add_block(float *p, const float u[3], float a, float b)
+{
+    p[0] += a * u[0] * u[0] + b, p[1] += a * u[1] * u[1] + b, p[2] += a * u[2] * u[2] + b;
+    p[3] += a * u[0] * u[1], p[4] += a * u[0] * u[2], p[5] += a * u[1] * u[2];
+}
+
+/* Inverts the symmetric block p in place (the identity's multiple when it is singular). */
+static void invert_block(float *p)
+{
+    double a = p[0], b = p[1], c = p[2], d = p[3], e = p[4], f = p[5];
+    double A = b * c - f * f, B = e * f - d * c, C = d * f - e * b;
+    double det = a * A + d * B + e * C;
+    if (!(fabs(det) > 1e-30)) {
+        double t = a + b + c;
+        float k = t > 0.0 ? (float)(3.0 / t) : 1.0f;
+        p[0] = p[1] = p[2] = k, p[3] = p[4] = p[5] = 0.0f;
+        return;
+    }
+    double k = 1.0 / det;
+    p[0] = (float)(A * k), p[1] = (float)((a * c - e * e) * k), p[2] = (float)((a * b - d * d) * k);
+    p[3] = (float)(B * k), p[4] = (float)(C * k), p[5] = (float)((d * e - a * f) * k);
+}
+
+static void springs(sim_hm *h, float dt, core_quat rot)
+{
+    sim_hm_springs *s = &h->sp;
+    const float kind_k[3] = { h->hp.stretch_stiffness, h->hp.shear_stiffness, h->hp.bend_stiffness };
+    const float kd = h->hp.damping, dt2 = dt * dt;
+    const float *x = h->x, *v = h->v;
+    float *rhs = h->rhs;
+    for (uint32_t i = 0; i < s->n; i++) {
+        const uint32_t a = s->a[i], b = s->b[i];
+        float d[3] = { x[3 * a] - x[3 * b], x[3 * a + 1] - x[3 * b + 1], x[3 * a + 2] - x[3 * b + 2] };
+        float len = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        float u[3];
+        if (len > 1e-7f) {
+            u[0] = d[0] / len, u[1] = d[1] / len, u[2] = d[2] / len;
+        } else {
+            core_vec3 r = core_q_rotate(rot, core_v3(s->dir[3 * i], s->dir[3 * i + 1], s->dir[3 * i + 2]));
+            u[0] = r.x, u[1] = r.y, u[2] = r.z;
+        }
+        const float k = kind_k[s->kind[i]];
+        const float C = len - s->len[i];
+        const float g = C > 0.0f ? C / len : 0.0f; /* the geometric term, kept only under tension */
+        const float dv[3] = { v[3 * a] - v[3 * b], v[3 * a + 1] - v[3 * b + 1], v[3 * a + 2] - v[3 * b + 2] };
+        const float udv = u[0] * dv[0] + u[1] * dv[1] + u[2] * dv[2];
+        const float fs = -k * C - kd * udv;
+        /* -K dv with K = k (1 - g) u u^T + k g I */
+        const float kv0 = -(k * (1.0f - g) * udv * u[0] + k * g * dv[0]);
+        const float kv1 = -(k * (1.0f - g) * udv * u[1] + k * g * dv[1]);
+        const float kv2 = -(k * (1.0f - g) * udv * u[2] + k * g * dv[2]);
+        const float r0 = dt * fs * u[0] + dt2 * kv0, r1 = dt * fs * u[1] + dt2 * kv1, r2 = dt * fs * u[2] + dt2 * kv2;
+        rhs[3 * a] += r0, rhs[3 * a + 1] += r1, rhs[3 * a + 2] += r2;
+        rhs[3 * b] -= r0, rhs[3 * b + 1] -= r1, rhs[3 * b + 2] -= r2;
+        const float al = dt * kd + dt2 * k * (1.0f - g), be = dt2 * k * g;
+        memcpy(s->u + 3 * i, u, sizeof u);
+        s->alpha[i] = al, s->beta[i] = be;
+        add_block(h->pinv + 6 * (size_t)a, u, al, be);
+        add_block(h->pinv + 6 * (size_t)b, u, al, be);
+    }
+}
+
+/* The volume force f_i = -k' C dC/dx_i with C = e1 . (e2 x e3) / 6 - V0 and k' = k |V0|^(2/3) / V0^2
+ * (so that k is a rate per unit mass whatever the tetrahedron's size), and its Gauss-Newton
+ * Jacobian -k' G G^T (G = the four gradients), applied matrix-free. */
+static void volumes(sim_hm *h, float dt)
+{
+    sim_hm_tets *t = &h->tets;
+    const float kv = h->hp.volume_stiffness, dt2 = dt * dt;
+    const float *x = h->x, *v = h->v;
+    for (uint32_t i = 0; i < t->n; i++) {
+        const uint32_t *id = t->v + 4 * (size_t)i;
+        const float *p0 = x + 3 * (size_t)id[0];
+        core_vec3 e1 = core_v3(x[3 * id[1]] - p0[0], x[3 * id[1] + 1] - p0[1], x[3 * id[1] + 2] - p0[2]);
+        core_vec3 e2 = core_v3(x[3 * id[2]] - p0[0], x[3 * id[2] + 1] - p0[1], x[3 * id[2] + 2] - p0[2]);
+        core_vec3 e3 = core_v3(x[3 * id[3]] - p0[0], x[3 * id[3] + 1] - p0[1], x[3 * id[3] + 2] - p0[2]);
+        core_vec3 g1 = core_v3_scale(core_v3_cross(e2, e3), 1.0f / 6.0f);
+        core_vec3 g2 = core_v3_scale(core_v3_cross(e3, e1), 1.0f / 6.0f);
+        core_vec3 g3 = core_v3_scale(core_v3_cross(e1, e2), 1.0f / 6.0f);
+        core_vec3 g0 = core_v3_scale(core_v3_add(core_v3_add(g1, g2), g3), -1.0f);
+        const float C = core_v3_dot(e1, g1) - t->v0[i];
+        const float kk = kv * t->scale[i];
+        float *g = t->g + 12 * (size_t)i;
+        const core_vec3 gs[4] = { g0, g1, g2, g3 };
+        float gv = 0.0f;
+        for (int j = 0; j < 4; j++) {
+            g[3 * j] = gs[j].x, g[3 * j + 1] = gs[j].y, g[3 * j + 2] = gs[j].z;
+            const float *vj = v + 3 * (size_t)id[j];
+            gv += gs[j].x * vj[0] + gs[j].y * vj[1] + gs[j].z * vj[2];
+        }
+        t->w[i] = dt2 * kk;
+        for (int j = 0; j < 4; j++) {
+            float *rj = h->rhs + 3 * (size_t)id[j];
+            const float fc = -kk * C, kc = -dt2 * kk * gv;
+            rj[0] += dt * fc * g[3 * j] + kc * g[3 * j];
+            rj[1] += dt * fc * g[3 * j + 1] + kc * g[3 * j + 1];
+            rj[2] += dt * fc * g[3 * j + 2] + kc * g[3 * j + 2];
+            add_block(h->pinv + 6 * (size_t)id[j], g + 3 * j, t->w[i], 0.0f);
+        }
+    }
+}
+
+void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat head_rot)
+{
+    const float drag = h->p.air_drag;
+    h->diag = 1.0f + dt * drag;
+    for (uint32_t i = 0; i < h->n; i++) {
+        float *r = h->rhs + 3 * (size_t)i, *p = h->pinv + 6 * (size_t)i;
+        const float *v = h->v + 3 * (size_t)i;
+        for (int k = 0; k < 3; k++) r[k] = dt * (accel[k] - drag * v[k]);
+        p[0] = p[1] = p[2] = h->diag, p[3] = p[4] = p[5] = 0.0f;
+    }
+    springs(h, dt, head_rot);
+    volumes(h, dt);
+    for (uint32_t i = 0; i < h->n; i++) invert_block(h->pinv + 6 * (size_t)i);
+}

@@ -1,0 +1,92 @@
+/* sim_hm: the solver's state and the stages shared by its files; not public. */
+#ifndef SIM_HM_SIM_HM_INTERNAL_H
+#define SIM_HM_SIM_HM_INTERNAL_H
+
+#include <stdint.h>
+
+#include "../sim_step.h"
+#include "sim_hm.h"
+
+typedef enum sim_hm_spring_kind { SIM_HM_STRETCH = 0, SIM_HM_SHEAR, SIM_HM_BEND } sim_hm_spring_kind;
+
+/* Springs (create time): ends a, b, rest length, kind, rest direction (head frame, a - b unit). */
+typedef struct sim_hm_springs {
+    uint32_t n;
+    uint32_t *a, *b;
+    float *len;
+    uint8_t *kind;
+    float *dir;   /* 3 per spring */
+    /* per step: the system's block S = alpha u u^T + beta I along u (unit, 3 per spring) */
+    float *u, *alpha, *beta;
+} sim_hm_springs;
+
+/* Corner tetrahedra (create time): 4 vertices and the rest volume's force scale. */
+typedef struct sim_hm_tets {
+    uint32_t n;
+    uint32_t *v;   /* 4 per tetrahedron */
+    float *v0;     /* rest volume, m^3 */
+    float *scale;  /* |v0|^(2/3) / v0^2 */
+    /* per step: the volume gradients (12 per tetrahedron) and the system's weight dt^2 k' */
+    float *g, *w;
+} sim_hm_tets;
+
+/* The mesh edges of the deformation minimization (A's rows) and the vertices' degrees. */
+typedef struct sim_hm_edges {
+    uint32_t n;
+    uint32_t *a, *b;
+    float *degree; /* per vertex */
+} sim_hm_edges;
+
+typedef struct sim_hm {
+    uint32_t ncols, nlayers, n; /* n = ncols * nlayers vertices */
+    core_hairmesh mesh;         /* faces, guides, rest positions (head frame) */
+    uint32_t nstrands, nverts;
+    sim_params p;
+    sim_hm_params hp;
+    sim_groom_info ginfo;
+    core_collider colliders[CORE_MAX_COLLIDERS];
+    core_sdf *sdf;              /* owned copy, NULL = none */
+    core_xform head, prev_head;
+    float *x, *v;               /* 3n, world */
+    float *xs, *xp;             /* 3n: positions at the substep's start, after the implicit step */
+    float *rhs, *dv, *z;        /* 3n: right-hand side, velocity change, prescribed values (fixed rows) */
+    float diag;                 /* the system's diagonal: 1 + dt air_drag (unit masses) */
+    float *pinv;                /* 6n: inverses of the system's diagonal blocks (xx yy zz xy xz yz), the preconditioner */
+    float *r, *c, *q, *s;       /* 3n: CG scratch */
+    uint8_t *fixed;             /* n: 1 = position prescribed (roots; corrected vertices while minimizing) */
+    uint8_t *surface;           /* n: 1 = on the outer surface (collided) */
+    float *push;                /* 3n: this substep's collision push of each vertex */
+    sim_hm_springs sp;
+    sim_hm_tets tets;
+    sim_hm_edges edges;
+    double stage_ms[4];
+    uint64_t steps, nan_resets;
+    double sim_time, last_step_ms;
+} sim_hm;
+
+/* Builds springs, tetrahedra, edges and surface flags from h->mesh (rest positions). */
+core_status sim_hm_build(sim_hm *h, core_err *err);
+/* Frees what sim_hm_build made. */
+void sim_hm_build_free(sim_hm *h);
+
+/* Forces at h->x, h->v (gravity and wind accel, air drag) and the implicit system
+ * (I - dt df/dv - dt^2 df/dx) dv = dt (f + dt df/dx v) for substep length dt: fills
+ * h->rhs, h->diag, h->pinv, the springs' blocks and the tetrahedra's gradients. head_rot turns
+ * the springs' rest directions into the world (the direction of a spring of zero length). */
+void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat head_rot);
+
+/* y = A x for the implicit system assembled by sim_hm_forces. */
+void sim_hm_apply(const sim_hm *h, const float *x, float *y);
+
+/* Solves A dv = rhs by modified CG: rows with fixed[i] keep dv_i = z_i. Returns the iterations. */
+int sim_hm_cg(sim_hm *h);
+
+/* Pushes the surface vertices out of the colliders of step k (world); marks pushes in h->push
+ * and returns how many vertices moved. */
+uint32_t sim_hm_collide(sim_hm *h, const sim_step_desc *d, int k);
+
+/* Deformation minimization (eq. 3-4): moves the unfixed vertices of h->x to minimize the change
+ * of the mesh edges from ref (the positions before collision handling). */
+void sim_hm_deform_min(sim_hm *h, const float *ref);
+
+#endif

@@ -1,0 +1,523 @@
+/* tests: the hair-mesh solver (sim/hm) against the 2016 paper: recovery from a collapsed mesh
+ * (Figure 8) and from 10x-speed motion (Figure 7), volume kept by the deformation minimization
+ * after a deep collision (Figure 9), stillness, volume and contacts at rest, the same sag at
+ * any dt and substep count, and the backend interface. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "groom/groom.h"
+#include "sim/hm/sim_hm.h"
+#include "sim/sim.h"
+
+/* The project's stillness bound: 99.9th percentile of per-frame vertex displacement, metres. */
+#define REST_P999 1e-5
+/* How far a surface vertex may end a step inside a collider, metres. */
+#define CONTACT_DEPTH 5e-4
+/* Volume kept at rest under gravity: the corner tetrahedra's total within this share of the rest one. */
+#define REST_VOLUME_TOL 0.05
+
+typedef struct hm_run {
+    core_groom groom;
+    sim s;
+    uint32_t nv;  /* mesh vertices */
+    float *x, *prev;
+} hm_run;
+
+/* A run on the procedural hair mesh of patches x patches patches of 2 x 2 quads and `layers` layers, with the default
+ * colliders when asked, plus a sphere of radius `ball` (when > 0) reaching 2 cm into the mesh
+ * past the tip of the first patch's middle column (a deep collision from the first step). */
+static void open_run_ball(hm_run *r, uint32_t patches, uint32_t layers, bool colliders, float ball, const sim_params *p)
+{
+    core_err err;
+    core_hairmesh m;
+    groom_hairmesh_desc d = { .patches = patches, .nlayers = layers };
+    assert_int_equal(groom_hairmesh_procedural(&d, &m, &err), CORE_OK);
+    if (groom_from_hairmesh(&m, 1, 12, &r->groom, &err) != CORE_OK) fail_msg("groom_from_hairmesh: %s", err.msg);
+    core_hairmesh_free(&m);
+    if (colliders) groom_default_colliders(&r->groom);
+    if (ball > 0.0f) {
+        const core_hairmesh *hm = r->groom.hairmesh;
+        const float *q = hm->pos + 3 * ((size_t)4 * hm->nlayers + hm->nlayers - 1);
+        core_vec3 tip = core_v3(q[0], q[1], q[2]), out = core_v3_norm(core_v3_sub(tip, core_v3(q[-3], q[-2], q[-1])));
+        core_vec3 c = core_v3_add(tip, core_v3_scale(out, ball - 0.02f));
+        core_collider *s = &r->groom.colliders[r->groom.ncolliders++];
+        memset(s, 0, sizeof *s);
+        s->kind = CORE_COLLIDER_SPHERE, s->a = c, s->b = c, s->radius = ball, s->rot = core_q_identity();
+    }
+    if (sim_hm_open(&r->s, NULL, &r->groom, p, &err) != CORE_OK) fail_msg("sim_hm_open: %s", err.msg);
+    r->nv = r->groom.hairmesh->ncols * r->groom.hairmesh->nlayers;
+    r->x = malloc(12 * (size_t)r->nv);
+    r->prev = malloc(12 * (size_t)r->nv);
+    assert_true(r->x && r->prev);
+}
+
+static void open_run(hm_run *r, uint32_t patches, uint32_t layers, bool colliders, const sim_params *p)
+{
+    open_run_ball(r, patches, layers, colliders, 0.0f, p);
+}
+
+static void close_run(hm_run *r)
+{
+    sim_destroy(&r->s);
+    core_groom_free(&r->groom);
+    free(r->x);
+    free(r->prev);
+}
+
+static void steps(hm_run *r, int n)
+{
+    core_err err;
+    for (int i = 0; i < n; i++) assert_int_equal(sim_step(&r->s, &err), CORE_OK);
+}
+
+static void mesh_now(hm_run *r, float *out)
+{
+    core_err err;
+    assert_int_equal(sim_read_hairmesh(&r->s, out, &err), CORE_OK);
+}
+
+static double tet(const float *x, const uint32_t id[4])
+{
+    const float *p0 = x + 3 * id[0];
+    double e[3][3];
+    for (int j = 0; j < 3; j++)
+        for (int a = 0; a < 3; a++) e[j][a] = (double)x[3 * id[j + 1] + a] - p0[a];
+    return (e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
+            e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0])) / 6.0;
+}
+
+/* The total signed volume of every prism's corner tetrahedra (the solver's volume elements); with
+ * rest, the volume they lost instead: the sum over the tetrahedra of max(0, rest volume - volume),
+ * so that an inverted tetrahedron cannot be made up for by a stretched one. */
+static double tet_volume(const core_hairmesh *m, const float *x, const float *rest)
+{
+    double sum = 0.0;
+    for (uint32_t f = 0; f < m->nfaces; f++) {
+        const uint32_t *c = m->faces + 4 * (size_t)f;
+        uint32_t nc = c[3] == CORE_HAIRMESH_NONE ? 3 : 4;
+        for (uint32_t l = 0; l + 1 < m->nlayers; l++)
+            for (uint32_t k = 0; k < nc; k++) {
+                uint32_t cn = c[(k + 1) % nc], cp = c[(k + nc - 1) % nc];
+                for (int top = 0; top < 2; top++) {
+                    uint32_t la = l + (uint32_t)top, lb = l + 1 - (uint32_t)top;
+                    uint32_t id[4] = { c[k] * m->nlayers + la, (top ? cp : cn) * m->nlayers + la,
+                                       (top ? cn : cp) * m->nlayers + la, c[k] * m->nlayers + lb };
+                    double v = tet(x, id);
+                    sum += rest ? fmax(0.0, tet(rest, id) - v) : v;
+                }
+            }
+    }
+    return sum;
+}
+
+static double mesh_volume(const core_hairmesh *m, const float *x) { return tet_volume(m, x, NULL); }
+
+static double dist(const float *a, const float *b)
+{
+    double dx = (double)a[0] - b[0], dy = (double)a[1] - b[1], dz = (double)a[2] - b[2];
+    return sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+static double mean_dist(const float *a, const float *b, uint32_t n)
+{
+    double s = 0.0;
+    for (uint32_t i = 0; i < n; i++) s += dist(a + 3 * i, b + 3 * i);
+    return s / n;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* The deepest a vertex (of those mask marks, all when NULL) sits inside g's colliders (0 if none). */
+static double deepest(const core_groom *g, const float *x, uint32_t n, const uint8_t *mask)
+{
+    double worst = 0.0;
+    for (uint32_t i = 0; i < n; i++) {
+        if (mask && !mask[i]) continue;
+        const float *p = x + 3 * i;
+        for (uint32_t k = 0; k < g->ncolliders; k++) {
+            const core_collider *c = &g->colliders[k];
+            double depth = 0.0;
+            if (c->kind == CORE_COLLIDER_ELLIPSOID) {
+                double u = (p[0] - c->a.x) / c->radii.x, v = (p[1] - c->a.y) / c->radii.y, w = (p[2] - c->a.z) / c->radii.z;
+                double s = sqrt(u * u + v * v + w * w);
+                double rmin = fmin(c->radii.x, fmin(c->radii.y, c->radii.z));
+                depth = s < 1.0 ? (1.0 - s) * rmin : 0.0;
+            } else {
+                double ax = c->b.x - c->a.x, ay = c->b.y - c->a.y, az = c->b.z - c->a.z;
+                double ee = ax * ax + ay * ay + az * az;
+                double t = ee > 0 ? ((p[0] - c->a.x) * ax + (p[1] - c->a.y) * ay + (p[2] - c->a.z) * az) / ee : 0.0;
+                t = t < 0 ? 0 : t > 1 ? 1 : t;
+                double dx = p[0] - (c->a.x + ax * t), dy = p[1] - (c->a.y + ay * t), dz = p[2] - (c->a.z + az * t);
+                double d = sqrt(dx * dx + dy * dy + dz * dz);
+                depth = d < c->radius ? c->radius - d : 0.0;
+            }
+            worst = fmax(worst, depth);
+        }
+    }
+    return worst;
+}
+
+/* 1 for each vertex on the mesh's outer surface (the tip layer, and every layer past the root of
+ * a column on an edge used by one face), 0 elsewhere; the caller frees it. */
+static uint8_t *surface_of(const core_hairmesh *m)
+{
+    uint8_t *s = calloc((size_t)m->ncols * m->nlayers, 1);
+    assert_non_null(s);
+    for (uint32_t f = 0; f < m->nfaces; f++)
+        for (uint32_t k = 0; k < 4; k++) {
+            uint32_t a = m->faces[4 * f + k], b = m->faces[4 * f + (k + 1) % 4], uses = 0;
+            for (uint32_t g = 0; g < m->nfaces; g++)
+                for (uint32_t j = 0; j < 4; j++) {
+                    uint32_t c = m->faces[4 * g + j], d = m->faces[4 * g + (j + 1) % 4];
+                    uses += (c == a && d == b) || (c == b && d == a);
+                }
+            if (uses == 1)
+                for (uint32_t l = 1; l < m->nlayers; l++) s[a * m->nlayers + l] = s[b * m->nlayers + l] = 1;
+        }
+    for (uint32_t c = 0; c < m->ncols; c++) s[c * m->nlayers + m->nlayers - 1] = 1;
+    return s;
+}
+
+/* Settles the mesh under gravity with no collider, the reference rest shape. */
+static void settled_reference(uint32_t patches, uint32_t layers, bool colliders, const sim_params *p, float *out)
+{
+    hm_run r;
+    open_run(&r, patches, layers, colliders, p);
+    steps(&r, (int)(4.0f / p->dt));
+    mesh_now(&r, out);
+    close_run(&r);
+}
+
+static void test_interface(void **state)
+{
+    (void)state;
+    core_err err;
+    sim_params p;
+    sim_params_default(&p);
+    core_groom plain;
+    groom_desc gd = { .nstrands = 16, .nverts = 8 };
+    assert_int_equal(groom_procedural(&gd, &plain, &err), CORE_OK);
+    sim s;
+    assert_int_equal(sim_hm_open(&s, NULL, &plain, &p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "hair mesh"));
+    sim_desc cd = { .backend = SIM_BACKEND_CPU, .threads = 1 };
+    assert_int_equal(sim_create(&s, &cd, &plain, &p, &err), CORE_OK);
+    float xyz[3 * 64];
+    assert_int_equal(sim_read_hairmesh(&s, xyz, &err), CORE_EUNSUPPORTED);
+    sim_hm_params hp;
+    sim_hm_params_default(&hp);
+    assert_int_equal(sim_hm_set_params(&s, &hp, &err), CORE_EUNSUPPORTED);
+    sim_destroy(&s);
+    core_groom_free(&plain);
+
+    hm_run r;
+    open_run(&r, 2, 4, true, &p);
+    /* a hair mesh that does not record the groom's strands, or a broken one, is refused */
+    core_groom bad;
+    assert_int_equal(core_groom_copy(&bad, &r.groom, &err), CORE_OK);
+    bad.hairmesh->nguides = 3;
+    assert_int_equal(sim_hm_open(&s, NULL, &bad, &p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "guides"));
+    bad.hairmesh->nguides = bad.nstrands;
+    bad.hairmesh->faces[0] = 1u << 30;
+    assert_int_equal(sim_hm_open(&s, NULL, &bad, &p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "out of range"));
+    core_groom_free(&bad);
+    /* at rest the strands are the groom's traced guides */
+    size_t n = (size_t)r.groom.nstrands * r.groom.nverts;
+    float *pos = malloc(12 * n);
+    assert_int_equal(sim_read_positions(&r.s, pos, &err), CORE_OK);
+    for (size_t i = 0; i < 3 * n; i++) assert_float_equal(pos[i], r.groom.pos[i], 1e-6);
+    free(pos);
+    /* parameters */
+    size_t count;
+    const core_param_info *t = sim_hm_param_table(&count);
+    assert_int_equal(count, 8);
+    assert_string_equal(t[0].name, "stretch_stiffness");
+    assert_int_equal(sim_hm_params_validate(&hp, &err), CORE_OK);
+    hp.cg_tolerance = NAN;
+    assert_int_equal(sim_hm_params_validate(&hp, &err), CORE_EINVAL);
+    assert_int_equal(sim_hm_set_params(&r.s, &hp, &err), CORE_EINVAL);
+    sim_hm_params_default(&hp);
+    hp.volume_stiffness = -10.0f;
+    assert_int_equal(sim_hm_set_params(&r.s, &hp, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "volume_stiffness"));
+    /* state round trip, non-finite refused, reset */
+    steps(&r, 5);
+    float *v = malloc(12 * (size_t)r.nv);
+    assert_int_equal(sim_read_state(&r.s, r.x, v, &err), CORE_OK);
+    r.x[7] += 0.01f;
+    assert_int_equal(sim_write_state(&r.s, r.x, v, &err), CORE_OK);
+    mesh_now(&r, r.prev);
+    assert_memory_equal(r.prev, r.x, 12 * (size_t)r.nv);
+    r.x[0] = NAN;
+    assert_int_equal(sim_write_state(&r.s, r.x, NULL, &err), CORE_EINVAL);
+    sim_reset(&r.s);
+    mesh_now(&r, r.x);
+    assert_memory_equal(r.x, r.groom.hairmesh->pos, 12 * (size_t)r.nv);
+    /* stages */
+    steps(&r, 1);
+    sim_stats st;
+    sim_get_stats(&r.s, &st);
+    assert_int_equal(st.steps, 6);
+    assert_int_equal(st.nstages, 4);
+    assert_string_equal(st.stage_names[1], "cg");
+    assert_string_equal(st.stage_names[3], "deform_min");
+    assert_true(st.stage_ms[0] > 0.0 && st.stage_ms[1] > 0.0);
+    free(v);
+    close_run(&r);
+}
+
+/* At rest under gravity on the default character: still, volume kept, no vertex in a collider. */
+static void test_rest(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    hm_run r;
+    open_run(&r, 2, 7, true, &p);
+    uint8_t *surf = surface_of(r.groom.hairmesh);
+    const double v0 = mesh_volume(r.groom.hairmesh, r.groom.hairmesh->pos);
+    double worst = 0.0;
+    for (int i = 0; i < 300; i++) {
+        steps(&r, 1);
+        mesh_now(&r, r.x);
+        worst = fmax(worst, deepest(&r.groom, r.x, r.nv, surf));
+    }
+    const int frames = 60;
+    double *d = malloc(sizeof *d * (size_t)frames * r.nv);
+    mesh_now(&r, r.prev);
+    for (int f = 0; f < frames; f++) {
+        steps(&r, 1);
+        mesh_now(&r, r.x);
+        worst = fmax(worst, deepest(&r.groom, r.x, r.nv, surf));
+        for (uint32_t i = 0; i < r.nv; i++) d[(size_t)f * r.nv + i] = dist(r.x + 3 * i, r.prev + 3 * i);
+        memcpy(r.prev, r.x, 12 * (size_t)r.nv);
+    }
+    qsort(d, (size_t)frames * r.nv, sizeof *d, cmp_double);
+    const double p999 = d[(size_t)(0.999 * (frames * r.nv - 1))];
+    const double vol = mesh_volume(r.groom.hairmesh, r.x);
+    print_message("rest: p99.9 %.3g mm/frame, volume %.4f of rest, deepest contact %.3g mm\n", p999 * 1e3, vol / v0,
+                  worst * 1e3);
+    assert_true(p999 <= REST_P999);
+    assert_true(fabs(vol / v0 - 1.0) <= REST_VOLUME_TOL);
+    assert_true(worst <= CONTACT_DEPTH);
+    sim_stats st;
+    sim_get_stats(&r.s, &st);
+    assert_int_equal(st.nan_resets, 0);
+    free(d);
+    free(surf);
+    close_run(&r);
+}
+
+/* Settled sag (mean distance of the tip layer from its rest place) at three dt / substep pairs. */
+static void test_sag_same_at_any_step(void **state)
+{
+    (void)state;
+    const float dts[3] = { 1.0f / 60.0f, 1.0f / 60.0f, 1.0f / 30.0f };
+    const int subs[3] = { 4, 8, 8 };
+    double sag[3];
+    for (int c = 0; c < 3; c++) {
+        sim_params p;
+        sim_params_default(&p);
+        p.dt = dts[c], p.substeps = subs[c];
+        hm_run r;
+        open_run(&r, 2, 6, false, &p);
+        steps(&r, (int)(4.0f / p.dt));
+        mesh_now(&r, r.x);
+        const core_hairmesh *m = r.groom.hairmesh;
+        double s = 0.0;
+        for (uint32_t col = 0; col < m->ncols; col++) {
+            size_t i = (size_t)col * m->nlayers + m->nlayers - 1;
+            s += dist(r.x + 3 * i, m->pos + 3 * i);
+        }
+        sag[c] = s / m->ncols;
+        close_run(&r);
+    }
+    print_message("sag: %.3f mm (1/60 x 4), %.3f mm (1/60 x 8), %.3f mm (1/30 x 8)\n", sag[0] * 1e3, sag[1] * 1e3,
+                  sag[2] * 1e3);
+    assert_true(sag[0] > 1e-4);
+    for (int c = 1; c < 3; c++) assert_true(fabs(sag[c] / sag[0] - 1.0) <= 0.10);
+}
+
+/* Figure 8: every vertex placed on its root recovers the rest shape (no colliders). */
+static void test_collapse_recovers(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    hm_run r;
+    open_run(&r, 2, 6, false, &p);
+    float *ref = malloc(12 * (size_t)r.nv);
+    settled_reference(2, 6, false, &p, ref);
+    const core_hairmesh *m = r.groom.hairmesh;
+    for (uint32_t c = 0; c < m->ncols; c++)
+        for (uint32_t l = 0; l < m->nlayers; l++)
+            memcpy(r.x + 3 * ((size_t)c * m->nlayers + l), m->pos + 3 * (size_t)c * m->nlayers, 12);
+    core_err err;
+    assert_int_equal(sim_write_state(&r.s, r.x, NULL, &err), CORE_OK);
+    assert_true(mesh_volume(m, r.x) == 0.0);
+    steps(&r, 240);
+    mesh_now(&r, r.x);
+    const double md = mean_dist(r.x, ref, r.nv);
+    print_message("collapse: mean distance from the rest shape %.3f mm after 4 s\n", md * 1e3);
+    assert_true(md < 1e-3);
+    free(ref);
+    close_run(&r);
+}
+
+/* Figure 7: head motion at 10x speed (a 1.5 Hz, 0.6 rad shake and 1 Hz, 5 cm sway played at 15 and
+ * 10 Hz for a second), then still: the mesh
+ * returns to its settled shape. */
+static void test_fast_motion_recovers(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    hm_run r;
+    open_run(&r, 2, 6, true, &p);
+    float *ref = malloc(12 * (size_t)r.nv);
+    settled_reference(2, 6, true, &p, ref);
+    uint8_t *surf = surface_of(r.groom.hairmesh);
+    double worst = 0.0;
+    for (int i = 0; i < 60; i++) {
+        float a = 0.6f * sinf(2.0f * 3.14159265f * 15.0f * (float)(i + 1) * p.dt);
+        core_xform head = core_xform_identity();
+        head.rot = core_q_axis_angle(core_v3(0.0f, 1.0f, 0.0f), a);
+        head.pos.x = 0.05f * sinf(2.0f * 3.14159265f * 10.0f * (float)(i + 1) * p.dt);
+        sim_set_motion(&r.s, head);
+        steps(&r, 1);
+        mesh_now(&r, r.x);
+        for (uint32_t v = 0; v < r.nv; v++) { /* the colliders in the head frame */
+            core_vec3 q = core_q_rotate(core_q_conj(head.rot), core_v3_sub(core_v3(r.x[3 * v], r.x[3 * v + 1], r.x[3 * v + 2]), head.pos));
+            r.prev[3 * v] = q.x, r.prev[3 * v + 1] = q.y, r.prev[3 * v + 2] = q.z;
+        }
+        worst = fmax(worst, deepest(&r.groom, r.prev, r.nv, surf));
+    }
+    sim_set_motion(&r.s, core_xform_identity());
+    steps(&r, 360);
+    mesh_now(&r, r.x);
+    const double md = mean_dist(r.x, ref, r.nv);
+    sim_stats st;
+    sim_get_stats(&r.s, &st);
+    print_message("fast motion: mean distance from the settled shape %.3f mm 6 s after; deepest surface contact %.3f mm\n",
+                  md * 1e3, worst * 1e3);
+    assert_int_equal(st.nan_resets, 0);
+    assert_true(worst <= CONTACT_DEPTH);
+    free(surf);
+    assert_true(md < 1e-3);
+    free(ref);
+    close_run(&r);
+}
+
+/* Figure 9: a ball reaching 2 cm into the mesh from the first step (1/30 s steps, no substeps):
+ * the volume the corner tetrahedra lost (tetrahedron by tetrahedron) 8 steps later is smaller
+ * with the deformation minimization than without. */
+static void test_deform_min_keeps_volume(void **state)
+{
+    (void)state;
+    double loss[2];
+    for (int on = 0; on < 2; on++) {
+        sim_params p;
+        sim_params_default(&p);
+        p.dt = 1.0f / 30.0f, p.substeps = 1; /* large time steps, where the paper sees the difference */
+        hm_run r;
+        open_run_ball(&r, 2, 6, false, 0.03f, &p);
+        core_err err;
+        sim_hm_params hp;
+        sim_hm_params_default(&hp);
+        hp.deform_min = on != 0;
+        assert_int_equal(sim_hm_set_params(&r.s, &hp, &err), CORE_OK);
+        const core_hairmesh *m = r.groom.hairmesh;
+        const double v0 = mesh_volume(m, m->pos);
+        steps(&r, 8);
+        mesh_now(&r, r.x);
+        loss[on] = tet_volume(m, r.x, m->pos) / v0;
+        close_run(&r);
+    }
+    print_message("deep collision: volume lost %.1f%% without, %.1f%% with deformation minimization\n",
+                  loss[0] * 100.0, loss[1] * 100.0);
+    assert_true(loss[1] < loss[0]);
+}
+
+/* The character's collision mesh (a box under the hair, as its distance grid): the mesh comes to
+ * rest on it, no surface vertex ends a step more than CONTACT_DEPTH inside it. */
+static void test_sdf_contact(void **state)
+{
+    (void)state;
+    core_err err;
+    core_hairmesh m;
+    groom_hairmesh_desc d = { .patches = 2, .nlayers = 6 };
+    assert_int_equal(groom_hairmesh_procedural(&d, &m, &err), CORE_OK);
+    float tip = 1.0f;
+    for (uint32_t c = 0; c < m.ncols; c++) tip = fminf(tip, m.pos[3 * ((size_t)c * m.nlayers + m.nlayers - 1) + 1]);
+    hm_run r;
+    assert_int_equal(groom_from_hairmesh(&m, 1, 8, &r.groom, &err), CORE_OK);
+    core_hairmesh_free(&m);
+    static const uint32_t quads[6][4] = { { 0, 2, 3, 1 }, { 4, 5, 7, 6 }, { 0, 1, 5, 4 }, { 2, 6, 7, 3 }, { 0, 4, 6, 2 }, { 1, 3, 7, 5 } };
+    core_mesh box;
+    assert_int_equal(core_mesh_alloc(&box, 8, 12, &err), CORE_OK);
+    const float top = tip + 0.03f; /* 3 cm above the lowest tip */
+    for (uint32_t i = 0; i < 8; i++) {
+        box.pos[3 * i] = i & 1 ? 0.4f : -0.4f;
+        box.pos[3 * i + 1] = i & 2 ? top : top - 0.1f;
+        box.pos[3 * i + 2] = i & 4 ? 0.4f : -0.4f;
+    }
+    for (uint32_t q = 0; q < 6; q++) {
+        const uint32_t *v = quads[q];
+        uint32_t t[6] = { v[0], v[1], v[2], v[0], v[2], v[3] };
+        memcpy(box.tri + 6 * q, t, sizeof t);
+    }
+    r.groom.sdf = malloc(sizeof *r.groom.sdf);
+    groom_sdf_desc sd = { .cell = 0.008f };
+    assert_int_equal(groom_sdf_build(&box, &sd, r.groom.sdf, &err), CORE_OK);
+    sim_params p;
+    sim_params_default(&p);
+    assert_int_equal(sim_hm_open(&r.s, NULL, &r.groom, &p, &err), CORE_OK);
+    r.nv = r.groom.hairmesh->ncols * r.groom.hairmesh->nlayers;
+    r.x = malloc(12 * (size_t)r.nv);
+    r.prev = malloc(12 * (size_t)r.nv);
+    uint8_t *surf = surface_of(r.groom.hairmesh);
+    double worst = 0.0, lowest = 1.0;
+    for (int i = 0; i < 120; i++) {
+        steps(&r, 1);
+        mesh_now(&r, r.x);
+        for (uint32_t v = 0; v < r.nv; v++) {
+            const float *q = r.x + 3 * v;
+            lowest = fmin(lowest, q[1]);
+            if (!surf[v]) continue;
+            worst = fmax(worst, (double)(top - q[1]));
+        }
+    }
+    print_message("collision mesh: deepest surface vertex %.3f mm below the box top (lowest vertex %.1f mm above it)\n",
+                  worst * 1e3, (lowest - top) * 1e3);
+    assert_true(worst <= CONTACT_DEPTH);
+    core_mesh_free(&box);
+    free(surf);
+    close_run(&r);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_interface),
+        cmocka_unit_test(test_rest),
+        cmocka_unit_test(test_sag_same_at_any_step),
+        cmocka_unit_test(test_collapse_recovers),
+        cmocka_unit_test(test_fast_motion_recovers),
+        cmocka_unit_test(test_deform_min_keeps_volume),
+        cmocka_unit_test(test_sdf_contact),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
