@@ -4,6 +4,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "sim_common.glsl"
+#include "sim_collide.glsl"
 #include "sim_chain.glsl"
 
 layout(local_size_x_id = 0) in; // CHUNK

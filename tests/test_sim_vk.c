@@ -32,32 +32,12 @@ static void make_vk(sim *s, const core_groom *g, const sim_params *p)
     if (sim_vk_create(s, &d, NULL, g, p, &err) != CORE_OK) fail_msg("vulkan sim: %s", err.msg);
 }
 
-/* A distance grid of a sphere around the head's centre, 12 mm larger than the head ellipsoid's
- * smallest semi-axis, so that the hair near the scalp is pushed by it. */
-static void attach_sphere_sdf(core_groom *g)
-{
-    core_err err;
-    const float r = fminf(GROOM_HEAD_RX, fminf(GROOM_HEAD_RY, GROOM_HEAD_RZ)) + 0.012f, cell = 0.004f;
-    const uint32_t n = (uint32_t)ceilf(2.0f * (r + 0.02f) / cell) + 1;
-    const uint32_t dims[3] = { n, n, n };
-    const float o = -(float)(n - 1) * cell * 0.5f;
-    g->sdf = calloc(1, sizeof *g->sdf);
-    assert_non_null(g->sdf);
-    if (core_sdf_alloc(g->sdf, dims, core_v3(o, o, o), cell, &err) != CORE_OK) fail_msg("%s", err.msg);
-    for (uint32_t k = 0; k < n; k++)
-        for (uint32_t j = 0; j < n; j++)
-            for (uint32_t i = 0; i < n; i++) {
-                const double x = o + i * (double)cell, y = o + j * (double)cell, z = o + k * (double)cell;
-                g->sdf->d[i + n * (j + (size_t)n * k)] = (float)(sqrt(x * x + y * y + z * z) - r);
-            }
-}
-
 static void make_pair_sdf(pair *t, groom_style style, uint32_t ns, uint32_t nv, const sim_params *p, bool sdf)
 {
     core_err err;
     memset(t, 0, sizeof *t);
     simcheck_groom(&t->groom, style, ns, nv, 11);
-    if (sdf) attach_sphere_sdf(&t->groom);
+    if (sdf) simcheck_sphere_sdf(&t->groom);
     sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = 2 };
     if (sim_create(&t->cpu, &d, &t->groom, p, &err) != CORE_OK) fail_msg("cpu sim: %s", err.msg);
     make_vk(&t->vk, &t->groom, p);

@@ -1,6 +1,7 @@
 // Draws the hair: guide-point textures, the render-strand instance buffer and the two passes
 // (light-space depth for shadows, Kajiya-Kay shaded ribbons).
 import { createProgram } from './gl_util.js';
+import { setShadeUniforms, setViewUniforms } from './ribbon_uniforms.js';
 import { DEPTH_FS, HAIR_FS, HAIR_VS } from './shaders.js';
 import { INSTANCE_STRIDE } from './interp.js';
 
@@ -95,14 +96,7 @@ export class HairRenderer {
     gl.uniform1i(u.uTan, 1);
     gl.uniform1i(u.uTexW, this.texW);
     gl.uniform1i(u.uPts, this.pts);
-    gl.uniformMatrix4fv(u.uViewProj, false, v.viewProj);
-    gl.uniform3f(u.uEye, v.eye[0], v.eye[1], v.eye[2]);
-    gl.uniform3f(u.uViewDir, v.viewDir[0], v.viewDir[1], v.viewDir[2]);
-    gl.uniform1i(u.uOrtho, v.ortho ? 1 : 0);
-    gl.uniform3f(u.uFwd, v.fwd[0], v.fwd[1], v.fwd[2]);
-    gl.uniform2f(u.uPxScale, v.pxScale[0], v.pxScale[1]);
-    gl.uniform1f(u.uWidthPx, widthPx);
-    gl.uniform1f(u.uTipWidth, s.tipWidth);
+    setViewUniforms(gl, u, v, widthPx, s.tipWidth);
     gl.uniform1f(u.uMulti, s.multi);
     gl.uniform1f(u.uSpread, s.spread);
     gl.uniform1f(u.uTipSpread, s.tipSpread);
@@ -123,18 +117,7 @@ export class HairRenderer {
     if (!this.hasFrame || !this.count) return;
     const gl = this.gl, u = this.main.u;
     this._common(this.main, v, s, s.widthPx);
-    gl.uniform3f(u.uLightDir, light[0], light[1], light[2]);
-    gl.uniform3f(u.uHairColor, s.hairColorLinear[0], s.hairColorLinear[1], s.hairColorLinear[2]);
-    gl.uniform3f(u.uSpecColor, s.specColor[0], s.specColor[1], s.specColor[2]);
-    gl.uniform1f(u.uShift1, s.shift1);
-    gl.uniform1f(u.uShift2, s.shift2);
-    gl.uniform1f(u.uExp1, s.exp1);
-    gl.uniform1f(u.uExp2, s.exp2);
-    gl.uniform1f(u.uSpec1, s.spec1);
-    gl.uniform1f(u.uSpec2, s.spec2);
-    gl.uniform1f(u.uAmbient, s.ambient);
-    gl.uniform1f(u.uRootAO, s.rootAO);
-    shadow.bindUniforms(u, 2, s.shadows, s.absorb);
+    setShadeUniforms(gl, u, s, light, shadow);
     gl.bindVertexArray(this.vao);
     gl.drawArraysInstanced(gl.TRIANGLE_STRIP, 0, 2 * this.pts, this.count);
     gl.bindVertexArray(null);

@@ -26,7 +26,7 @@ static const sim_vtable *solver_vtable(int32_t solver, sim_backend_kind kind)
 {
     switch (solver) {
     case SIM_SOLVER_DFTL: return kind == SIM_BACKEND_VULKAN ? sim_vk_vtable() : sim_cpu_vtable();
-    case SIM_SOLVER_PBD: return kind == SIM_BACKEND_VULKAN ? NULL : sim_pbd_vtable();
+    case SIM_SOLVER_PBD: return kind == SIM_BACKEND_VULKAN ? sim_vk_vtable() : sim_pbd_vtable();
     case SIM_SOLVER_HAIRMESH: return kind == SIM_BACKEND_VULKAN ? NULL : &sim_hm_vtable;
     }
     return NULL;

@@ -129,9 +129,10 @@ typedef struct sim {
 } sim;
 
 /* Creates solver params->solver for groom (copied; the caller keeps ownership of groom) with
- * params (validated; sim_solver_check). A solver without a Vulkan backend (pbd) runs on the CPU
- * backend whatever desc->backend asks, and says so in the log. backend AUTO uses a hardware Vulkan device when present; with only a CPU Vulkan
- * device (lavapipe) it times a few steps of each backend on this groom and keeps the faster;
+ * params (validated; sim_solver_check). dftl and pbd run on both backends; hairmesh has no
+ * Vulkan backend and runs on the CPU backend whatever desc->backend asks, saying so in the log.
+ * backend AUTO (for a solver with a Vulkan backend) uses a hardware Vulkan device when present;
+ * with only a CPU Vulkan device (lavapipe) it times a few steps of each backend on this groom and keeps the faster;
  * if Vulkan set-up fails it falls back to the CPU backend and logs why. On failure *s is zeroed
  * and err says why. Any thread may create a sim; it is then used from one thread at a time (the
  * sim thread). */

@@ -7,16 +7,17 @@
 #include "sim_pbd.h"
 #include "sim_pbd_internal.h"
 
-/* Per-level stiffnesses: the table's values faded linearly to stiffness_tip (as sim_step_stiffness
- * does for the DFTL solver), 0 with shape off. */
+void sim_pbd_stiffness(const sim_params *p, uint32_t l, uint32_t nv, float *kg, float *kl)
+{
+    const float t = nv > 1 ? (float)l / (float)(nv - 1) : 0.0f;
+    const float fade = p->shape ? 1.0f + (p->stiffness_tip - 1.0f) * t : 0.0f;
+    *kg = p->global_stiffness * fade;
+    *kl = p->local_stiffness * fade;
+}
+
 static void update_stiffness(sim_pbd *p)
 {
-    for (uint32_t l = 0; l < p->nv; l++) {
-        const float t = p->nv > 1 ? (float)l / (float)(p->nv - 1) : 0.0f;
-        const float fade = p->params.shape ? 1.0f + (p->params.stiffness_tip - 1.0f) * t : 0.0f;
-        p->kg[l] = p->params.global_stiffness * fade;
-        p->kl[l] = p->params.local_stiffness * fade;
-    }
+    for (uint32_t l = 0; l < p->nv; l++) sim_pbd_stiffness(&p->params, l, p->nv, &p->kg[l], &p->kl[l]);
 }
 
 void sim_pbd_restore_strand(sim_pbd *p, uint32_t s, core_xform head)

@@ -46,7 +46,7 @@ static void usage(void)
          "--solver dftl,pbd runs each case with each solver (default dftl), the PBD rows with the\n"
          "ratio of their steps/s to the DFTL row of the same case and features measured just before;\n"
          "PBD has no hair-hair interaction, so it runs the dftl and dftl+shape feature sets only (shape\n"
-         "on or off, default pbd_iterations) and only on the C backend.\n"
+         "on or off, default pbd_iterations), on either backend.\n"
          "--device N picks the Vulkan device (0 = automatic, N >= 1 = vulkaninfo's GPU<N-1>);\n"
          "The SPH smoothing length is automatic (sph_radius 0: 1.75 x the groom's mean root spacing).\n"
          "--substeps N sets the solver substeps (default 1, the paper's; the daemon's default is 4).\n"
@@ -99,8 +99,7 @@ static int measure(const core_groom *g, int feat, sim_backend_kind backend, cons
     sim_desc d = { .backend = backend, .threads = o->threads, .device = o->device };
     sim s;
     core_err err;
-    core_status st = backend == SIM_BACKEND_VULKAN && o->solver == SIM_SOLVER_DFTL ? sim_vk_create(&s, &d, NULL, g, &p, &err)
-                                                                                  : sim_create(&s, &d, g, &p, &err);
+    core_status st = backend == SIM_BACKEND_VULKAN ? sim_vk_create(&s, &d, NULL, g, &p, &err) : sim_create(&s, &d, g, &p, &err);
     if (st != CORE_OK) {
         fprintf(stderr, "strandbench: %ux%u %s: %s\n", g->nstrands, g->nverts, feature_names[feat], err.msg);
         return 1;
@@ -186,7 +185,6 @@ static int run_case(const core_groom *g, int feat, sim_backend_kind backend, con
     if (measure(g, feat, SIM_BACKEND_CPU, o, steps, &cpu) != 0) return 1;
     print_result(g, feat, o, &cpu, 0.0, dftl_sps > 0.0 ? cpu.sps / dftl_sps : 0.0);
     *sps = cpu.sps;
-    if (o->solver != SIM_SOLVER_DFTL) return 0; /* no Vulkan backend */
     if (measure(g, feat, SIM_BACKEND_VULKAN, o, steps, &vk) != 0) return 1;
     print_result(g, feat, o, &vk, vk.sps / cpu.sps, 0.0);
     return 0;

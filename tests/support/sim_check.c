@@ -124,3 +124,21 @@ double simcheck_deepest_penetration(const core_groom *g, core_xform h, const flo
     }
     return worst;
 }
+
+void simcheck_sphere_sdf(core_groom *g)
+{
+    core_err err;
+    const float r = fminf(GROOM_HEAD_RX, fminf(GROOM_HEAD_RY, GROOM_HEAD_RZ)) + 0.012f, cell = 0.004f;
+    const uint32_t n = (uint32_t)ceilf(2.0f * (r + 0.02f) / cell) + 1;
+    const uint32_t dims[3] = { n, n, n };
+    const float o = -(float)(n - 1) * cell * 0.5f;
+    g->sdf = calloc(1, sizeof *g->sdf);
+    assert_non_null(g->sdf);
+    if (core_sdf_alloc(g->sdf, dims, core_v3(o, o, o), cell, &err) != CORE_OK) fail_msg("%s", err.msg);
+    for (uint32_t k = 0; k < n; k++)
+        for (uint32_t j = 0; j < n; j++)
+            for (uint32_t i = 0; i < n; i++) {
+                const double x = o + i * (double)cell, y = o + j * (double)cell, z = o + k * (double)cell;
+                g->sdf->d[i + n * (j + (size_t)n * k)] = (float)(sqrt(x * x + y * y + z * z) - r);
+            }
+}

@@ -44,4 +44,9 @@ double simcheck_mean_strand_length(const core_groom *g);
  * > 0 inside, <= 0 outside, -1 when g has no colliders; NaN when any figure is non-finite. */
 double simcheck_deepest_penetration(const core_groom *g, core_xform h, const float *x);
 
+/* Gives g (a procedural groom, head at the origin) a distance grid of a sphere around the head's
+ * centre, 12 mm larger than the head ellipsoid's smallest semi-axis, so that the hair near the
+ * scalp is pushed by it; g owns it (core_groom_free). Fails the running test when it cannot. */
+void simcheck_sphere_sdf(core_groom *g);
+
 #endif

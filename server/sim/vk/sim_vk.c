@@ -1,4 +1,5 @@
-/* sim_vk: the Vulkan backend's function table: create, parameters, step submission, state transfer. */
+/* sim_vk: the Vulkan backend's function table: create, parameters, step submission (the DFTL or
+ * the PBD solver), state transfer. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -125,6 +126,13 @@ static core_status make_buffers(sim_vk *s, core_err *err)
                            SIM_VK_MEM_DEVICE, "distance grid", err);
     if (st != CORE_OK) return st;
     sim_vk_pipes_bind(&s->ctx, &s->pipes, -1, SIM_VK_B_SDF, &s->sdf_buf);
+    size_t pbd_bytes = 16;
+    if (s->params.solver == SIM_SOLVER_PBD && !core_mul_size(p3, 10, &pbd_bytes))
+        return core_fail(err, CORE_ENOMEM, "vulkan: the PBD scratch of %zu particles is too large", n);
+    st = sim_vk_buf_create(&s->ctx, &s->pbd, pbd_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, SIM_VK_MEM_DEVICE,
+                           "pbd scratch", err);
+    if (st != CORE_OK) return st;
+    sim_vk_pipes_bind(&s->ctx, &s->pipes, -1, SIM_VK_B_PBD, &s->pbd);
     return make_nbr(s, (uint32_t)s->params.neighbor_cap, err);
 }
 
@@ -179,7 +187,7 @@ static void vk_destroy(void *self)
         sim_vk_once_destroy(&s->ctx, &s->once);
         sim_vk_buf *bufs[] = { &s->x, &s->v, &s->a, &s->rest_buf, &s->strand, &s->grid, &s->count, &s->start,
                                &s->block, &s->cell_of, &s->order, &s->sx, &s->sv, &s->rho, &s->press, &s->nbr,
-                               &s->nnbr, &s->stats_buf, &s->staging, &s->sdf_buf };
+                               &s->nnbr, &s->stats_buf, &s->staging, &s->sdf_buf, &s->pbd };
         for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++) sim_vk_buf_destroy(&s->ctx, bufs[i]);
         sim_vk_pipes_destroy(&s->ctx, &s->pipes);
     }
@@ -256,7 +264,7 @@ static core_status compute_rho_rest(sim_vk *s, int slot, core_err *err)
     const sim_groom_info gi = { s->ncolliders, s->colliders, s->has_sdf ? &s->sdf : NULL, 1.0f, s->sph_auto_h };
     sim_step_plan(&s->params, &gi, s->prev_head, s->head, &s->step);
     s->step.sph = true;
-    const sim_vk_frame_in in = { &s->params, &s->step, s->nv, s->max_segment };
+    const sim_vk_frame_in in = { &s->params, &s->step, s->nv, s->max_segment, false };
     sim_vk_frame_fill(&in, s->slots[slot].frame.map);
     core_status st = sim_vk_once_begin(&s->ctx, &s->once, err);
     if (st != CORE_OK) return fail_sticky(s, st, err);
@@ -283,16 +291,19 @@ static core_status vk_step(void *self, core_err *err)
     sim_vk_slot *sl = &s->slots[f];
     st = collect(s, f, err);
     if (st != CORE_OK) return st;
-    const bool sph = sim_step_sph_on(&s->params);
+    const bool pbd = s->params.solver == SIM_SOLVER_PBD;
+    const bool sph = !pbd && sim_step_sph_on(&s->params);
     if (sph && !s->rho_rest_valid) {
         st = compute_rho_rest(s, f, err);
         if (st != CORE_OK) return st;
     }
+    /* the PBD solver plans as the C one does (it uses none of the SPH fields) */
     const sim_groom_info gi = { s->ncolliders, s->colliders, s->has_sdf ? &s->sdf : NULL,
-                                s->rho_rest_valid ? s->rho_rest : 1.0f, s->sph_auto_h };
+                                s->rho_rest_valid ? s->rho_rest : 1.0f,
+                                pbd ? (float)SIM_SPH_FALLBACK_H : s->sph_auto_h };
     sim_step_plan(&s->params, &gi, s->prev_head, s->head, &s->step);
-    sim_step_sph_clock(&s->params, &s->sph_clock, &s->step);
-    const sim_vk_frame_in in = { &s->params, &s->step, s->nv, s->max_segment };
+    if (!pbd) sim_step_sph_clock(&s->params, &s->sph_clock, &s->step);
+    const sim_vk_frame_in in = { &s->params, &s->step, s->nv, s->max_segment, pbd };
     sim_vk_frame_fill(&in, sl->frame.map);
 
     VkCommandBuffer cmd = sl->cmd;
@@ -308,13 +319,16 @@ static core_status vk_step(void *self, core_err *err)
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, sl->queries, 0);
     }
     sim_vk_barrier(cmd); /* after the previous step and any transfer */
-    if (s->step.sph_eval) {
+    if (!pbd && s->step.sph_eval) {
         sim_vk_record_sph(s, cmd, s->pipes.sets[f], SIM_VK_SPH_STEP, sl->queries);
     } else if (sl->queries) {
         for (uint32_t k = SIM_VK_S_GRID; k <= SIM_VK_S_FORCE; k++)
             vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, sl->queries, k + 1);
     }
-    sim_vk_record_chain(s, cmd, s->pipes.sets[f]);
+    if (pbd)
+        sim_vk_record_pbd(s, cmd, s->pipes.sets[f]);
+    else
+        sim_vk_record_chain(s, cmd, s->pipes.sets[f]);
     if (sl->queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, sl->queries, SIM_VK_S_CHAIN + 1);
     st = sim_vk_check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer", err);
     if (st == CORE_OK) st = sim_vk_check(vkResetFences(s->ctx.device, 1, &sl->fence), "vkResetFences", err);
@@ -418,6 +432,11 @@ static void vk_get_stats(void *self, sim_stats *out)
     *out = s->stats;
     out->nstages = SIM_VK_NSTAGES;
     for (int k = 0; k < SIM_VK_NSTAGES; k++) out->stage_names[k] = stage_names[k];
+    if (s->params.solver == SIM_SOLVER_PBD) { /* the SPH stages are empty: one stage, the C backend's name */
+        out->nstages = 1;
+        out->stage_names[0] = "pbd";
+        out->stage_ms[0] = s->stats.stage_ms[SIM_VK_S_CHAIN];
+    }
     if (!s->ctx.timestamps) out->nstages = 0;
 }
 
@@ -553,6 +572,8 @@ core_status sim_vk_create(sim *out, const sim_desc *desc, const sim_vk_options *
     memset(out, 0, sizeof *out);
     core_status st = sim_params_validate(params, err);
     if (st != CORE_OK) return st;
+    if (params->solver != SIM_SOLVER_DFTL && params->solver != SIM_SOLVER_PBD)
+        return core_fail(err, CORE_EINVAL, "vulkan: solver %s has no Vulkan backend", sim_solver_name(params->solver));
     sim_vk *s = NULL;
     st = create_impl(desc, opt, groom, params, &s, err);
     if (st != CORE_OK) return st;
@@ -560,6 +581,10 @@ core_status sim_vk_create(sim *out, const sim_desc *desc, const sim_vk_options *
     out->self = s;
     out->nstrands = groom->nstrands;
     out->nverts = groom->nverts;
+    out->solver = params->solver;
+    out->head = core_xform_identity();
+    if (desc) out->desc = *desc;
+    out->desc.backend = SIM_BACKEND_VULKAN;
     return CORE_OK;
 }
 

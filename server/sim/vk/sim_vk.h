@@ -8,10 +8,12 @@
 #include "../../core/core.h"
 #include "../sim.h"
 
-/* The Vulkan backend's function table (static storage). Its create uses desc->device as in
- * sim_vk_probe. The serial chain along each strand runs with the paper's particle-level
+/* The Vulkan backend's function table (static storage), for the DFTL and the PBD solver
+ * (params.solver, fixed for an instance). Its create uses desc->device as in sim_vk_probe. The
+ * DFTL solver's serial chain along each strand runs with the paper's particle-level
  * parallelism: one dispatch per level (all strands of a level in parallel, a barrier between
- * levels). */
+ * levels); the PBD solver runs one thread per strand, one dispatch per substep, with the C
+ * backend's constraint order and arithmetic. */
 const sim_vtable *sim_vk_vtable(void);
 
 /* Options beyond sim_desc; zero means default. */
@@ -34,8 +36,9 @@ typedef struct sim_vk_probe_info {
  * (no loader/driver, no device) or CORE_EINVAL (bad index) with the reason. Any thread. */
 core_status sim_vk_probe(int device, sim_vk_probe_info *info, core_err *err);
 
-/* Creates a Vulkan sim like sim_create with backend VULKAN, with extra options (opt may be
- * NULL). params must be valid (sim_params_validate). *s is zeroed on failure. Sim thread. */
+/* Creates a Vulkan sim like sim_create with backend VULKAN (the solver of params->solver, which
+ * must have a Vulkan backend: dftl or pbd, else CORE_EINVAL), with extra options (opt may be NULL). params must
+ * be valid (sim_params_validate). *s is zeroed on failure. Sim thread. */
 core_status sim_vk_create(sim *s, const sim_desc *desc, const sim_vk_options *opt, const core_groom *groom,
                           const sim_params *params, core_err *err);
 

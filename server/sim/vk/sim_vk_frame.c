@@ -1,8 +1,10 @@
 /* sim_vk: the host-computed per-step parameters (substep heads, world colliders, constants). */
+#include <math.h>
 #include <stddef.h>
 #include <string.h>
 
 #include "sim_vk_internal.h"
+#include "../sim_pbd.h"
 
 _Static_assert(offsetof(sim_vk_frame, substeps) == 64, "frame layout must match sim_common.glsl");
 _Static_assert(offsetof(sim_vk_frame, head) == 96, "frame layout must match sim_common.glsl");
@@ -82,5 +84,14 @@ void sim_vk_frame_fill(const sim_vk_frame_in *in, void *out)
         put4(u->hi, w->hi[0], w->hi[1], w->hi[2], 0.0f);
     }
     sim_shape_weights *sw = (sim_shape_weights *)((char *)out + sizeof *f);
+    if (in->pbd) {
+        const float b = 0.5f * fmaxf((float)SIM_SHAPE_DAMPING_STEP - d->h, 0.0f);
+        for (uint32_t l = 0; l < in->nv; l++) {
+            sim_pbd_stiffness(p, l, in->nv, &sw[l].g, &sw[l].gd);
+            sw[l].l = b;
+            sw[l].ld = 0.0f;
+        }
+        return;
+    }
     for (uint32_t l = 0; l < in->nv; l++) sim_step_stiffness(p, l, in->nv, &sw[l]);
 }

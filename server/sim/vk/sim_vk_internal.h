@@ -115,7 +115,7 @@ typedef enum sim_vk_binding {
     SIM_VK_B_FRAME = 0, SIM_VK_B_X, SIM_VK_B_V, SIM_VK_B_A, SIM_VK_B_REST, SIM_VK_B_STRAND,
     SIM_VK_B_GRID, SIM_VK_B_COUNT, SIM_VK_B_START, SIM_VK_B_BLOCK, SIM_VK_B_CELL_OF,
     SIM_VK_B_ORDER, SIM_VK_B_SX, SIM_VK_B_SV, SIM_VK_B_RHO, SIM_VK_B_PRESS, SIM_VK_B_NBR,
-    SIM_VK_B_NNBR, SIM_VK_B_STATS, SIM_VK_B_SDF,
+    SIM_VK_B_NNBR, SIM_VK_B_STATS, SIM_VK_B_SDF, SIM_VK_B_PBD,
     SIM_VK_NBINDINGS
 } sim_vk_binding;
 
@@ -132,6 +132,7 @@ typedef enum sim_vk_pipe_id {
     SIM_VK_P_SPH_CELLSORT,
     SIM_VK_P_SPH_DENSITY,
     SIM_VK_P_SPH_FORCE,
+    SIM_VK_P_PBD,           /* one PBD substep, one thread per strand */
     SIM_VK_NPIPES
 } sim_vk_pipe_id;
 
@@ -218,10 +219,13 @@ typedef struct sim_vk_frame_in {
     const sim_step_desc *step; /* sim_step_plan of this step */
     uint32_t nv;
     float max_segment;     /* longest rest segment (collider culling margin) */
+    bool pbd;              /* per level (kg, kl, b, 0) of the PBD solver instead of the shape weights */
 } sim_vk_frame_in;
 
 /* Fills out (sim_vk_frame_size(in->nv) bytes) with the step description in the layout of
- * sim_common.glsl, plus the per-level stiffness. Pure. */
+ * sim_common.glsl, plus the per-level stiffness: the DFTL solver's shape weights, or with pbd
+ * the PBD solver's stiffnesses (sim_pbd_stiffness) and its spring damping
+ * b = max(SIM_SHAPE_DAMPING_STEP - h, 0) / 2. Pure. */
 void sim_vk_frame_fill(const sim_vk_frame_in *in, void *out);
 
 /* ---- the backend instance (sim_vk.c) and its command recording (sim_vk_record.c) ---- */
@@ -232,7 +236,7 @@ typedef enum sim_vk_stage {
     SIM_VK_S_SORT,     /* prefix sum, scatter, stable in-cell sort, gather */
     SIM_VK_S_DENSITY,  /* neighbour search, density, pressure */
     SIM_VK_S_FORCE,    /* pressure + viscosity accelerations */
-    SIM_VK_S_CHAIN,    /* all substeps of the chain pass */
+    SIM_VK_S_CHAIN,    /* all substeps of the chain pass (the PBD substeps with that solver) */
     SIM_VK_NSTAGES
 } sim_vk_stage;
 
@@ -271,6 +275,8 @@ typedef struct sim_vk {
     sim_vk_buf x, v, a, rest_buf, strand, grid, count, start, block, cell_of, order, sx, sv, rho, press, nbr, nnbr;
     sim_vk_buf stats_buf; /* READBACK: nan counter */
     sim_vk_buf sdf_buf;   /* DEVICE: the distance samples (16 unused bytes without a grid) */
+    sim_vk_buf pbd;       /* DEVICE: the PBD substep's scratch, 30 floats per vertex (16 unused
+                             bytes with the DFTL solver) */
     sim_vk_buf staging;   /* READBACK: 6n floats for uploads and readbacks */
     sim_vk_once once;
     sim_vk_slot slots[SIM_VK_FRAMES];
@@ -294,5 +300,8 @@ void sim_vk_record_sph(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set, sim_
 
 /* Records the chain pass for every substep (after the SPH passes). */
 void sim_vk_record_chain(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set);
+
+/* Records the PBD substeps of a step (solver PBD): one dispatch per substep. */
+void sim_vk_record_pbd(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set);
 
 #endif

@@ -28,6 +28,7 @@ static pipe_src source_of(sim_vk_pipe_id id)
         [SIM_VK_P_SPH_CELLSORT] = SRC(sim_sph_cellsort),
         [SIM_VK_P_SPH_DENSITY] = SRC(sim_sph_density),
         [SIM_VK_P_SPH_FORCE] = SRC(sim_sph_force),
+        [SIM_VK_P_PBD] = SRC(sim_pbd_substep),
     };
     if (id == SIM_VK_P_CHAIN) return chain_level;
     return table[id];

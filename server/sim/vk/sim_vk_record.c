@@ -1,4 +1,5 @@
-/* sim_vk: records a step's dispatches (SPH stages, the chain per substep) into a command buffer. */
+/* sim_vk: records a step's dispatches (SPH stages, the chain per substep, or the PBD substeps) into a
+ * command buffer. */
 #include "sim_vk_internal.h"
 
 static void bind(sim_vk *s, VkCommandBuffer cmd, sim_vk_pipe_id id)
@@ -83,5 +84,17 @@ void sim_vk_record_chain(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set)
             vkCmdDispatch(cmd, chunks, 1, 1);
             sim_vk_barrier(cmd);
         }
+    }
+}
+
+void sim_vk_record_pbd(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set)
+{
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s->pipes.layout, 0, 1, &set, 0, NULL);
+    bind(s, cmd, SIM_VK_P_PBD);
+    const uint32_t K = (uint32_t)s->params.substeps, g = groups(s->ns, SIM_VK_WG);
+    for (uint32_t k = 0; k < K; k++) {
+        push(s, cmd, k, 0, (uint32_t)s->params.pbd_iterations, 0);
+        vkCmdDispatch(cmd, g, 1, 1);
+        sim_vk_barrier(cmd);
     }
 }
