@@ -186,7 +186,8 @@ test('every server message validates against its schema', async () => {
     // the stiffnesses span many decades: their schema entries ask for log sliders, the rest not
     const hello = a.texts.find((m) => m.type === 'hello');
     const logs = hello.params.schema.filter((e) => e.scale !== undefined).map((e) => `${e.name}:${e.scale}`);
-    assert.deepEqual(logs, ['global_stiffness:log', 'local_stiffness:log']);
+    assert.deepEqual(logs, ['global_stiffness:log', 'local_stiffness:log', 'hm_stretch_stiffness:log', 'hm_shear_stiffness:log',
+                            'hm_bend_stiffness:log', 'hm_volume_stiffness:log', 'hm_cg_tolerance:log']);
     const withEntry = (patch) => {
       const h = structuredClone(hello);
       Object.assign(h.params.schema.find((e) => e.name === 'local_stiffness'), patch);
@@ -204,6 +205,14 @@ test('every server message validates against its schema', async () => {
     assert.deepEqual(hello.params.schema.find((e) => e.name === 'pbd_iterations').solvers, ['pbd']);
     assert.deepEqual(hello.params.schema.find((e) => e.name === 'dftl_correction').solvers, ['dftl']);
     assert.equal(hello.params.schema.find((e) => e.name === 'gravity').solvers, undefined);
+    // the hair-mesh solver's own parameters: hm_ names, for hairmesh only, with ranges and units
+    const hm = hello.params.schema.filter((e) => e.name.startsWith('hm_'));
+    assert.deepEqual(hm.map((e) => e.name), ['hm_stretch_stiffness', 'hm_shear_stiffness', 'hm_bend_stiffness', 'hm_volume_stiffness',
+                                             'hm_damping', 'hm_cg_iterations', 'hm_cg_tolerance', 'hm_deform_min']);
+    for (const e of hm) assert.deepEqual(e.solvers, ['hairmesh'], e.name);
+    assert.equal(hm.find((e) => e.name === 'hm_bend_stiffness').unit, '1/s^2');
+    assert.equal(hm.find((e) => e.name === 'hm_damping').max, 100);
+    assert.deepEqual(hello.grooms.styles, ['straight', 'wavy', 'curly', 'hairmesh:straight', 'hairmesh:wavy', 'hairmesh:curly']);
     check(get('server.hello'), withEntry({ choices: ['a'] }), false); // choices only on an enum
     const enumEntry = (patch) => {
       const h = structuredClone(hello);
