@@ -11,15 +11,12 @@
 #include "app_loader.h"
 #include "groom/groom.h"
 
-/* The simulation for the loaded groom and its positions buffer into l (or an error); the
- * hairmesh solver falls back to dftl on a groom without a hair mesh. */
+/* The simulation for the loaded groom and its positions buffer into l (or an error); dftl
+ * instead of the hairmesh solver on a groom without a hair mesh (the swap tells the clients). */
 static core_status make_sim(app_loader *l)
 {
     unsigned long long t0 = core_now_ns();
-    if (l->job.params.solver == SIM_SOLVER_HAIRMESH && !l->g.g.hairmesh) {
-        l->job.params.solver = SIM_SOLVER_DFTL;
-        l->solver_fell_back = true;
-    }
+    if (l->job.params.solver == SIM_SOLVER_HAIRMESH && !l->g.g.hairmesh) l->job.params.solver = SIM_SOLVER_DFTL;
     core_status st = sim_create(&l->sim, &l->job.sim, &l->g.g, &l->job.params, &l->err);
     if (st != CORE_OK) return st;
     size_t n = (size_t)l->g.g.nstrands * l->g.g.nverts * 3;

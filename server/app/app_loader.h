@@ -25,8 +25,8 @@ typedef struct app_load_job {
     core_mesh keep;
     char mesh_label[PROTO_MAX_NAME + 1];
     sim_desc sim;             /* the simulation to create (a resolved backend: no AUTO trial) */
-    sim_params params;        /* its parameters (the sim thread applies the current ones at the swap,
-                                 with the solver the loader chose) */
+    sim_params params;        /* its parameters (the sim thread applies the current ones at the swap);
+                                 solver hairmesh becomes dftl on a groom without a hair mesh */
     double particles_per_s, min_rate; /* the groom budget (app_budget_check); 0 = none */
 } app_load_job;
 
@@ -42,7 +42,6 @@ typedef struct app_loader {
     app_groom g;
     sim sim;                  /* created for g (zeroed on failure) */
     float *xyz;               /* positions buffer for g */
-    bool solver_fell_back;    /* job.params.solver was hairmesh and g has no hair mesh: sim is dftl */
     core_status st;
     proto_code code;          /* on failure: the error code and field to reply with */
     const char *field;

@@ -1,4 +1,4 @@
-/* sim: the parameter table (ranges from the DFTL paper and the thesis), defaults and validation. */
+/* sim: the parameter table (ranges from the DFTL paper, the thesis and the hair-mesh paper), defaults and validation. */
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
