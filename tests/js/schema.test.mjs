@@ -141,6 +141,8 @@ test('every server message validates against its schema', async () => {
   const dir = mkdtempSync(join(tmpdir(), 'strandcast-schema-'));
   writeFileSync(join(dir, 'tiny.hair'), tinyHair());
   // a closed tetrahedron (counter-clockwise seen from outside) around the tiny groom's roots
+  // a layered hair mesh: one quad over the tiny groom's roots and the same quad 5 cm further out
+  writeFileSync(join(dir, 'cap.hairmesh.obj'), 'v 0 0 0\nv 0.01 0 0\nv 0.01 0 0.01\nv 0 0 0.01\nv 0 -0.05 0\nv 0.01 -0.05 0\nv 0.01 -0.05 0.01\nv 0 -0.05 0.01\nf 1 4 3 2\n');
   writeFileSync(join(dir, 'tet.obj'), 'v -0.2 -0.2 -0.2\nv 0.3 -0.2 -0.2\nv -0.2 0.3 -0.2\nv -0.2 -0.2 0.3\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n');
   const { child, port } = await startDaemon(dir);
   try {
@@ -244,6 +246,18 @@ test('every server message validates against its schema', async () => {
     assert.equal(data.strands, described.strands);
     assert.equal(data.verts, described.verts);
     assert.equal(16 + 16 * data.strands, described.bytes);
+    // a .hairmesh.obj is a groom file, not a collision mesh; set_groom loads it as a hair mesh
+    assert.ok(hello.grooms.files.includes('cap.hairmesh.obj') && !hello.grooms.colliders.includes('cap.hairmesh.obj'));
+    // (its 4,096 guides share one 1 cm face: SPH off, or the crowd slows every step)
+    send(a, { type: 'set_params', id: 'nosph', values: { sph: false } });
+    await a.until((m) => m.id === 'nosph', 'the reply to set_params sph false');
+    send(a, { type: 'set_groom', id: 'hm', file: 'cap.hairmesh.obj', verts: 6, collider: null });
+    const hmReply = await a.until((m) => m.id === 'hm', 'the reply to the hair-mesh set_groom');
+    assert.equal(hmReply.type, 'ok', JSON.stringify(hmReply));
+    const hmGroom = await b.until((m) => m.type === 'groom' && m.groom.source === 'file:cap.hairmesh.obj', 'the hair-mesh groom');
+    assert.ok(hmGroom.groom.hairmesh, 'the hair-mesh groom names its hair mesh');
+    assert.equal(hmGroom.groom.verts, 6);
+    check(get('server.groom'), hmGroom, true);
     const codes = new Set(a.texts.filter((m) => m.type === 'error').map((m) => m.code));
     for (const c of ['unknown_type', 'unknown_param', 'bad_state', 'not_found', 'not_finite', 'bad_json']) assert.ok(codes.has(c), `no ${c}`);
     a.ws.close();
