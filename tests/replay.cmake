@@ -41,7 +41,7 @@ strandcast_replay_test(replay_bad_version --exit 1
   -- ${replay_sh} -c "cp \"$1\" \"$2\" && printf '\\002' | dd of=\"$2\" bs=1 seek=8 conv=notrunc 2>/dev/null && exec \"$3\" --replay \"$2\" --no-net"
      sh ${replay_file} ${CMAKE_CURRENT_BINARY_DIR}/replay_v2.screc $<TARGET_FILE:strandcastd>)
 strandcast_replay_test(replay_truncated --exit 1 --expect ": field length: truncated: the record takes"
-  -- ${replay_sh} -c "head -c 1000 \"$1\" > \"$2\" && exec \"$3\" --replay \"$2\" --no-net"
+  -- ${replay_sh} -c "head -c 1010 \"$1\" > \"$2\" && exec \"$3\" --replay \"$2\" --no-net"
      sh ${replay_file} ${CMAKE_CURRENT_BINARY_DIR}/replay_cut.screc $<TARGET_FILE:strandcastd>)
 strandcast_replay_test(replay_corrupt --exit 1 --expect "record 0 at byte 12: field crc32: the bytes do not match"
   -- ${replay_sh} -c "cp \"$1\" \"$2\" && printf 'X' | dd of=\"$2\" bs=1 seek=40 conv=notrunc 2>/dev/null && exec \"$3\" --replay \"$2\" --no-net"

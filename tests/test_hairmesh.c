@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "core/groom_types.h"
 #include "groom/groom.h"
@@ -377,6 +378,48 @@ static void test_obj_hostile(void **state)
     free(text);
 }
 
+/* groom_load_file on a .hairmesh.obj: the guides traced through the layered mesh, whole strands
+ * per face and GROOM_DEFAULT_STRANDS or a little more, the asked vertex count; a collision-mesh
+ * .obj under that name (one layer) is refused naming the file. */
+static void test_load_file_hairmesh(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/test_hairmesh_XXXXXX", path[64];
+    assert_non_null(mkdtemp(dir));
+    core_err err;
+    core_hairmesh m;
+    groom_hairmesh_desc d = { .patches = 2, .nlayers = 4 };
+    assert_int_equal(groom_hairmesh_procedural(&d, &m, &err), CORE_OK);
+    char *text;
+    size_t len;
+    assert_int_equal(groom_hairmesh_write_obj(&m, &text, &len, &err), CORE_OK);
+    snprintf(path, sizeof path, "%s/a.hairmesh.obj", dir);
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(text, 1, len, f), len);
+    fclose(f);
+    free(text);
+    core_groom g;
+    if (groom_load_file(path, 9, &g, &err) != CORE_OK) fail_msg("%s", err.msg);
+    assert_non_null(g.hairmesh);
+    assert_int_equal(g.hairmesh->ncols, m.ncols);
+    assert_int_equal(g.hairmesh->nlayers, m.nlayers);
+    assert_int_equal(g.hairmesh->nguides, g.nstrands);
+    assert_int_equal(g.nverts, 9);
+    assert_true(g.nstrands >= GROOM_DEFAULT_STRANDS && g.nstrands < GROOM_DEFAULT_STRANDS + m.nfaces);
+    assert_int_equal(g.nstrands % m.nfaces, 0);
+    core_groom_free(&g);
+    core_hairmesh_free(&m);
+    f = fopen(path, "wb");
+    assert_non_null(f);
+    fputs("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n", f);
+    fclose(f);
+    assert_int_not_equal(groom_load_file(path, 0, &g, &err), CORE_OK);
+    assert_non_null(strstr(err.msg, "a.hairmesh.obj"));
+    assert_int_equal(unlink(path), 0);
+    assert_int_equal(rmdir(dir), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -387,6 +430,7 @@ int main(void)
         cmocka_unit_test(test_obj_round_trip_and_example),
         cmocka_unit_test(test_obj_malformed),
         cmocka_unit_test(test_obj_hostile),
+        cmocka_unit_test(test_load_file_hairmesh),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -215,9 +215,6 @@ static void test_interface(void **state)
     assert_int_equal(sim_create(&s, &cd, &plain, &p, &err), CORE_OK);
     float xyz[3 * 64];
     assert_int_equal(sim_read_hairmesh(&s, xyz, &err), CORE_EUNSUPPORTED);
-    sim_hm_params hp;
-    sim_hm_params_default(&hp);
-    assert_int_equal(sim_hm_set_params(&s, &hp, &err), CORE_EUNSUPPORTED);
     sim_destroy(&s);
     core_groom_free(&plain);
 
@@ -240,19 +237,30 @@ static void test_interface(void **state)
     assert_int_equal(sim_read_positions(&r.s, pos, &err), CORE_OK);
     for (size_t i = 0; i < 3 * n; i++) assert_float_equal(pos[i], r.groom.pos[i], 1e-6);
     free(pos);
-    /* parameters */
-    size_t count;
-    const core_param_info *t = sim_hm_param_table(&count);
-    assert_int_equal(count, 8);
-    assert_string_equal(t[0].name, "stretch_stiffness");
-    assert_int_equal(sim_hm_params_validate(&hp, &err), CORE_OK);
-    hp.cg_tolerance = NAN;
-    assert_int_equal(sim_hm_params_validate(&hp, &err), CORE_EINVAL);
-    assert_int_equal(sim_hm_set_params(&r.s, &hp, &err), CORE_EINVAL);
-    sim_hm_params_default(&hp);
-    hp.volume_stiffness = -10.0f;
-    assert_int_equal(sim_hm_set_params(&r.s, &hp, &err), CORE_EINVAL);
-    assert_non_null(strstr(err.msg, "volume_stiffness"));
+    /* parameters: the hm_ entries of sim_params' table apply to the hair-mesh solver only; bad
+     * values are refused like any parameter's */
+    size_t count, nhm = 0;
+    const core_param_info *t = sim_param_table(&count);
+    for (size_t i = 0; i < count; i++) {
+        if (strncmp(t[i].name, "hm_", 3) != 0) continue;
+        nhm++;
+        assert_non_null(t[i].solvers);
+        assert_string_equal(t[i].solvers[0], "hairmesh");
+        assert_null(t[i].solvers[1]);
+    }
+    assert_int_equal(nhm, 8);
+    sim_params bad_p = p;
+    bad_p.hm.cg_tolerance = NAN;
+    assert_int_equal(sim_set_params(&r.s, &bad_p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "hm_cg_tolerance"));
+    bad_p = p;
+    bad_p.hm.volume_stiffness = -10.0f;
+    assert_int_equal(sim_set_params(&r.s, &bad_p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "hm_volume_stiffness"));
+    bad_p = p;
+    bad_p.hm.cg_iterations = 0;
+    assert_int_equal(sim_set_params(&r.s, &bad_p, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "hm_cg_iterations"));
     /* state round trip, non-finite refused, reset */
     steps(&r, 5);
     float *v = malloc(12 * (size_t)r.nv);
@@ -351,6 +359,86 @@ static void test_sag_same_at_any_step(void **state)
     for (int c = 1; c < 3; c++) assert_true(fabs(sag[c] / sag[0] - 1.0) <= 0.10);
 }
 
+/* The settled sag of the tip layer (mean distance from its rest place) under sim_params p, the
+ * solver opened at the defaults and p applied with sim_set_params (the path a set_params takes). */
+static double settled_sag(const sim_params *p)
+{
+    sim_params d;
+    sim_params_default(&d);
+    hm_run r;
+    open_run(&r, 2, 6, false, &d);
+    core_err err;
+    assert_int_equal(sim_set_params(&r.s, p, &err), CORE_OK);
+    steps(&r, (int)(3.0f / p->dt));
+    mesh_now(&r, r.x);
+    const core_hairmesh *m = r.groom.hairmesh;
+    double s = 0.0;
+    for (uint32_t col = 0; col < m->ncols; col++) {
+        size_t i = (size_t)col * m->nlayers + m->nlayers - 1;
+        s += dist(r.x + 3 * i, m->pos + 3 * i);
+    }
+    s /= m->ncols;
+    close_run(&r);
+    return s;
+}
+
+/* hm_bend_stiffness set at run time reaches the solver: a stiffer bend sags less, a weaker one more. */
+static void test_bend_param_changes_sag(void **state)
+{
+    (void)state;
+    const float bends[3] = { 2.0e3f, 2.0e4f, 2.0e5f };
+    double sag[3];
+    for (int c = 0; c < 3; c++) {
+        sim_params p;
+        sim_params_default(&p);
+        p.hm.bend_stiffness = bends[c];
+        sag[c] = settled_sag(&p);
+    }
+    print_message("sag: %.3f mm (bend 2e3), %.3f mm (2e4), %.3f mm (2e5)\n", sag[0] * 1e3, sag[1] * 1e3, sag[2] * 1e3);
+    assert_true(sag[0] > 1.05 * sag[1]);
+    assert_true(sag[1] > 1.05 * sag[2]);
+}
+
+/* Every hm_ parameter at its minimum and maximum (the others at default), set at run time under
+ * a nodding head: the solver takes it and stays finite (no NaN reset) for 1 s. */
+static void test_hm_params_at_extremes(void **state)
+{
+    (void)state;
+    size_t count;
+    const core_param_info *t = sim_param_table(&count);
+    int tried = 0;
+    for (size_t i = 0; i < count; i++) {
+        if (strncmp(t[i].name, "hm_", 3) != 0) continue;
+        for (int end = 0; end < 2; end++) {
+            sim_params p;
+            sim_params_default(&p);
+            hm_run r;
+            open_run(&r, 2, 5, true, &p);
+            char *f = (char *)&p + t[i].offset;
+            const double v = end ? t[i].max : t[i].min;
+            if (t[i].type == CORE_PARAM_FLOAT) *(float *)f = (float)v;
+            else if (t[i].type == CORE_PARAM_INT) *(int32_t *)f = (int32_t)v;
+            else *(bool *)f = v != 0.0;
+            core_err err;
+            if (sim_set_params(&r.s, &p, &err) != CORE_OK) fail_msg("%s = %g: %s", t[i].name, v, err.msg);
+            for (int k = 0; k < 60; k++) {
+                const float a = 0.4f * sinf(6.0f * (float)k / 60.0f);
+                sim_set_motion(&r.s, (core_xform){ core_v3(0.0f, 0.0f, 0.0f), core_q_axis_angle(core_v3(1.0f, 0.0f, 0.0f), a) });
+                steps(&r, 1);
+            }
+            mesh_now(&r, r.x);
+            for (uint32_t k = 0; k < 3 * r.nv; k++)
+                if (!isfinite(r.x[k])) fail_msg("%s = %g: vertex value %u is not finite", t[i].name, v, k);
+            sim_stats st;
+            sim_get_stats(&r.s, &st);
+            if (st.nan_resets != 0) fail_msg("%s = %g: %llu NaN resets", t[i].name, v, (unsigned long long)st.nan_resets);
+            close_run(&r);
+            tried++;
+        }
+    }
+    assert_int_equal(tried, 16);
+}
+
 /* Figure 8: every vertex placed on its root recovers the rest shape (no colliders). */
 static void test_collapse_recovers(void **state)
 {
@@ -435,10 +523,8 @@ static void test_deform_min_keeps_volume(void **state)
         hm_run r;
         open_run_ball(&r, 2, 6, false, 0.03f, &p);
         core_err err;
-        sim_hm_params hp;
-        sim_hm_params_default(&hp);
-        hp.deform_min = on != 0;
-        assert_int_equal(sim_hm_set_params(&r.s, &hp, &err), CORE_OK);
+        p.hm.deform_min = on != 0;
+        assert_int_equal(sim_set_params(&r.s, &p, &err), CORE_OK);
         const core_hairmesh *m = r.groom.hairmesh;
         const double v0 = mesh_volume(m, m->pos);
         steps(&r, 8);
@@ -514,6 +600,8 @@ int main(void)
         cmocka_unit_test(test_interface),
         cmocka_unit_test(test_rest),
         cmocka_unit_test(test_sag_same_at_any_step),
+        cmocka_unit_test(test_bend_param_changes_sag),
+        cmocka_unit_test(test_hm_params_at_extremes),
         cmocka_unit_test(test_collapse_recovers),
         cmocka_unit_test(test_fast_motion_recovers),
         cmocka_unit_test(test_deform_min_keeps_volume),

@@ -1,6 +1,6 @@
 // The control panel: server parameters (built from the hello schema), motion and presets,
 // groom choice and the viewer's own settings; it follows changes made by other clients.
-import { buildControls, coerceValue, describe, formatNumber, formatValue, fromSlider, sliderPositions, toSlider, visibleFor } from './panel_model.js';
+import { buildControls, coerceValue, describe, formatNumber, formatValue, fromSlider, groomChoices, sliderPositions, toSlider, visibleFor } from './panel_model.js';
 
 const SEND_INTERVAL_MS = 60;
 
@@ -236,21 +236,19 @@ export class Panel {
     if (this.presetButtons) for (const [p, b] of this.presetButtons) b.classList.toggle('active', p === this.preset);
   }
 
-  // Groom choice: procedural styles (with strand and vertex counts) or the server's files.
+  // Groom choice: procedural styles and hair-mesh styles (with strand and vertex counts) or the
+  // server's files.
   buildGrooms(grooms, groom, limits) {
     this.groomBox.replaceChildren();
-    const styles = grooms && Array.isArray(grooms.styles) ? grooms.styles : [];
-    const files = grooms && Array.isArray(grooms.files) ? grooms.files : [];
     const select = el('select', { 'data-groom': 'source' });
-    for (const s of styles) select.append(el('option', { value: `style:${s}`, text: `procedural ${s}` }));
-    for (const f of files) select.append(el('option', { value: `file:${f}`, text: f }));
-    const src = groom && typeof groom.source === 'string' ? groom.source : '';
-    select.value = src.startsWith('procedural:') ? `style:${src.slice(11)}` : src;
+    const choices = groomChoices(grooms, groom && groom.source);
+    for (const o of choices.options) select.append(el('option', o));
+    select.value = choices.selected;
     const maxStrands = limits && limits.max_strands > 0 ? limits.max_strands : 65536;
     const maxVerts = limits && limits.max_verts > 0 ? limits.max_verts : 256;
-    const strands = el('input', { type: 'number', min: 1, max: maxStrands, step: 1, class: 'num wide', title: 'Guide strands (procedural styles)' });
+    const strands = el('input', { type: 'number', min: 1, max: maxStrands, step: 1, class: 'num wide', title: 'Guide strands (procedural and hair-mesh styles; a hair mesh rounds up to whole strands per face)' });
     strands.value = groom && groom.strands ? groom.strands : 4096;
-    const verts = el('input', { type: 'number', min: 2, max: maxVerts, step: 1, class: 'num', title: 'Vertices per strand (procedural styles)' });
+    const verts = el('input', { type: 'number', min: 2, max: maxVerts, step: 1, class: 'num', title: 'Vertices per strand (procedural and hair-mesh styles)' });
     verts.value = groom && groom.verts ? groom.verts : 32;
     const apply = el('button', { type: 'button', text: 'load' });
     apply.addEventListener('click', () => {

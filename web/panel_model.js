@@ -178,3 +178,18 @@ export function describe(c) {
 export function visibleFor(c, solver) {
   return !c.solvers || typeof solver !== 'string' || c.solvers.includes(solver);
 }
+
+// The groom choices of the hello's grooms (styles: procedural names and "hairmesh:<style>",
+// files) as select options {value, text}, and the option of the groom whose source is given
+// ("procedural:<style>", "hairmesh:<style>", "file:<name>"; '' when none matches). Pure.
+export function groomChoices(grooms, source) {
+  const styles = grooms && Array.isArray(grooms.styles) ? grooms.styles.filter((s) => typeof s === 'string') : [];
+  const files = grooms && Array.isArray(grooms.files) ? grooms.files.filter((f) => typeof f === 'string') : [];
+  const options = [
+    ...styles.map((s) => ({ value: `style:${s}`, text: s.startsWith('hairmesh:') ? `hair mesh ${s.slice(9)}` : `procedural ${s}` })),
+    ...files.map((f) => ({ value: `file:${f}`, text: f })),
+  ];
+  const src = typeof source === 'string' ? source : '';
+  const want = src.startsWith('procedural:') ? `style:${src.slice(11)}` : src.startsWith('hairmesh:') ? `style:${src}` : src;
+  return { options, selected: options.some((o) => o.value === want) ? want : '' };
+}

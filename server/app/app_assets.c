@@ -14,8 +14,15 @@ static bool has_ext(const char *name, const char *ext)
     return n > e && strcasecmp(name + n - e, ext) == 0;
 }
 
-static bool groom_ext(const char *name) { return has_ext(name, ".tfx") || has_ext(name, ".hair"); }
-static bool mesh_ext(const char *name) { return has_ext(name, ".obj") || has_ext(name, ".tfxmesh"); }
+/* a layered hair mesh (.hairmesh.obj) is a groom, any other .obj a collision mesh */
+static bool groom_ext(const char *name)
+{
+    return has_ext(name, ".tfx") || has_ext(name, ".hair") || has_ext(name, ".hairmesh.obj");
+}
+static bool mesh_ext(const char *name)
+{
+    return (has_ext(name, ".obj") && !has_ext(name, ".hairmesh.obj")) || has_ext(name, ".tfxmesh");
+}
 
 /* Adds files under dir/rel (depth-limited); names are relative to the asset folder. */
 static void scan(app_assets *a, const proto_parser *parser, const char *root, const char *rel, int depth)

@@ -1,5 +1,6 @@
 /* app: set_groom on the sim thread: checks the request, hands the loads to the loader thread,
  * and swaps the loaded groom in at a step boundary (new simulation, streams re-keyed). */
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -93,10 +94,13 @@ void app_cmd_set_groom(app_world *w, uint32_t client, const proto_msg *m)
 }
 
 /* Makes the loaded groom and its simulation (taken over from l) the live ones, with the
- * parameters, head pose and streams of now; pointer moves and a reset, no allocation. */
-static void swap_groom(app_world *w, app_loader *l)
+ * parameters, head pose and streams of now; pointer moves and a reset, no allocation. True when
+ * the solver was hairmesh and the new groom has no hair mesh: it is dftl now. */
+static bool swap_groom(app_world *w, app_loader *l)
 {
     core_err err;
+    const bool fell_back = w->params.solver == SIM_SOLVER_HAIRMESH && !l->g.g.hairmesh;
+    if (fell_back) w->params.solver = SIM_SOLVER_DFTL;
     if (sim_change(&l->sim, &l->g.g, &w->params, &err) != CORE_OK) /* validated when they were set */
         core_log(CORE_LOG_ERROR, "app", "the new groom's simulation refused the current parameters: %s", err.msg);
     sim old = w->sim;
@@ -115,6 +119,16 @@ static void swap_groom(app_world *w, app_loader *l)
     app_streams_regroom(&w->streams, w->groom.g.nstrands, w->groom.g.nverts, hm ? hm->ncols : 0, hm ? hm->nlayers : 0);
     w->dirty = true;
     sim_destroy(&old);
+    return fell_back;
+}
+
+/* Tells every client the solver the loader fell back to (a strand groom while hairmesh ran). */
+static void announce_solver(app_world *w)
+{
+    bool changed[PROTO_MAX_PARAMS] = { false };
+    for (size_t i = 0; i < w->nparams; i++) changed[i] = w->ptable[i].offset == offsetof(sim_params, solver);
+    app_send(w->out, NET_ALL, proto_build_params(NULL, w->ptable, w->nparams, &w->params, changed, -1),
+             APP_ANNOUNCE_PARAMS);
 }
 
 void app_cmd_groom_poll(app_world *w)
@@ -128,7 +142,7 @@ void app_cmd_groom_poll(app_world *w)
     } else {
         done(w); /* before the replies: a client may send the next set_groom on seeing them */
         unsigned long long t0 = core_now_ns();
-        swap_groom(w, l);
+        const bool fell_back = swap_groom(w, l);
         app_play_record(w, m);
         app_groom_publish(w->out->net, &w->groom); /* before the groom message that names it */
         core_log(CORE_LOG_INFO, "app",
@@ -139,6 +153,7 @@ void app_cmd_groom_poll(app_world *w)
                  l->total_ms, (double)(core_now_ns() - t0) / 1e6);
         app_reply_ok(w->out, client, m, 0); /* the new groom's simulation starts at step 0 */
         app_send(w->out, NET_ALL, proto_build_groom(&w->groom.json), APP_ANNOUNCE_GROOM);
+        if (fell_back) announce_solver(w);
         app_cmd_hairmesh_fallback(w); /* after the groom message, before any frame of the new groom */
     }
     app_loader_clear(l);

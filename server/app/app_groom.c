@@ -6,6 +6,9 @@
 #include "app_groom.h"
 #include "groom/groom.h"
 
+const char *const app_groom_styles[APP_NSTYLES] = { "straight",          "wavy",          "curly",
+                                                     "hairmesh:straight", "hairmesh:wavy", "hairmesh:curly" };
+
 core_status app_groom_render(app_groom *g, core_err *err)
 {
     proto_data_ref dr = { APP_GROOM_PATH, g->groom_etag, g->groom_bin ? net_buf_len(g->groom_bin) : 0 };
@@ -79,6 +82,13 @@ core_status app_groom_load_hairmesh(const char *style, uint32_t strands, uint32_
     groom_default_colliders(&out->g);
     snprintf(out->source, sizeof out->source, "hairmesh:%s", groom_style_name(hd.style));
     return finish(out, err);
+}
+
+core_status app_groom_load_named(const char *name, uint32_t strands, uint32_t verts, uint64_t seed, app_groom *out,
+                                 core_err *err)
+{
+    if (strncmp(name, "hairmesh:", 9) == 0) return app_groom_load_hairmesh(name + 9, strands, verts, out, err);
+    return app_groom_load_style(name, strands, verts, seed, out, err);
 }
 
 core_status app_groom_load_path(const char *path, const char *label, uint32_t verts, app_groom *out, core_err *err)

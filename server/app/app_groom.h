@@ -14,6 +14,11 @@
 #define APP_GROOM_PATH "/groom.bin"   /* where clients GET the groom data binary (rest lengths, roots) */
 #define APP_HAIRMESH_PATH "/hairmesh.bin" /* where clients GET the hair mesh topology binary */
 
+/* The names set_groom's style may take (hello.grooms.styles): the procedural styles, then the
+ * same styles as hair meshes ("hairmesh:<style>", as strandcastd --groom takes them). */
+#define APP_NSTYLES 6
+extern const char *const app_groom_styles[APP_NSTYLES];
+
 typedef struct app_groom {
     core_groom g;             /* g.mesh / g.sdf: the collision mesh and its distance grid, if any */
     char source[PROTO_MAX_NAME + 16];
@@ -38,6 +43,10 @@ core_status app_groom_load_style(const char *style, uint32_t strands, uint32_t v
  * rounded up to whole strands per face, verts vertices each (0 = GROOM_DEFAULT_VERTS), the
  * default colliders. */
 core_status app_groom_load_hairmesh(const char *style, uint32_t strands, uint32_t verts, app_groom *out, core_err *err);
+/* One of app_groom_styles into *out (zeroed on failure): app_groom_load_hairmesh for a
+ * "hairmesh:<style>" (seed unused), app_groom_load_style otherwise. */
+core_status app_groom_load_named(const char *name, uint32_t strands, uint32_t verts, uint64_t seed, app_groom *out,
+                                 core_err *err);
 /* A .tfx/.hair file at path into *out, shown to clients as "file:<label>"; verts 0 = the file's
  * count. */
 core_status app_groom_load_path(const char *path, const char *label, uint32_t verts, app_groom *out, core_err *err);

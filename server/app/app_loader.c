@@ -11,10 +11,12 @@
 #include "app_loader.h"
 #include "groom/groom.h"
 
-/* The simulation for the loaded groom and its positions buffer into l (or an error). */
+/* The simulation for the loaded groom and its positions buffer into l (or an error); dftl
+ * instead of the hairmesh solver on a groom without a hair mesh (the swap tells the clients). */
 static core_status make_sim(app_loader *l)
 {
     unsigned long long t0 = core_now_ns();
+    if (l->job.params.solver == SIM_SOLVER_HAIRMESH && !l->g.g.hairmesh) l->job.params.solver = SIM_SOLVER_DFTL;
     core_status st = sim_create(&l->sim, &l->job.sim, &l->g.g, &l->job.params, &l->err);
     if (st != CORE_OK) return st;
     size_t n = (size_t)l->g.g.nstrands * l->g.g.nverts * 3;
@@ -38,7 +40,7 @@ static void *loader_main(void *arg)
     setpriority(PRIO_PROCESS, (id_t)gettid(), 10);
     unsigned long long t0 = core_now_ns();
     core_status st = j->groom_path[0] ? app_groom_load_path(j->groom_path, j->label, j->verts, &l->g, &l->err)
-                                      : app_groom_load_style(j->style, j->strands, j->verts, j->seed, &l->g, &l->err);
+                                      : app_groom_load_named(j->style, j->strands, j->verts, j->seed, &l->g, &l->err);
     l->code = PROTO_ERR_FAILED;
     l->field = j->groom_path[0] ? "file" : "style";
     if (st == CORE_OK && ((st = app_groom_check_size(&l->g, &l->err)) != CORE_OK ||

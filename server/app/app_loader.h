@@ -25,7 +25,8 @@ typedef struct app_load_job {
     core_mesh keep;
     char mesh_label[PROTO_MAX_NAME + 1];
     sim_desc sim;             /* the simulation to create (a resolved backend: no AUTO trial) */
-    sim_params params;        /* its parameters (the sim thread applies the current ones at the swap) */
+    sim_params params;        /* its parameters (the sim thread applies the current ones at the swap);
+                                 solver hairmesh becomes dftl on a groom without a hair mesh */
     double particles_per_s, min_rate; /* the groom budget (app_budget_check); 0 = none */
 } app_load_job;
 

@@ -23,7 +23,6 @@ typedef struct app {
     app_stats_board board;    /* sim thread -> net thread */
     atomic_uint grooms_pending;
     proto_parser parser;      /* read-only after set-up */
-    const char *styles[APP_NSTYLES];
     app_assets assets;        /* read-only after set-up */
     app_gate gate;            /* the net callbacks' view */
     app_world w;              /* the sim thread's */
@@ -116,7 +115,7 @@ static core_status setup_world(app *a, const core_param_info *ptable, size_t npa
     w->assets = &a->assets;
     w->ptable = ptable;
     w->nparams = nparams;
-    w->styles = a->styles;
+    w->styles = app_groom_styles;
     sim_params_default(&w->params);
     w->params.solver = a->d.solver;
     if (a->d.replay) w->params = a->replay.start.params;
@@ -176,8 +175,7 @@ static core_status setup(app *a, core_err *err)
     if (nparams > PROTO_MAX_PARAMS)
         return core_fail(err, CORE_EINVAL, "the parameter table has %zu entries; proto serves at most %d", nparams,
                          PROTO_MAX_PARAMS);
-    for (int i = 0; i < APP_NSTYLES; i++) a->styles[i] = groom_style_name((groom_style)i);
-    a->parser = (proto_parser){ ptable, nparams, app_preset_names, APP_PRESET_COUNT, a->styles, APP_NSTYLES };
+    a->parser = (proto_parser){ ptable, nparams, app_preset_names, APP_PRESET_COUNT, app_groom_styles, APP_NSTYLES };
     app_stats_board_init(&a->board);
     core_status st = app_mailbox_init(&a->mb, err);
     if (st != CORE_OK) return st;

@@ -75,7 +75,7 @@ typedef struct app_world {
     const app_assets *assets;
     const core_param_info *ptable;
     size_t nparams;
-    const char *const *styles;    /* the procedural style names, APP_NSTYLES of them */
+    const char *const *styles;    /* app_groom_styles: set_groom's style names */
     app_record *rec;              /* --record; NULL = off */
     app_replay *replay;           /* --replay; NULL = off */
 
@@ -83,8 +83,6 @@ typedef struct app_world {
     atomic_bool quit;         /* ask the sim thread to stop */
     atomic_bool done;         /* the sim thread has finished (steps reached or failure) */
 } app_world;
-
-#define APP_NSTYLES 3
 
 /* Puts the simulation back to its rest pose; its own counters restart at 0, so the baseline the
  * daemon's NaN total counts from does too (the daemon's totals go on). Sim thread. */

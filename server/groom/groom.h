@@ -76,7 +76,9 @@ core_status groom_load_tfx(const void *data, size_t size, uint32_t nverts, core_
 core_status groom_load_hair(const void *data, size_t size, uint32_t nverts, core_groom *out, core_err *err);
 
 /* Reads the file at path (at most GROOM_MAX_FILE_BYTES) and loads it by extension (.tfx or
- * .hair, case-insensitive) with the loaders above, then fits colliders under its roots
+ * .hair, case-insensitive, with the loaders above; .hairmesh.obj: a layered hair mesh,
+ * groom_hairmesh_load_obj, with GROOM_DEFAULT_STRANDS or a little more guides traced through it,
+ * whole strands per face, nverts vertices each, 0 = GROOM_DEFAULT_VERTS), then fits colliders under its roots
  * (groom_fit_colliders). CORE_EIO when the file cannot be read, CORE_EINVAL for an unknown
  * extension, the loader's error otherwise. out must be zeroed or freed; the caller owns it.
  * Blocking file I/O, any thread. */

@@ -55,19 +55,35 @@ core_status groom_read_all(const char *path, size_t max_bytes, const char *what,
     return CORE_OK;
 }
 
+/* The guides traced through the layered hair mesh of a .hairmesh.obj image: whole strands per
+ * face, GROOM_DEFAULT_STRANDS or a little more in all, nverts each (0 = GROOM_DEFAULT_VERTS). */
+static core_status load_hairmesh(const unsigned char *data, size_t size, uint32_t nverts, core_groom *out, core_err *err)
+{
+    core_hairmesh m;
+    core_status st = groom_hairmesh_load_obj(data, size, &m, err);
+    if (st != CORE_OK) return st;
+    st = groom_from_hairmesh(&m, (GROOM_DEFAULT_STRANDS + m.nfaces - 1) / m.nfaces, nverts ? nverts : GROOM_DEFAULT_VERTS,
+                             out, err);
+    core_hairmesh_free(&m);
+    return st;
+}
+
 core_status groom_load_file(const char *path, uint32_t nverts, core_groom *out, core_err *err)
 {
     memset(out, 0, sizeof *out);
     if (!path) return core_fail(err, CORE_EINVAL, "no groom file path");
-    int tfx = groom_has_ext(path, ".tfx"), hair = groom_has_ext(path, ".hair");
-    if (!tfx && !hair)
-        return core_fail(err, CORE_EINVAL, "groom file '%s' has an unknown extension (expected .tfx or .hair)", path);
+    int tfx = groom_has_ext(path, ".tfx"), hair = groom_has_ext(path, ".hair"), hm = groom_has_ext(path, ".hairmesh.obj");
+    if (!tfx && !hair && !hm)
+        return core_fail(err, CORE_EINVAL,
+                         "groom file '%s' has an unknown extension (expected .tfx, .hair or .hairmesh.obj)", path);
     unsigned char *data = NULL;
     size_t size = 0;
     core_status st = groom_read_all(path, GROOM_MAX_FILE_BYTES, "groom file", &data, &size, err);
     if (st != CORE_OK) return st;
     core_err e;
-    st = tfx ? groom_load_tfx(data, size, nverts, out, &e) : groom_load_hair(data, size, nverts, out, &e);
+    st = tfx    ? groom_load_tfx(data, size, nverts, out, &e)
+         : hair ? groom_load_hair(data, size, nverts, out, &e)
+                : load_hairmesh(data, size, nverts, out, &e);
     free(data);
     if (st != CORE_OK) return core_fail(err, st, "%s: %s", path, e.msg);
     groom_fit_colliders(out);

@@ -13,6 +13,20 @@
 /* The solvers (the `solver` parameter's choices, in this order). */
 typedef enum sim_solver { SIM_SOLVER_DFTL = 0, SIM_SOLVER_HAIRMESH = 1, SIM_SOLVER_PBD = 2 } sim_solver;
 
+/* The hair-mesh solver's own parameters (sim_params.hm; schema names hm_<field>). Stiffnesses
+ * are per unit mass (every mesh vertex has unit mass) and per unit of time, so they mean the same
+ * at any dt and substep count. */
+typedef struct sim_hm_params {
+    float stretch_stiffness; /* springs along the columns and the layers' edges, 1/s^2 */
+    float shear_stiffness;   /* springs along the diagonals of the prisms' sides and quads, 1/s^2 */
+    float bend_stiffness;    /* springs between layers l and l + 2 of a column, 1/s^2 */
+    float volume_stiffness;  /* the corner tetrahedra's volume force, 1/s^2 (see hm/sim_hm_forces.c) */
+    float damping;           /* each spring's damper: relative velocity along it decays at this rate, 1/s */
+    int32_t cg_iterations;   /* most modified-CG iterations per solve */
+    float cg_tolerance;      /* CG stops when the preconditioned residual falls below this share of its start */
+    bool deform_min;         /* deformation minimization after collisions (the paper's eq. 3-4) */
+} sim_hm_params;
+
 /* Physical and numerical parameters. Ranges and defaults are in sim_param_table();
  * sim_params_default() fills the defaults. Applied by a backend at a step boundary. */
 typedef struct sim_params {
@@ -39,6 +53,8 @@ typedef struct sim_params {
                                  tangential displacement over a substep is at most friction times
                                  the push out; past that it is reduced by that much (Coulomb) */
     int32_t pbd_iterations;   /* PBD: constraint iterations per substep */
+    sim_hm_params hm;         /* the hair-mesh solver's own (gravity, wind, air drag, dt, substeps,
+                                 collisions and friction above apply to it too) */
 } sim_params;
 
 /* Fills p with the defaults of sim_param_table(). Pure. */

@@ -1,4 +1,4 @@
-/* sim: the parameter table (ranges from the DFTL paper and the thesis), defaults and validation. */
+/* sim: the parameter table (ranges from the DFTL paper, the thesis and the hair-mesh paper), defaults and validation. */
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -9,10 +9,12 @@
 static const char *const dftl_only[] = { "dftl", NULL };
 static const char *const pbd_only[] = { "pbd", NULL };
 static const char *const strands[] = { "dftl", "pbd", NULL };
+static const char *const hairmesh_only[] = { "hairmesh", NULL };
 #define ALL NULL
 #define DFTL dftl_only
 #define PBD pbd_only
 #define STRANDS strands
+#define HM hairmesh_only
 
 static const char *const solver_names[] = { "dftl", "hairmesh", "pbd" };
 
@@ -25,6 +27,15 @@ static const char *const solver_names[] = { "dftl", "hairmesh", "pbd" };
     { #field, CORE_PARAM_INT, offsetof(sim_params, field), lo, hi, d, unit, help, CORE_PARAM_LINEAR, NULL, sv }
 #define B(field, d, help, sv) \
     { #field, CORE_PARAM_BOOL, offsetof(sim_params, field), 0, 1, d, "", help, CORE_PARAM_LINEAR, NULL, sv }
+/* the hair-mesh solver's fields (sim_params.hm.field), named hm_field in the schema */
+#define HF(field, lo, hi, d, unit, help) \
+    { "hm_" #field, CORE_PARAM_FLOAT, offsetof(sim_params, hm.field), lo, hi, d, unit, help, CORE_PARAM_LINEAR, NULL, HM }
+#define HFLOG(field, lo, hi, d, unit, help) \
+    { "hm_" #field, CORE_PARAM_FLOAT, offsetof(sim_params, hm.field), lo, hi, d, unit, help, CORE_PARAM_LOG, NULL, HM }
+#define HI(field, lo, hi, d, unit, help) \
+    { "hm_" #field, CORE_PARAM_INT, offsetof(sim_params, hm.field), lo, hi, d, unit, help, CORE_PARAM_LINEAR, NULL, HM }
+#define HB(field, d, help) \
+    { "hm_" #field, CORE_PARAM_BOOL, offsetof(sim_params, hm.field), 0, 1, d, "", help, CORE_PARAM_LINEAR, NULL, HM }
 #define E(field, choices, d, help) \
     { #field, CORE_PARAM_ENUM, offsetof(sim_params, field), 0, sizeof choices / sizeof choices[0] - 1, d, "", help, \
       CORE_PARAM_LINEAR, choices, NULL }
@@ -37,7 +48,7 @@ static const core_param_info table[] = {
     F(wind_x, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, x component.", ALL),
     F(wind_y, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, y component.", ALL),
     F(wind_z, -50.0, 50.0, 0.0, "m/s^2", "Wind acceleration, z component.", ALL),
-    F(damping, 0.0, 200.0, 30.0, "1/s", "Internal damping: the velocity of each vertex relative to the vertex before it decays at this rate (half-life ln 2 / damping). Stills jitter and whipping tips; the hair still follows the head.", ALL),
+    F(damping, 0.0, 200.0, 30.0, "1/s", "Internal damping: the velocity of each vertex relative to the vertex before it decays at this rate (half-life ln 2 / damping). Stills jitter and whipping tips; the hair still follows the head. (The hair-mesh solver has hm_damping instead.)", STRANDS),
     F(air_drag, 0.0, 20.0, 3.0, "1/s", "Air drag: every vertex's velocity (relative to still air) decays at this rate, so hair that swings freely comes to rest; the head's motion is not damped.", ALL),
     F(dftl_correction, 0.0, 1.0, 0.9, "", "s_d: DFTL velocity correction (paper eq. 14, about 0.9): the share of the next vertex's local-shape and inextensibility correction taken off a vertex's velocity, which hides the serial solver's mass bias.", DFTL),
     FLOG(global_stiffness, 0.0, 1.0e6, 1.0e5, "1/s^2", "Pull toward the rest pose in the head frame, as a spring per unit mass: a vertex settles g / k from its target. The paper's s_g < 0.1 at 0.016 s is k < 390.", STRANDS),
@@ -51,8 +62,16 @@ static const core_param_info table[] = {
     B(shape, 1, "Global and local shape constraints.", STRANDS),
     B(sph, 1, "Hair-hair interaction (SPH pressure and viscosity).", DFTL),
     B(collisions, 1, "Collisions with the character's colliders.", ALL),
-    F(friction, 0.0, 1.0, 0.15, "", "Contact friction (Coulomb-like, dimensionless): hair touching the character keeps still while its sliding over a substep is at most this share of how far the contact pushes it out, and slides that much less otherwise. 0 lets hair slide freely over the head; 1 holds it unless it is pulled nearly along the surface.", STRANDS),
+    F(friction, 0.0, 1.0, 0.15, "", "Contact friction (Coulomb-like, dimensionless): hair touching the character keeps still while its sliding over a substep is at most this share of how far the contact pushes it out, and slides that much less otherwise. 0 lets hair slide freely over the head; 1 holds it unless it is pulled nearly along the surface.", ALL),
     I(pbd_iterations, 1, 32, 4, "", "PBD constraint iterations per substep (distance in even/odd pairs, angular, shape, collisions). Up: less stretch and stiffer-looking strands at more cost; the stiffnesses are compliances, so the settled shape does not depend on it.", PBD),
+    HFLOG(stretch_stiffness, 0.0, 1.0e6, 1.0e5, "1/s^2", "Stretch (Baraff-Witkin condition |x_i - x_j| - L): springs along the hair mesh's columns and its layers' edges, per unit mass. Up: less stretch under gravity."),
+    HFLOG(shear_stiffness, 0.0, 1.0e6, 2.0e4, "1/s^2", "Shear: springs along the diagonals of the prisms' side faces and of the quads, per unit mass. Up: the bundles keep their cross-section."),
+    HFLOG(bend_stiffness, 0.0, 1.0e6, 2.0e4, "1/s^2", "Bend: springs between layers l and l + 2 of each column, per unit mass. Up: the hair holds its authored shape against gravity."),
+    HFLOG(volume_stiffness, 0.0, 1.0e6, 2.0e4, "1/s^2", "Volume force on the eight (six) overlapping corner tetrahedra of every prism (paper eq. 1-2), per unit mass and scaled by each tetrahedron's size. Recovers the volume even from flattened or inverted tetrahedra."),
+    HF(damping, 0.0, 100.0, 4.0, "1/s", "Each spring's damper: the relative velocity of its two ends along it decays at this rate."),
+    HI(cg_iterations, 1, 1000, 200, "", "Most modified conjugate gradient iterations per solve (the implicit step, the deformation minimization)."),
+    HFLOG(cg_tolerance, 1.0e-8, 1.0e-1, 1.0e-2, "", "CG stops once the preconditioned residual norm is below this share of its starting value."),
+    HB(deform_min, 1, "Deformation minimization after collisions (paper eq. 3-4): the other vertices follow the pushed surface so the mesh keeps its local shape and volume."),
 };
 
 const char *sim_solver_name(int32_t solver)

@@ -2,8 +2,8 @@
 import test from 'node:test';
 import assert from 'node:assert/strict';
 import {
-  LOG_DECADES, LOG_STEPS, buildControls, coerceValue, describe, formatNumber, formatValue, fromSlider, niceStep, sliderPositions, toSlider,
-  visibleFor,
+  LOG_DECADES, LOG_STEPS, buildControls, coerceValue, describe, formatNumber, formatValue, fromSlider, groomChoices, niceStep, sliderPositions,
+  toSlider, visibleFor,
 } from '../../web/panel_model.js';
 
 const schema = [
@@ -179,4 +179,20 @@ test('an enum becomes a choice control; solver-specific parameters show only for
   assert.ok(!visibleFor(it, 'dftl'));
   assert.ok(visibleFor(g, 'dftl') && visibleFor(g, 'pbd'));
   assert.ok(visibleFor(it, undefined), 'with no solver known every control shows');
+});
+
+test('groom choices: procedural and hair-mesh styles, then files; the current groom selected', () => {
+  const grooms = { styles: ['straight', 'wavy', 'hairmesh:straight', 7], files: ['ratboy/Ratboy_mohawk.tfx'], colliders: [] };
+  const { options, selected } = groomChoices(grooms, 'hairmesh:straight');
+  assert.deepEqual(options, [
+    { value: 'style:straight', text: 'procedural straight' },
+    { value: 'style:wavy', text: 'procedural wavy' },
+    { value: 'style:hairmesh:straight', text: 'hair mesh straight' },
+    { value: 'file:ratboy/Ratboy_mohawk.tfx', text: 'ratboy/Ratboy_mohawk.tfx' },
+  ]);
+  assert.equal(selected, 'style:hairmesh:straight');
+  assert.equal(groomChoices(grooms, 'procedural:wavy').selected, 'style:wavy');
+  assert.equal(groomChoices(grooms, 'file:ratboy/Ratboy_mohawk.tfx').selected, 'file:ratboy/Ratboy_mohawk.tfx');
+  assert.equal(groomChoices(grooms, 'hairmesh:curly').selected, '', 'a style the server does not list selects nothing');
+  assert.deepEqual(groomChoices(null, undefined), { options: [], selected: '' });
 });

@@ -141,6 +141,8 @@ test('every server message validates against its schema', async () => {
   const dir = mkdtempSync(join(tmpdir(), 'strandcast-schema-'));
   writeFileSync(join(dir, 'tiny.hair'), tinyHair());
   // a closed tetrahedron (counter-clockwise seen from outside) around the tiny groom's roots
+  // a layered hair mesh: one quad over the tiny groom's roots and the same quad 5 cm further out
+  writeFileSync(join(dir, 'cap.hairmesh.obj'), 'v 0 0 0\nv 0.01 0 0\nv 0.01 0 0.01\nv 0 0 0.01\nv 0 -0.05 0\nv 0.01 -0.05 0\nv 0.01 -0.05 0.01\nv 0 -0.05 0.01\nf 1 4 3 2\n');
   writeFileSync(join(dir, 'tet.obj'), 'v -0.2 -0.2 -0.2\nv 0.3 -0.2 -0.2\nv -0.2 0.3 -0.2\nv -0.2 -0.2 0.3\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n');
   const { child, port } = await startDaemon(dir);
   try {
@@ -186,7 +188,8 @@ test('every server message validates against its schema', async () => {
     // the stiffnesses span many decades: their schema entries ask for log sliders, the rest not
     const hello = a.texts.find((m) => m.type === 'hello');
     const logs = hello.params.schema.filter((e) => e.scale !== undefined).map((e) => `${e.name}:${e.scale}`);
-    assert.deepEqual(logs, ['global_stiffness:log', 'local_stiffness:log']);
+    assert.deepEqual(logs, ['global_stiffness:log', 'local_stiffness:log', 'hm_stretch_stiffness:log', 'hm_shear_stiffness:log',
+                            'hm_bend_stiffness:log', 'hm_volume_stiffness:log', 'hm_cg_tolerance:log']);
     const withEntry = (patch) => {
       const h = structuredClone(hello);
       Object.assign(h.params.schema.find((e) => e.name === 'local_stiffness'), patch);
@@ -204,6 +207,14 @@ test('every server message validates against its schema', async () => {
     assert.deepEqual(hello.params.schema.find((e) => e.name === 'pbd_iterations').solvers, ['pbd']);
     assert.deepEqual(hello.params.schema.find((e) => e.name === 'dftl_correction').solvers, ['dftl']);
     assert.equal(hello.params.schema.find((e) => e.name === 'gravity').solvers, undefined);
+    // the hair-mesh solver's own parameters: hm_ names, for hairmesh only, with ranges and units
+    const hm = hello.params.schema.filter((e) => e.name.startsWith('hm_'));
+    assert.deepEqual(hm.map((e) => e.name), ['hm_stretch_stiffness', 'hm_shear_stiffness', 'hm_bend_stiffness', 'hm_volume_stiffness',
+                                             'hm_damping', 'hm_cg_iterations', 'hm_cg_tolerance', 'hm_deform_min']);
+    for (const e of hm) assert.deepEqual(e.solvers, ['hairmesh'], e.name);
+    assert.equal(hm.find((e) => e.name === 'hm_bend_stiffness').unit, '1/s^2');
+    assert.equal(hm.find((e) => e.name === 'hm_damping').max, 100);
+    assert.deepEqual(hello.grooms.styles, ['straight', 'wavy', 'curly', 'hairmesh:straight', 'hairmesh:wavy', 'hairmesh:curly']);
     check(get('server.hello'), withEntry({ choices: ['a'] }), false); // choices only on an enum
     const enumEntry = (patch) => {
       const h = structuredClone(hello);
@@ -235,6 +246,18 @@ test('every server message validates against its schema', async () => {
     assert.equal(data.strands, described.strands);
     assert.equal(data.verts, described.verts);
     assert.equal(16 + 16 * data.strands, described.bytes);
+    // a .hairmesh.obj is a groom file, not a collision mesh; set_groom loads it as a hair mesh
+    assert.ok(hello.grooms.files.includes('cap.hairmesh.obj') && !hello.grooms.colliders.includes('cap.hairmesh.obj'));
+    // (its 4,096 guides share one 1 cm face: SPH off, or the crowd slows every step)
+    send(a, { type: 'set_params', id: 'nosph', values: { sph: false } });
+    await a.until((m) => m.id === 'nosph', 'the reply to set_params sph false');
+    send(a, { type: 'set_groom', id: 'hm', file: 'cap.hairmesh.obj', verts: 6, collider: null });
+    const hmReply = await a.until((m) => m.id === 'hm', 'the reply to the hair-mesh set_groom');
+    assert.equal(hmReply.type, 'ok', JSON.stringify(hmReply));
+    const hmGroom = await b.until((m) => m.type === 'groom' && m.groom.source === 'file:cap.hairmesh.obj', 'the hair-mesh groom');
+    assert.ok(hmGroom.groom.hairmesh, 'the hair-mesh groom names its hair mesh');
+    assert.equal(hmGroom.groom.verts, 6);
+    check(get('server.groom'), hmGroom, true);
     const codes = new Set(a.texts.filter((m) => m.type === 'error').map((m) => m.code));
     for (const c of ['unknown_type', 'unknown_param', 'bad_state', 'not_found', 'not_finite', 'bad_json']) assert.ok(codes.has(c), `no ${c}`);
     a.ws.close();

@@ -68,7 +68,6 @@ static core_status hm_create(const sim_desc *desc, const core_groom *g, const si
     h->ncols = h->mesh.ncols, h->nlayers = h->mesh.nlayers, h->n = h->ncols * h->nlayers;
     h->nstrands = g->nstrands, h->nverts = g->nverts;
     h->p = *params;
-    sim_hm_params_default(&h->hp);
     h->head = h->prev_head = core_xform_identity();
     memcpy(h->colliders, g->colliders, sizeof h->colliders);
     if (g->sdf) {
@@ -147,7 +146,7 @@ static void collisions(sim_hm *h, const sim_step_desc *d, int k)
         unsigned long long t0 = core_now_ns();
         uint32_t moved = sim_hm_collide(h, d, k);
         h->stage_ms[2] += ms_since(t0);
-        if (moved == 0 || !h->hp.deform_min || round == 2) break;
+        if (moved == 0 || !h->p.hm.deform_min || round == 2) break;
         t0 = core_now_ns();
         sim_hm_deform_min(h, h->xp);
         h->stage_ms[3] += ms_since(t0);
@@ -290,14 +289,4 @@ core_status sim_hm_open(sim *s, const sim_desc *desc, const core_groom *groom, c
     s->nstrands = groom->nstrands;
     s->nverts = groom->nverts;
     return CORE_OK;
-}
-
-core_status sim_hm_set_params(sim *s, const sim_hm_params *p, core_err *err)
-{
-    if (!s->vt || s->vt != &sim_hm_vtable)
-        return core_fail(err, CORE_EUNSUPPORTED, "hair-mesh parameters need the hair-mesh solver (this one is %s)",
-                         s->vt ? s->vt->name : "none");
-    core_status st = sim_hm_params_validate(p, err);
-    if (st == CORE_OK) ((sim_hm *)s->self)->hp = *p;
-    return st;
 }

@@ -77,9 +77,9 @@ int sim_hm_cg(sim_hm *h)
     for (size_t i = 0; i < n3; i++) h->r[i] = h->rhs[i] - h->q[i];
     filter(h, h->r);
     double delta = precondition(h, h->r, h->c);
-    const double stop = delta * (double)h->hp.cg_tolerance * (double)h->hp.cg_tolerance;
+    const double stop = delta * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
     int it = 0;
-    while (it < h->hp.cg_iterations && delta > stop && delta > 0.0) {
+    while (it < h->p.hm.cg_iterations && delta > stop && delta > 0.0) {
         sim_hm_apply(h, h->c, h->q);
         filter(h, h->q);
         const double cq = dot3n(h->c, h->q, n3);
@@ -130,8 +130,8 @@ void sim_hm_deform_min(sim_hm *h, const float *ref)
     laplacian(h, h->s, h->r);
     filter(h, h->r);
     double delta = jacobi(h, h->r, h->c);
-    const double stop = delta * (double)h->hp.cg_tolerance * (double)h->hp.cg_tolerance;
-    for (int it = 0; it < h->hp.cg_iterations && delta > stop && delta > 0.0; it++) {
+    const double stop = delta * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
+    for (int it = 0; it < h->p.hm.cg_iterations && delta > stop && delta > 0.0; it++) {
         laplacian(h, h->c, h->q);
         filter(h, h->q);
         const double cq = dot3n(h->c, h->q, n3);

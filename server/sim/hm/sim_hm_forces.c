@@ -32,8 +32,8 @@ static void invert_block(float *p)
 static void springs(sim_hm *h, float dt, core_quat rot)
 {
     sim_hm_springs *s = &h->sp;
-    const float kind_k[3] = { h->hp.stretch_stiffness, h->hp.shear_stiffness, h->hp.bend_stiffness };
-    const float kd = h->hp.damping, dt2 = dt * dt;
+    const float kind_k[3] = { h->p.hm.stretch_stiffness, h->p.hm.shear_stiffness, h->p.hm.bend_stiffness };
+    const float kd = h->p.hm.damping, dt2 = dt * dt;
     const float *x = h->x, *v = h->v;
     float *rhs = h->rhs;
     for (uint32_t i = 0; i < s->n; i++) {
@@ -74,7 +74,7 @@ static void springs(sim_hm *h, float dt, core_quat rot)
 static void volumes(sim_hm *h, float dt)
 {
     sim_hm_tets *t = &h->tets;
-    const float kv = h->hp.volume_stiffness, dt2 = dt * dt;
+    const float kv = h->p.hm.volume_stiffness, dt2 = dt * dt;
     const float *x = h->x, *v = h->v;
     for (uint32_t i = 0; i < t->n; i++) {
         const uint32_t *id = t->v + 4 * (size_t)i;

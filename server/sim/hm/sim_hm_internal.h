@@ -42,7 +42,6 @@ typedef struct sim_hm {
     core_hairmesh mesh;         /* faces, guides, rest positions (head frame) */
     uint32_t nstrands, nverts;
     sim_params p;
-    sim_hm_params hp;
     sim_groom_info ginfo;
     core_collider colliders[CORE_MAX_COLLIDERS];
     core_sdf *sdf;              /* owned copy, NULL = none */
