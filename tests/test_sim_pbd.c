@@ -17,95 +17,12 @@
 #include "sim/sim.h"
 #include "support/sim_check.h"
 
-/* The rest bound of tests/test_sim_rest.c: p99.9 of the per-frame vertex displacement, metres. */
-#define REST_P999 1e-5
-
-typedef struct run {
-    core_groom groom;
-    sim s;
-    float *x, *prev, *scratch;
-    size_t n;
-} run;
-
 static sim_params pbd_params(void)
 {
     sim_params p;
     sim_params_default(&p);
     p.solver = SIM_SOLVER_PBD;
     return p;
-}
-
-static void run_open(run *r, const sim_params *p, int threads)
-{
-    core_err err;
-    sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = threads };
-    if (sim_create(&r->s, &d, &r->groom, p, &err) != CORE_OK) fail_msg("sim_create: %s", err.msg);
-    r->n = (size_t)r->groom.nstrands * r->groom.nverts;
-    r->x = malloc(12 * r->n);
-    r->prev = malloc(12 * r->n);
-    r->scratch = malloc(4 * r->n);
-    assert_true(r->x && r->prev && r->scratch);
-    assert_int_equal(sim_read_positions(&r->s, r->prev, &err), CORE_OK);
-}
-
-static void run_close(run *r)
-{
-    sim_destroy(&r->s);
-    core_groom_free(&r->groom);
-    free(r->x);
-    free(r->prev);
-    free(r->scratch);
-}
-
-static int cmp_float(const void *a, const void *b)
-{
-    const float x = *(const float *)a, y = *(const float *)b;
-    return x < y ? -1 : x > y;
-}
-
-/* One step under head h; returns the p99.9 displacement of the non-root vertices. */
-static double run_step(run *r, core_xform h)
-{
-    core_err err;
-    sim_set_motion(&r->s, h);
-    if (sim_step(&r->s, &err) != CORE_OK) fail_msg("sim_step: %s", err.msg);
-    assert_int_equal(sim_read_positions(&r->s, r->x, &err), CORE_OK);
-    size_t m = 0;
-    for (size_t i = 0; i < r->n; i++) {
-        if (i % r->groom.nverts == 0) continue;
-        const double d = simcheck_dist3(r->x + 3 * i, r->prev + 3 * i);
-        r->scratch[m++] = isfinite(d) ? (float)d : INFINITY;
-    }
-    memcpy(r->prev, r->x, 12 * r->n);
-    qsort(r->scratch, m, sizeof(float), cmp_float);
-    return r->scratch[(size_t)(0.999 * (double)(m - 1))];
-}
-
-/* The head: the violent test script for `moving` s, then a 0.25 s blend back to the identity. */
-static core_xform head_at(double t, double moving)
-{
-    if (t <= moving) return simcheck_head_motion(t, 1.0);
-    const double w = fmin((t - moving) / 0.25, 1.0);
-    core_xform from = simcheck_head_motion(moving, 1.0), h;
-    h.pos = core_v3_scale(from.pos, (float)(1.0 - w));
-    h.rot = core_q_norm(core_q_nlerp(from.rot, core_q_identity(), (float)w));
-    return h;
-}
-
-/* Moves the head for `moving` s, holds it still for `still` s; returns the last frame's p99.9
- * displacement per 1/60 s and in *settle the time after the stop when it last exceeded
- * REST_P999 (per 1/60 s). */
-static double motion_then_rest(run *r, float dt, double moving, double still, double *settle)
-{
-    const int steps = (int)lround((moving + still) / dt);
-    double last = 0.0, above = 0.0;
-    for (int k = 1; k <= steps; k++) {
-        const double t = k * (double)dt;
-        last = run_step(r, head_at(t, moving));
-        if (!(last <= REST_P999 * (dt * 60.0))) above = t - moving;
-    }
-    if (settle) *settle = above;
-    return last / (dt * 60.0);
 }
 
 /* Mean relative segment-length error of positions x (laid out as g->pos). */
@@ -136,17 +53,17 @@ static void test_stretch_falls_with_iterations(void **state)
         sim_params p = pbd_params();
         p.shape = false;
         p.pbd_iterations = iterations[i];
-        run r = { 0 };
+        simcheck_run r = { 0 };
         simcheck_groom(&r.groom, GROOM_STRAIGHT, 64, 24, 3);
-        run_open(&r, &p, 2);
+        simcheck_run_open(&r, &p, 2);
         double sum = 0.0;
         for (int k = 1; k <= 60; k++) {
-            run_step(&r, simcheck_head_motion(k * (double)p.dt, 1.5));
+            simcheck_run_step(&r, simcheck_head_motion(k * (double)p.dt, 1.5));
             sum += stretch(&r.groom, r.x);
         }
         err[i] = sum / 60.0;
         printf("pbd_iterations %2d: mean segment-length error %.3e\n", iterations[i], err[i]);
-        run_close(&r);
+        simcheck_run_close(&r);
     }
     assert_true(err[1] < 0.5 * err[0]);
     assert_true(err[2] < 0.5 * err[1]);
@@ -161,19 +78,19 @@ static void test_no_penetration(void **state)
     for (int i = 0; i < 2; i++) {
         sim_params p = pbd_params();
         p.pbd_iterations = iterations[i];
-        run r = { 0 };
+        simcheck_run r = { 0 };
         simcheck_groom(&r.groom, GROOM_WAVY, 256, 24, 7);
         assert_true(r.groom.ncolliders >= 2);
-        run_open(&r, &p, 2);
+        simcheck_run_open(&r, &p, 2);
         double worst = -1.0;
         for (int k = 1; k <= 300; k++) {
             const core_xform h = simcheck_head_motion(k * (double)p.dt, 1.5);
-            run_step(&r, h);
+            simcheck_run_step(&r, h);
             worst = simcheck_worse(worst, simcheck_deepest_penetration(&r.groom, h, r.x));
         }
         printf("pbd_iterations %d: deepest penetration %.3g of the collider radius\n", iterations[i], worst);
         assert_true(worst <= 0.01);
-        run_close(&r);
+        simcheck_run_close(&r);
     }
 }
 
@@ -185,14 +102,14 @@ static void test_rest_shape_off(void **state)
     (void)state;
     sim_params p = pbd_params();
     p.shape = false;
-    run r = { 0 };
+    simcheck_run r = { 0 };
     simcheck_groom(&r.groom, GROOM_WAVY, 96, 16, 11);
-    run_open(&r, &p, 2);
+    simcheck_run_open(&r, &p, 2);
     double settle;
-    const double rest = motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+    const double rest = simcheck_motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
     printf("pbd shape off: rest p99.9 %.2e mm/frame, settled after %.2f s\n", rest * 1e3, settle);
-    assert_true(rest <= REST_P999);
-    run_close(&r);
+    assert_true(rest <= SIMCHECK_REST_P999);
+    simcheck_run_close(&r);
 }
 
 /* Strands sticking out sideways from a row of roots (a cantilever that gravity bends). */
@@ -218,13 +135,13 @@ static void sag_and_decay(float dt, int substeps, double *sag, double *decay)
     p.substeps = substeps;
     p.global_stiffness = 2000.0f;
     p.local_stiffness = 20000.0f;
-    run r = { 0 };
+    simcheck_run r = { 0 };
     cantilever_groom(&r.groom);
-    run_open(&r, &p, 2);
+    simcheck_run_open(&r, &p, 2);
     double settle;
-    const double rest = motion_then_rest(&r, dt, 0.0, 3.0, &settle);
+    const double rest = simcheck_motion_then_rest(&r, dt, 0.0, 3.0, &settle);
     printf("cantilever dt %.4f, %d substeps: rest %.3e mm/frame\n", dt, substeps, rest * 1e3);
-    assert_true(rest <= REST_P999);
+    assert_true(rest <= SIMCHECK_REST_P999);
     double drop = 0.0;
     for (uint32_t s = 0; s < r.groom.nstrands; s++) {
         const size_t tip = ((size_t)s + 1) * r.groom.nverts - 1;
@@ -232,7 +149,7 @@ static void sag_and_decay(float dt, int substeps, double *sag, double *decay)
     }
     *sag = drop / r.groom.nstrands;
     *decay = settle;
-    run_close(&r);
+    simcheck_run_close(&r);
 }
 
 /* The stiffnesses are compliances (per unit of time): settled sag and decay time agree within
@@ -271,9 +188,9 @@ static void test_switch(void **state)
     sim_params p;
     sim_params_default(&p);
     p.sph = false; /* DFTL's SPH spreads the hair that PBD (no hair-hair forces) lets lie closer */
-    run r = { 0 };
+    simcheck_run r = { 0 };
     simcheck_groom(&r.groom, GROOM_WAVY, 64, 16, 5);
-    run_open(&r, &p, 2);
+    simcheck_run_open(&r, &p, 2);
     core_err err;
     const size_t n3 = 3 * r.n;
     float *x0 = malloc(n3 * 4), *v0 = malloc(n3 * 4), *x1 = malloc(n3 * 4), *v1 = malloc(n3 * 4);
@@ -281,7 +198,7 @@ static void test_switch(void **state)
     const int32_t order[] = { SIM_SOLVER_PBD, SIM_SOLVER_DFTL, SIM_SOLVER_PBD };
     for (int round = 0; round < 3; round++) {
         /* mid-motion: the state carries over exactly */
-        for (int k = 1; k <= 20; k++) run_step(&r, simcheck_head_motion(k * (double)p.dt, 1.0));
+        for (int k = 1; k <= 20; k++) simcheck_run_step(&r, simcheck_head_motion(k * (double)p.dt, 1.0));
         assert_int_equal(sim_read_state(&r.s, x0, v0, &err), CORE_OK);
         sim_stats before, after;
         sim_get_stats(&r.s, &before);
@@ -296,15 +213,15 @@ static void test_switch(void **state)
         /* the switched solver takes the hair on from there: it comes to rest, and a switch back
          * and forth at rest hardly moves it (the two solvers hold the same style, up to how far
          * each lets gravity pull it: 0.25 mm at the tips) */
-        const double rest = motion_then_rest(&r, p.dt, 0.5, 2.0, NULL);
+        const double rest = simcheck_motion_then_rest(&r, p.dt, 0.5, 2.0, NULL);
         p.solver = order[round] == SIM_SOLVER_PBD ? SIM_SOLVER_DFTL : SIM_SOLVER_PBD;
         assert_int_equal(sim_change(&r.s, &r.groom, &p, &err), CORE_OK);
-        const double moved = run_step(&r, core_xform_identity());
+        const double moved = simcheck_run_step(&r, core_xform_identity());
         p.solver = order[round];
         assert_int_equal(sim_change(&r.s, &r.groom, &p, &err), CORE_OK);
         printf("on %s: rest p99.9 %.2e mm/frame; a step of the other solver from there moves p99.9 %.4f mm\n",
                sim_solver_name(p.solver), rest * 1e3, moved * 1e3);
-        assert_true(rest <= REST_P999);
+        assert_true(rest <= SIMCHECK_REST_P999);
         assert_true(moved < 0.5e-3);
     }
     /* the cancel poll goes with the switch: PBD cannot abandon a step, DFTL asks it again */
@@ -312,7 +229,7 @@ static void test_switch(void **state)
     assert_false(sim_set_cancel(&r.s, count_polls, &polls));
     p.solver = SIM_SOLVER_DFTL;
     assert_int_equal(sim_change(&r.s, &r.groom, &p, &err), CORE_OK);
-    run_step(&r, core_xform_identity());
+    simcheck_run_step(&r, core_xform_identity());
     assert_true(polls > 0);
     p.solver = SIM_SOLVER_PBD;
     assert_int_equal(sim_change(&r.s, &r.groom, &p, &err), CORE_OK);
@@ -330,7 +247,7 @@ static void test_switch(void **state)
     assert_int_equal(sim_params_validate(&p, &err), CORE_EINVAL);
     assert_non_null(strstr(err.msg, "solver"));
     free(x0), free(v0), free(x1), free(v1);
-    run_close(&r);
+    simcheck_run_close(&r);
 }
 
 /* Strands are solved independently: 1 and 3 threads give the same bits. */
@@ -338,19 +255,19 @@ static void test_threads_agree(void **state)
 {
     (void)state;
     sim_params p = pbd_params();
-    run a = { 0 }, b = { 0 };
+    simcheck_run a = { 0 }, b = { 0 };
     simcheck_groom(&a.groom, GROOM_CURLY, 200, 16, 9);
     simcheck_groom(&b.groom, GROOM_CURLY, 200, 16, 9);
-    run_open(&a, &p, 1);
-    run_open(&b, &p, 3);
+    simcheck_run_open(&a, &p, 1);
+    simcheck_run_open(&b, &p, 3);
     for (int k = 1; k <= 40; k++) {
         const core_xform h = simcheck_head_motion(k * (double)p.dt, 1.5);
-        run_step(&a, h);
-        run_step(&b, h);
+        simcheck_run_step(&a, h);
+        simcheck_run_step(&b, h);
     }
     assert_memory_equal(a.x, b.x, 12 * a.n);
-    run_close(&a);
-    run_close(&b);
+    simcheck_run_close(&a);
+    simcheck_run_close(&b);
 }
 
 /* Strands are solved 8 side by side (the vectorized groups): a strand's bits do not depend on
@@ -363,7 +280,7 @@ static void test_lanes_independent(void **state)
     core_err err;
     sim_params p = pbd_params();
     p.substeps = 2;
-    run a = { 0 }, b = { 0 };
+    simcheck_run a = { 0 }, b = { 0 };
     simcheck_groom(&a.groom, GROOM_CURLY, 45, 12, 5);
     const uint32_t skip = 8 + 3, nv = a.groom.nverts;
     b.groom = a.groom;
@@ -372,12 +289,12 @@ static void test_lanes_independent(void **state)
     b.groom.pos = malloc(12 * (size_t)b.groom.nstrands * nv);
     assert_non_null(b.groom.pos);
     memcpy(b.groom.pos, a.groom.pos + 3 * (size_t)skip * nv, 12 * (size_t)b.groom.nstrands * nv);
-    run_open(&a, &p, 1);
-    run_open(&b, &p, 2);
+    simcheck_run_open(&a, &p, 1);
+    simcheck_run_open(&b, &p, 2);
     for (int k = 1; k <= 30; k++) {
         const core_xform h = simcheck_head_motion(k * (double)p.dt, 1.5);
-        run_step(&a, h);
-        run_step(&b, h);
+        simcheck_run_step(&a, h);
+        simcheck_run_step(&b, h);
     }
     float *va = malloc(12 * a.n), *vb = malloc(12 * b.n);
     assert_true(va && vb);
@@ -386,8 +303,8 @@ static void test_lanes_independent(void **state)
     assert_memory_equal(a.x + 3 * (size_t)skip * nv, b.x, 12 * b.n);
     assert_memory_equal(va + 3 * (size_t)skip * nv, vb, 12 * b.n);
     free(va), free(vb);
-    run_close(&a);
-    run_close(&b);
+    simcheck_run_close(&a);
+    simcheck_run_close(&b);
 }
 
 int main(void)

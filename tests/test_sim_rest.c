@@ -16,93 +16,13 @@
 #include "sim/sim.h"
 #include "support/sim_check.h"
 
-/* Rest bound: the 99.9th percentile of per-frame vertex displacement, metres. */
-#define REST_P999 1e-5
+/* The rest bound is SIMCHECK_REST_P999 (support/sim_check.h). */
 /* Shape off with SPH on: the hair that only gravity and the contacts hold is still spread by the
  * SPH pressure 3 s after the motion. Known gap (issue 13): 0.012 mm per frame and decaying with
  * rest_density 1, but at the default rest_density 0.25 (which gives held styles their volume)
  * every vertex is over-dense and the unheld hair keeps spreading: 0.043 mm per frame. With
  * repulsion 0 it is at rest, see test_shape_off_rest. */
 #define SHAPE_OFF_SPH_P999 5e-5
-
-static int cmp_float(const void *a, const void *b)
-{
-    const float x = *(const float *)a, y = *(const float *)b;
-    return x < y ? -1 : x > y;
-}
-
-typedef struct run {
-    core_groom groom;
-    sim s;
-    float *x, *prev, *scratch;
-    size_t n;
-} run;
-
-static void run_open(run *r, const sim_params *p)
-{
-    core_err err;
-    sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = 2 };
-    if (sim_create(&r->s, &d, &r->groom, p, &err) != CORE_OK) fail_msg("sim_create: %s", err.msg);
-    r->n = (size_t)r->groom.nstrands * r->groom.nverts;
-    r->x = malloc(12 * r->n);
-    r->prev = malloc(12 * r->n);
-    r->scratch = malloc(4 * r->n);
-    assert_true(r->x && r->prev && r->scratch);
-    assert_int_equal(sim_read_positions(&r->s, r->prev, &err), CORE_OK);
-}
-
-static void run_close(run *r)
-{
-    sim_destroy(&r->s);
-    core_groom_free(&r->groom);
-    free(r->x);
-    free(r->prev);
-    free(r->scratch);
-}
-
-/* One step under head h; returns the 99.9th percentile of the non-root vertices' displacement. */
-static double run_step(run *r, core_xform h)
-{
-    core_err err;
-    sim_set_motion(&r->s, h);
-    if (sim_step(&r->s, &err) != CORE_OK) fail_msg("sim_step: %s", err.msg);
-    assert_int_equal(sim_read_positions(&r->s, r->x, &err), CORE_OK);
-    size_t m = 0;
-    for (size_t i = 0; i < r->n; i++) {
-        if (i % r->groom.nverts == 0) continue;
-        const double d = simcheck_dist3(r->x + 3 * i, r->prev + 3 * i);
-        r->scratch[m++] = isfinite(d) ? (float)d : INFINITY;
-    }
-    memcpy(r->prev, r->x, 12 * r->n);
-    qsort(r->scratch, m, sizeof(float), cmp_float);
-    return r->scratch[(size_t)(0.999 * (double)(m - 1))];
-}
-
-/* The head: the violent test script for `moving` s, then a 0.25 s blend back to the identity. */
-static core_xform head_at(double t, double moving)
-{
-    if (t <= moving) return simcheck_head_motion(t, 1.0);
-    const double w = fmin((t - moving) / 0.25, 1.0);
-    core_xform from = simcheck_head_motion(moving, 1.0), h;
-    h.pos = core_v3_scale(from.pos, (float)(1.0 - w));
-    h.rot = core_q_norm(core_q_nlerp(from.rot, core_q_identity(), (float)w));
-    return h;
-}
-
-/* Moves the head for `moving` s, holds it still for `still` s; returns the last frame's p99.9
- * displacement and, in *settle, the time after the stop when it last exceeded REST_P999. */
-static double motion_then_rest(run *r, float dt, double moving, double still, double *settle)
-{
-    const int steps = (int)lround((moving + still) / dt);
-    double last = 0.0, above = 0.0;
-    for (int k = 1; k <= steps; k++) {
-        const double t = k * (double)dt;
-        last = run_step(r, head_at(t, moving));
-        if (!(last <= REST_P999 * (dt * 60.0))) above = t - moving; /* bound per 1/60 s of motion */
-    }
-    if (settle) *settle = above;
-    return last / (dt * 60.0);
-}
 
 /* Every parameter at its minimum and maximum (the others at default) comes to rest within 3 s
  * of violent motion stopping, on a procedural groom with its colliders and SPH on (shape off is
@@ -131,15 +51,15 @@ static void test_rest_at_extremes(void **state)
             /* a parameter of another solver than the default is tested under the first it applies to */
             if (t[i].solvers && strcmp(t[i].solvers[0], sim_solver_name(p.solver)) != 0)
                 p.solver = core_param_choice(&t[solver], t[i].solvers[0]);
-            run r = { 0 };
+            simcheck_run r = { 0 };
             simcheck_groom(&r.groom, GROOM_WAVY, 96, 16, 11);
-            run_open(&r, &p);
+            simcheck_run_open(&r, &p, 2);
             double settle;
-            const double rest = motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+            const double rest = simcheck_motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
             printf("%-18s = %-10g rest p99.9 %.2e mm/frame, settled after %.2f s\n", t[i].name, v, rest * 1e3, settle);
             const bool shape_off = strcmp(t[i].name, "shape") == 0 && v == 0.0;
-            if (!(rest <= (shape_off ? SHAPE_OFF_SPH_P999 : REST_P999))) failures++;
-            run_close(&r);
+            if (!(rest <= (shape_off ? SHAPE_OFF_SPH_P999 : SIMCHECK_REST_P999))) failures++;
+            simcheck_run_close(&r);
         }
     }
     assert_int_equal(failures, 0);
@@ -157,15 +77,15 @@ static void test_shape_off_rest(void **state)
         p.shape = false;
         p.repulsion = 0.0f;
         p.friction = friction[i];
-        run r = { 0 };
+        simcheck_run r = { 0 };
         simcheck_groom(&r.groom, GROOM_WAVY, 96, 16, 11);
-        run_open(&r, &p);
+        simcheck_run_open(&r, &p, 2);
         double settle;
-        const double rest = motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+        const double rest = simcheck_motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
         printf("shape off, repulsion 0, friction %.2f: rest p99.9 %.2e mm/frame, settled after %.2f s\n",
                (double)friction[i], rest * 1e3, settle);
-        assert_true(rest <= REST_P999);
-        run_close(&r);
+        assert_true(rest <= SIMCHECK_REST_P999);
+        simcheck_run_close(&r);
     }
 }
 
@@ -180,16 +100,16 @@ static void test_damping_monotonic(void **state)
         sim_params_default(&p);
         p.damping = values[i];
         p.sph = false;
-        run r = { 0 };
+        simcheck_run r = { 0 };
         simcheck_groom(&r.groom, GROOM_STRAIGHT, 96, 16, 5);
-        run_open(&r, &p);
+        simcheck_run_open(&r, &p, 2);
         double settle;
-        const double rest = motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+        const double rest = simcheck_motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
         printf("damping %5.1f /s: settled after %.3f s (rest p99.9 %.2e mm)\n", values[i], settle, rest * 1e3);
-        assert_true(rest <= REST_P999);
+        assert_true(rest <= SIMCHECK_REST_P999);
         assert_true(settle <= prev + 1.0 / 60.0);
         prev = settle;
-        run_close(&r);
+        simcheck_run_close(&r);
     }
 }
 
@@ -218,12 +138,12 @@ static void sag_and_decay(float dt, int substeps, double *sag, double *decay)
     p.sph = false;
     p.global_stiffness = 2000.0f;
     p.local_stiffness = 20000.0f;
-    run r = { 0 };
+    simcheck_run r = { 0 };
     cantilever_groom(&r.groom);
-    run_open(&r, &p);
+    simcheck_run_open(&r, &p, 2);
     double settle;
-    const double rest = motion_then_rest(&r, dt, 0.0, 3.0, &settle);
-    assert_true(rest <= REST_P999);
+    const double rest = simcheck_motion_then_rest(&r, dt, 0.0, 3.0, &settle);
+    assert_true(rest <= SIMCHECK_REST_P999);
     double drop = 0.0;
     for (uint32_t s = 0; s < r.groom.nstrands; s++) {
         const size_t tip = ((size_t)s + 1) * r.groom.nverts - 1;
@@ -231,7 +151,7 @@ static void sag_and_decay(float dt, int substeps, double *sag, double *decay)
     }
     *sag = drop / r.groom.nstrands;
     *decay = settle;
-    run_close(&r);
+    simcheck_run_close(&r);
 }
 
 /* Stiffness and damping are per unit of time: settled sag and decay time agree within 10% at
@@ -267,33 +187,33 @@ static void test_ratboy_hard_cases(void **state)
         { 0.008f, 4, -1.0f }, { 1.0f / 60.0f, 8, -1.0f }, { 1.0f / 60.0f, 4, 0.0f }
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-        run r = { 0 };
+        simcheck_run r = { 0 };
         if (!simcheck_ratboy(&r.groom, false)) skip();
         sim_params p;
         sim_params_default(&p);
         p.dt = cases[i].dt;
         p.substeps = cases[i].k;
         if (cases[i].local >= 0.0f) p.local_stiffness = cases[i].local;
-        run_open(&r, &p);
+        simcheck_run_open(&r, &p, 2);
         double settle;
-        const double rest = motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+        const double rest = simcheck_motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
         printf("Ratboy, dt %.4f s, %d substeps, local_stiffness %g: rest p99.9 %.2e mm/frame, settled after %.2f s\n",
                (double)p.dt, p.substeps, (double)p.local_stiffness, rest * 1e3, settle);
-        assert_true(rest <= REST_P999);
-        run_close(&r);
+        assert_true(rest <= SIMCHECK_REST_P999);
+        simcheck_run_close(&r);
     }
 }
 
 /* Ratboy at the defaults (with its head SDF when sdf): see test_ratboy_style. */
 static void ratboy_style(bool sdf)
 {
-    run r = { 0 };
+    simcheck_run r = { 0 };
     if (!simcheck_ratboy(&r.groom, sdf)) skip();
     sim_params p;
     sim_params_default(&p);
-    run_open(&r, &p);
+    simcheck_run_open(&r, &p, 2);
     double settle;
-    const double rest = motion_then_rest(&r, p.dt, 2.0, 3.0, &settle);
+    const double rest = simcheck_motion_then_rest(&r, p.dt, 2.0, 3.0, &settle);
     const double dev = simcheck_mean_distance(r.x, r.groom.pos, r.n) / simcheck_mean_strand_length(&r.groom);
     uint32_t above = 0, above0 = 0;
     for (uint32_t s = 0; s < r.groom.nstrands; s++) {
@@ -305,10 +225,10 @@ static void ratboy_style(bool sdf)
     printf("Ratboy%s: rest p99.9 %.2e mm, settled after %.2f s, shape deviation %.4f of strand length, tips above "
            "roots %.3f (authored %.3f)\n",
            sdf ? " with its head SDF" : "", rest * 1e3, settle, dev, share, share0);
-    assert_true(rest <= REST_P999);
+    assert_true(rest <= SIMCHECK_REST_P999);
     assert_true(dev <= 0.10);
     assert_true(fabs(share - share0) <= 0.05);
-    run_close(&r);
+    simcheck_run_close(&r);
 }
 
 /* Ratboy's mohawk at the defaults, with its fitted head, keeps its style through motion and

@@ -142,3 +142,71 @@ void simcheck_sphere_sdf(core_groom *g)
                 g->sdf->d[i + n * (j + (size_t)n * k)] = (float)(sqrt(x * x + y * y + z * z) - r);
             }
 }
+
+void simcheck_run_open(simcheck_run *r, const sim_params *p, int threads)
+{
+    core_err err;
+    sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = threads };
+    if (sim_create(&r->s, &d, &r->groom, p, &err) != CORE_OK) fail_msg("sim_create: %s", err.msg);
+    r->n = (size_t)r->groom.nstrands * r->groom.nverts;
+    r->x = malloc(12 * r->n);
+    r->prev = malloc(12 * r->n);
+    r->scratch = malloc(4 * r->n);
+    assert_true(r->x && r->prev && r->scratch);
+    assert_int_equal(sim_read_positions(&r->s, r->prev, &err), CORE_OK);
+}
+
+void simcheck_run_close(simcheck_run *r)
+{
+    sim_destroy(&r->s);
+    core_groom_free(&r->groom);
+    free(r->x);
+    free(r->prev);
+    free(r->scratch);
+}
+
+static int cmp_float(const void *a, const void *b)
+{
+    const float x = *(const float *)a, y = *(const float *)b;
+    return x < y ? -1 : x > y;
+}
+
+double simcheck_run_step(simcheck_run *r, core_xform h)
+{
+    core_err err;
+    sim_set_motion(&r->s, h);
+    if (sim_step(&r->s, &err) != CORE_OK) fail_msg("sim_step: %s", err.msg);
+    assert_int_equal(sim_read_positions(&r->s, r->x, &err), CORE_OK);
+    size_t m = 0;
+    for (size_t i = 0; i < r->n; i++) {
+        if (i % r->groom.nverts == 0) continue;
+        const double d = simcheck_dist3(r->x + 3 * i, r->prev + 3 * i);
+        r->scratch[m++] = isfinite(d) ? (float)d : INFINITY;
+    }
+    memcpy(r->prev, r->x, 12 * r->n);
+    qsort(r->scratch, m, sizeof(float), cmp_float);
+    return r->scratch[(size_t)(0.999 * (double)(m - 1))];
+}
+
+core_xform simcheck_rest_head(double t, double moving)
+{
+    if (t <= moving) return simcheck_head_motion(t, 1.0);
+    const double w = fmin((t - moving) / 0.25, 1.0);
+    core_xform from = simcheck_head_motion(moving, 1.0), h;
+    h.pos = core_v3_scale(from.pos, (float)(1.0 - w));
+    h.rot = core_q_norm(core_q_nlerp(from.rot, core_q_identity(), (float)w));
+    return h;
+}
+
+double simcheck_motion_then_rest(simcheck_run *r, float dt, double moving, double still, double *settle)
+{
+    const int steps = (int)lround((moving + still) / dt);
+    double last = 0.0, above = 0.0;
+    for (int k = 1; k <= steps; k++) {
+        const double t = k * (double)dt;
+        last = simcheck_run_step(r, simcheck_rest_head(t, moving));
+        if (!(last <= SIMCHECK_REST_P999 * (dt * 60.0))) above = t - moving;
+    }
+    if (settle) *settle = above;
+    return last / (dt * 60.0);
+}

@@ -9,6 +9,7 @@
 #include "core/groom_types.h"
 #include "core/math3.h"
 #include "groom/groom.h"
+#include "sim/sim.h"
 
 /* Violent scripted head motion at time t (s): swings, nods and shakes, speed times as fast as
  * the base script. Pure function; any thread. */
@@ -48,5 +49,31 @@ double simcheck_deepest_penetration(const core_groom *g, core_xform h, const flo
  * centre, 12 mm larger than the head ellipsoid's smallest semi-axis, so that the hair near the
  * scalp is pushed by it; g owns it (core_groom_free). Fails the running test when it cannot. */
 void simcheck_sphere_sdf(core_groom *g);
+
+/* The stillness bound of the rest tests: p99.9 of the per-frame displacement of the non-root
+ * vertices, metres per 1/60 s. */
+#define SIMCHECK_REST_P999 1e-5
+
+/* A solver on a groom with the buffers to measure per-frame displacement. Zero it, fill groom,
+ * then simcheck_run_open; simcheck_run_close frees all (the groom too). */
+typedef struct simcheck_run {
+    core_groom groom;
+    sim s;
+    float *x, *prev, *scratch;
+    size_t n;
+} simcheck_run;
+
+/* Creates the CPU solver for r->groom with p and `threads` workers (fails the test otherwise). */
+void simcheck_run_open(simcheck_run *r, const sim_params *p, int threads);
+void simcheck_run_close(simcheck_run *r);
+/* One step under head h; returns the 99.9th percentile of the non-root vertices' displacement (m). */
+double simcheck_run_step(simcheck_run *r, core_xform h);
+/* The head: the violent test script (simcheck_head_motion) for `moving` s, then a 0.25 s blend
+ * back to the identity. */
+core_xform simcheck_rest_head(double t, double moving);
+/* Moves the head for `moving` s, holds it still for `still` s; returns the last frame's p99.9
+ * displacement per 1/60 s and, in *settle (NULL: not asked), the time after the stop when it
+ * last exceeded SIMCHECK_REST_P999 per 1/60 s. */
+double simcheck_motion_then_rest(simcheck_run *r, float dt, double moving, double still, double *settle);
 
 #endif
