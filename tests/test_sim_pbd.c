@@ -15,6 +15,7 @@
 
 #include "groom/groom.h"
 #include "sim/sim.h"
+#include "support/quality.h"
 #include "support/sim_check.h"
 
 static sim_params pbd_params(void)
@@ -23,21 +24,6 @@ static sim_params pbd_params(void)
     sim_params_default(&p);
     p.solver = SIM_SOLVER_PBD;
     return p;
-}
-
-/* Mean relative segment-length error of positions x (laid out as g->pos). */
-static double stretch(const core_groom *g, const float *x)
-{
-    double sum = 0.0;
-    size_t m = 0;
-    for (uint32_t s = 0; s < g->nstrands; s++)
-        for (uint32_t v = 1; v < g->nverts; v++) {
-            const size_t i = 3 * ((size_t)s * g->nverts + v);
-            const double L = simcheck_dist3(g->pos + i, g->pos + i - 3);
-            sum += fabs(simcheck_dist3(x + i, x + i - 3) - L) / L;
-            m++;
-        }
-    return sum / (double)m;
 }
 
 /* The distance constraints converge: the mean segment-length error under violent motion (shape
@@ -59,7 +45,7 @@ static void test_stretch_falls_with_iterations(void **state)
         double sum = 0.0;
         for (int k = 1; k <= 60; k++) {
             simcheck_run_step(&r, simcheck_head_motion(k * (double)p.dt, 1.5));
-            sum += stretch(&r.groom, r.x);
+            sum += quality_segment_error_mean(&r.groom, r.x);
         }
         err[i] = sum / 60.0;
         printf("pbd_iterations %2d: mean segment-length error %.3e\n", iterations[i], err[i]);

@@ -108,21 +108,6 @@ static void test_matches_cpu(void **state)
     free(xv);
 }
 
-/* Mean relative segment-length error of positions x (laid out as g->pos). */
-static double stretch(const core_groom *g, const float *x)
-{
-    double sum = 0.0;
-    size_t m = 0;
-    for (uint32_t s = 0; s < g->nstrands; s++)
-        for (uint32_t v = 1; v < g->nverts; v++) {
-            const size_t i = 3 * ((size_t)s * g->nverts + v);
-            const double L = simcheck_dist3(g->pos + i, g->pos + i - 3);
-            sum += fabs(simcheck_dist3(x + i, x + i - 3) - L) / L;
-            m++;
-        }
-    return sum / (double)m;
-}
-
 /* As on the C backend (test_sim_pbd.c): with shape off the mean segment-length error under
  * violent motion at least halves from 1 to 4 and from 4 to 16 iterations on Vulkan. */
 static void test_stretch_falls_with_iterations(void **state)
@@ -143,7 +128,7 @@ static void test_stretch_falls_with_iterations(void **state)
         double sum = 0.0;
         for (int k = 1; k <= 30; k++) {
             step_to(&s, simcheck_head_motion(k * (double)p.dt, 1.5), x);
-            sum += stretch(&g, x);
+            sum += quality_segment_error_mean(&g, x);
         }
         err[i] = sum / 30.0;
         printf("vulkan, pbd_iterations %2d: mean segment-length error %.3e\n", iterations[i], err[i]);

@@ -77,6 +77,20 @@ double quality_segment_error_max(const core_groom *g, const float *x, double min
     return worst;
 }
 
+double quality_segment_error_mean(const core_groom *g, const float *x)
+{
+    double sum = 0.0;
+    size_t m = 0;
+    for (uint32_t s = 0; s < g->nstrands; s++)
+        for (uint32_t l = 1; l < g->nverts; l++) {
+            const size_t i = 3 * ((size_t)s * g->nverts + l);
+            const double rest = dist3(g->pos + i, g->pos + i - 3);
+            sum += fabs(dist3(x + i, x + i - 3) - rest) / rest;
+            m++;
+        }
+    return m ? sum / (double)m : 0.0;
+}
+
 double quality_collider_depth(const core_collider *c, core_xform h, core_vec3 p)
 {
     core_vec3 a = core_xform_point(h, c->a);

@@ -26,6 +26,9 @@ double quality_displacement_quantile(const float *cur, const float *prev, uint32
  * 7.5 um strand, have float32 rounding for a ratio). 0 for a groom at rest; NaN when any
  * position is non-finite. Pure. */
 double quality_segment_error_max(const core_groom *g, const float *x, double min_rest);
+/* Mean |len - rest_len| / rest_len over every segment of x (rest lengths from g->pos, all above
+ * zero; x has g's layout). Pure. */
+double quality_segment_error_mean(const core_groom *g, const float *x);
 
 /* How deep the point p (world space) is inside collider c moved rigidly by head transform h,
  * in metres: > 0 inside, <= 0 outside (the negated distance to the surface for spheres and
