@@ -68,3 +68,16 @@ set_tests_properties(latency_change_shows_at_once PROPERTIES TIMEOUT 120 LABELS 
 add_test(NAME strandbench_help COMMAND strandbench --help)
 set_tests_properties(strandbench_help PROPERTIES TIMEOUT 30
                      PASS_REGULAR_EXPRESSION "\n  solver [^\n]+\n  codec [^\n]+\n  fanout [^\n]+")
+# strandbench quality runs a parameter of another solver than the default under that solver
+# (pbd_iterations under pbd, as the row's "solver" says) and refuses a hair-mesh solver's.
+add_test(NAME strandbench_quality_solver_params
+         COMMAND ${STRANDCAST_NODE} ${STRANDCAST_EXPECT_ROWS}
+           --row "r => r.bench === 'quality' && r.param === 'pbd_iterations' && r.value === 1 && r.solver === 'pbd'"
+           --row "r => r.bench === 'quality' && r.param === 'pbd_iterations' && r.value === 32 && r.solver === 'pbd'"
+           -- $<TARGET_FILE:strandbench> quality --groom straight --param pbd_iterations --strands 64 --verts 8
+              --seconds-motion 0.25 --seconds-rest 0.25 --threads 1 --json)
+set_tests_properties(strandbench_quality_solver_params PROPERTIES TIMEOUT 120 LABELS "integration")
+add_test(NAME strandbench_quality_refuses_hm_param
+         COMMAND strandbench quality --groom straight --param hm_damping --strands 64 --verts 8)
+set_tests_properties(strandbench_quality_refuses_hm_param PROPERTIES TIMEOUT 30
+                     PASS_REGULAR_EXPRESSION "hm_damping is a hair-mesh solver parameter")

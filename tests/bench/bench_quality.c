@@ -40,6 +40,9 @@ static void usage(void)
            "parameter at its min and max (bools: the value that is not the default), one preset per\n"
            "scenario cycling none, nod, shake, circle, headbang, sway. With --param NAME or --full the\n"
            "parameters run at min, default and max (bools 0 and 1) and there are no baselines.\n"
+           "A parameter of one solver only (pbd_iterations) runs under that solver (the row's\n"
+           "\"solver\"); the hair-mesh solver's (hm_*) need a hair-mesh groom and are left out\n"
+           "(strandbench hairmesh measures that solver).\n"
            "Each scenario starts from the authored rest pose\n"
            "(what a user sees first), plays the preset for --seconds-motion, then the head eases back\n"
            "to the base pose over %.2f s (smoothstep, so the stop is no jump) and holds it; the rest\n"
@@ -153,12 +156,13 @@ static core_status twin_nn(bq_ctx *c, const bq_scenario *sc, const core_param_in
 }
 
 static void print_row(const bq_ctx *c, const core_param_info *t, double value, app_preset preset, const bq_result *r,
-                      double nn_gain)
+                      double nn_gain, int32_t solver)
 {
     const core_groom *g = c->g;
     if (c->o->json) {
-        printf("{\"bench\":\"quality\",\"backend\":\"%s\",\"groom\":\"%s\",\"param\":\"%s\"",
-               c->o->backend == SIM_BACKEND_VULKAN ? "vulkan" : "cpu", c->gname, t ? t->name : "defaults");
+        printf("{\"bench\":\"quality\",\"backend\":\"%s\",\"solver\":\"%s\",\"groom\":\"%s\",\"param\":\"%s\"",
+               c->o->backend == SIM_BACKEND_VULKAN ? "vulkan" : "cpu", sim_solver_name(solver), c->gname,
+               t ? t->name : "defaults");
         json_num("value", "%.6g", t ? value : NAN);
         printf(",\"preset\":\"%s\",\"strands\":%u,\"verts\":%u,\"seconds_motion\":%g,\"seconds_rest\":%g,"
                "\"settled\":%s",
@@ -210,6 +214,22 @@ static void note_worst(bq_worst *w, const char *at, const bq_result *r)
 }
 
 /* Runs one scenario, prints its row and notes its figures. Returns 0, or 1 on failure. */
+/* Whether parameter t applies to solver (every solver when t names none). */
+static bool solver_applies(const core_param_info *t, int32_t solver)
+{
+    if (!t->solvers) return true;
+    for (const char *const *n = t->solvers; *n; n++)
+        if (strcmp(*n, sim_solver_name(solver)) == 0) return true;
+    return false;
+}
+
+/* The hair-mesh solver's parameters need a hair-mesh groom, which the quality grooms are not
+ * (strandbench hairmesh and test_sim_hm take them to their ends). */
+static bool hairmesh_only(const core_param_info *t)
+{
+    return t->solvers && strcmp(t->solvers[0], "hairmesh") == 0 && !t->solvers[1];
+}
+
 static int run_scenario(bq_ctx *c, const core_param_info *t, double value, app_preset preset)
 {
     bq_scenario sc = { .groom = c->g, .preset = preset, .seconds_motion = c->o->seconds_motion,
@@ -217,6 +237,9 @@ static int run_scenario(bq_ctx *c, const core_param_info *t, double value, app_p
     memset(&sc.params, 0, sizeof sc.params);
     sim_params_default(&sc.params);
     if (t) bq_param_set(&sc.params, t, value);
+    /* a parameter of another solver than the default runs under the first it applies to */
+    if (t && t->solvers && !solver_applies(t, sc.params.solver))
+        sc.params.solver = core_param_choice(bq_param_find("solver"), t->solvers[0]);
     const core_param_info *tsph = bq_param_find("sph");
     sc.want_nn = tsph && (c->o->nn || !t || is_sph_param(t->name));
     bq_result r;
@@ -230,7 +253,7 @@ static int run_scenario(bq_ctx *c, const core_param_info *t, double value, app_p
         return 1;
     }
     if (sc.want_nn && off > 0.0) nn_gain = r.nn_mean_m / off - 1.0;
-    print_row(c, t, value, preset, &r, nn_gain);
+    print_row(c, t, value, preset, &r, nn_gain, sc.params.solver);
     char at[96];
     if (t) snprintf(at, sizeof at, "%s=%g %s", t->name, value, app_preset_names[preset]);
     else snprintf(at, sizeof at, "defaults %s", app_preset_names[preset]);
@@ -280,6 +303,14 @@ static int run_groom(const bq_opts *o, const core_groom *g, const char *gname)
         const core_param_info *t = &table[i];
         if (o->param && strcmp(o->param, t->name) != 0) continue;
         matched++;
+        if (hairmesh_only(t)) {
+            if (o->param) {
+                fprintf(stderr, "strandbench quality: %s is a hair-mesh solver parameter; the quality grooms are strand "
+                                "grooms (strandbench hairmesh measures that solver)\n", t->name);
+                rc = 1;
+            }
+            continue;
+        }
         double vals[3] = { t->min, t->def, t->max };
         int nvals = 3;
         if (t->type == CORE_PARAM_BOOL) {
