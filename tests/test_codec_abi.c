@@ -97,11 +97,20 @@ static void test_decodes_vectors(void **state)
         assert_int_equal(codec_abi_nstrands_sent(d), NSTRANDS);
         assert_int_equal(codec_abi_nverts(d), NVERTS);
         assert_int_equal(codec_abi_stride(d), 1);
+        assert_int_equal(codec_abi_codec_id(d), 1);
         assert_int_equal(codec_abi_frame_len(d), len);
         assert_int_equal(codec_abi_payload_len(d), len - CODEC_HEADER_SIZE);
         free(bin);
         free(want);
     }
+    /* a hair mesh frame (manifest.json, stream "hairmesh": 21 columns of 5 layers) says so */
+    size_t len;
+    uint8_t *mesh = vector("hairmesh_0", "bin", &len);
+    assert_int_equal(codec_abi_peek(d, mesh, len), 0);
+    assert_int_equal(codec_abi_codec_id(d), 2);
+    assert_int_equal(codec_abi_nstrands_sent(d), 21);
+    assert_int_equal(codec_abi_nverts(d), 5);
+    free(mesh);
     codec_abi_decoder_free(d);
 }
 

@@ -82,6 +82,7 @@ uint32_t codec_abi_nstrands_total(const codec_abi_decoder *d) { return held(d).n
 uint32_t codec_abi_nstrands_sent(const codec_abi_decoder *d) { return held(d).nstrands_sent; }
 uint32_t codec_abi_nverts(const codec_abi_decoder *d) { return held(d).nverts; }
 uint32_t codec_abi_stride(const codec_abi_decoder *d) { return held(d).stride; }
+uint32_t codec_abi_codec_id(const codec_abi_decoder *d) { return held(d).codec_id; }
 uint32_t codec_abi_payload_len(const codec_abi_decoder *d) { return held(d).payload_len; }
 uint64_t codec_abi_frame_len(const codec_abi_decoder *d) { return held(d).frame_len; }
 

@@ -68,6 +68,9 @@ uint32_t codec_abi_nstrands_total(const codec_abi_decoder *d);
 uint32_t codec_abi_nstrands_sent(const codec_abi_decoder *d);
 uint32_t codec_abi_nverts(const codec_abi_decoder *d);
 uint32_t codec_abi_stride(const codec_abi_decoder *d);
+/* 1 for a strand frame, 2 for a hair mesh frame (its "strands" are the mesh's columns, its
+ * "vertices" their layers: proto/CODEC.md, "Hair mesh frames"). */
+uint32_t codec_abi_codec_id(const codec_abi_decoder *d);
 uint32_t codec_abi_payload_len(const codec_abi_decoder *d);
 uint64_t codec_abi_frame_len(const codec_abi_decoder *d);   /* header + payload bytes */
 /* The head transform the simulation used for the frame's positions (world frame): position x, y,

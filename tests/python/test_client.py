@@ -172,3 +172,31 @@ def test_sync_client(daemon):
             c.request({"type": "animate", "preset": "moonwalk"})
         assert e.value.code == "out_of_range" and e.value.field == "preset"
         check_frames(c.hello, c.groom_data(), c.frames(5), 128)
+
+
+def test_hairmesh_frames_say_their_codec():
+    """A client subscribed to the hair mesh gets hair mesh frames (codec_id 2) of the mesh's
+    columns x layers, and strand frames (codec_id 1) again after it subscribes back."""
+    async def body(url):
+        async with strandcast.connect(url) as c:
+            mesh = c.hello["groom"]["hairmesh"]
+            reply = await c.request({"type": "subscribe", "source": "hairmesh"})
+            assert reply["stream"]["codec"] == "hairmesh" and reply["stream"]["strands"] == mesh["ncols"]
+            got = []
+            async for header, xyz in c.frames(count=60):
+                if header["codec_id"] == 2:  # strand frames of the old stream may still be queued
+                    got.append((header, xyz))
+                    if len(got) == 3:
+                        break
+            assert len(got) == 3
+            for header, xyz in got:
+                assert xyz.shape == (mesh["ncols"], mesh["nlayers"], 3) and np.isfinite(xyz).all()
+            await c.request({"type": "subscribe", "source": "strands"})
+            async for header, xyz in c.frames(count=60):
+                if header["codec_id"] == 1:
+                    assert xyz.shape == (c.hello["stream"]["strands"], c.hello["groom"]["verts"], 3)
+                    break
+            else:
+                pytest.fail("no strand frame after subscribing back to the strands")
+    with strandcast.Daemon("--groom", "hairmesh:straight", "--solver", "hairmesh") as d:
+        run(body(d.url))

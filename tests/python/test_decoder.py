@@ -42,6 +42,7 @@ def test_decodes_vectors_bit_exact(stream):
             assert header["nstrands_total"] == stream["nstrands"]
             assert header["nstrands_sent"] == stream["nstrands_sent"]
             assert header["nverts"] == stream["nverts"] and header["stride"] == stream["stride"]
+            assert header["codec_id"] == stream["codec"]
             assert header["max_error_m"] == pytest.approx(stream["max_error_m"], rel=1e-6)
             assert 0 < header["step"] <= 2 * header["max_error_m"]
             assert header["frame_len"] == len(data) == f["bytes"]

@@ -31,6 +31,7 @@ HEADER_FIELDS = (
     ("nstrands_sent", ctypes.c_uint32, 1),
     ("nverts", ctypes.c_uint32, 1),
     ("stride", ctypes.c_uint32, 1),
+    ("codec_id", ctypes.c_uint32, 1),
     ("payload_len", ctypes.c_uint32, 1),
     ("frame_len", ctypes.c_uint64, 1),
 )
