@@ -66,8 +66,8 @@ static void change(sim_params *p, int i)
     }
 }
 
-/* Every step of one sim is abandoned once at a different stage (the step's first poll, after
- * the SPH pass, after substep k) and taken again after the change; the other applies the same
+/* Every step of one sim is abandoned once at a different stage (the step's first poll, in or
+ * after the SPH pass, after substep k) and taken again after the change; the other applies the same
  * changes before its steps. Positions and velocities agree bit for bit throughout. */
 static void test_abandoned_steps_leave_no_trace(void **state)
 {
@@ -95,8 +95,9 @@ static void test_abandoned_steps_leave_no_trace(void **state)
         assert_int_equal(sim_step(&ref.s, &err), CORE_OK);
 
         pc.calls = 0;
-        /* a step polls at its start, after its SPH pass (every second step at 30 Hz) and after
-         * each substep but the last: at least `substeps` times */
+        /* a step polls at its start, in its SPH pass (every second step at 30 Hz: after the
+         * neighbour lists, after the densities, after the forces) and after each substep but the
+         * last: at least `substeps` times */
         pc.at = 1 + i % pcut.substeps;
         core_status st = sim_step(&cut.s, &err);
         assert_int_equal(st, CORE_ECANCELED);

@@ -70,7 +70,7 @@ static core_status rest_density(sim_cpu *c, core_err *err)
 {
     if (c->rho_rest_valid) return CORE_OK;
     double mean;
-    core_status st = sim_cpu_sph_pass(c, c->rest, NULL, c->params.dt, core_xform_identity(), &mean, err);
+    core_status st = sim_cpu_sph_pass(c, c->rest, NULL, c->params.dt, core_xform_identity(), &mean, false, err);
     if (st != CORE_OK) return st;
     c->rho_rest = (float)mean;
     c->rho_rest_valid = true;
@@ -204,7 +204,8 @@ static core_status cpu_step(void *self, core_err *err)
         core_status st = rest_density(c, err);
         if (st != CORE_OK) return st;
         c->step.inv_rho0 = 1.0f / (c->params.rest_density * c->rho_rest);
-        st = sim_cpu_sph_pass(c, c->x, c->v, dt, c->prev_head, NULL, err);
+        st = sim_cpu_sph_pass(c, c->x, c->v, dt, c->prev_head, NULL, cancellable, err);
+        if (st == CORE_ECANCELED) return cancel_step(c, err);
         if (st != CORE_OK) return st;
         t1 = core_now_ns();
         if (cancellable && c->cancel(c->cancel_ctx)) return cancel_step(c, err);

@@ -70,9 +70,12 @@ typedef struct sim_cpu {
 /* Computes SPH accelerations into c->a from c->x, c->v (positions `pos` may be c->rest for the
  * rest-density pass, with vel NULL and out_mean_rho set). The particles move with head `frame`
  * (the head the positions were last placed under). The neighbours are those within h now,
- * whether the skin lists of the previous pass are kept or rebuilt. Sim thread; uses the pool. */
+ * whether the skin lists of the previous pass are kept or rebuilt. With cancellable, c->cancel
+ * is polled after the lists and after the densities: CORE_ECANCELED when it says so, c->a not
+ * yet written and the lists complete (built from `pos`, so a pass taken again from the same
+ * positions keeps them and gives the same bits). Sim thread; uses the pool. */
 core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt, core_xform frame,
-                             double *out_mean_rho, core_err *err);
+                             double *out_mean_rho, bool cancellable, core_err *err);
 void sim_cpu_sph_free(sim_cpu_sph *s);
 
 /* Substep k of c->step: predict + DFTL/shape/collision chain + velocity update. Sim thread;

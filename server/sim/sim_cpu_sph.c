@@ -923,8 +923,14 @@ static core_status rebuild_lists(sph_ctx *ctx, core_err *err)
     return CORE_OK;
 }
 
+/* c's cancel poll between the SPH pass's parts, when the caller may abandon the step. */
+static bool sph_cancelled(const sim_cpu *c, bool cancellable)
+{
+    return cancellable && c->cancel(c->cancel_ctx);
+}
+
 core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt, core_xform frame,
-                             double *out_mean_rho, core_err *err)
+                             double *out_mean_rho, bool cancellable, core_err *err)
 {
     sph_ctx ctx = { .c = c, .pos = pos, .vel = vel, .dt = dt, .pressure = out_mean_rho == NULL };
     sim_cpu_sph *s = &c->sph;
@@ -934,6 +940,7 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
         s->build_head = frame;
         s->lists_valid = out_mean_rho == NULL; /* lists of the rest pose are not reused */
     }
+    if (sph_cancelled(c, cancellable)) return core_fail(err, CORE_ECANCELED, "step abandoned on request");
     sim_pool_run_parts(&c->pool, density_job, &ctx, SPH_PARTS);
     if (out_mean_rho) {
         double sum = 0.0; /* serial, in sorted order: the same bits for any thread count */
@@ -941,6 +948,7 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3
         *out_mean_rho = sum / (double)c->n;
         return CORE_OK;
     }
+    if (sph_cancelled(c, cancellable)) return core_fail(err, CORE_ECANCELED, "step abandoned on request");
     sim_pool_run_parts(&c->pool, force_job, &ctx, SPH_PARTS);
     return CORE_OK;
 }
