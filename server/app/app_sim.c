@@ -17,7 +17,8 @@
 #define APP_SIM_AHEAD 2
 
 /* sim_set_cancel's poll, between the stages of a step: abandon it when a change is queued, the
- * step is in its first half (later, finishing it costs less than starting again), it was not
+ * step is in the first half of the longer of the last two (later, finishing it costs less than
+ * starting again; steps with an SPH evaluation take about twice the others), it was not
  * abandoned already, the simulation keeps real time (behind it, the work thrown away would put
  * it further behind) and the window's budget allows. The change then waits for its own step
  * only. Sim thread. */
@@ -27,7 +28,8 @@ static bool abandon_for_change(void *ctx)
     app_pace *pc = &w->pace;
     if (pc->abandoned || pc->behind || !app_mailbox_change_waiting(w->mb)) return false;
     const unsigned long long spent = core_now_ns() - pc->step_t0_ns;
-    if (2 * spent > pc->last_step_ns || pc->abandoned_ns + spent > ABANDON_BUDGET_NS) return false;
+    const unsigned long long whole = pc->last_step_ns[0] > pc->last_step_ns[1] ? pc->last_step_ns[0] : pc->last_step_ns[1];
+    if (2 * spent > whole || pc->abandoned_ns + spent > ABANDON_BUDGET_NS) return false;
     pc->abandoned = true;
     pc->abandoned_ns += spent;
     return true;
@@ -73,7 +75,8 @@ static core_status step_once(app_world *w)
         return st;
     }
     w->pace.abandoned = false;
-    w->pace.last_step_ns = core_now_ns() - t0;
+    w->pace.last_step_ns[1] = w->pace.last_step_ns[0];
+    w->pace.last_step_ns[0] = core_now_ns() - t0;
     double ms = (double)(core_now_ns() - t0) / 1e6;
     w->pace.step_ms_acc += ms;
     w->pace.log_step_ms_acc += ms;

@@ -29,10 +29,11 @@ typedef struct app_pace {
     uint64_t encode_rounds;
     double publish_acc;       /* simulated time since the last publish round */
     /* abandoning a step for a change (app_sim.c): when the step in progress began, how long the
-     * last whole one took, whether this one was abandoned already, and the wall time thrown
-     * away by abandoned steps in the current stats window, and whether the simulation is behind
-     * real time (no step is abandoned then) */
-    unsigned long long step_t0_ns, last_step_ns, abandoned_ns;
+     * last two whole ones took (steps with and without an SPH evaluation alternate), whether
+     * this one was abandoned already, and the wall time thrown away by abandoned steps in the
+     * current stats window, and whether the simulation is behind real time (no step is
+     * abandoned then) */
+    unsigned long long step_t0_ns, last_step_ns[2], abandoned_ns;
     bool abandoned;
     bool behind;              /* the step in progress began over half a step after its slot */
 } app_pace;
