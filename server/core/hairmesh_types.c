@@ -184,6 +184,7 @@ typedef struct strand_curve {
     double w[4];
 } strand_curve;
 
+/* The straight distance between a and b. */
 static double dist3(const double a[3], const double b[3])
 {
     return sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) + (b[2] - a[2]) * (b[2] - a[2]));
