@@ -19,7 +19,7 @@
  * along +y with a shear along x. */
 static void small_mesh(core_hairmesh *m)
 {
-    assert_int_equal(core_hairmesh_alloc(m, 7, 3, 3, 0, NULL), CORE_OK);
+    assert_int_equal(core_hairmesh_alloc(m, 7, 3, 3, 0, 0, NULL), CORE_OK);
     const float base[7][2] = { { 0, 0 }, { 1, 0 }, { 2, 0 }, { 0, 1 }, { 1, 1 }, { 2, 1 }, { 1, -1 } };
     for (uint32_t c = 0; c < 7; c++)
         for (uint32_t l = 0; l < 3; l++) {
@@ -35,10 +35,12 @@ static void test_alloc_validate_copy(void **state)
     (void)state;
     core_err err;
     core_hairmesh m, c;
-    assert_int_equal(core_hairmesh_alloc(&m, 2, 3, 1, 0, &err), CORE_EINVAL);
-    assert_int_equal(core_hairmesh_alloc(&m, 3, 1, 1, 0, &err), CORE_EINVAL);
-    assert_int_equal(core_hairmesh_alloc(&m, 3, 2, 0, 0, &err), CORE_EINVAL);
-    assert_int_equal(core_hairmesh_alloc(&m, CORE_HAIRMESH_MAX_VERTS, 2, 1, 0, &err), CORE_EINVAL);
+    assert_int_equal(core_hairmesh_alloc(&m, 2, 3, 1, 0, 0, &err), CORE_EINVAL);
+    assert_int_equal(core_hairmesh_alloc(&m, 3, 1, 1, 0, 0, &err), CORE_EINVAL);
+    assert_int_equal(core_hairmesh_alloc(&m, 3, 2, 0, 0, 0, &err), CORE_EINVAL);
+    assert_int_equal(core_hairmesh_alloc(&m, 3, 2, 1, 4, 1, &err), CORE_EINVAL); /* guides of one vertex */
+    assert_int_equal(core_hairmesh_alloc(&m, 3, 2, 1, CORE_HAIRMESH_MAX_GUIDES, 64, &err), CORE_EINVAL);
+    assert_int_equal(core_hairmesh_alloc(&m, CORE_HAIRMESH_MAX_VERTS, 2, 1, 0, 0, &err), CORE_EINVAL);
     small_mesh(&m);
     assert_int_equal(core_hairmesh_validate(&m, &err), CORE_OK);
     assert_int_equal(core_hairmesh_copy(&c, &m, &err), CORE_OK);
@@ -65,26 +67,47 @@ static void test_alloc_validate_copy(void **state)
     core_hairmesh_free(&m);
 
     /* an edge shared by three faces */
-    assert_int_equal(core_hairmesh_alloc(&m, 5, 2, 3, 0, NULL), CORE_OK);
+    assert_int_equal(core_hairmesh_alloc(&m, 5, 2, 3, 0, 0, NULL), CORE_OK);
     const uint32_t f3[3][4] = { { 0, 1, 2, CORE_HAIRMESH_NONE }, { 1, 0, 3, CORE_HAIRMESH_NONE }, { 0, 1, 4, CORE_HAIRMESH_NONE } };
     memcpy(m.faces, f3, sizeof f3);
     assert_int_equal(core_hairmesh_validate(&m, &err), CORE_EFORMAT);
     assert_non_null(strstr(err.msg, "more than two faces"));
     core_hairmesh_free(&m);
 
-    /* guides outside their face */
+    /* guides outside their face, layer parameters out of order or past the tip */
     small_mesh(&m);
     core_hairmesh g;
-    assert_int_equal(core_hairmesh_alloc(&g, 7, 3, 3, 2, NULL), CORE_OK);
+    assert_int_equal(core_hairmesh_alloc(&g, 7, 3, 3, 2, 3, NULL), CORE_OK);
+    assert_int_equal(g.guide_nverts, 3);
     memcpy(g.pos, m.pos, 7 * 9 * sizeof(float));
     memcpy(g.faces, m.faces, 12 * sizeof(uint32_t));
     g.guide_face[0] = 2, g.guide_uv[0] = 0.3f, g.guide_uv[1] = 0.3f;
     g.guide_face[1] = 0, g.guide_uv[2] = 1.0f, g.guide_uv[3] = 1.0f;
+    const float gt[6] = { 0.0f, 0.5f, 2.0f, 0.0f, 1.5f, 2.0f };
+    memcpy(g.guide_t, gt, sizeof gt);
     assert_int_equal(core_hairmesh_validate(&g, &err), CORE_OK);
+    core_hairmesh gcopy;
+    assert_int_equal(core_hairmesh_copy(&gcopy, &g, &err), CORE_OK);
+    assert_int_equal(gcopy.guide_nverts, 3);
+    assert_memory_equal(gcopy.guide_t, gt, sizeof gt);
+    core_hairmesh_free(&gcopy);
     g.guide_uv[0] = 0.8f; /* u + v > 1 on the triangle */
     assert_int_equal(core_hairmesh_validate(&g, &err), CORE_EFORMAT);
     g.guide_uv[0] = 0.3f, g.guide_face[1] = 3;
     assert_int_equal(core_hairmesh_validate(&g, &err), CORE_EFORMAT);
+    g.guide_face[1] = 0, g.guide_t[5] = 1.0f; /* behind the vertex before it */
+    assert_int_equal(core_hairmesh_validate(&g, &err), CORE_EFORMAT);
+    assert_non_null(strstr(err.msg, "layer parameter"));
+    g.guide_t[5] = 2.01f; /* past the tip layer */
+    assert_int_equal(core_hairmesh_validate(&g, &err), CORE_EFORMAT);
+    g.guide_t[5] = NAN;
+    assert_int_equal(core_hairmesh_validate(&g, &err), CORE_EFORMAT);
+    g.guide_t[5] = 2.0f, g.guide_t[0] = -0.1f;
+    assert_int_equal(core_hairmesh_validate(&g, &err), CORE_EFORMAT);
+    g.guide_t[0] = 0.0f, g.guide_nverts = 1;
+    assert_int_equal(core_hairmesh_validate(&g, &err), CORE_EFORMAT);
+    g.guide_nverts = 3;
+    assert_int_equal(core_hairmesh_validate(&g, &err), CORE_OK);
     core_hairmesh_free(&g);
 
     /* the groom owns, frees and deep-copies its hair mesh */
@@ -109,9 +132,10 @@ static void test_trace(void **state)
     small_mesh(&m);
     /* quad 0 at (u, v) = (0.25, 0.5): bilinear weights of corners 0, 1, 4, 3 */
     float out[3 * 5];
-    core_hairmesh_trace(&m, m.pos, 0, 0.25f, 0.5f, 5, out);
+    const float t5[5] = { 0.0f, 0.5f, 1.0f, 1.5f, 2.0f };
+    core_hairmesh_trace(&m, m.pos, 0, 0.25f, 0.5f, 5, t5, out);
     for (uint32_t i = 0; i < 5; i++) {
-        float t = (float)i * 2.0f / 4.0f; /* layer parameter */
+        float t = t5[i]; /* layer parameter */
         float ex = 0.01f * 0.25f + 0.005f * t, ey = 0.02f * t, ez = -0.01f * 0.5f;
         assert_float_equal(out[3 * i], ex, 1e-6);
         assert_float_equal(out[3 * i + 1], ey, 1e-6);
@@ -122,12 +146,14 @@ static void test_trace(void **state)
     core_hairmesh_weights(3, 0.2f, 0.3f, w);
     assert_float_equal(w[0], 0.5f, 1e-7);
     assert_float_equal(w[3], 0.0f, 0.0);
-    core_hairmesh_trace(&m, m.pos, 2, 0.2f, 0.3f, 2, out);
+    const float t2[2] = { 0.0f, 2.0f };
+    core_hairmesh_trace(&m, m.pos, 2, 0.2f, 0.3f, 2, t2, out);
     assert_float_equal(out[0], 0.5f * 0.01f + 0.2f * 0.0f + 0.3f * 0.01f, 1e-6);
     assert_float_equal(out[2], 0.3f * 0.01f, 1e-6);
     assert_float_equal(out[4], 0.04f, 1e-6); /* the tip layer */
-    /* piecewise linear: 4 vertices over 3 layers put vertex 1 at t = 2/3 */
-    core_hairmesh_trace(&m, m.pos, 0, 0.0f, 0.0f, 4, out);
+    /* piecewise linear between the layer points: t = 2/3 is two thirds up the first layer segment */
+    const float t4[4] = { 0.0f, 2.0f / 3.0f, 4.0f / 3.0f, 2.0f };
+    core_hairmesh_trace(&m, m.pos, 0, 0.0f, 0.0f, 4, t4, out);
     assert_float_equal(out[4], 0.02f * 2.0f / 3.0f, 1e-6);
     core_hairmesh_weights(4, 1.0f, 1.0f, w);
     assert_float_equal(w[2], 1.0f, 0.0);
@@ -212,7 +238,10 @@ static void test_guides(void **state)
     float out[3 * 7];
     for (uint32_t s = 0; s < 15; s++) {
         assert_int_equal(g.hairmesh->guide_face[s], s / 5);
-        core_hairmesh_trace(&m, m.pos, s / 5, g.hairmesh->guide_uv[2 * s], g.hairmesh->guide_uv[2 * s + 1], 7, out);
+        float t[7];
+        core_hairmesh_even_params(&m, m.pos, s / 5, g.hairmesh->guide_uv[2 * s], g.hairmesh->guide_uv[2 * s + 1], 7, t);
+        assert_memory_equal(t, g.hairmesh->guide_t + 7 * (size_t)s, sizeof t);
+        core_hairmesh_trace(&m, m.pos, s / 5, g.hairmesh->guide_uv[2 * s], g.hairmesh->guide_uv[2 * s + 1], 7, t, out);
         assert_memory_equal(out, g.pos + 3 * 7 * (size_t)s, sizeof out);
     }
     /* the first strand of a quad sits at its centre */
@@ -230,6 +259,98 @@ static void test_guides(void **state)
 static core_status load_text(const char *s, core_hairmesh *m, core_err *err)
 {
     return groom_hairmesh_load_obj(s, strlen(s), m, err);
+}
+
+/* The largest relative spread (max - min) / mean of a strand's segment lengths over g's strands. */
+static double segment_spread(const core_groom *g)
+{
+    double worst = 0.0;
+    for (uint32_t s = 0; s < g->nstrands; s++) {
+        double lo = INFINITY, hi = 0.0, sum = 0.0;
+        for (uint32_t i = 0; i + 1 < g->nverts; i++) {
+            const float *a = g->pos + 3 * ((size_t)s * g->nverts + i), *b = a + 3;
+            double d = sqrt(pow((double)b[0] - a[0], 2) + pow((double)b[1] - a[1], 2) + pow((double)b[2] - a[2], 2));
+            lo = fmin(lo, d), hi = fmax(hi, d), sum += d;
+        }
+        worst = fmax(worst, (hi - lo) / (sum / (g->nverts - 1)));
+    }
+    return worst;
+}
+
+/* A quad (columns 0-3) and a triangle (1, 4, 2) over 5 layers at uneven heights (3 mm, then
+ * 4.7 cm, 1 cm, 9 cm), bent along x: a layered .obj of the importer's convention. */
+static char *uneven_obj(void)
+{
+    static const float roots[5][2] = { { 0, 0 }, { 0.02f, 0 }, { 0.02f, 0.02f }, { 0, 0.02f }, { 0.04f, 0.01f } };
+    static const float height[5] = { 0.0f, 0.003f, 0.05f, 0.06f, 0.15f };
+    size_t cap = 4096, n = 0;
+    char *t = malloc(cap);
+    assert_non_null(t);
+    n += (size_t)snprintf(t + n, cap - n, "# uneven layers\n");
+    for (int l = 0; l < 5; l++)
+        for (int c = 0; c < 5; c++)
+            n += (size_t)snprintf(t + n, cap - n, "v %g %g %g\n", (double)(roots[c][0] + 0.3f * height[l] * height[l] * 10.0f),
+                                  (double)-height[l], (double)roots[c][1]);
+    n += (size_t)snprintf(t + n, cap - n, "f 1 2 3 4\nf 2 5 3\n");
+    assert_true(n < cap);
+    return t;
+}
+
+static void test_even_segments(void **state)
+{
+    (void)state;
+    core_err err;
+    core_groom g;
+    /* the procedural styles, whose first layer lies closer to the scalp than the others are apart */
+    const groom_style styles[3] = { GROOM_STRAIGHT, GROOM_WAVY, GROOM_CURLY };
+    for (int st = 0; st < 3; st++) {
+        core_hairmesh m;
+        groom_hairmesh_desc d = { .style = styles[st] };
+        assert_int_equal(groom_hairmesh_procedural(&d, &m, &err), CORE_OK);
+        const uint32_t nv[3] = { 5, 8, 24 };
+        for (int k = 0; k < 3; k++) {
+            assert_int_equal(groom_from_hairmesh(&m, 2, nv[k], &g, &err), CORE_OK);
+            double spread = segment_spread(&g);
+            if (!(spread <= 1e-3)) fail_msg("style %d, %u vertices: segment spread %g", st, nv[k], spread);
+            assert_int_equal(core_hairmesh_validate(g.hairmesh, &err), CORE_OK);
+            assert_int_equal(g.hairmesh->guide_nverts, nv[k]);
+            core_groom_free(&g);
+        }
+        core_hairmesh_free(&m);
+    }
+    /* an imported mesh with very uneven layers, quads and a triangle */
+    char *text = uneven_obj();
+    core_hairmesh m;
+    assert_int_equal(load_text(text, &m, &err), CORE_OK);
+    free(text);
+    const uint32_t nv[4] = { 3, 6, 17, 40 };
+    for (int k = 0; k < 4; k++) {
+        assert_int_equal(groom_from_hairmesh(&m, 7, nv[k], &g, &err), CORE_OK);
+        double spread = segment_spread(&g);
+        if (!(spread <= 1e-3)) fail_msg("obj mesh, %u vertices: segment spread %g", nv[k], spread);
+        /* the root on the root layer, the tip on the tip layer */
+        float t[40];
+        core_hairmesh_even_params(&m, m.pos, 0, 0.5f, 0.5f, nv[k], t);
+        assert_float_equal(t[0], 0.0f, 0.0);
+        assert_float_equal(t[nv[k] - 1], 4.0f, 0.0);
+        core_groom_free(&g);
+    }
+    /* straight strands: the middle vertex of 3 sits half way along (7.5 cm), a sixth of the way
+     * from layer 3 (6 cm) to layer 4 (15 cm) */
+    float t[3], out[9];
+    for (uint32_t c = 0; c < 5; c++)
+        for (uint32_t l = 0; l < 5; l++) m.pos[3 * (c * 5 + l)] = (float)c * 0.01f;
+    core_hairmesh_even_params(&m, m.pos, 0, 0.0f, 0.0f, 3, t);
+    assert_float_equal(t[1], 3.0f + (0.075f - 0.06f) / (0.15f - 0.06f), 1e-5);
+    core_hairmesh_trace(&m, m.pos, 0, 0.0f, 0.0f, 3, t, out);
+    assert_float_equal(out[4], -0.075f, 1e-6);
+    /* a strand of zero length gets the uniform parameters */
+    for (uint32_t i = 0; i < 3 * 25; i++) m.pos[i] = 0.0f;
+    core_hairmesh_even_params(&m, m.pos, 1, 0.2f, 0.2f, 3, t);
+    assert_float_equal(t[0], 0.0f, 0.0);
+    assert_float_equal(t[1], 2.0f, 0.0);
+    assert_float_equal(t[2], 4.0f, 0.0);
+    core_hairmesh_free(&m);
 }
 
 static void test_obj_round_trip_and_example(void **state)
@@ -427,6 +548,7 @@ int main(void)
         cmocka_unit_test(test_trace),
         cmocka_unit_test(test_procedural),
         cmocka_unit_test(test_guides),
+        cmocka_unit_test(test_even_segments),
         cmocka_unit_test(test_obj_round_trip_and_example),
         cmocka_unit_test(test_obj_malformed),
         cmocka_unit_test(test_obj_hostile),

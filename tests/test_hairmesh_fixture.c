@@ -1,9 +1,10 @@
 /* The hair mesh tracing fixture tests/js/hairmesh_trace.json: strands traced by the C rule
- * (core_hairmesh_trace) through a procedural curly hair mesh and a hand-made mesh of a quad and
- * a triangle, at several vertex counts, which tests/js/hairmesh.test.mjs checks web/hairmesh.js
- * (the viewer's vertex shader math) against. This test traces every stored strand through its
- * stored mesh again and requires the stored coordinates bit for bit, so the C rule and the
- * fixture cannot drift apart (a change of the procedural generator does not matter);
+ * (core_hairmesh_trace at the even layer parameters of core_hairmesh_even_params) through a
+ * procedural curly hair mesh and a hand-made mesh of a quad and a triangle with uneven layers,
+ * at several vertex counts, which tests/js/hairmesh.test.mjs checks web/hairmesh.js (the
+ * viewer's vertex shader math) against. This test computes every stored strand's parameters and
+ * traces it through its stored mesh again and requires the stored values bit for bit, so the C
+ * rule and the fixture cannot drift apart (a change of the procedural generator does not matter);
  * STRANDCAST_WRITE_VECTORS=1 makes the fixture afresh instead. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -65,14 +66,18 @@ static void put_mesh(text *t, const char *name, const core_hairmesh *m, const fl
     for (size_t c = 0; c < ncases; c++)
         for (int k = 0; k < 3; k++) {
             uint32_t nv = counts[k];
-            float *out = malloc(3u * nv * sizeof *out);
-            assert_non_null(out);
-            core_hairmesh_trace(m, m->pos, (uint32_t)cases[c][0], cases[c][1], cases[c][2], nv, out);
-            put(t, "       {\"face\": %u, \"u\": %.9g, \"v\": %.9g, \"nverts\": %u, \"xyz\": ", (uint32_t)cases[c][0],
+            float *out = malloc(3u * nv * sizeof *out), *lt = malloc(nv * sizeof *lt);
+            assert_true(out && lt);
+            core_hairmesh_even_params(m, m->pos, (uint32_t)cases[c][0], cases[c][1], cases[c][2], nv, lt);
+            core_hairmesh_trace(m, m->pos, (uint32_t)cases[c][0], cases[c][1], cases[c][2], nv, lt, out);
+            put(t, "       {\"face\": %u, \"u\": %.9g, \"v\": %.9g, \"nverts\": %u, \"t\": ", (uint32_t)cases[c][0],
                 (double)cases[c][1], (double)cases[c][2], nv);
+            put_floats(t, lt, nv);
+            put(t, ",\n        \"xyz\": ");
             put_floats(t, out, 3u * nv);
             put(t, "}%s\n", c + 1 == ncases && k == 2 ? "" : ",");
             free(out);
+            free(lt);
         }
     put(t, "     ]}%s\n", last ? "" : ",");
 }
@@ -111,15 +116,24 @@ static void check_fixture(const char *text)
         for (const cJSON *s = cJSON_GetObjectItemCaseSensitive(m, "strands")->child; s; s = s->next, nstrands++) {
             uint32_t nv = (uint32_t)cJSON_GetObjectItemCaseSensitive(s, "nverts")->valuedouble;
             float *want = malloc(3u * nv * sizeof *want), *got = malloc(3u * nv * sizeof *got);
-            assert_true(want && got);
+            float *want_t = malloc(nv * sizeof *want_t), *got_t = malloc(nv * sizeof *got_t);
+            assert_true(want && got && want_t && got_t);
+            floats_of(cJSON_GetObjectItemCaseSensitive(s, "t"), want_t, nv);
             floats_of(cJSON_GetObjectItemCaseSensitive(s, "xyz"), want, 3u * nv);
-            core_hairmesh_trace(&h, h.pos, (uint32_t)cJSON_GetObjectItemCaseSensitive(s, "face")->valuedouble,
-                                (float)cJSON_GetObjectItemCaseSensitive(s, "u")->valuedouble,
-                                (float)cJSON_GetObjectItemCaseSensitive(s, "v")->valuedouble, nv, got);
+            const uint32_t face = (uint32_t)cJSON_GetObjectItemCaseSensitive(s, "face")->valuedouble;
+            const float u = (float)cJSON_GetObjectItemCaseSensitive(s, "u")->valuedouble;
+            const float v = (float)cJSON_GetObjectItemCaseSensitive(s, "v")->valuedouble;
+            core_hairmesh_even_params(&h, h.pos, face, u, v, nv, got_t);
+            if (memcmp(want_t, got_t, nv * sizeof *got_t) != 0)
+                fail_msg("strand %d of mesh %d: layer parameters are not what core_hairmesh_even_params gives now", nstrands,
+                         nmesh);
+            core_hairmesh_trace(&h, h.pos, face, u, v, nv, got_t, got);
             if (memcmp(want, got, 3u * nv * sizeof *got) != 0)
                 fail_msg("strand %d of mesh %d is not what core_hairmesh_trace gives now", nstrands, nmesh);
             free(want);
             free(got);
+            free(want_t);
+            free(got_t);
         }
         free(h.pos);
         free(h.faces);
@@ -137,7 +151,8 @@ static void test_trace_fixture(void **state)
     assert_int_equal(groom_hairmesh_procedural(&d, &curly, &err), CORE_OK);
     assert_int_equal(core_hairmesh_validate(&curly, &err), CORE_OK);
     static const float curly_cases[][3] = { { 0, 0.25f, 0.75f }, { 3, 0.9f, 0.1f }, { 1, 0.5f, 0.5f } };
-    /* a quad (0 1 2 3) and a triangle (1 4 2) over 3 layers, bent */
+    /* a quad (0 1 2 3) and a triangle (1 4 2) over 3 layers 1 cm and 5 cm apart, bent */
+    static const float heights[3] = { 0.0f, 0.01f, 0.06f };
     static uint32_t faces[8] = { 0, 1, 2, 3, 1, 4, 2, CORE_HAIRMESH_NONE };
     float pos[5 * 3 * 3];
     static const float roots[5][3] = { { 0, 0, 0 }, { 0.02f, 0, 0 }, { 0.02f, 0, 0.02f }, { 0, 0, 0.02f }, { 0.04f, 0, 0.01f } };
@@ -145,14 +160,14 @@ static void test_trace_fixture(void **state)
         for (int l = 0; l < 3; l++) {
             float *p = pos + 3 * (c * 3 + l);
             p[0] = roots[c][0] + 0.004f * (float)(l * l);
-            p[1] = roots[c][1] - 0.05f * (float)l;
+            p[1] = roots[c][1] - heights[l];
             p[2] = roots[c][2] + 0.001f * (float)(c * l);
         }
     core_hairmesh hand = { .ncols = 5, .nlayers = 3, .pos = pos, .nfaces = 2, .faces = faces };
     assert_int_equal(core_hairmesh_validate(&hand, &err), CORE_OK);
     static const float hand_cases[][3] = { { 0, 0.3f, 0.6f }, { 1, 0.2f, 0.3f }, { 1, 0.0f, 1.0f } };
     text t = { 0 };
-    put(&t, "{\n  \"rule\": \"core_hairmesh_trace (server/core/hairmesh_types.h)\",\n  \"meshes\": [\n");
+    put(&t, "{\n  \"rule\": \"core_hairmesh_even_params, core_hairmesh_trace (server/core/hairmesh_types.h)\",\n  \"meshes\": [\n");
     put_mesh(&t, "procedural_curly", &curly, curly_cases, 3, false);
     put_mesh(&t, "hand_quad_triangle", &hand, hand_cases, 3, true);
     put(&t, "  ]\n}\n");

@@ -13,7 +13,7 @@ import { Panel } from './panel.js';
 import { pickColliders } from './pick.js';
 import { ColliderMeshLoader, httpBase } from './collider_mesh.js';
 import { GroomDataLoader } from './groom_data.js';
-import { meshStrands } from './hairmesh.js';
+import { meshStrands, strandParams } from './hairmesh.js';
 import { parseHairmeshData } from './hairmesh_data.js';
 import { Renderer } from './renderer.js';
 import { StreamClient } from './stream_client.js';
@@ -303,7 +303,8 @@ export class App {
 
   _buildMeshStrands() {
     if (!this.hairmesh || this.contextLost) return;
-    this.renderer.meshHair.setStrands(meshStrands(this.hairmesh.faces, this.hairmesh.nfaces, this.settings.perFace), this._meshPts());
+    const m = this.hairmesh, pts = this._meshPts(), strands = meshStrands(m.faces, m.nfaces, this.settings.perFace);
+    this.renderer.meshHair.setStrands(strands, pts, strandParams(m, m.rest, strands, pts), this.maxTexW);
     this.dirty = true;
   }
 

@@ -30,14 +30,97 @@ export function faceCorners(faces, f) {
   return faces[4 * f + 3] === FACE_NONE ? 3 : 4;
 }
 
-// The layer parameter of point i of n along a mesh of nlayers layers, as C computes it in
-// float: (float)i * (float)(nlayers - 1) / (float)(n - 1). Returns [layer l, fraction a] with
-// l = min(floor(t), nlayers - 2) and a = t - l.
-export function layerAt(i, n, nlayers) {
-  const f = Math.fround;
-  const t = f(f(f(i) * f(nlayers - 1)) / f(n - 1));
+// The layer parameter t of a strand point as [layer l, fraction a]: l = min(floor(t),
+// nlayers - 2), a = t - l in float, as C (core_hairmesh_trace) computes it.
+export function layerAt(t, nlayers) {
   const l = Math.min(Math.floor(t), nlayers - 2);
-  return [l, f(t - l)];
+  return [l, Math.fround(t - l)];
+}
+
+// The even layer parameters of a strand of n >= 2 points at face f, (u, v) of the mesh
+// { nlayers, faces } through the REST positions rest (column-major), into a Float32Array(n): the
+// rule of server/core/hairmesh_types.h (core_hairmesh_even_params), stated here the same: the
+// strand's curve is the polyline of its layer points; t_0 = 0, t_{n-1} = nlayers - 1, and
+// consecutive rest points at one straight distance d: from t_i, t_{i+1} is the first parameter
+// past t_i whose point lies at distance d from point i (solved exactly on each polyline
+// segment); d is found by 64 bisection steps on [0, polyline length / (n - 1)] (a d whose walk of
+// n - 1 steps reaches past the tip is too long), the walk of the final lower bound gives t_1 ..
+// t_{n-2}. Where that walk's last step (from point n - 2 to the tip-layer point) differs from d
+// by more than 1e-4 d (a curve folding back on itself), t_1 .. t_{n-2} are at even arc length
+// along the polyline instead. In double from the float positions and float weights; stored in
+// float. A strand of zero length gets t_i = i (nlayers - 1) / (n - 1). The viewer computes the
+// table once per render strand from the rest mesh and keeps it while the mesh deforms.
+export function evenParams(mesh, rest, f, u, v, n, t = new Float32Array(n)) {
+  const nlayers = mesh.nlayers, nc = faceCorners(mesh.faces, f);
+  const w = cornerWeights(nc, Math.fround(u), Math.fround(v), [0, 0, 0, 0]).map(Math.fround);
+  const pts = [];
+  for (let l = 0; l < nlayers; l++) pts.push(layerPoint(rest, nlayers, mesh.faces, f, w, l, [0, 0, 0]));
+  const pt = (l) => pts[l];
+  const top = nlayers - 1;
+  let len = 0;
+  for (let l = 1; l < nlayers; l++) len += dist3(pt(l - 1), pt(l));
+  if (!(len > 0)) {
+    for (let i = 0; i < n; i++) t[i] = Math.fround(Math.fround(Math.fround(i) * Math.fround(top)) / Math.fround(n - 1));
+    return t;
+  }
+  let lo = 0, hi = len / (n - 1);
+  for (let it = 0; it < 64; it++) {
+    const mid = 0.5 * (lo + hi);
+    if (walk(pt, nlayers, n, mid, null)) lo = mid; else hi = mid;
+  }
+  const last = walk(pt, nlayers, n, lo, t) ? dist3(curveAt(pt, nlayers, n > 2 ? t[n - 2] : 0), pt(top)) : -1;
+  if (!(Math.abs(last - lo) <= 1e-4 * lo)) arcParams(pt, nlayers, n, len, t);
+  t[0] = 0;
+  t[n - 1] = top;
+  for (let i = 1; i + 1 < n; i++) t[i] = Math.min(t[i], top);
+  return t;
+}
+
+function dist3(a, b) {
+  return Math.sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) + (b[2] - a[2]) * (b[2] - a[2]));
+}
+
+// evenParams' walk of n - 1 straight steps of length d along the curve of layer points pt(l);
+// writes the parameters of points 1.. into t when given; false when a step runs past the tip.
+function walk(pt, nlayers, n, d, t) {
+  let l = 0, a0 = 0, A = pt(0), B = pt(1);
+  const p = pt(0).slice();
+  for (let i = 1; i < n; i++) {
+    for (;;) {
+      const e = [B[0] - A[0], B[1] - A[1], B[2] - A[2]], g = [A[0] - p[0], A[1] - p[1], A[2] - p[2]];
+      const qa = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
+      const qb = 2 * (e[0] * g[0] + e[1] * g[1] + e[2] * g[2]);
+      const qc = g[0] * g[0] + g[1] * g[1] + g[2] * g[2] - d * d;
+      if (qa > 0) {
+        const disc = Math.sqrt(Math.max(qb * qb - 4 * qa * qc, 0));
+        const a = qb >= 0 ? (qc < 0 ? 2 * qc / (-qb - disc) : 0) : (-qb + disc) / (2 * qa);
+        if (a <= 1) { a0 = Math.max(a, a0); break; }
+      }
+      if (l + 2 >= nlayers) return false;
+      l++; a0 = 0; A = B; B = pt(l + 1);
+    }
+    for (let c = 0; c < 3; c++) p[c] = A[c] + a0 * (B[c] - A[c]);
+    if (t) t[i] = l + a0;
+  }
+  return true;
+}
+
+// The curve's point at layer parameter t (in double).
+function curveAt(pt, nlayers, t) {
+  const l = Math.min(Math.floor(t), nlayers - 2), a = t - l, p0 = pt(l), p1 = pt(l + 1);
+  return [0, 1, 2].map((c) => p0[c] + a * (p1[c] - p0[c]));
+}
+
+// evenParams' fallback: points 1 .. n - 2 at even arc length along the polyline of length len.
+function arcParams(pt, nlayers, n, len, t) {
+  let l = 0, s0 = 0, A = pt(0), B = pt(1), seg = dist3(A, B);
+  for (let i = 1; i + 1 < n; i++) {
+    const want = (i * len) / (n - 1);
+    while (s0 + seg < want && l + 2 < nlayers) {
+      s0 += seg; l++; A = B; B = pt(l + 1); seg = dist3(A, B);
+    }
+    t[i] = l + (seg > 0 ? Math.min((want - s0) / seg, 1) : 0);
+  }
 }
 
 // Writes to out[o..o+2] the guide point of face f with corner weights w at layer l of a mesh
@@ -53,13 +136,13 @@ export function layerPoint(pos, nlayers, faces, f, w, l, out, o = 0) {
 }
 
 // Traces one strand of nverts >= 2 vertices through the mesh { nlayers, pos, faces } at face f,
-// (u, v) into out[3 nverts] (core_hairmesh_trace's rule: piecewise linear between the layer
-// points).
-export function traceStrand(mesh, f, u, v, nverts, out) {
+// (u, v) into out[3 nverts], vertex i at layer parameter t[i] (its even parameters, evenParams;
+// core_hairmesh_trace's rule: piecewise linear between the layer points).
+export function traceStrand(mesh, f, u, v, nverts, t, out) {
   const w = cornerWeights(faceCorners(mesh.faces, f), u, v, [0, 0, 0, 0]);
   const p0 = [0, 0, 0], p1 = [0, 0, 0];
   for (let i = 0; i < nverts; i++) {
-    const [l, a] = layerAt(i, nverts, mesh.nlayers);
+    const [l, a] = layerAt(t[i], mesh.nlayers);
     layerPoint(mesh.pos, mesh.nlayers, mesh.faces, f, w, l, p0);
     layerPoint(mesh.pos, mesh.nlayers, mesh.faces, f, w, l + 1, p1);
     for (let c = 0; c < 3; c++) out[3 * i + c] = p0[c] + a * (p1[c] - p0[c]);
@@ -88,6 +171,19 @@ export function meshStrands(faces, nfaces, perFace, seed = 17) {
   return { data, count };
 }
 
+// The even layer parameters (evenParams on the rest positions rest) of every render strand of
+// strands (meshStrands' { data, count }) at pts points: a Float32Array(count pts), strand k's
+// point i at k pts + i (the hair-mesh vertex shader's parameter texture).
+export function strandParams(mesh, rest, strands, pts) {
+  const u32 = new Uint32Array(strands.data), f32 = new Float32Array(strands.data);
+  const out = new Float32Array(strands.count * pts);
+  for (let k = 0; k < strands.count; k++) {
+    const b = (MESH_INSTANCE_STRIDE / 4) * k;
+    evenParams(mesh, rest, u32[b], f32[b + 1], f32[b + 2], pts, out.subarray(k * pts, (k + 1) * pts));
+  }
+  return out;
+}
+
 const TAU = 2 * Math.PI;
 
 // Frizz: a smooth pseudo-random wobble of the strand at parameter t (two sine octaves with
@@ -100,19 +196,20 @@ export function frizz(t, phase, amp, out) {
 }
 
 // The centre of ribbon point i of pts (pts >= 2) of render strand inst = { face, u, v, rand:
-// [angle, radius, phase, shade] } grown from the mesh { nlayers, pos, faces } with style s
+// [angle, radius, phase, shade], t: its pts even layer parameters (evenParams on the rest mesh) }
+// grown from the mesh { nlayers, pos, faces } with style s
 // ({ offset: m at the root, tipSpread: its factor at the tip, curl: radius in m, curlTurns: turns
 // from root to tip, frizz: m at the tip }; the View panel's meshOffset, tipSpread, curl,
 // curlTurns and frizz) into out[0..2]; its unit tangent (the layer
 // direction, bent by the curl) into tan[0..2] when given. The traced point (traceStrand with pts
-// vertices) plus, in the frame (E, F) of the face at that point (E: corner 0 to corner 1,
+// vertices at inst.t) plus, in the frame (E, F) of the face at that point (E: corner 0 to corner 1,
 // normalised; F = T x E, normalised; T the layer direction), the offset
 // s.offset * mix(1, s.tipSpread, t) * radius * (cos, sin)(2 pi angle), the curl
 // s.curl * (cos, sin)(2 pi (s.curlTurns t + phase)) and frizz(t, phase, s.frizz), with t = i / (pts - 1).
 export function growPoint(mesh, inst, i, pts, s, out, tan = null) {
   const { nlayers, pos, faces } = mesh, f = inst.face;
   const w = cornerWeights(faceCorners(faces, f), inst.u, inst.v, [0, 0, 0, 0]);
-  const [l, a] = layerAt(i, pts, nlayers);
+  const [l, a] = layerAt(inst.t[i], nlayers);
   const p0 = layerPoint(pos, nlayers, faces, f, w, l, [0, 0, 0]);
   const p1 = layerPoint(pos, nlayers, faces, f, w, l + 1, [0, 0, 0]);
   const e0 = edge(pos, nlayers, faces, f, l, a);
@@ -130,8 +227,10 @@ export function growPoint(mesh, inst, i, pts, s, out, tan = null) {
   const y = sp * Math.sin(TAU * ang) + s.curl * Math.sin(cph) + fz[1];
   for (let c = 0; c < 3; c++) out[c] = p0[c] + a * (p1[c] - p0[c]) + x * E[c] + y * F[c];
   if (tan) {
-    // d/dt of the traced point (layer span length per unit t) plus the curl's turning
-    const span = Math.hypot(p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]) * (nlayers - 1);
+    // d/dt of the traced point (layer span length times layer parameters per unit t, from the
+    // table's step at i, the step before it at the tip) plus the curl's turning
+    const k = Math.min(i, pts - 2);
+    const span = Math.hypot(p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]) * (inst.t[k + 1] - inst.t[k]) * (pts - 1);
     const dc = TAU * s.curlTurns * s.curl;
     for (let c = 0; c < 3; c++) tan[c] = span * T[c] + dc * (-Math.sin(cph) * E[c] + Math.cos(cph) * F[c]);
     normalize(tan, T, tan);

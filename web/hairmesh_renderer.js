@@ -1,5 +1,5 @@
-// Draws hair grown from a streamed hair mesh: the mesh and face textures, the render-strand
-// instance buffer (hairmesh.js meshStrands), the two hair passes (light-space depth, Kajiya-Kay)
+// Draws hair grown from a streamed hair mesh: the mesh, face and layer-parameter textures, the
+// render-strand instance buffer (hairmesh.js meshStrands), the two hair passes (light-space depth, Kajiya-Kay)
 // and the mesh's wireframe overlay.
 import { createProgram } from './gl_util.js';
 import { setShadeUniforms, setViewUniforms } from './ribbon_uniforms.js';
@@ -26,6 +26,8 @@ export class HairMeshRenderer {
     this.wire = createProgram(gl, WIRE_VS, WIRE_FS, 'hair mesh wireframe');
     this.meshTex = makeTexture(gl);
     this.faceTex = makeTexture(gl);
+    this.paramTex = makeTexture(gl);
+    this.paramW = 1;
     this.instances = gl.createBuffer();
     this.vao = gl.createVertexArray();
     this.wireVao = gl.createVertexArray();
@@ -65,9 +67,17 @@ export class HairMeshRenderer {
     this.hasFrame = false;
   }
 
-  // Replaces the render strands (hairmesh.js meshStrands) drawn with pts points each.
-  setStrands(strands, pts) {
-    const gl = this.gl, st = MESH_INSTANCE_STRIDE;
+  // Replaces the render strands (hairmesh.js meshStrands) drawn with pts points each, point i
+  // of strand k at layer parameter params[k pts + i] (hairmesh.js strandParams; an R32F texture
+  // in rows of at most maxTexW texels).
+  setStrands(strands, pts, params, maxTexW) {
+    const gl = this.gl, st = MESH_INSTANCE_STRIDE, n = params.length;
+    this.paramW = Math.max(1, Math.min(maxTexW, n));
+    const rows = Math.max(1, Math.ceil(n / this.paramW)), texels = new Float32Array(this.paramW * rows);
+    texels.set(params);
+    gl.bindTexture(gl.TEXTURE_2D, this.paramTex);
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.R32F, this.paramW, rows, 0, gl.RED, gl.FLOAT, texels);
     gl.bindVertexArray(this.vao);
     gl.bindBuffer(gl.ARRAY_BUFFER, this.instances);
     gl.bufferData(gl.ARRAY_BUFFER, strands.data, gl.STATIC_DRAW);
@@ -103,6 +113,10 @@ export class HairMeshRenderer {
     gl.activeTexture(gl.TEXTURE1);
     gl.bindTexture(gl.TEXTURE_2D, this.faceTex);
     gl.uniform1i(u.uFaces, 1);
+    gl.activeTexture(gl.TEXTURE3); // unit 2 is the shadow map's (ribbon_uniforms.js)
+    gl.bindTexture(gl.TEXTURE_2D, this.paramTex);
+    gl.uniform1i(u.uParams, 3);
+    gl.uniform1i(u.uParamW, this.paramW);
     gl.uniform1i(u.uMeshW, this.meshW);
     gl.uniform1i(u.uFaceW, this.faceW);
     gl.uniform1i(u.uNLayers, this.nlayers);

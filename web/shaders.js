@@ -82,7 +82,9 @@ void main() {
 // The mesh's vertices are an RGBA32F texture (texel c * uNLayers + l: column c, layer l; xyz),
 // its faces an RGBA32UI texture (texel f: the 4 column indices, 0xffffffff for a triangle's
 // 4th). Each instance is one render strand: its face, (u, v) in it and random styling values
-// [offset angle / 2 pi, offset radius, curl phase / 2 pi, shade], and its length fraction.
+// [offset angle / 2 pi, offset radius, curl phase / 2 pi, shade], and its length fraction; its
+// points' layer parameters (hairmesh.js strandParams, the even parameters of the rest mesh) are
+// an R32F texture (texel gl_InstanceID * uPts + i).
 // Outputs as HAIR_VS (Kajiya-Kay in HAIR_FS, the shadow pass with DEPTH_FS).
 export const HAIRMESH_VS = `#version 300 es
 precision highp float;
@@ -91,6 +93,8 @@ precision highp sampler2D;
 precision highp usampler2D;
 uniform sampler2D uMesh;
 uniform usampler2D uFaces;
+uniform sampler2D uParams;
+uniform int uParamW;
 uniform int uMeshW;
 uniform int uFaceW;
 uniform int uNLayers;
@@ -129,6 +133,11 @@ vec3 layerPoint(uvec4 f, vec4 w, int l) {
   return p;
 }
 
+float layerParam(int i) {
+  int k = gl_InstanceID * uPts + i;
+  return texelFetch(uParams, ivec2(k % uParamW, k / uParamW), 0).x;
+}
+
 vec3 unitOr(vec3 v, vec3 fallback) {
   float n = length(v);
   return n > 1e-12 ? v / n : fallback;
@@ -143,7 +152,7 @@ void main() {
   float u = aUV.x, v = aUV.y;
   vec4 w = f.w == 0xffffffffu ? vec4(1.0 - u - v, u, v, 0.0)
                                : vec4((1.0 - u) * (1.0 - v), u * (1.0 - v), u * v, (1.0 - u) * v);
-  float lt = float(i) * float(uNLayers - 1) / float(uPts - 1);
+  float lt = layerParam(i);
   int l = min(int(floor(lt)), uNLayers - 2);
   float a = lt - float(l);
   vec3 p0 = layerPoint(f, w, l), p1 = layerPoint(f, w, l + 1);
@@ -162,7 +171,8 @@ void main() {
   float x = sp * cos(TAU * aRand.x) + uCurl * cos(cph) + fx;
   float y = sp * sin(TAU * aRand.x) + uCurl * sin(cph) + fy;
   vec3 p = mix(p0, p1, a) + x * E + y * F;
-  float span = length(p1 - p0) * float(uNLayers - 1);
+  int k = min(i, uPts - 2);
+  float span = length(p1 - p0) * (layerParam(k + 1) - layerParam(k)) * float(uPts - 1);
   float dc = TAU * uCurlTurns * uCurl;
   vec3 Tc = unitOr(span * T + dc * (-sin(cph) * E + cos(cph) * F), T);
   vec3 view = uOrtho == 1 ? uViewDir : p - uEye;

@@ -193,8 +193,8 @@ bool groom_collider_region(const core_groom *g, const core_mesh *m, core_vec3 *l
 
 /* Procedural hair mesh settings; zero means default for every field. */
 typedef struct groom_hairmesh_desc {
-    groom_style style;  /* the layers' offsets: straight, wavy (a planar wave of 1 cm, 3.5 waves
-                           per 0.25 m) or curly (a helix of 1 cm radius, 4 turns per 0.25 m) */
+    groom_style style;  /* the layers' offsets: straight, wavy (a planar wave of 7 mm, 2 waves
+                           per 0.25 m) or curly (a helix of 7 mm radius, 1.5 turns per 0.25 m) */
     uint32_t patches;   /* 0 = GROOM_HAIRMESH_DEFAULT_PATCHES; 1..GROOM_HAIRMESH_MAX_GRID patches per side */
     uint32_t grid;      /* 0 = GROOM_HAIRMESH_DEFAULT_GRID; 1..GROOM_HAIRMESH_MAX_GRID quads per patch side */
     uint32_t nlayers;   /* 0 = GROOM_HAIRMESH_DEFAULT_LAYERS; 2..CORE_HAIRMESH_MAX_LAYERS */
@@ -202,15 +202,16 @@ typedef struct groom_hairmesh_desc {
 } groom_hairmesh_desc;
 
 /* Generates a hair mesh over the upper and back part of the default head ellipsoid: patches x
- * patches scalp patches (85% of their cell each, the rest a parting), each of (grid + 1)^2
+ * patches scalp patches (each fills its cell, so neighbours touch), each of (grid + 1)^2
  * columns and grid^2 quads (counter-clockwise seen from outside) 1 mm outside the scalp, swept
- * through nlayers - 1 further layers along the patch centre's path (it grows along the scalp
- * normal, is combed down and back, and keeps 5 mm + the patch's half size + 1 cm x (layer /
- * (nlayers - 1)) outside the default colliders). Each layer is the root patch carried by the
- * path's parallel-transported frame (so the faces stay across the path and every prism's
- * corner tetrahedra have a positive volume), narrowed linearly to 60% at the tip, moved by the
- * style's offset (the same for every column at a given path length) and kept 1 mm outside the
- * default colliders. No guides (nguides = 0). Deterministic. out is overwritten; the caller
+ * through nlayers - 1 further layers at even steps along the patch centre's path (it grows along
+ * the scalp normal, is combed down and back, and keeps 3 mm + 12% of the patch's half size +
+ * 6 mm x (layer / (nlayers - 1)) outside the default colliders, so layer 1 lies a few mm off
+ * the scalp). Each layer is the root patch with its extent along the comb direction squashed to
+ * 12% (a sheet lying on the head), carried by the path's parallel-transported frame (so the
+ * faces stay across the path and every prism's corner tetrahedra have a positive volume),
+ * narrowed linearly to 80% at the tip, moved by the style's offset (the same for every column at
+ * a given path length) and kept 1 mm outside the default colliders. No guides (nguides = 0). Deterministic. out is overwritten; the caller
  * owns it (core_hairmesh_free). CORE_EINVAL for a bad desc. d may be NULL. Pure, any thread. */
 core_status groom_hairmesh_procedural(const groom_hairmesh_desc *d, core_hairmesh *out, core_err *err);
 
@@ -218,9 +219,10 @@ core_status groom_hairmesh_procedural(const groom_hairmesh_desc *d, core_hairmes
  * per_face >= 1 strands in every face at fixed, well spread coordinates (strand i of a face at
  * u = frac(0.5 + 0.7548777 i), v = frac(0.5 + 0.5698403 i) on a quad, the same pair mapped
  * uniformly onto a triangle: weights of corners 1 and 2 = (sqrt(u) (1 - v), sqrt(u) v)), strand
- * f * per_face + i, each of nverts (2..GROOM_MAX_VERTS) vertices by core_hairmesh_trace.
- * out->hairmesh is a copy of m whose guide arrays record those strands (m's own guides are
- * not used). No colliders. Counts past GROOM_MAX_STRANDS / GROOM_MAX_TOTAL: CORE_EINVAL.
+ * f * per_face + i, each of nverts (2..GROOM_MAX_VERTS) vertices by core_hairmesh_trace at its
+ * even layer parameters on m (core_hairmesh_even_params: equal segments at rest).
+ * out->hairmesh is a copy of m whose guide arrays record those strands, their parameters
+ * included (guide_nverts = nverts; m's own guides are not used). No colliders. Counts past GROOM_MAX_STRANDS / GROOM_MAX_TOTAL: CORE_EINVAL.
  * out must be zeroed or freed; the caller owns it (core_groom_free). Pure, any thread. */
 core_status groom_from_hairmesh(const core_hairmesh *m, uint32_t per_face, uint32_t nverts, core_groom *out,
                                 core_err *err);

@@ -9,10 +9,10 @@
 /* Path steps per layer (the comb and the drape act at this finer resolution). */
 #define PATH_STEPS 8
 #define ROOT_LIFT 0.001f
-#define CLEAR_BASE 0.005f
-#define CLEAR_GROW 0.01f
-#define PATCH_FILL 0.85f /* share of its cell of the scalp a patch covers */
-#define TAPER 0.4f       /* how much a patch's cross-section narrows from root to tip */
+#define CLEAR_BASE 0.003f /* the path's clearance outside the colliders beyond half the sheet */
+#define CLEAR_GROW 0.006f /* and its growth from root to tip */
+#define SQUASH 0.12f      /* a patch's extent along its comb direction kept as the sheet's thickness */
+#define TAPER 0.2f        /* how much a patch's cross-section narrows from root to tip */
 
 /* The scalp point and outward normal of grid corner (s, t) in [0, 1]^2: s runs over the head
  * from the left side (-x) to the right (+x), t from the hairline in front of the crown over the
@@ -31,10 +31,10 @@ static void scalp_point(float s, float t, core_vec3 *p, core_vec3 *n)
  * every column, so neighbouring columns keep their spacing. */
 static core_vec3 style_offset(groom_style style, float sl)
 {
-    const float amp = 0.01f, two_pi = 6.2831853f;
-    if (style == GROOM_WAVY) return core_v3(amp * sinf(two_pi * 3.5f * sl / 0.25f), 0.0f, 0.0f);
+    const float amp = 0.007f, two_pi = 6.2831853f;
+    if (style == GROOM_WAVY) return core_v3(amp * sinf(two_pi * 2.0f * sl / 0.25f), 0.0f, 0.0f);
     if (style == GROOM_CURLY) {
-        float ph = two_pi * 4.0f * sl / 0.25f;
+        float ph = two_pi * 1.5f * sl / 0.25f;
         return core_v3(amp * sinf(ph), 0.0f, amp * (1.0f - cosf(ph)));
     }
     return core_v3(0.0f, 0.0f, 0.0f);
@@ -48,13 +48,24 @@ static core_vec3 drape(const core_groom *body, core_vec3 p, float margin)
     return p;
 }
 
+/* The comb direction of grow_path for a path starting along n. */
+static core_vec3 comb_of(core_vec3 n) { return core_v3_norm(core_v3(0.3f * n.x, -1.0f, 0.3f * n.z - 0.25f)); }
+
+/* The unit direction in the scalp's tangent plane (normal n) the comb lays a patch's hair along
+ * (straight back where the comb is along n). */
+static core_vec3 comb_along(core_vec3 n)
+{
+    core_vec3 c = comb_of(n), a = core_v3_sub(c, core_v3_scale(n, core_v3_dot(c, n)));
+    return core_v3_len(a) > 1e-4f ? core_v3_norm(a) : core_v3_norm(core_v3_sub(core_v3(0.0f, 0.0f, -1.0f), core_v3_scale(n, -n.z)));
+}
+
 /* The central path of a patch: nl points (PATH_STEPS substeps per layer) that grow along n, are
  * combed down and back, and keep `clear` + the layer's share of CLEAR_GROW outside the default
  * colliders; tangent[l] is the path's direction at point l (n at the root). */
 static void grow_path(const core_groom *body, core_vec3 root, core_vec3 n, float length, float clear, uint32_t nl,
                       core_vec3 *point, core_vec3 *tangent)
 {
-    core_vec3 comb = core_v3_norm(core_v3(0.3f * n.x, -1.0f, 0.3f * n.z - 0.25f));
+    core_vec3 comb = comb_of(n);
     core_vec3 p = root, dir = n;
     float ds = length / (float)((nl - 1) * PATH_STEPS);
     point[0] = root, tangent[0] = n;
@@ -104,7 +115,7 @@ core_status groom_hairmesh_procedural(const groom_hairmesh_desc *d, core_hairmes
         return core_fail(err, CORE_EINVAL, "hair mesh length %g m is outside (0, 2]", (double)length);
     if ((unsigned)d->style > GROOM_CURLY) return core_fail(err, CORE_EINVAL, "unknown hair mesh style %d", (int)d->style);
     const uint32_t side = grid + 1, per = side * side;
-    core_status st = core_hairmesh_alloc(out, np * np * per, nl, np * np * grid * grid, 0, err);
+    core_status st = core_hairmesh_alloc(out, np * np * per, nl, np * np * grid * grid, 0, 0, err);
     if (st != CORE_OK) return st;
     core_vec3 *point = malloc(2 * (size_t)nl * sizeof *point);
     if (!point) {
@@ -115,7 +126,7 @@ core_status groom_hairmesh_procedural(const groom_hairmesh_desc *d, core_hairmes
     core_groom body;
     memset(&body, 0, sizeof body);
     groom_default_colliders(&body);
-    const float cell = 1.0f / (float)np, span = PATCH_FILL * cell;
+    const float cell = 1.0f / (float)np, span = cell;
     for (uint32_t pj = 0; pj < np; pj++)
         for (uint32_t pi = 0; pi < np; pi++) {
             const uint32_t patch = pj * np + pi, c0 = patch * per;
@@ -125,7 +136,8 @@ core_status groom_hairmesh_procedural(const groom_hairmesh_desc *d, core_hairmes
             core_vec3 corner, cn;
             scalp_point(s0 - 0.5f * span, t0 - 0.5f * span, &corner, &cn);
             const float half = core_v3_len(core_v3_sub(corner, centre));
-            grow_path(&body, centre, n, length, CLEAR_BASE + half, nl, point, tangent);
+            grow_path(&body, centre, n, length, CLEAR_BASE + SQUASH * half, nl, point, tangent);
+            const core_vec3 along = comb_along(n);
             core_quat q = core_q_identity();
             for (uint32_t l = 0; l < nl; l++) {
                 if (l > 0) q = core_q_norm(core_q_mul(rotation_between(tangent[l - 1], tangent[l]), q));
@@ -137,7 +149,9 @@ core_status groom_hairmesh_procedural(const groom_hairmesh_desc *d, core_hairmes
                         scalp_point(s0 + span * ((float)i / (float)grid - 0.5f), t0 + span * ((float)j / (float)grid - 0.5f), &root, &rn);
                         core_vec3 p = root;
                         if (l > 0) {
-                            core_vec3 off = core_q_rotate(q, core_v3_sub(root, centre));
+                            core_vec3 rel = core_v3_sub(root, centre);
+                            rel = core_v3_sub(rel, core_v3_scale(along, (1.0f - SQUASH) * core_v3_dot(rel, along)));
+                            core_vec3 off = core_q_rotate(q, rel);
                             p = drape(&body, core_v3_add(core_v3_add(point[l], core_v3_scale(off, taper)), o), ROOT_LIFT);
                         }
                         memcpy(out->pos + 3 * ((size_t)(c0 + j * side + i) * nl + l), &p, 3 * sizeof(float));

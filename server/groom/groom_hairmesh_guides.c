@@ -38,7 +38,7 @@ core_status groom_from_hairmesh(const core_hairmesh *m, uint32_t per_face, uint3
         core_groom_free(out);
         return core_fail(err, CORE_ENOMEM, "out of memory for the groom's hair mesh");
     }
-    st = core_hairmesh_alloc(out->hairmesh, m->ncols, m->nlayers, m->nfaces, (uint32_t)ns, err);
+    st = core_hairmesh_alloc(out->hairmesh, m->ncols, m->nlayers, m->nfaces, (uint32_t)ns, nverts, err);
     if (st != CORE_OK) {
         free(out->hairmesh);
         out->hairmesh = NULL;
@@ -56,7 +56,9 @@ core_status groom_from_hairmesh(const core_hairmesh *m, uint32_t per_face, uint3
             guide_uv(nc, i, &u, &v);
             h->guide_face[s] = f;
             h->guide_uv[2 * s] = u, h->guide_uv[2 * s + 1] = v;
-            core_hairmesh_trace(h, h->pos, f, u, v, nverts, out->pos + 3 * (size_t)s * nverts);
+            float *t = h->guide_t + (size_t)s * nverts;
+            core_hairmesh_even_params(h, h->pos, f, u, v, nverts, t);
+            core_hairmesh_trace(h, h->pos, f, u, v, nverts, t, out->pos + 3 * (size_t)s * nverts);
         }
     }
     return CORE_OK;

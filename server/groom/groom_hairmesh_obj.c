@@ -125,7 +125,7 @@ static core_status assemble(const hm_reader *r, core_hairmesh *out, core_err *er
                          ncols, r->nverts, ncols);
     uint32_t nl = r->nverts / ncols;
     core_err e;
-    core_status st = core_hairmesh_alloc(out, ncols, nl, r->nfaces, 0, &e);
+    core_status st = core_hairmesh_alloc(out, ncols, nl, r->nfaces, 0, 0, &e);
     if (st != CORE_OK) return core_fail(err, st == CORE_ENOMEM ? st : CORE_EFORMAT, WHAT ": %s", e.msg);
     for (uint32_t l = 0; l < nl; l++)
         for (uint32_t c = 0; c < ncols; c++)

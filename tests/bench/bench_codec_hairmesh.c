@@ -119,7 +119,7 @@ int bench_codec_hairmesh(const bench_hairmesh_opts *o)
             animate(&m, m.pos, t, mesh);
             for (uint32_t j = 0; j < ns; j++)
                 core_hairmesh_trace(gm, mesh, gm->guide_face[j], gm->guide_uv[2 * j], gm->guide_uv[2 * j + 1], nv,
-                                    strands + 3u * (size_t)j * nv);
+                                    gm->guide_t + (size_t)j * nv, strands + 3u * (size_t)j * nv);
         }
         codec_sim_info snap = codec_synth_sim(t, f, CODEC_SYNTH_GENTLE);
         for (int k = 0; k < 2; k++)

@@ -44,9 +44,9 @@ static core_status check_groom(const core_groom *g, core_err *err)
     core_err e;
     if (core_hairmesh_validate(g->hairmesh, &e) != CORE_OK)
         return core_fail(err, CORE_EINVAL, "groom's hair mesh: %s", e.msg);
-    if (g->hairmesh->nguides != g->nstrands)
-        return core_fail(err, CORE_EINVAL, "groom has %u strands but its hair mesh records %u guides", g->nstrands,
-                         g->hairmesh->nguides);
+    if (g->hairmesh->nguides != g->nstrands || g->hairmesh->guide_nverts != g->nverts)
+        return core_fail(err, CORE_EINVAL, "groom has %u strands of %u vertices but its hair mesh records %u guides of %u",
+                         g->nstrands, g->nverts, g->hairmesh->nguides, g->hairmesh->guide_nverts);
     return CORE_OK;
 }
 
@@ -225,7 +225,7 @@ static core_status hm_read_positions(void *self, float *xyz, core_err *err)
     sim_hm *h = self;
     for (uint32_t s = 0; s < h->nstrands; s++)
         core_hairmesh_trace(&h->mesh, h->x, h->mesh.guide_face[s], h->mesh.guide_uv[2 * s], h->mesh.guide_uv[2 * s + 1],
-                            h->nverts, xyz + 3 * (size_t)s * h->nverts);
+                            h->nverts, h->mesh.guide_t + (size_t)s * h->nverts, xyz + 3 * (size_t)s * h->nverts);
     return CORE_OK;
 }
 
