@@ -1,4 +1,5 @@
-/* sim_hm: the solver's fixed structure from the rest mesh: springs, corner tetrahedra, edges, surface. */
+/* sim_hm: the solver's fixed structure from the rest mesh: springs, corner tetrahedra, edges, surface,
+ * the system's block pattern. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -90,10 +91,10 @@ static core_status alloc_all(sim_hm *h, uint32_t nsp, uint32_t ntet, uint32_t ne
     h->tets.v0 = malloc(ntet * sizeof *h->tets.v0), h->tets.scale = malloc(ntet * sizeof *h->tets.scale);
     h->tets.g = malloc(12 * (size_t)ntet * sizeof *h->tets.g), h->tets.w = malloc(ntet * sizeof *h->tets.w);
     h->edges.a = malloc(ned * sizeof *h->edges.a), h->edges.b = malloc(ned * sizeof *h->edges.b);
-    h->edges.degree = calloc(h->n, sizeof *h->edges.degree);
+    h->edges.inv_degree = calloc(h->n, sizeof *h->edges.inv_degree);
     h->surface = calloc(h->n, 1);
     if (!s->a || !s->b || !s->len || !s->kind || !s->dir || !s->u || !s->alpha || !s->beta || !h->tets.v ||
-        !h->tets.v0 || !h->tets.g || !h->tets.w || !h->tets.scale || !h->edges.a || !h->edges.b || !h->edges.degree || !h->surface)
+        !h->tets.v0 || !h->tets.g || !h->tets.w || !h->tets.scale || !h->edges.a || !h->edges.b || !h->edges.inv_degree || !h->surface)
         return core_fail(err, CORE_ENOMEM, "out of memory for the hair mesh solver's structure");
     return CORE_OK;
 }
@@ -153,10 +154,11 @@ core_status sim_hm_build(sim_hm *h, core_err *err)
         uint32_t a = (uint32_t)(e.key[k] >> 32), b = (uint32_t)(e.key[k] & 0xffffffffu);
         for (uint32_t l = 0; l < nl; l++) ed->a[ed->n] = VTX(h, a, l), ed->b[ed->n++] = VTX(h, b, l);
     }
-    for (uint32_t k = 0; k < ed->n; k++) ed->degree[ed->a[k]] += 1.0f, ed->degree[ed->b[k]] += 1.0f;
+    for (uint32_t k = 0; k < ed->n; k++) ed->inv_degree[ed->a[k]] += 1.0f, ed->inv_degree[ed->b[k]] += 1.0f;
+    for (uint32_t i = 0; i < h->n; i++) ed->inv_degree[i] = ed->inv_degree[i] > 0.0f ? 1.0f / ed->inv_degree[i] : 0.0f;
     free(e.key);
     free(e.uses);
-    return CORE_OK;
+    return sim_hm_bsr_build(h, err);
 }
 
 void sim_hm_build_free(sim_hm *h)
@@ -164,8 +166,9 @@ void sim_hm_build_free(sim_hm *h)
     sim_hm_springs *s = &h->sp;
     free(s->a), free(s->b), free(s->len), free(s->kind), free(s->dir), free(s->u), free(s->alpha), free(s->beta);
     free(h->tets.v), free(h->tets.v0), free(h->tets.scale), free(h->tets.g), free(h->tets.w);
-    free(h->edges.a), free(h->edges.b), free(h->edges.degree);
+    free(h->edges.a), free(h->edges.b), free(h->edges.inv_degree);
     free(h->surface);
+    sim_hm_bsr_free(&h->bsr);
     memset(&h->sp, 0, sizeof h->sp);
     memset(&h->tets, 0, sizeof h->tets);
     memset(&h->edges, 0, sizeof h->edges);

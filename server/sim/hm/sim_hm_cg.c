@@ -5,6 +5,7 @@
 
 #include "sim_hm_internal.h"
 
+
 void sim_hm_apply(const sim_hm *h, const float *x, float *y)
 {
     const float d = h->diag;
@@ -36,23 +37,30 @@ void sim_hm_apply(const sim_hm *h, const float *x, float *y)
     }
 }
 
-/* out = P^-1 r on the free rows, 0 on the fixed ones; returns r . out. */
-static double precondition(const sim_hm *h, const float *r, float *out)
+/* a . b over n floats in double, in 8 interleaved partial sums (a fixed order: the same result
+ * at any vector width) so the additions do not wait on each other. */
+static double dot3n(const float *restrict a, const float *restrict b, size_t n)
 {
-    double dot = 0.0;
+    double s[8] = { 0 };
+    size_t i = 0;
+    for (; i + 8 <= n; i += 8)
+        for (int k = 0; k < 8; k++) s[k] += (double)a[i + k] * b[i + k];
+    for (; i < n; i++) s[0] += (double)a[i] * b[i];
+    return ((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]));
+}
+
+/* out = P^-1 r on the free rows, 0 on the fixed ones; returns r . out. */
+static double precondition(const sim_hm *h, const float *restrict r, float *restrict out)
+{
     for (uint32_t i = 0; i < h->n; i++) {
         float *o = out + 3 * (size_t)i;
-        if (h->fixed[i]) {
-            o[0] = o[1] = o[2] = 0.0f;
-            continue;
-        }
         const float *p = h->pinv + 6 * (size_t)i, *ri = r + 3 * (size_t)i;
-        o[0] = p[0] * ri[0] + p[3] * ri[1] + p[4] * ri[2];
-        o[1] = p[3] * ri[0] + p[1] * ri[1] + p[5] * ri[2];
-        o[2] = p[4] * ri[0] + p[5] * ri[1] + p[2] * ri[2];
-        dot += (double)ri[0] * o[0] + (double)ri[1] * o[1] + (double)ri[2] * o[2];
+        const float k = h->fixed[i] ? 0.0f : 1.0f;
+        o[0] = k * (p[0] * ri[0] + p[3] * ri[1] + p[4] * ri[2]);
+        o[1] = k * (p[3] * ri[0] + p[1] * ri[1] + p[5] * ri[2]);
+        o[2] = k * (p[4] * ri[0] + p[5] * ri[1] + p[2] * ri[2]);
     }
-    return dot;
+    return dot3n(r, out, 3 * (size_t)h->n);
 }
 
 static void filter(const sim_hm *h, float *a)
@@ -61,26 +69,35 @@ static void filter(const sim_hm *h, float *a)
         if (h->fixed[i]) a[3 * i] = a[3 * i + 1] = a[3 * i + 2] = 0.0f;
 }
 
-static double dot3n(const float *a, const float *b, size_t n)
-{
-    double d = 0.0;
-    for (size_t i = 0; i < n; i++) d += (double)a[i] * b[i];
-    return d;
-}
-
 int sim_hm_cg(sim_hm *h)
 {
     const size_t n3 = 3 * (size_t)h->n;
+    /* s = the previous solve's dv on the free rows (the warm start), dv = the cold start */
     for (uint32_t i = 0; i < h->n; i++)
-        for (int k = 0; k < 3; k++) h->dv[3 * i + k] = h->fixed[i] ? h->z[3 * i + k] : 0.0f;
-    sim_hm_apply(h, h->dv, h->q);
+        for (int k = 0; k < 3; k++) {
+            const size_t j = 3 * (size_t)i + (size_t)k;
+            h->s[j] = h->fixed[i] ? 0.0f : h->dv[j];
+            h->dv[j] = h->fixed[i] ? h->z[j] : 0.0f;
+        }
+    sim_hm_bsr_apply(&h->bsr, h->dv, h->q);
     for (size_t i = 0; i < n3; i++) h->r[i] = h->rhs[i] - h->q[i];
     filter(h, h->r);
-    double delta = precondition(h, h->r, h->c);
-    const double stop = delta * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
+    const double cold = precondition(h, h->r, h->c);
+    /* the tolerance is relative to the cold start's residual whatever the start */
+    const double stop = cold * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
+    sim_hm_bsr_apply(&h->bsr, h->s, h->q);
+    filter(h, h->q);
+    for (size_t i = 0; i < n3; i++) h->q[i] = h->r[i] - h->q[i];
+    double delta = precondition(h, h->q, h->c);
+    if (delta < cold) { /* the warm start is nearer: dv = cold + s, r = its residual */
+        for (size_t i = 0; i < n3; i++) h->dv[i] += h->s[i];
+        memcpy(h->r, h->q, n3 * sizeof *h->r);
+    } else {
+        delta = precondition(h, h->r, h->c);
+    }
     int it = 0;
     while (it < h->p.hm.cg_iterations && delta > stop && delta > 0.0) {
-        sim_hm_apply(h, h->c, h->q);
+        sim_hm_bsr_apply(&h->bsr, h->c, h->q);
         filter(h, h->q);
         const double cq = dot3n(h->c, h->q, n3);
         if (!(cq > 0.0)) break;
@@ -109,17 +126,13 @@ static void laplacian(const sim_hm *h, const float *x, float *y)
 }
 
 /* out = r / degree on the free rows, 0 on the fixed; returns r . out. */
-static double jacobi(const sim_hm *h, const float *r, float *out)
+static double jacobi(const sim_hm *h, const float *restrict r, float *restrict out)
 {
-    double dot = 0.0;
     for (uint32_t i = 0; i < h->n; i++) {
-        const float k = h->fixed[i] || !(h->edges.degree[i] > 0.0f) ? 0.0f : 1.0f / h->edges.degree[i];
-        for (int j = 0; j < 3; j++) {
-            out[3 * i + j] = k * r[3 * i + j];
-            dot += (double)r[3 * i + j] * out[3 * i + j];
-        }
+        const float k = h->fixed[i] ? 0.0f : h->edges.inv_degree[i];
+        for (int j = 0; j < 3; j++) out[3 * i + j] = k * r[3 * i + j];
     }
-    return dot;
+    return dot3n(r, out, 3 * (size_t)h->n);
 }
 
 void sim_hm_deform_min(sim_hm *h, const float *ref)
