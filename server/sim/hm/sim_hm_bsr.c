@@ -105,3 +105,61 @@ void sim_hm_bsr_apply(const sim_hm_bsr *restrict m, const float *restrict x, flo
         y[3 * i] = s0[0], y[3 * i + 1] = s0[1], y[3 * i + 2] = s0[2];
     }
 }
+
+/* The symmetric block p (xx yy zz xy xz yz) times a. */
+static inline sim_hm_v4 sym_mul(const float *p, sim_hm_v4 a)
+{
+    return (sim_hm_v4){ p[0] * a[0] + p[3] * a[1] + p[4] * a[2], p[3] * a[0] + p[1] * a[1] + p[5] * a[2],
+                        p[4] * a[0] + p[5] * a[1] + p[2] * a[2], 0.0f };
+}
+
+static inline void store3(float *y, sim_hm_v4 a) { y[0] = a[0], y[1] = a[1], y[2] = a[2]; }
+
+void sim_hm_bsr_lower_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t)
+{
+    for (uint32_t i = 0; i < m->n; i++) {
+        float *ti = t + 3 * (size_t)i;
+        if (fixed[i]) {
+            ti[0] = ti[1] = ti[2] = 0.0f;
+            continue;
+        }
+        sim_hm_v4 s0 = { 0 }, s1 = { 0 };
+        uint32_t b = m->row[i];
+        for (; b + 2 <= m->diag[i]; b += 2) {
+            s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
+            s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
+        }
+        if (b < m->diag[i]) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
+        const float *ri = r + 3 * (size_t)i;
+        store3(ti, sym_mul(dinv + 6 * (size_t)i, (sim_hm_v4){ ri[0], ri[1], ri[2], 0.0f } - (s0 + s1)));
+    }
+}
+
+void sim_hm_bsr_upper_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t)
+{
+    for (uint32_t i = m->n; i-- > 0;) {
+        float *ti = t + 3 * (size_t)i;
+        if (fixed[i]) {
+            ti[0] = ti[1] = ti[2] = 0.0f;
+            continue;
+        }
+        sim_hm_v4 s0 = { 0 }, s1 = { 0 };
+        uint32_t b = m->diag[i] + 1;
+        for (; b + 2 <= m->row[i + 1]; b += 2) {
+            s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
+            s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
+        }
+        if (b < m->row[i + 1]) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
+        const float *ri = r + 3 * (size_t)i;
+        store3(ti, sym_mul(dinv + 6 * (size_t)i, (sim_hm_v4){ ri[0], ri[1], ri[2], 0.0f } - (s0 + s1)));
+    }
+}
+
+void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const float *restrict x, float *restrict y)
+{
+    for (uint32_t i = 0; i < m->n; i++) {
+        float *yi = y + 3 * (size_t)i;
+        if (fixed[i]) yi[0] = yi[1] = yi[2] = 0.0f;
+        else store3(yi, block_mul(m->val + SIM_HM_BLOCK * (size_t)m->diag[i], x + 3 * (size_t)i));
+    }
+}

@@ -5,7 +5,6 @@
 
 #include "sim_hm_internal.h"
 
-
 void sim_hm_apply(const sim_hm *h, const float *x, float *y)
 {
     const float d = h->diag;
@@ -49,29 +48,28 @@ static double dot3n(const float *restrict a, const float *restrict b, size_t n)
     return ((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]));
 }
 
-/* out = P^-1 r on the free rows, 0 on the fixed ones; returns r . out. */
-static double precondition(const sim_hm *h, const float *restrict r, float *restrict out)
-{
-    for (uint32_t i = 0; i < h->n; i++) {
-        float *o = out + 3 * (size_t)i;
-        const float *p = h->pinv + 6 * (size_t)i, *ri = r + 3 * (size_t)i;
-        const float k = h->fixed[i] ? 0.0f : 1.0f;
-        o[0] = k * (p[0] * ri[0] + p[3] * ri[1] + p[4] * ri[2]);
-        o[1] = k * (p[3] * ri[0] + p[1] * ri[1] + p[5] * ri[2]);
-        o[2] = k * (p[4] * ri[0] + p[5] * ri[1] + p[2] * ri[2]);
-    }
-    return dot3n(r, out, 3 * (size_t)h->n);
-}
-
 static void filter(const sim_hm *h, float *a)
 {
     for (uint32_t i = 0; i < h->n; i++)
         if (h->fixed[i]) a[3 * i] = a[3 * i + 1] = a[3 * i + 2] = 0.0f;
 }
 
+/* out = D a on the free rows, 0 on the fixed; returns a . out (with a = (D + L)^-1 r, r M^-1 r for
+ * M = (D + L) D^-1 (D + U), the symmetric Gauss-Seidel preconditioner). */
+static double d_norm(const sim_hm *h, const float *a, float *out)
+{
+    sim_hm_bsr_diag_apply(&h->bsr, h->fixed, a, out);
+    return dot3n(a, out, 3 * (size_t)h->n);
+}
+
+/* CG on the free rows of A dv = rhs preconditioned by M = (D + L) D^-1 (D + U) in Eisenstat's form:
+ * CG with preconditioner D^-1 on A' = (D + L)^-1 A (D + U)^-1, whose product
+ * A' p = t + (D + L)^-1 (p - D t) with t = (D + U)^-1 p costs two half sweeps and no product by A;
+ * the solution is dv += (D + U)^-1 x'. */
 int sim_hm_cg(sim_hm *h)
 {
     const size_t n3 = 3 * (size_t)h->n;
+    const sim_hm_bsr *m = &h->bsr;
     /* s = the previous solve's dv on the free rows (the warm start), dv = the cold start */
     for (uint32_t i = 0; i < h->n; i++)
         for (int k = 0; k < 3; k++) {
@@ -79,49 +77,67 @@ int sim_hm_cg(sim_hm *h)
             h->s[j] = h->fixed[i] ? 0.0f : h->dv[j];
             h->dv[j] = h->fixed[i] ? h->z[j] : 0.0f;
         }
-    sim_hm_bsr_apply(&h->bsr, h->dv, h->q);
+    sim_hm_bsr_apply(m, h->dv, h->q);
     for (size_t i = 0; i < n3; i++) h->r[i] = h->rhs[i] - h->q[i];
     filter(h, h->r);
-    const double cold = precondition(h, h->r, h->c);
+    sim_hm_bsr_lower_solve(m, h->pinv, h->fixed, h->r, h->r);
+    const double cold = d_norm(h, h->r, h->w);
     /* the tolerance is relative to the cold start's residual whatever the start */
     const double stop = cold * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
-    sim_hm_bsr_apply(&h->bsr, h->s, h->q);
+    sim_hm_bsr_apply(m, h->s, h->q);
     filter(h, h->q);
+    sim_hm_bsr_lower_solve(m, h->pinv, h->fixed, h->q, h->q);
     for (size_t i = 0; i < n3; i++) h->q[i] = h->r[i] - h->q[i];
-    double delta = precondition(h, h->q, h->c);
-    if (delta < cold) { /* the warm start is nearer: dv = cold + s, r = its residual */
+    double delta = d_norm(h, h->q, h->c);
+    if (delta < cold) { /* the warm start is nearer: dv = cold + s, r' = its residual */
         for (size_t i = 0; i < n3; i++) h->dv[i] += h->s[i];
         memcpy(h->r, h->q, n3 * sizeof *h->r);
     } else {
-        delta = precondition(h, h->r, h->c);
+        delta = cold;
+        memcpy(h->c, h->w, n3 * sizeof *h->c);
     }
+    memset(h->xh, 0, n3 * sizeof *h->xh);
     int it = 0;
     while (it < h->p.hm.cg_iterations && delta > stop && delta > 0.0) {
-        sim_hm_bsr_apply(&h->bsr, h->c, h->q);
-        filter(h, h->q);
+        sim_hm_bsr_upper_solve(m, h->pinv, h->fixed, h->c, h->s);
+        sim_hm_bsr_diag_apply(m, h->fixed, h->s, h->w);
+        for (size_t i = 0; i < n3; i++) h->w[i] = h->c[i] - h->w[i];
+        sim_hm_bsr_lower_solve(m, h->pinv, h->fixed, h->w, h->w);
+        for (size_t i = 0; i < n3; i++) h->q[i] = h->s[i] + h->w[i];
         const double cq = dot3n(h->c, h->q, n3);
         if (!(cq > 0.0)) break;
         const float alpha = (float)(delta / cq);
-        for (size_t i = 0; i < n3; i++) h->dv[i] += alpha * h->c[i], h->r[i] -= alpha * h->q[i];
-        const double next = precondition(h, h->r, h->s);
+        for (size_t i = 0; i < n3; i++) h->xh[i] += alpha * h->c[i], h->r[i] -= alpha * h->q[i];
+        const double next = d_norm(h, h->r, h->w);
         const float beta = (float)(next / delta);
-        for (size_t i = 0; i < n3; i++) h->c[i] = h->s[i] + beta * h->c[i];
+        for (size_t i = 0; i < n3; i++) h->c[i] = h->w[i] + beta * h->c[i];
         delta = next;
         it++;
+    }
+    if (it > 0) {
+        sim_hm_bsr_upper_solve(m, h->pinv, h->fixed, h->xh, h->xh);
+        for (size_t i = 0; i < n3; i++) h->dv[i] += h->xh[i];
     }
     return it;
 }
 
-/* y = (A^T A) x on the mesh edges, the same matrix for x, y and z. */
-static void laplacian(const sim_hm *h, const float *x, float *y)
+/* y = (A^T A) x on the mesh edges (the same matrix for x, y and z) on the free rows, 0 on the fixed. */
+static void laplacian(const sim_hm *h, const float *restrict x, float *restrict y)
 {
-    memset(y, 0, 3 * (size_t)h->n * sizeof *y);
     const sim_hm_edges *e = &h->edges;
-    for (uint32_t k = 0; k < e->n; k++) {
-        const uint32_t a = e->a[k], b = e->b[k];
-        const float d0 = x[3 * a] - x[3 * b], d1 = x[3 * a + 1] - x[3 * b + 1], d2 = x[3 * a + 2] - x[3 * b + 2];
-        y[3 * a] += d0, y[3 * a + 1] += d1, y[3 * a + 2] += d2;
-        y[3 * b] -= d0, y[3 * b + 1] -= d1, y[3 * b + 2] -= d2;
+    for (uint32_t i = 0; i < h->n; i++) {
+        float *yi = y + 3 * (size_t)i;
+        if (h->fixed[i]) {
+            yi[0] = yi[1] = yi[2] = 0.0f;
+            continue;
+        }
+        const float *xi = x + 3 * (size_t)i, d = (float)(e->row[i + 1] - e->row[i]);
+        float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f;
+        for (uint32_t k = e->row[i]; k < e->row[i + 1]; k++) {
+            const float *xj = x + 3 * (size_t)e->nb[k];
+            s0 += xj[0], s1 += xj[1], s2 += xj[2];
+        }
+        yi[0] = d * xi[0] - s0, yi[1] = d * xi[1] - s1, yi[2] = d * xi[2] - s2;
     }
 }
 
@@ -141,12 +157,10 @@ void sim_hm_deform_min(sim_hm *h, const float *ref)
     /* r = A^T A ref - A^T A x on the free rows: x = x' (the corrected positions) is the first guess */
     for (size_t i = 0; i < n3; i++) h->s[i] = ref[i] - h->x[i];
     laplacian(h, h->s, h->r);
-    filter(h, h->r);
     double delta = jacobi(h, h->r, h->c);
     const double stop = delta * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
     for (int it = 0; it < h->p.hm.cg_iterations && delta > stop && delta > 0.0; it++) {
         laplacian(h, h->c, h->q);
-        filter(h, h->q);
         const double cq = dot3n(h->c, h->q, n3);
         if (!(cq > 0.0)) break;
         const float alpha = (float)(delta / cq);

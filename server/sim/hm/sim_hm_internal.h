@@ -30,11 +30,12 @@ typedef struct sim_hm_tets {
     float *g, *w;
 } sim_hm_tets;
 
-/* The mesh edges of the deformation minimization (A's rows) and the vertices' inverse degrees. */
+/* The mesh edges of the deformation minimization (A's rows) as each vertex's neighbours, and the
+ * vertices' inverse degrees. */
 typedef struct sim_hm_edges {
-    uint32_t n;
-    uint32_t *a, *b;
-    float *inv_degree; /* per vertex: 1 / degree, 0 for none */
+    uint32_t n;          /* edges */
+    uint32_t *row, *nb;  /* vertex i's neighbours: nb[row[i]] .. nb[row[i + 1] - 1] */
+    float *inv_degree;   /* per vertex: 1 / degree, 0 for none */
 } sim_hm_edges;
 
 /* Floats per block of the system's matrix: 3 columns of 4 (the 4th is 0), element (r, c) at 4 c + r. */
@@ -70,7 +71,7 @@ typedef struct sim_hm {
     float *rhs, *dv, *z;        /* 3n: right-hand side, velocity change, prescribed values (fixed rows) */
     float diag;                 /* the system's diagonal: 1 + dt air_drag (unit masses) */
     float *pinv;                /* 6n: inverses of the system's diagonal blocks (xx yy zz xy xz yz), the preconditioner */
-    float *r, *c, *q, *s;       /* 3n: CG scratch */
+    float *r, *c, *q, *s, *w, *xh; /* 3n: CG scratch */
     uint8_t *fixed;             /* n: 1 = position prescribed (roots; corrected vertices while minimizing) */
     uint8_t *surface;           /* n: 1 = on the outer surface (collided) */
     float *push;                /* 3n: this substep's collision push of each vertex */
@@ -102,11 +103,21 @@ void sim_hm_bsr_free(sim_hm_bsr *m);
 /* y = A x with the blocks sim_hm_forces assembled in m (the CG's product); x and y do not overlap. */
 void sim_hm_bsr_apply(const sim_hm_bsr *m, const float *x, float *y);
 
+/* With A = L + D + U (D its diagonal blocks, dinv their inverses as xx yy zz xy xz yz) restricted
+ * to the rows where fixed[i] == 0 (the others' t is 0 and their columns are ignored): the forward
+ * block Gauss-Seidel sweep t = (D + L)^-1 r, the backward one t = (D + U)^-1 r (t may be r), and
+ * y = D x (x and y do not overlap). */
+void sim_hm_bsr_lower_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t);
+void sim_hm_bsr_upper_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t);
+void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const float *x, float *y);
+
 /* y = A x for the same system from the springs' and tetrahedra's terms (matrix-free): the
  * reference that the tests pin the assembled blocks against. */
 void sim_hm_apply(const sim_hm *h, const float *x, float *y);
 
-/* Solves A dv = rhs by modified CG: rows with fixed[i] keep dv_i = z_i. Returns the iterations. */
+/* Solves A dv = rhs by modified CG: rows with fixed[i] keep dv_i = z_i; starts from the previous
+ * solve's dv when that is nearer; symmetric block Gauss-Seidel preconditioning (Eisenstat's form).
+ * Returns the iterations. */
 int sim_hm_cg(sim_hm *h);
 
 /* Pushes the surface vertices out of the colliders of step k (world); marks pushes in h->push
