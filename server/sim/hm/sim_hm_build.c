@@ -112,7 +112,8 @@ static void link(sim_hm_edges *ed, int pass, uint32_t a, uint32_t b)
 }
 
 /* The deformation minimization's edges (every column's segments, every layer edge in every
- * layer) as neighbour lists: degrees, then the lists with row[] as cursors, then row[] back. */
+ * layer) as ascending neighbour lists: degrees, then the lists with row[] as cursors, then row[]
+ * back, then each list sorted. */
 static void mesh_edges(sim_hm *h, const edge_list *e)
 {
     sim_hm_edges *ed = &h->edges;
@@ -133,6 +134,12 @@ static void mesh_edges(sim_hm *h, const edge_list *e)
     }
     for (uint32_t i = h->n; i > 0; i--) ed->row[i] = ed->row[i - 1];
     ed->row[0] = 0;
+    for (uint32_t i = 0; i < h->n; i++) /* ascending (insertion sort: a few neighbours each) */
+        for (uint32_t k = ed->row[i] + 1; k < ed->row[i + 1]; k++)
+            for (uint32_t j = k; j > ed->row[i] && ed->nb[j - 1] > ed->nb[j]; j--) {
+                const uint32_t t = ed->nb[j];
+                ed->nb[j] = ed->nb[j - 1], ed->nb[j - 1] = t;
+            }
 }
 
 core_status sim_hm_build(sim_hm *h, core_err *err)

@@ -54,18 +54,63 @@ static void filter(const sim_hm *h, float *a)
         if (h->fixed[i]) a[3 * i] = a[3 * i + 1] = a[3 * i + 2] = 0.0f;
 }
 
-/* out = D a on the free rows, 0 on the fixed; returns a . out (with a = (D + L)^-1 r, r M^-1 r for
- * M = (D + L) D^-1 (D + U), the symmetric Gauss-Seidel preconditioner). */
-static double d_norm(const sim_hm *h, const float *a, float *out)
+/* A symmetric system A = L + D + U on the free rows (fixed[i] == 0; the fixed rows' results are 0
+ * and their columns ignored): the forward sweep t = (D + L)^-1 r, the backward t = (D + U)^-1 r
+ * (t may be r) and y = D x. */
+typedef struct split_ops {
+    void (*lower)(const sim_hm *h, const float *r, float *t);
+    void (*upper)(const sim_hm *h, const float *r, float *t);
+    void (*diag)(const sim_hm *h, const float *x, float *y);
+} split_ops;
+
+/* out = D a; returns a . out (with a = (D + L)^-1 r, r M^-1 r for the symmetric Gauss-Seidel
+ * preconditioner M = (D + L) D^-1 (D + U)). */
+static double d_norm(const sim_hm *h, const split_ops *o, const float *a, float *out)
 {
-    sim_hm_bsr_diag_apply(&h->bsr, h->fixed, a, out);
+    o->diag(h, a, out);
     return dot3n(a, out, 3 * (size_t)h->n);
 }
 
-/* CG on the free rows of A dv = rhs preconditioned by M = (D + L) D^-1 (D + U) in Eisenstat's form:
+/* CG on the free rows of A x = r preconditioned by M = (D + L) D^-1 (D + U) in Eisenstat's form:
  * CG with preconditioner D^-1 on A' = (D + L)^-1 A (D + U)^-1, whose product
- * A' p = t + (D + L)^-1 (p - D t) with t = (D + U)^-1 p costs two half sweeps and no product by A;
- * the solution is dv += (D + U)^-1 x'. */
+ * A' p = t + (D + L)^-1 (p - D t) with t = (D + U)^-1 p costs two half sweeps and no product by
+ * A. On entry h->r = (D + L)^-1 r and h->c = D h->r, delta = their dot product; stops below
+ * stop or after the iteration limit, adds (D + U)^-1 x' to x. Returns the iterations. */
+static int split_cg(sim_hm *h, const split_ops *o, double delta, double stop, float *x)
+{
+    const size_t n3 = 3 * (size_t)h->n;
+    float *restrict r = h->r, *restrict c = h->c, *restrict q = h->q, *restrict t = h->s, *restrict w = h->w;
+    float *restrict xh = h->xh;
+    memset(xh, 0, n3 * sizeof *xh);
+    int it = 0;
+    while (it < h->p.hm.cg_iterations && delta > stop && delta > 0.0) {
+        o->upper(h, c, t);
+        o->diag(h, t, w);
+        for (size_t i = 0; i < n3; i++) w[i] = c[i] - w[i];
+        o->lower(h, w, w);
+        for (size_t i = 0; i < n3; i++) q[i] = t[i] + w[i];
+        const double cq = dot3n(c, q, n3);
+        if (!(cq > 0.0)) break;
+        const float alpha = (float)(delta / cq);
+        for (size_t i = 0; i < n3; i++) xh[i] += alpha * c[i], r[i] -= alpha * q[i];
+        const double next = d_norm(h, o, r, w);
+        const float beta = (float)(next / delta);
+        for (size_t i = 0; i < n3; i++) c[i] = w[i] + beta * c[i];
+        delta = next;
+        it++;
+    }
+    if (it > 0) {
+        o->upper(h, xh, xh);
+        for (size_t i = 0; i < n3; i++) x[i] += xh[i];
+    }
+    return it;
+}
+
+static void sys_lower(const sim_hm *h, const float *r, float *t) { sim_hm_bsr_lower_solve(&h->bsr, h->pinv, h->fixed, r, t); }
+static void sys_upper(const sim_hm *h, const float *r, float *t) { sim_hm_bsr_upper_solve(&h->bsr, h->pinv, h->fixed, r, t); }
+static void sys_diag(const sim_hm *h, const float *x, float *y) { sim_hm_bsr_diag_apply(&h->bsr, h->fixed, x, y); }
+static const split_ops sys_ops = { sys_lower, sys_upper, sys_diag };
+
 int sim_hm_cg(sim_hm *h)
 {
     const size_t n3 = 3 * (size_t)h->n;
@@ -80,15 +125,15 @@ int sim_hm_cg(sim_hm *h)
     sim_hm_bsr_apply(m, h->dv, h->q);
     for (size_t i = 0; i < n3; i++) h->r[i] = h->rhs[i] - h->q[i];
     filter(h, h->r);
-    sim_hm_bsr_lower_solve(m, h->pinv, h->fixed, h->r, h->r);
-    const double cold = d_norm(h, h->r, h->w);
+    sys_lower(h, h->r, h->r);
+    const double cold = d_norm(h, &sys_ops, h->r, h->w);
     /* the tolerance is relative to the cold start's residual whatever the start */
     const double stop = cold * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
     sim_hm_bsr_apply(m, h->s, h->q);
     filter(h, h->q);
-    sim_hm_bsr_lower_solve(m, h->pinv, h->fixed, h->q, h->q);
+    sys_lower(h, h->q, h->q);
     for (size_t i = 0; i < n3; i++) h->q[i] = h->r[i] - h->q[i];
-    double delta = d_norm(h, h->q, h->c);
+    double delta = d_norm(h, &sys_ops, h->q, h->c);
     if (delta < cold) { /* the warm start is nearer: dv = cold + s, r' = its residual */
         for (size_t i = 0; i < n3; i++) h->dv[i] += h->s[i];
         memcpy(h->r, h->q, n3 * sizeof *h->r);
@@ -96,32 +141,63 @@ int sim_hm_cg(sim_hm *h)
         delta = cold;
         memcpy(h->c, h->w, n3 * sizeof *h->c);
     }
-    memset(h->xh, 0, n3 * sizeof *h->xh);
-    int it = 0;
-    while (it < h->p.hm.cg_iterations && delta > stop && delta > 0.0) {
-        sim_hm_bsr_upper_solve(m, h->pinv, h->fixed, h->c, h->s);
-        sim_hm_bsr_diag_apply(m, h->fixed, h->s, h->w);
-        for (size_t i = 0; i < n3; i++) h->w[i] = h->c[i] - h->w[i];
-        sim_hm_bsr_lower_solve(m, h->pinv, h->fixed, h->w, h->w);
-        for (size_t i = 0; i < n3; i++) h->q[i] = h->s[i] + h->w[i];
-        const double cq = dot3n(h->c, h->q, n3);
-        if (!(cq > 0.0)) break;
-        const float alpha = (float)(delta / cq);
-        for (size_t i = 0; i < n3; i++) h->xh[i] += alpha * h->c[i], h->r[i] -= alpha * h->q[i];
-        const double next = d_norm(h, h->r, h->w);
-        const float beta = (float)(next / delta);
-        for (size_t i = 0; i < n3; i++) h->c[i] = h->w[i] + beta * h->c[i];
-        delta = next;
-        it++;
-    }
-    if (it > 0) {
-        sim_hm_bsr_upper_solve(m, h->pinv, h->fixed, h->xh, h->xh);
-        for (size_t i = 0; i < n3; i++) h->dv[i] += h->xh[i];
-    }
-    return it;
+    return split_cg(h, &sys_ops, delta, stop, h->dv);
 }
 
-/* y = (A^T A) x on the mesh edges (the same matrix for x, y and z) on the free rows, 0 on the fixed. */
+/* The deformation minimization's A^T A (the mesh edges' graph Laplacian: the degree on the
+ * diagonal, -1 per edge, the same for x, y and z) as split_ops; neighbour lists are ascending. */
+static void lap_lower(const sim_hm *h, const float *r, float *t)
+{
+    const sim_hm_edges *e = &h->edges;
+    for (uint32_t i = 0; i < h->n; i++) {
+        float *ti = t + 3 * (size_t)i;
+        const float *ri = r + 3 * (size_t)i;
+        if (h->fixed[i]) {
+            ti[0] = ti[1] = ti[2] = 0.0f;
+            continue;
+        }
+        float s0 = ri[0], s1 = ri[1], s2 = ri[2];
+        for (uint32_t k = e->row[i]; k < e->row[i + 1] && e->nb[k] < i; k++) {
+            const float *tj = t + 3 * (size_t)e->nb[k];
+            s0 += tj[0], s1 += tj[1], s2 += tj[2];
+        }
+        const float k = e->inv_degree[i];
+        ti[0] = k * s0, ti[1] = k * s1, ti[2] = k * s2;
+    }
+}
+
+static void lap_upper(const sim_hm *h, const float *r, float *t)
+{
+    const sim_hm_edges *e = &h->edges;
+    for (uint32_t i = h->n; i-- > 0;) {
+        float *ti = t + 3 * (size_t)i;
+        const float *ri = r + 3 * (size_t)i;
+        if (h->fixed[i]) {
+            ti[0] = ti[1] = ti[2] = 0.0f;
+            continue;
+        }
+        float s0 = ri[0], s1 = ri[1], s2 = ri[2];
+        for (uint32_t k = e->row[i + 1]; k > e->row[i] && e->nb[k - 1] > i; k--) {
+            const float *tj = t + 3 * (size_t)e->nb[k - 1];
+            s0 += tj[0], s1 += tj[1], s2 += tj[2];
+        }
+        const float k = e->inv_degree[i];
+        ti[0] = k * s0, ti[1] = k * s1, ti[2] = k * s2;
+    }
+}
+
+static void lap_diag(const sim_hm *h, const float *restrict x, float *restrict y)
+{
+    const sim_hm_edges *e = &h->edges;
+    for (uint32_t i = 0; i < h->n; i++) {
+        const float d = h->fixed[i] ? 0.0f : (float)(e->row[i + 1] - e->row[i]);
+        for (int k = 0; k < 3; k++) y[3 * i + k] = d * x[3 * i + k];
+    }
+}
+
+static const split_ops lap_ops = { lap_lower, lap_upper, lap_diag };
+
+/* y = (A^T A) x on the free rows, 0 on the fixed. */
 static void laplacian(const sim_hm *h, const float *restrict x, float *restrict y)
 {
     const sim_hm_edges *e = &h->edges;
@@ -141,33 +217,13 @@ static void laplacian(const sim_hm *h, const float *restrict x, float *restrict 
     }
 }
 
-/* out = r / degree on the free rows, 0 on the fixed; returns r . out. */
-static double jacobi(const sim_hm *h, const float *restrict r, float *restrict out)
-{
-    for (uint32_t i = 0; i < h->n; i++) {
-        const float k = h->fixed[i] ? 0.0f : h->edges.inv_degree[i];
-        for (int j = 0; j < 3; j++) out[3 * i + j] = k * r[3 * i + j];
-    }
-    return dot3n(r, out, 3 * (size_t)h->n);
-}
-
 void sim_hm_deform_min(sim_hm *h, const float *ref)
 {
     const size_t n3 = 3 * (size_t)h->n;
     /* r = A^T A ref - A^T A x on the free rows: x = x' (the corrected positions) is the first guess */
     for (size_t i = 0; i < n3; i++) h->s[i] = ref[i] - h->x[i];
     laplacian(h, h->s, h->r);
-    double delta = jacobi(h, h->r, h->c);
-    const double stop = delta * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
-    for (int it = 0; it < h->p.hm.cg_iterations && delta > stop && delta > 0.0; it++) {
-        laplacian(h, h->c, h->q);
-        const double cq = dot3n(h->c, h->q, n3);
-        if (!(cq > 0.0)) break;
-        const float alpha = (float)(delta / cq);
-        for (size_t i = 0; i < n3; i++) h->x[i] += alpha * h->c[i], h->r[i] -= alpha * h->q[i];
-        const double next = jacobi(h, h->r, h->s);
-        const float beta = (float)(next / delta);
-        for (size_t i = 0; i < n3; i++) h->c[i] = h->s[i] + beta * h->c[i];
-        delta = next;
-    }
+    lap_lower(h, h->r, h->r);
+    const double delta = d_norm(h, &lap_ops, h->r, h->c);
+    split_cg(h, &lap_ops, delta, delta * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance, h->x);
 }

@@ -34,7 +34,7 @@ typedef struct sim_hm_tets {
  * vertices' inverse degrees. */
 typedef struct sim_hm_edges {
     uint32_t n;          /* edges */
-    uint32_t *row, *nb;  /* vertex i's neighbours: nb[row[i]] .. nb[row[i + 1] - 1] */
+    uint32_t *row, *nb;  /* vertex i's neighbours, ascending: nb[row[i]] .. nb[row[i + 1] - 1] */
     float *inv_degree;   /* per vertex: 1 / degree, 0 for none */
 } sim_hm_edges;
 
@@ -125,7 +125,8 @@ int sim_hm_cg(sim_hm *h);
 uint32_t sim_hm_collide(sim_hm *h, const sim_step_desc *d, int k);
 
 /* Deformation minimization (eq. 3-4): moves the unfixed vertices of h->x to minimize the change
- * of the mesh edges from ref (the positions before collision handling). */
+ * of the mesh edges from ref (the positions before collision handling), by modified CG on the
+ * edges' A^T A with the same preconditioning as sim_hm_cg. */
 void sim_hm_deform_min(sim_hm *h, const float *ref);
 
 #endif
