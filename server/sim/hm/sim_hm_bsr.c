@@ -135,23 +135,26 @@ void sim_hm_bsr_lower_solve(const sim_hm_bsr *m, const float *dinv, const uint8_
     }
 }
 
-void sim_hm_bsr_upper_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t)
+void sim_hm_bsr_upper_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t,
+                            float *u)
 {
     for (uint32_t i = m->n; i-- > 0;) {
         float *ti = t + 3 * (size_t)i;
-        if (fixed[i]) {
-            ti[0] = ti[1] = ti[2] = 0.0f;
-            continue;
-        }
         sim_hm_v4 s0 = { 0 }, s1 = { 0 };
-        uint32_t b = m->diag[i] + 1;
-        for (; b + 2 <= m->row[i + 1]; b += 2) {
-            s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
-            s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
+        if (!fixed[i]) {
+            uint32_t b = m->diag[i] + 1;
+            for (; b + 2 <= m->row[i + 1]; b += 2) {
+                s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
+                s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
+            }
+            if (b < m->row[i + 1]) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
+            s0 += s1;
+            const float *ri = r + 3 * (size_t)i;
+            store3(ti, sym_mul(dinv + 6 * (size_t)i, (sim_hm_v4){ ri[0], ri[1], ri[2], 0.0f } - s0));
+        } else {
+            ti[0] = ti[1] = ti[2] = 0.0f;
         }
-        if (b < m->row[i + 1]) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
-        const float *ri = r + 3 * (size_t)i;
-        store3(ti, sym_mul(dinv + 6 * (size_t)i, (sim_hm_v4){ ri[0], ri[1], ri[2], 0.0f } - (s0 + s1)));
+        if (u) store3(u + 3 * (size_t)i, s0);
     }
 }
 

@@ -56,10 +56,10 @@ static void filter(const sim_hm *h, float *a)
 
 /* A symmetric system A = L + D + U on the free rows (fixed[i] == 0; the fixed rows' results are 0
  * and their columns ignored): the forward sweep t = (D + L)^-1 r, the backward t = (D + U)^-1 r
- * (t may be r) and y = D x. */
+ * with u = U t when u is not NULL (t may be r) and y = D x. */
 typedef struct split_ops {
     void (*lower)(const sim_hm *h, const float *r, float *t);
-    void (*upper)(const sim_hm *h, const float *r, float *t);
+    void (*upper)(const sim_hm *h, const float *r, float *t, float *u);
     void (*diag)(const sim_hm *h, const float *x, float *y);
 } split_ops;
 
@@ -73,8 +73,8 @@ static double d_norm(const sim_hm *h, const split_ops *o, const float *a, float 
 
 /* CG on the free rows of A x = r preconditioned by M = (D + L) D^-1 (D + U) in Eisenstat's form:
  * CG with preconditioner D^-1 on A' = (D + L)^-1 A (D + U)^-1, whose product
- * A' p = t + (D + L)^-1 (p - D t) with t = (D + U)^-1 p costs two half sweeps and no product by
- * A. On entry h->r = (D + L)^-1 r and h->c = D h->r, delta = their dot product; stops below
+ * A' p = t + (D + L)^-1 (p - D t) with t = (D + U)^-1 p (and p - D t = U t) costs two half sweeps
+ * and no product by A. On entry h->r = (D + L)^-1 r and h->c = D h->r, delta = their dot product; stops below
  * stop or after the iteration limit, adds (D + U)^-1 x' to x. Returns the iterations. */
 static int split_cg(sim_hm *h, const split_ops *o, double delta, double stop, float *x)
 {
@@ -84,9 +84,7 @@ static int split_cg(sim_hm *h, const split_ops *o, double delta, double stop, fl
     memset(xh, 0, n3 * sizeof *xh);
     int it = 0;
     while (it < h->p.hm.cg_iterations && delta > stop && delta > 0.0) {
-        o->upper(h, c, t);
-        o->diag(h, t, w);
-        for (size_t i = 0; i < n3; i++) w[i] = c[i] - w[i];
+        o->upper(h, c, t, w);
         o->lower(h, w, w);
         for (size_t i = 0; i < n3; i++) q[i] = t[i] + w[i];
         const double cq = dot3n(c, q, n3);
@@ -100,14 +98,17 @@ static int split_cg(sim_hm *h, const split_ops *o, double delta, double stop, fl
         it++;
     }
     if (it > 0) {
-        o->upper(h, xh, xh);
+        o->upper(h, xh, xh, NULL);
         for (size_t i = 0; i < n3; i++) x[i] += xh[i];
     }
     return it;
 }
 
 static void sys_lower(const sim_hm *h, const float *r, float *t) { sim_hm_bsr_lower_solve(&h->bsr, h->pinv, h->fixed, r, t); }
-static void sys_upper(const sim_hm *h, const float *r, float *t) { sim_hm_bsr_upper_solve(&h->bsr, h->pinv, h->fixed, r, t); }
+static void sys_upper(const sim_hm *h, const float *r, float *t, float *u)
+{
+    sim_hm_bsr_upper_solve(&h->bsr, h->pinv, h->fixed, r, t, u);
+}
 static void sys_diag(const sim_hm *h, const float *x, float *y) { sim_hm_bsr_diag_apply(&h->bsr, h->fixed, x, y); }
 static const split_ops sys_ops = { sys_lower, sys_upper, sys_diag };
 
@@ -166,23 +167,24 @@ static void lap_lower(const sim_hm *h, const float *r, float *t)
     }
 }
 
-static void lap_upper(const sim_hm *h, const float *r, float *t)
+static void lap_upper(const sim_hm *h, const float *r, float *t, float *u)
 {
     const sim_hm_edges *e = &h->edges;
     for (uint32_t i = h->n; i-- > 0;) {
         float *ti = t + 3 * (size_t)i;
         const float *ri = r + 3 * (size_t)i;
-        if (h->fixed[i]) {
+        float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f;
+        if (!h->fixed[i]) {
+            for (uint32_t k = e->row[i + 1]; k > e->row[i] && e->nb[k - 1] > i; k--) {
+                const float *tj = t + 3 * (size_t)e->nb[k - 1];
+                s0 += tj[0], s1 += tj[1], s2 += tj[2];
+            }
+            const float k = e->inv_degree[i];
+            ti[0] = k * (ri[0] + s0), ti[1] = k * (ri[1] + s1), ti[2] = k * (ri[2] + s2);
+        } else {
             ti[0] = ti[1] = ti[2] = 0.0f;
-            continue;
         }
-        float s0 = ri[0], s1 = ri[1], s2 = ri[2];
-        for (uint32_t k = e->row[i + 1]; k > e->row[i] && e->nb[k - 1] > i; k--) {
-            const float *tj = t + 3 * (size_t)e->nb[k - 1];
-            s0 += tj[0], s1 += tj[1], s2 += tj[2];
-        }
-        const float k = e->inv_degree[i];
-        ti[0] = k * s0, ti[1] = k * s1, ti[2] = k * s2;
+        if (u) u[3 * i] = -s0, u[3 * i + 1] = -s1, u[3 * i + 2] = -s2;
     }
 }
 

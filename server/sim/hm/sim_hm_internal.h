@@ -104,11 +104,13 @@ void sim_hm_bsr_free(sim_hm_bsr *m);
 void sim_hm_bsr_apply(const sim_hm_bsr *m, const float *x, float *y);
 
 /* With A = L + D + U (D its diagonal blocks, dinv their inverses as xx yy zz xy xz yz) restricted
- * to the rows where fixed[i] == 0 (the others' t is 0 and their columns are ignored): the forward
- * block Gauss-Seidel sweep t = (D + L)^-1 r, the backward one t = (D + U)^-1 r (t may be r), and
- * y = D x (x and y do not overlap). */
+ * to the rows where fixed[i] == 0 (the others' t and u are 0 and their columns are ignored): the
+ * forward block Gauss-Seidel sweep t = (D + L)^-1 r, the backward one t = (D + U)^-1 r with
+ * u = U t = r - D t on the way when u is not NULL (t may be r; u another array), and y = D x
+ * (x and y do not overlap). */
 void sim_hm_bsr_lower_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t);
-void sim_hm_bsr_upper_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t);
+void sim_hm_bsr_upper_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t,
+                            float *u);
 void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const float *x, float *y);
 
 /* y = A x for the same system from the springs' and tetrahedra's terms (matrix-free): the
