@@ -5,14 +5,20 @@
 
 #include "sim_hm_internal.h"
 
-/* Adds the 3x3 block a u u^T + b I to the block p (SIM_HM_BLOCK layout, 16-byte aligned). */
-static void add_block(float *p, const float u[3], float a, float b)
+/* The 3x3 block a u u^T + b I as its columns (SIM_HM_BLOCK layout). */
+static void spring_block(sim_hm_v4 col[3], const float u[3], float a, float b)
 {
-    sim_hm_v4 *col = (sim_hm_v4 *)p;
     const sim_hm_v4 uv = { u[0], u[1], u[2], 0.0f };
-    col[0] += (a * u[0]) * uv + (sim_hm_v4){ b, 0.0f, 0.0f, 0.0f };
-    col[1] += (a * u[1]) * uv + (sim_hm_v4){ 0.0f, b, 0.0f, 0.0f };
-    col[2] += (a * u[2]) * uv + (sim_hm_v4){ 0.0f, 0.0f, b, 0.0f };
+    col[0] = (a * u[0]) * uv + (sim_hm_v4){ b, 0.0f, 0.0f, 0.0f };
+    col[1] = (a * u[1]) * uv + (sim_hm_v4){ 0.0f, b, 0.0f, 0.0f };
+    col[2] = (a * u[2]) * uv + (sim_hm_v4){ 0.0f, 0.0f, b, 0.0f };
+}
+
+/* Adds sign x the block's columns col to the block p of the system's matrix (16-byte aligned). */
+static void add_block(float *p, const sim_hm_v4 col[3], float sign)
+{
+    sim_hm_v4 *pc = (sim_hm_v4 *)p;
+    pc[0] += sign * col[0], pc[1] += sign * col[1], pc[2] += sign * col[2];
 }
 
 /* Inverts the symmetric block p in place (the identity's multiple when it is singular). */
@@ -67,10 +73,12 @@ static void springs(sim_hm *h, float dt, core_quat rot)
         memcpy(s->u + 3 * i, u, sizeof u);
         s->alpha[i] = al, s->beta[i] = be;
         float *val = h->bsr.val;
-        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.diag[a], u, al, be);
-        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.diag[b], u, al, be);
-        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.sp_at[2 * i], u, -al, -be);
-        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.sp_at[2 * i + 1], u, -al, -be);
+        sim_hm_v4 S[3];
+        spring_block(S, u, al, be);
+        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.diag[a], S, 1.0f);
+        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.diag[b], S, 1.0f);
+        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.sp_at[2 * i], S, -1.0f);
+        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.sp_at[2 * i + 1], S, -1.0f);
     }
 }
 
