@@ -41,8 +41,8 @@ typedef struct sim_hm_edges {
 /* Floats per block of the system's matrix: 3 columns of 4 (the 4th is 0), element (r, c) at 4 c + r. */
 #define SIM_HM_BLOCK 12
 
-/* 4 floats as one value (GCC/Clang vector extensions): a column of a block. */
-typedef float sim_hm_v4 __attribute__((vector_size(16)));
+/* 4 floats as one value (GCC/Clang vector extensions, may alias float): a column of a block. */
+typedef float sim_hm_v4 __attribute__((vector_size(16), may_alias));
 
 /* The implicit system A as a block-sparse matrix: 3x3 blocks (SIM_HM_BLOCK floats) in rows of
  * ascending columns over the vertex pairs that a spring or a tetrahedron joins (pattern fixed at
