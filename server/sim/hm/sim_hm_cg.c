@@ -74,8 +74,9 @@ static double d_norm(const sim_hm *h, const split_ops *o, const float *a, float 
 /* CG on the free rows of A x = r preconditioned by M = (D + L) D^-1 (D + U) in Eisenstat's form:
  * CG with preconditioner D^-1 on A' = (D + L)^-1 A (D + U)^-1, whose product
  * A' p = t + (D + L)^-1 (p - D t) with t = (D + U)^-1 p (and p - D t = U t) costs two half sweeps
- * and no product by A. On entry h->r = (D + L)^-1 r and h->c = D h->r, delta = their dot product; stops below
- * stop or after the iteration limit, adds (D + U)^-1 x' to x. Returns the iterations. */
+ * and no product by A. On entry h->r = (D + L)^-1 r, h->c = D h->r and delta = their dot product
+ * (r M^-1 r); stops once delta <= stop or after the iteration limit, then adds (D + U)^-1 x' to x.
+ * Uses h->q, h->s, h->w, h->xh. Returns the iterations. */
 static int split_cg(sim_hm *h, const split_ops *o, double delta, double stop, float *x)
 {
     const size_t n3 = 3 * (size_t)h->n;
@@ -104,12 +105,19 @@ static int split_cg(sim_hm *h, const split_ops *o, double delta, double stop, fl
     return it;
 }
 
-static void sys_lower(const sim_hm *h, const float *r, float *t) { sim_hm_bsr_lower_solve(&h->bsr, h->pinv, h->fixed, r, t); }
+/* The implicit step's system (h->bsr, h->pinv) as split_ops. */
+static void sys_lower(const sim_hm *h, const float *r, float *t)
+{
+    sim_hm_bsr_lower_solve(&h->bsr, h->pinv, h->fixed, r, t);
+}
+
 static void sys_upper(const sim_hm *h, const float *r, float *t, float *u)
 {
     sim_hm_bsr_upper_solve(&h->bsr, h->pinv, h->fixed, r, t, u);
 }
+
 static void sys_diag(const sim_hm *h, const float *x, float *y) { sim_hm_bsr_diag_apply(&h->bsr, h->fixed, x, y); }
+
 static const split_ops sys_ops = { sys_lower, sys_upper, sys_diag };
 
 int sim_hm_cg(sim_hm *h)

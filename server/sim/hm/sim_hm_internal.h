@@ -70,7 +70,7 @@ typedef struct sim_hm {
     float *xs, *xp;             /* 3n: positions at the substep's start, after the implicit step */
     float *rhs, *dv, *z;        /* 3n: right-hand side, velocity change, prescribed values (fixed rows) */
     float diag;                 /* the system's diagonal: 1 + dt air_drag (unit masses) */
-    float *pinv;                /* 6n: inverses of the system's diagonal blocks (xx yy zz xy xz yz), the preconditioner */
+    float *pinv;                /* 6n: inverses of the system's diagonal blocks (xx yy zz xy xz yz), for the sweeps */
     float *r, *c, *q, *s, *w, *xh; /* 3n: CG scratch */
     uint8_t *fixed;             /* n: 1 = position prescribed (roots; corrected vertices while minimizing) */
     uint8_t *surface;           /* n: 1 = on the outer surface (collided) */
@@ -91,8 +91,9 @@ void sim_hm_build_free(sim_hm *h);
 
 /* Forces at h->x, h->v (gravity and wind accel, air drag) and the implicit system
  * (I - dt df/dv - dt^2 df/dx) dv = dt (f + dt df/dx v) for substep length dt: fills
- * h->rhs, h->diag, h->pinv, h->bsr's blocks, the springs' blocks and the tetrahedra's gradients. head_rot turns
- * the springs' rest directions into the world (the direction of a spring of zero length). */
+ * h->rhs, h->diag, h->pinv, h->bsr's blocks, the springs' blocks and the tetrahedra's gradients.
+ * head_rot turns the springs' rest directions into the world (the direction of a spring of zero
+ * length). */
 void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat head_rot);
 
 /* Builds h->bsr's pattern from the springs and tetrahedra (sim_hm_build calls it). */
