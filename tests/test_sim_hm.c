@@ -1,7 +1,8 @@
 /* tests: the hair-mesh solver (sim/hm) against the 2016 paper: recovery from a collapsed mesh
  * (Figure 8) and from 10x-speed motion (Figure 7), volume kept by the deformation minimization
  * after a deep collision (Figure 9), stillness, volume and contacts at rest, the same sag at
- * any dt and substep count, and the backend interface. */
+ * any dt and substep count, the backend interface, and its linear algebra (the assembled system
+ * against the matrix-free product, the two preconditioned CG solves). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -14,6 +15,7 @@
 
 #include "groom/groom.h"
 #include "sim/hm/sim_hm.h"
+#include "sim/hm/sim_hm_internal.h"
 #include "sim/sim.h"
 
 /* The project's stillness bound: 99.9th percentile of per-frame vertex displacement, metres. */
@@ -594,6 +596,172 @@ static void test_sdf_contact(void **state)
     close_run(&r);
 }
 
+/* A value in [-1, 1) from the state *x (a 32-bit LCG). */
+static float lcg(uint32_t *x)
+{
+    *x = *x * 1664525u + 1013904223u;
+    return (float)(*x >> 8) / 8388608.0f - 1.0f;
+}
+
+/* A run on the smaller paper mesh after 20 frames of a turning head: springs stretched and
+ * compressed, tetrahedra deformed. */
+static sim_hm *moved_run(hm_run *r, const sim_params *p)
+{
+    open_run(r, 2, 6, true, p);
+    for (int f = 0; f < 20; f++) {
+        core_xform head = core_xform_identity();
+        head.rot = core_q_axis_angle(core_v3(0.0f, 1.0f, 0.0f), 0.05f * (float)f);
+        sim_set_motion(&r->s, head);
+        steps(r, 1);
+    }
+    return r->s.self;
+}
+
+/* sqrt(sum of a_i^2) over the free vertices' rows. */
+static double free_norm(const sim_hm *h, const float *a)
+{
+    double s = 0.0;
+    for (uint32_t i = 0; i < h->n; i++)
+        if (!h->fixed[i])
+            for (int k = 0; k < 3; k++) s += (double)a[3 * i + k] * a[3 * i + k];
+    return sqrt(s);
+}
+
+/* The block-sparse system the CG iterates on is the one the springs' and tetrahedra's terms
+ * give: its product equals the matrix-free one on a random vector. */
+static void test_assembly_matches_matrix_free(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    hm_run r;
+    sim_hm *h = moved_run(&r, &p);
+    uint32_t tense = 0, slack = 0;
+    for (uint32_t i = 0; i < h->sp.n; i++) h->sp.beta[i] > 0.0f ? tense++ : slack++;
+    assert_true(tense > 0 && slack > 0); /* both branches of the springs' blocks */
+    const size_t n3 = 3 * (size_t)h->n;
+    float *x = malloc(n3 * sizeof *x), *a = malloc(n3 * sizeof *a), *b = malloc(n3 * sizeof *b);
+    assert_true(x && a && b);
+    uint32_t seed = 17;
+    for (size_t i = 0; i < n3; i++) x[i] = lcg(&seed);
+    sim_hm_bsr_apply(&h->bsr, x, a);
+    sim_hm_apply(h, x, b);
+    double diff = 0.0, ref = 0.0;
+    for (size_t i = 0; i < n3; i++) diff = fmax(diff, fabs((double)a[i] - b[i])), ref = fmax(ref, fabs((double)b[i]));
+    print_message("assembled vs matrix-free product: max difference %.2e of max %.3g\n", diff / ref, ref);
+    assert_true(diff <= 1e-5 * ref);
+    free(x), free(a), free(b);
+    close_run(&r);
+}
+
+/* The implicit step's CG (symmetric Gauss-Seidel in Eisenstat's form, warm start) solves the
+ * system: at a tight tolerance the residual on the free rows (by the matrix-free product) is
+ * tiny against the cold start's, the fixed rows keep their prescribed values, and a second solve
+ * of the same system starts from the first's solution (less than half the iterations). */
+static void test_cg_solves_system(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    hm_run r;
+    sim_hm *h = moved_run(&r, &p);
+    h->p.hm.cg_tolerance = 1e-6f, h->p.hm.cg_iterations = 1000;
+    const float accel[3] = { 0.0f, -9.81f, 0.0f };
+    sim_hm_forces(h, accel, 1.0f / 60.0f, h->head.rot);
+    const size_t n3 = 3 * (size_t)h->n;
+    float *y = malloc(n3 * sizeof *y), *res = malloc(n3 * sizeof *res);
+    assert_true(y && res);
+    uint32_t seed = 5;
+    memset(h->fixed, 0, h->n);
+    for (uint32_t i = 0; i < h->n; i++)
+        if (i % h->nlayers == 0 || i % 7 == 3) { /* the roots and a few more */
+            h->fixed[i] = 1;
+            for (int k = 0; k < 3; k++) h->z[3 * i + k] = 0.01f * lcg(&seed);
+        }
+    for (size_t i = 0; i < n3; i++) h->dv[i] = 0.0f; /* the cold start: the residual of dv = z on the fixed rows, 0 elsewhere */
+    for (uint32_t i = 0; i < h->n; i++)
+        for (int k = 0; k < 3; k++) res[3 * i + k] = h->fixed[i] ? h->z[3 * i + k] : 0.0f;
+    sim_hm_apply(h, res, y);
+    for (size_t i = 0; i < n3; i++) res[i] = h->rhs[i] - y[i];
+    const double cold = free_norm(h, res);
+    const int it = sim_hm_cg(h);
+    for (uint32_t i = 0; i < h->n; i++)
+        if (h->fixed[i])
+            for (int k = 0; k < 3; k++) assert_true(h->dv[3 * i + k] == h->z[3 * i + k]);
+    sim_hm_apply(h, h->dv, y);
+    for (size_t i = 0; i < n3; i++) res[i] = h->rhs[i] - y[i];
+    const double rel = free_norm(h, res) / cold;
+    const int again = sim_hm_cg(h);
+    sim_hm_apply(h, h->dv, y);
+    for (size_t i = 0; i < n3; i++) res[i] = h->rhs[i] - y[i];
+    const double rel2 = free_norm(h, res) / cold;
+    print_message("implicit CG: %d iterations, residual %.2e of the cold start's; again from it: %d iterations, %.2e\n", it,
+                  rel, again, rel2);
+    assert_true(it > 0 && it < 1000);
+    assert_true(rel < 1e-4);
+    assert_true(again < it / 2);
+    assert_true(rel2 < 1e-4);
+    free(y), free(res);
+    close_run(&r);
+}
+
+/* The deformation minimization reaches the minimum of sum |(x_i - x_j) - (ref_i - ref_j)|^2 over
+ * the mesh edges with the moved vertices held: the gradient on the free rows vanishes. The edges'
+ * neighbour lists are symmetric and ascending. */
+static void test_deform_min_solves(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    hm_run r;
+    sim_hm *h = moved_run(&r, &p);
+    h->p.hm.cg_tolerance = 1e-6f, h->p.hm.cg_iterations = 1000;
+    const sim_hm_edges *e = &h->edges;
+    assert_int_equal(e->row[h->n], 2 * e->n);
+    for (uint32_t i = 0; i < h->n; i++)
+        for (uint32_t k = e->row[i]; k < e->row[i + 1]; k++) {
+            const uint32_t j = e->nb[k];
+            assert_true(j != i && (k == e->row[i] || e->nb[k - 1] < j));
+            bool back = false;
+            for (uint32_t m = e->row[j]; m < e->row[j + 1]; m++) back |= e->nb[m] == i;
+            assert_true(back);
+        }
+    const size_t n3 = 3 * (size_t)h->n;
+    float *ref = malloc(n3 * sizeof *ref), *g = malloc(n3 * sizeof *g);
+    assert_true(ref && g);
+    memcpy(ref, h->x, n3 * sizeof *ref);
+    uint32_t seed = 9;
+    memset(h->fixed, 0, h->n);
+    for (uint32_t i = 0; i < h->n; i++)
+        if (i % h->nlayers == 0) h->fixed[i] = 1;
+        else if (h->surface[i] && i % 3 == 0) { /* pushed surface vertices */
+            h->fixed[i] = 2;
+            for (int k = 0; k < 3; k++) h->x[3 * i + k] += 0.005f * lcg(&seed);
+        }
+    double g0 = -1.0;
+    for (int pass = 0; pass < 2; pass++) {
+        /* g = the objective's gradient / 2 = sum over i's edges of (x_i - x_j) - (ref_i - ref_j) */
+        for (uint32_t i = 0; i < h->n; i++)
+            for (int k = 0; k < 3; k++) {
+                double s = 0.0;
+                for (uint32_t m = e->row[i]; m < e->row[i + 1]; m++) {
+                    const uint32_t j = e->nb[m];
+                    s += ((double)h->x[3 * i + k] - h->x[3 * j + k]) - ((double)ref[3 * i + k] - ref[3 * j + k]);
+                }
+                g[3 * i + k] = (float)s;
+            }
+        if (pass == 0) {
+            g0 = free_norm(h, g);
+            sim_hm_deform_min(h, ref);
+        }
+    }
+    const double rel = free_norm(h, g) / g0;
+    print_message("deformation minimization: gradient %.2e of the start's\n", rel);
+    assert_true(g0 > 0.0 && rel < 1e-4);
+    free(ref), free(g);
+    close_run(&r);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -606,6 +774,9 @@ int main(void)
         cmocka_unit_test(test_fast_motion_recovers),
         cmocka_unit_test(test_deform_min_keeps_volume),
         cmocka_unit_test(test_sdf_contact),
+        cmocka_unit_test(test_assembly_matches_matrix_free),
+        cmocka_unit_test(test_cg_solves_system),
+        cmocka_unit_test(test_deform_min_solves),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

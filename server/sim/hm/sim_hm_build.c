@@ -1,4 +1,5 @@
-/* sim_hm: the solver's fixed structure from the rest mesh: springs, corner tetrahedra, edges, surface. */
+/* sim_hm: the solver's fixed structure from the rest mesh: springs, corner tetrahedra, edges, surface,
+ * the system's block pattern. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -89,13 +90,56 @@ static core_status alloc_all(sim_hm *h, uint32_t nsp, uint32_t ntet, uint32_t ne
     h->tets.v = malloc(4 * (size_t)ntet * sizeof *h->tets.v);
     h->tets.v0 = malloc(ntet * sizeof *h->tets.v0), h->tets.scale = malloc(ntet * sizeof *h->tets.scale);
     h->tets.g = malloc(12 * (size_t)ntet * sizeof *h->tets.g), h->tets.w = malloc(ntet * sizeof *h->tets.w);
-    h->edges.a = malloc(ned * sizeof *h->edges.a), h->edges.b = malloc(ned * sizeof *h->edges.b);
-    h->edges.degree = calloc(h->n, sizeof *h->edges.degree);
+    h->edges.row = calloc((size_t)h->n + 1, sizeof *h->edges.row), h->edges.nb = malloc(2 * (size_t)ned * sizeof *h->edges.nb);
+    h->edges.inv_degree = calloc(h->n, sizeof *h->edges.inv_degree);
     h->surface = calloc(h->n, 1);
     if (!s->a || !s->b || !s->len || !s->kind || !s->dir || !s->u || !s->alpha || !s->beta || !h->tets.v ||
-        !h->tets.v0 || !h->tets.g || !h->tets.w || !h->tets.scale || !h->edges.a || !h->edges.b || !h->edges.degree || !h->surface)
+        !h->tets.v0 || !h->tets.g || !h->tets.w || !h->tets.scale || !h->edges.row || !h->edges.nb || !h->edges.inv_degree || !h->surface)
         return core_fail(err, CORE_ENOMEM, "out of memory for the hair mesh solver's structure");
     return CORE_OK;
+}
+
+/* The edge a-b: counted into row[a + 1] and row[b + 1] (pass 0), or written into both
+ * neighbour lists at the cursors row[a] and row[b] (pass 1). */
+static void link(sim_hm_edges *ed, int pass, uint32_t a, uint32_t b)
+{
+    if (pass == 0) {
+        ed->n++, ed->row[a + 1]++, ed->row[b + 1]++;
+        return;
+    }
+    ed->nb[ed->row[a]++] = b;
+    ed->nb[ed->row[b]++] = a;
+}
+
+/* The deformation minimization's edges (every column's segments, every layer edge in every
+ * layer) as ascending neighbour lists: degrees, then the lists with row[] as cursors, then row[]
+ * back, then each list sorted. */
+static void mesh_edges(sim_hm *h, const edge_list *e)
+{
+    sim_hm_edges *ed = &h->edges;
+    const uint32_t nl = h->nlayers, nc = h->ncols;
+    for (int pass = 0; pass < 2; pass++) {
+        for (uint32_t c = 0; c < nc; c++)
+            for (uint32_t l = 0; l + 1 < nl; l++) link(ed, pass, VTX(h, c, l), VTX(h, c, l + 1));
+        for (uint32_t k = 0; k < e->n; k++) {
+            const uint32_t a = (uint32_t)(e->key[k] >> 32), b = (uint32_t)(e->key[k] & 0xffffffffu);
+            for (uint32_t l = 0; l < nl; l++) link(ed, pass, VTX(h, a, l), VTX(h, b, l));
+        }
+        if (pass == 0)
+            for (uint32_t i = 0; i < h->n; i++) {
+                const uint32_t d = ed->row[i + 1];
+                ed->inv_degree[i] = d > 0 ? 1.0f / (float)d : 0.0f;
+                ed->row[i + 1] += ed->row[i];
+            }
+    }
+    for (uint32_t i = h->n; i > 0; i--) ed->row[i] = ed->row[i - 1];
+    ed->row[0] = 0;
+    for (uint32_t i = 0; i < h->n; i++) /* ascending (insertion sort: a few neighbours each) */
+        for (uint32_t k = ed->row[i] + 1; k < ed->row[i + 1]; k++)
+            for (uint32_t j = k; j > ed->row[i] && ed->nb[j - 1] > ed->nb[j]; j--) {
+                const uint32_t t = ed->nb[j];
+                ed->nb[j] = ed->nb[j - 1], ed->nb[j - 1] = t;
+            }
 }
 
 core_status sim_hm_build(sim_hm *h, core_err *err)
@@ -146,17 +190,10 @@ core_status sim_hm_build(sim_hm *h, core_err *err)
             }
         }
     }
-    sim_hm_edges *ed = &h->edges;
-    for (uint32_t c = 0; c < nc; c++)
-        for (uint32_t l = 0; l + 1 < nl; l++) ed->a[ed->n] = VTX(h, c, l), ed->b[ed->n++] = VTX(h, c, l + 1);
-    for (uint32_t k = 0; k < e.n; k++) {
-        uint32_t a = (uint32_t)(e.key[k] >> 32), b = (uint32_t)(e.key[k] & 0xffffffffu);
-        for (uint32_t l = 0; l < nl; l++) ed->a[ed->n] = VTX(h, a, l), ed->b[ed->n++] = VTX(h, b, l);
-    }
-    for (uint32_t k = 0; k < ed->n; k++) ed->degree[ed->a[k]] += 1.0f, ed->degree[ed->b[k]] += 1.0f;
+    mesh_edges(h, &e);
     free(e.key);
     free(e.uses);
-    return CORE_OK;
+    return sim_hm_bsr_build(h, err);
 }
 
 void sim_hm_build_free(sim_hm *h)
@@ -164,8 +201,9 @@ void sim_hm_build_free(sim_hm *h)
     sim_hm_springs *s = &h->sp;
     free(s->a), free(s->b), free(s->len), free(s->kind), free(s->dir), free(s->u), free(s->alpha), free(s->beta);
     free(h->tets.v), free(h->tets.v0), free(h->tets.scale), free(h->tets.g), free(h->tets.w);
-    free(h->edges.a), free(h->edges.b), free(h->edges.degree);
+    free(h->edges.row), free(h->edges.nb), free(h->edges.inv_degree);
     free(h->surface);
+    sim_hm_bsr_free(&h->bsr);
     memset(&h->sp, 0, sizeof h->sp);
     memset(&h->tets, 0, sizeof h->tets);
     memset(&h->edges, 0, sizeof h->edges);

@@ -36,23 +36,16 @@ void sim_hm_apply(const sim_hm *h, const float *x, float *y)
     }
 }
 
-/* out = P^-1 r on the free rows, 0 on the fixed ones; returns r . out. */
-static double precondition(const sim_hm *h, const float *r, float *out)
+/* a . b over n floats in double, in 8 interleaved partial sums (a fixed order: the same result
+ * at any vector width) so the additions do not wait on each other. */
+static double dot3n(const float *restrict a, const float *restrict b, size_t n)
 {
-    double dot = 0.0;
-    for (uint32_t i = 0; i < h->n; i++) {
-        float *o = out + 3 * (size_t)i;
-        if (h->fixed[i]) {
-            o[0] = o[1] = o[2] = 0.0f;
-            continue;
-        }
-        const float *p = h->pinv + 6 * (size_t)i, *ri = r + 3 * (size_t)i;
-        o[0] = p[0] * ri[0] + p[3] * ri[1] + p[4] * ri[2];
-        o[1] = p[3] * ri[0] + p[1] * ri[1] + p[5] * ri[2];
-        o[2] = p[4] * ri[0] + p[5] * ri[1] + p[2] * ri[2];
-        dot += (double)ri[0] * o[0] + (double)ri[1] * o[1] + (double)ri[2] * o[2];
-    }
-    return dot;
+    double s[8] = { 0 };
+    size_t i = 0;
+    for (; i + 8 <= n; i += 8)
+        for (int k = 0; k < 8; k++) s[k] += (double)a[i + k] * b[i + k];
+    for (; i < n; i++) s[0] += (double)a[i] * b[i];
+    return ((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]));
 }
 
 static void filter(const sim_hm *h, float *a)
@@ -61,65 +54,177 @@ static void filter(const sim_hm *h, float *a)
         if (h->fixed[i]) a[3 * i] = a[3 * i + 1] = a[3 * i + 2] = 0.0f;
 }
 
-static double dot3n(const float *a, const float *b, size_t n)
+/* A symmetric system A = L + D + U on the free rows (fixed[i] == 0; the fixed rows' results are 0
+ * and their columns ignored): the forward sweep t = (D + L)^-1 r, the backward t = (D + U)^-1 r
+ * with u = U t when u is not NULL (t may be r) and y = D x. */
+typedef struct split_ops {
+    void (*lower)(const sim_hm *h, const float *r, float *t);
+    void (*upper)(const sim_hm *h, const float *r, float *t, float *u);
+    void (*diag)(const sim_hm *h, const float *x, float *y);
+} split_ops;
+
+/* out = D a; returns a . out (with a = (D + L)^-1 r, r M^-1 r for the symmetric Gauss-Seidel
+ * preconditioner M = (D + L) D^-1 (D + U)). */
+static double d_norm(const sim_hm *h, const split_ops *o, const float *a, float *out)
 {
-    double d = 0.0;
-    for (size_t i = 0; i < n; i++) d += (double)a[i] * b[i];
-    return d;
+    o->diag(h, a, out);
+    return dot3n(a, out, 3 * (size_t)h->n);
 }
 
-int sim_hm_cg(sim_hm *h)
+/* CG on the free rows of A x = r preconditioned by M = (D + L) D^-1 (D + U) in Eisenstat's form:
+ * CG with preconditioner D^-1 on A' = (D + L)^-1 A (D + U)^-1, whose product
+ * A' p = t + (D + L)^-1 (p - D t) with t = (D + U)^-1 p (and p - D t = U t) costs two half sweeps
+ * and no product by A. On entry h->r = (D + L)^-1 r, h->c = D h->r and delta = their dot product
+ * (r M^-1 r); stops once delta <= stop or after the iteration limit, then adds (D + U)^-1 x' to x.
+ * Uses h->q, h->s, h->w, h->xh. Returns the iterations. */
+static int split_cg(sim_hm *h, const split_ops *o, double delta, double stop, float *x)
 {
     const size_t n3 = 3 * (size_t)h->n;
-    for (uint32_t i = 0; i < h->n; i++)
-        for (int k = 0; k < 3; k++) h->dv[3 * i + k] = h->fixed[i] ? h->z[3 * i + k] : 0.0f;
-    sim_hm_apply(h, h->dv, h->q);
-    for (size_t i = 0; i < n3; i++) h->r[i] = h->rhs[i] - h->q[i];
-    filter(h, h->r);
-    double delta = precondition(h, h->r, h->c);
-    const double stop = delta * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
+    float *restrict r = h->r, *restrict c = h->c, *restrict q = h->q, *restrict t = h->s, *restrict w = h->w;
+    float *restrict xh = h->xh;
+    memset(xh, 0, n3 * sizeof *xh);
     int it = 0;
     while (it < h->p.hm.cg_iterations && delta > stop && delta > 0.0) {
-        sim_hm_apply(h, h->c, h->q);
-        filter(h, h->q);
-        const double cq = dot3n(h->c, h->q, n3);
+        o->upper(h, c, t, w);
+        o->lower(h, w, w);
+        for (size_t i = 0; i < n3; i++) q[i] = t[i] + w[i];
+        const double cq = dot3n(c, q, n3);
         if (!(cq > 0.0)) break;
         const float alpha = (float)(delta / cq);
-        for (size_t i = 0; i < n3; i++) h->dv[i] += alpha * h->c[i], h->r[i] -= alpha * h->q[i];
-        const double next = precondition(h, h->r, h->s);
+        for (size_t i = 0; i < n3; i++) xh[i] += alpha * c[i], r[i] -= alpha * q[i];
+        const double next = d_norm(h, o, r, w);
         const float beta = (float)(next / delta);
-        for (size_t i = 0; i < n3; i++) h->c[i] = h->s[i] + beta * h->c[i];
+        for (size_t i = 0; i < n3; i++) c[i] = w[i] + beta * c[i];
         delta = next;
         it++;
+    }
+    if (it > 0) {
+        o->upper(h, xh, xh, NULL);
+        for (size_t i = 0; i < n3; i++) x[i] += xh[i];
     }
     return it;
 }
 
-/* y = (A^T A) x on the mesh edges, the same matrix for x, y and z. */
-static void laplacian(const sim_hm *h, const float *x, float *y)
+/* The implicit step's system (h->bsr, h->pinv) as split_ops. */
+static void sys_lower(const sim_hm *h, const float *r, float *t)
 {
-    memset(y, 0, 3 * (size_t)h->n * sizeof *y);
+    sim_hm_bsr_lower_solve(&h->bsr, h->pinv, h->fixed, r, t);
+}
+
+static void sys_upper(const sim_hm *h, const float *r, float *t, float *u)
+{
+    sim_hm_bsr_upper_solve(&h->bsr, h->pinv, h->fixed, r, t, u);
+}
+
+static void sys_diag(const sim_hm *h, const float *x, float *y) { sim_hm_bsr_diag_apply(&h->bsr, h->fixed, x, y); }
+
+static const split_ops sys_ops = { sys_lower, sys_upper, sys_diag };
+
+int sim_hm_cg(sim_hm *h)
+{
+    const size_t n3 = 3 * (size_t)h->n;
+    const sim_hm_bsr *m = &h->bsr;
+    /* s = the previous solve's dv on the free rows (the warm start), dv = the cold start */
+    for (uint32_t i = 0; i < h->n; i++)
+        for (int k = 0; k < 3; k++) {
+            const size_t j = 3 * (size_t)i + (size_t)k;
+            h->s[j] = h->fixed[i] ? 0.0f : h->dv[j];
+            h->dv[j] = h->fixed[i] ? h->z[j] : 0.0f;
+        }
+    sim_hm_bsr_apply(m, h->dv, h->q);
+    for (size_t i = 0; i < n3; i++) h->r[i] = h->rhs[i] - h->q[i];
+    filter(h, h->r);
+    sys_lower(h, h->r, h->r);
+    const double cold = d_norm(h, &sys_ops, h->r, h->w);
+    /* the tolerance is relative to the cold start's residual whatever the start */
+    const double stop = cold * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
+    sim_hm_bsr_apply(m, h->s, h->q);
+    filter(h, h->q);
+    sys_lower(h, h->q, h->q);
+    for (size_t i = 0; i < n3; i++) h->q[i] = h->r[i] - h->q[i];
+    double delta = d_norm(h, &sys_ops, h->q, h->c);
+    if (delta < cold) { /* the warm start is nearer: dv = cold + s, r' = its residual */
+        for (size_t i = 0; i < n3; i++) h->dv[i] += h->s[i];
+        memcpy(h->r, h->q, n3 * sizeof *h->r);
+    } else {
+        delta = cold;
+        memcpy(h->c, h->w, n3 * sizeof *h->c);
+    }
+    return split_cg(h, &sys_ops, delta, stop, h->dv);
+}
+
+/* The deformation minimization's A^T A (the mesh edges' graph Laplacian: the degree on the
+ * diagonal, -1 per edge, the same for x, y and z) as split_ops; neighbour lists are ascending. */
+static void lap_lower(const sim_hm *h, const float *r, float *t)
+{
     const sim_hm_edges *e = &h->edges;
-    for (uint32_t k = 0; k < e->n; k++) {
-        const uint32_t a = e->a[k], b = e->b[k];
-        const float d0 = x[3 * a] - x[3 * b], d1 = x[3 * a + 1] - x[3 * b + 1], d2 = x[3 * a + 2] - x[3 * b + 2];
-        y[3 * a] += d0, y[3 * a + 1] += d1, y[3 * a + 2] += d2;
-        y[3 * b] -= d0, y[3 * b + 1] -= d1, y[3 * b + 2] -= d2;
+    for (uint32_t i = 0; i < h->n; i++) {
+        float *ti = t + 3 * (size_t)i;
+        const float *ri = r + 3 * (size_t)i;
+        if (h->fixed[i]) {
+            ti[0] = ti[1] = ti[2] = 0.0f;
+            continue;
+        }
+        float s0 = ri[0], s1 = ri[1], s2 = ri[2];
+        for (uint32_t k = e->row[i]; k < e->row[i + 1] && e->nb[k] < i; k++) {
+            const float *tj = t + 3 * (size_t)e->nb[k];
+            s0 += tj[0], s1 += tj[1], s2 += tj[2];
+        }
+        const float k = e->inv_degree[i];
+        ti[0] = k * s0, ti[1] = k * s1, ti[2] = k * s2;
     }
 }
 
-/* out = r / degree on the free rows, 0 on the fixed; returns r . out. */
-static double jacobi(const sim_hm *h, const float *r, float *out)
+static void lap_upper(const sim_hm *h, const float *r, float *t, float *u)
 {
-    double dot = 0.0;
-    for (uint32_t i = 0; i < h->n; i++) {
-        const float k = h->fixed[i] || !(h->edges.degree[i] > 0.0f) ? 0.0f : 1.0f / h->edges.degree[i];
-        for (int j = 0; j < 3; j++) {
-            out[3 * i + j] = k * r[3 * i + j];
-            dot += (double)r[3 * i + j] * out[3 * i + j];
+    const sim_hm_edges *e = &h->edges;
+    for (uint32_t i = h->n; i-- > 0;) {
+        float *ti = t + 3 * (size_t)i;
+        const float *ri = r + 3 * (size_t)i;
+        float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f;
+        if (!h->fixed[i]) {
+            for (uint32_t k = e->row[i + 1]; k > e->row[i] && e->nb[k - 1] > i; k--) {
+                const float *tj = t + 3 * (size_t)e->nb[k - 1];
+                s0 += tj[0], s1 += tj[1], s2 += tj[2];
+            }
+            const float k = e->inv_degree[i];
+            ti[0] = k * (ri[0] + s0), ti[1] = k * (ri[1] + s1), ti[2] = k * (ri[2] + s2);
+        } else {
+            ti[0] = ti[1] = ti[2] = 0.0f;
         }
+        if (u) u[3 * i] = -s0, u[3 * i + 1] = -s1, u[3 * i + 2] = -s2;
     }
-    return dot;
+}
+
+static void lap_diag(const sim_hm *h, const float *restrict x, float *restrict y)
+{
+    const sim_hm_edges *e = &h->edges;
+    for (uint32_t i = 0; i < h->n; i++) {
+        const float d = h->fixed[i] ? 0.0f : (float)(e->row[i + 1] - e->row[i]);
+        for (int k = 0; k < 3; k++) y[3 * i + k] = d * x[3 * i + k];
+    }
+}
+
+static const split_ops lap_ops = { lap_lower, lap_upper, lap_diag };
+
+/* y = (A^T A) x on the free rows, 0 on the fixed. */
+static void laplacian(const sim_hm *h, const float *restrict x, float *restrict y)
+{
+    const sim_hm_edges *e = &h->edges;
+    for (uint32_t i = 0; i < h->n; i++) {
+        float *yi = y + 3 * (size_t)i;
+        if (h->fixed[i]) {
+            yi[0] = yi[1] = yi[2] = 0.0f;
+            continue;
+        }
+        const float *xi = x + 3 * (size_t)i, d = (float)(e->row[i + 1] - e->row[i]);
+        float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f;
+        for (uint32_t k = e->row[i]; k < e->row[i + 1]; k++) {
+            const float *xj = x + 3 * (size_t)e->nb[k];
+            s0 += xj[0], s1 += xj[1], s2 += xj[2];
+        }
+        yi[0] = d * xi[0] - s0, yi[1] = d * xi[1] - s1, yi[2] = d * xi[2] - s2;
+    }
 }
 
 void sim_hm_deform_min(sim_hm *h, const float *ref)
@@ -128,19 +233,7 @@ void sim_hm_deform_min(sim_hm *h, const float *ref)
     /* r = A^T A ref - A^T A x on the free rows: x = x' (the corrected positions) is the first guess */
     for (size_t i = 0; i < n3; i++) h->s[i] = ref[i] - h->x[i];
     laplacian(h, h->s, h->r);
-    filter(h, h->r);
-    double delta = jacobi(h, h->r, h->c);
-    const double stop = delta * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
-    for (int it = 0; it < h->p.hm.cg_iterations && delta > stop && delta > 0.0; it++) {
-        laplacian(h, h->c, h->q);
-        filter(h, h->q);
-        const double cq = dot3n(h->c, h->q, n3);
-        if (!(cq > 0.0)) break;
-        const float alpha = (float)(delta / cq);
-        for (size_t i = 0; i < n3; i++) h->x[i] += alpha * h->c[i], h->r[i] -= alpha * h->q[i];
-        const double next = jacobi(h, h->r, h->s);
-        const float beta = (float)(next / delta);
-        for (size_t i = 0; i < n3; i++) h->c[i] = h->s[i] + beta * h->c[i];
-        delta = next;
-    }
+    lap_lower(h, h->r, h->r);
+    const double delta = d_norm(h, &lap_ops, h->r, h->c);
+    split_cg(h, &lap_ops, delta, delta * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance, h->x);
 }

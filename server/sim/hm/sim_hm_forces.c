@@ -5,11 +5,20 @@
 
 #include "sim_hm_internal.h"
 
-/* Adds the 3x3 block a u u^T + b I to the symmetric block p (xx yy zz xy xz yz). */
-static void add_block(float *p, const float u[3], float a, float b)
+/* The 3x3 block a u u^T + b I as its columns (SIM_HM_BLOCK layout). */
+static void spring_block(sim_hm_v4 col[3], const float u[3], float a, float b)
 {
-    p[0] += a * u[0] * u[0] + b, p[1] += a * u[1] * u[1] + b, p[2] += a * u[2] * u[2] + b;
-    p[3] += a * u[0] * u[1], p[4] += a * u[0] * u[2], p[5] += a * u[1] * u[2];
+    const sim_hm_v4 uv = { u[0], u[1], u[2], 0.0f };
+    col[0] = (a * u[0]) * uv + (sim_hm_v4){ b, 0.0f, 0.0f, 0.0f };
+    col[1] = (a * u[1]) * uv + (sim_hm_v4){ 0.0f, b, 0.0f, 0.0f };
+    col[2] = (a * u[2]) * uv + (sim_hm_v4){ 0.0f, 0.0f, b, 0.0f };
+}
+
+/* Adds sign x the block's columns col to the block p of the system's matrix (16-byte aligned). */
+static void add_block(float *p, const sim_hm_v4 col[3], float sign)
+{
+    sim_hm_v4 *pc = (sim_hm_v4 *)p;
+    pc[0] += sign * col[0], pc[1] += sign * col[1], pc[2] += sign * col[2];
 }
 
 /* Inverts the symmetric block p in place (the identity's multiple when it is singular). */
@@ -63,14 +72,19 @@ static void springs(sim_hm *h, float dt, core_quat rot)
         const float al = dt * kd + dt2 * k * (1.0f - g), be = dt2 * k * g;
         memcpy(s->u + 3 * i, u, sizeof u);
         s->alpha[i] = al, s->beta[i] = be;
-        add_block(h->pinv + 6 * (size_t)a, u, al, be);
-        add_block(h->pinv + 6 * (size_t)b, u, al, be);
+        float *val = h->bsr.val;
+        sim_hm_v4 S[3];
+        spring_block(S, u, al, be);
+        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.diag[a], S, 1.0f);
+        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.diag[b], S, 1.0f);
+        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.sp_at[2 * i], S, -1.0f);
+        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.sp_at[2 * i + 1], S, -1.0f);
     }
 }
 
 /* The volume force f_i = -k' C dC/dx_i with C = e1 . (e2 x e3) / 6 - V0 and k' = k |V0|^(2/3) / V0^2
  * (so that k is a rate per unit mass whatever the tetrahedron's size), and its Gauss-Newton
- * Jacobian -k' G G^T (G = the four gradients), applied matrix-free. */
+ * Jacobian -k' G G^T (G = the four gradients). */
 static void volumes(sim_hm *h, float dt)
 {
     sim_hm_tets *t = &h->tets;
@@ -103,7 +117,17 @@ static void volumes(sim_hm *h, float dt)
             rj[0] += dt * fc * g[3 * j] + kc * g[3 * j];
             rj[1] += dt * fc * g[3 * j + 1] + kc * g[3 * j + 1];
             rj[2] += dt * fc * g[3 * j + 2] + kc * g[3 * j + 2];
-            add_block(h->pinv + 6 * (size_t)id[j], g + 3 * j, t->w[i], 0.0f);
+        }
+        /* the blocks w g_j g_k^T, column c of (j, k) = (w g_k[c]) g_j */
+        const uint32_t *at = h->bsr.tet_at + 16 * (size_t)i;
+        sim_hm_v4 gv4[4];
+        for (int j = 0; j < 4; j++) gv4[j] = (sim_hm_v4){ g[3 * j], g[3 * j + 1], g[3 * j + 2], 0.0f };
+        for (int k = 0; k < 4; k++) {
+            const float w0 = t->w[i] * g[3 * k], w1 = t->w[i] * g[3 * k + 1], w2 = t->w[i] * g[3 * k + 2];
+            for (int j = 0; j < 4; j++) {
+                sim_hm_v4 *col = (sim_hm_v4 *)(h->bsr.val + SIM_HM_BLOCK * (size_t)at[4 * j + k]);
+                col[0] += w0 * gv4[j], col[1] += w1 * gv4[j], col[2] += w2 * gv4[j];
+            }
         }
     }
 }
@@ -112,13 +136,19 @@ void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat he
 {
     const float drag = h->p.air_drag;
     h->diag = 1.0f + dt * drag;
+    memset(h->bsr.val, 0, SIM_HM_BLOCK * (size_t)h->bsr.nnz * sizeof *h->bsr.val);
     for (uint32_t i = 0; i < h->n; i++) {
-        float *r = h->rhs + 3 * (size_t)i, *p = h->pinv + 6 * (size_t)i;
+        float *r = h->rhs + 3 * (size_t)i, *d = h->bsr.val + SIM_HM_BLOCK * (size_t)h->bsr.diag[i];
         const float *v = h->v + 3 * (size_t)i;
         for (int k = 0; k < 3; k++) r[k] = dt * (accel[k] - drag * v[k]);
-        p[0] = p[1] = p[2] = h->diag, p[3] = p[4] = p[5] = 0.0f;
+        d[0] = d[5] = d[10] = h->diag;
     }
     springs(h, dt, head_rot);
     volumes(h, dt);
-    for (uint32_t i = 0; i < h->n; i++) invert_block(h->pinv + 6 * (size_t)i);
+    for (uint32_t i = 0; i < h->n; i++) {
+        const float *d = h->bsr.val + SIM_HM_BLOCK * (size_t)h->bsr.diag[i];
+        float *p = h->pinv + 6 * (size_t)i;
+        p[0] = d[0], p[1] = d[5], p[2] = d[10], p[3] = d[4], p[4] = d[8], p[5] = d[9];
+        invert_block(p);
+    }
 }

@@ -30,12 +30,32 @@ typedef struct sim_hm_tets {
     float *g, *w;
 } sim_hm_tets;
 
-/* The mesh edges of the deformation minimization (A's rows) and the vertices' degrees. */
+/* The mesh edges of the deformation minimization (A's rows) as each vertex's neighbours, and the
+ * vertices' inverse degrees. */
 typedef struct sim_hm_edges {
-    uint32_t n;
-    uint32_t *a, *b;
-    float *degree; /* per vertex */
+    uint32_t n;          /* edges */
+    uint32_t *row, *nb;  /* vertex i's neighbours, ascending: nb[row[i]] .. nb[row[i + 1] - 1] */
+    float *inv_degree;   /* per vertex: 1 / degree, 0 for none */
 } sim_hm_edges;
+
+/* Floats per block of the system's matrix: 3 columns of 4 (the 4th is 0), element (r, c) at 4 c + r. */
+#define SIM_HM_BLOCK 12
+
+/* 4 floats as one value (GCC/Clang vector extensions, may alias float): a column of a block. */
+typedef float sim_hm_v4 __attribute__((vector_size(16), may_alias));
+
+/* The implicit system A as a block-sparse matrix: 3x3 blocks (SIM_HM_BLOCK floats) in rows of
+ * ascending columns over the vertex pairs that a spring or a tetrahedron joins (pattern fixed at
+ * create, values assembled every substep). */
+typedef struct sim_hm_bsr {
+    uint32_t n, nnz;   /* block rows (vertices), blocks */
+    uint32_t *row;     /* n + 1: each row's first block */
+    uint32_t *col;     /* nnz: the blocks' columns */
+    uint32_t *diag;    /* n: each row's diagonal block */
+    float *val;        /* SIM_HM_BLOCK nnz, 16-byte aligned */
+    uint32_t *sp_at;   /* 2 per spring: the blocks (a, b) and (b, a) */
+    uint32_t *tet_at;  /* 16 per tetrahedron: the block (v[j], v[k]) at 4 j + k */
+} sim_hm_bsr;
 
 typedef struct sim_hm {
     uint32_t ncols, nlayers, n; /* n = ncols * nlayers vertices */
@@ -50,14 +70,15 @@ typedef struct sim_hm {
     float *xs, *xp;             /* 3n: positions at the substep's start, after the implicit step */
     float *rhs, *dv, *z;        /* 3n: right-hand side, velocity change, prescribed values (fixed rows) */
     float diag;                 /* the system's diagonal: 1 + dt air_drag (unit masses) */
-    float *pinv;                /* 6n: inverses of the system's diagonal blocks (xx yy zz xy xz yz), the preconditioner */
-    float *r, *c, *q, *s;       /* 3n: CG scratch */
+    float *pinv;                /* 6n: inverses of the system's diagonal blocks (xx yy zz xy xz yz), for the sweeps */
+    float *r, *c, *q, *s, *w, *xh; /* 3n: CG scratch */
     uint8_t *fixed;             /* n: 1 = position prescribed (roots; corrected vertices while minimizing) */
     uint8_t *surface;           /* n: 1 = on the outer surface (collided) */
     float *push;                /* 3n: this substep's collision push of each vertex */
     sim_hm_springs sp;
     sim_hm_tets tets;
     sim_hm_edges edges;
+    sim_hm_bsr bsr;
     double stage_ms[4];
     uint64_t steps, nan_resets;
     double sim_time, last_step_ms;
@@ -70,14 +91,36 @@ void sim_hm_build_free(sim_hm *h);
 
 /* Forces at h->x, h->v (gravity and wind accel, air drag) and the implicit system
  * (I - dt df/dv - dt^2 df/dx) dv = dt (f + dt df/dx v) for substep length dt: fills
- * h->rhs, h->diag, h->pinv, the springs' blocks and the tetrahedra's gradients. head_rot turns
- * the springs' rest directions into the world (the direction of a spring of zero length). */
+ * h->rhs, h->diag, h->pinv, h->bsr's blocks, the springs' blocks and the tetrahedra's gradients.
+ * head_rot turns the springs' rest directions into the world (the direction of a spring of zero
+ * length). */
 void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat head_rot);
 
-/* y = A x for the implicit system assembled by sim_hm_forces. */
+/* Builds h->bsr's pattern from the springs and tetrahedra (sim_hm_build calls it). */
+core_status sim_hm_bsr_build(sim_hm *h, core_err *err);
+/* Frees what sim_hm_bsr_build made. */
+void sim_hm_bsr_free(sim_hm_bsr *m);
+
+/* y = A x with the blocks sim_hm_forces assembled in m (the CG's product); x and y do not overlap. */
+void sim_hm_bsr_apply(const sim_hm_bsr *m, const float *x, float *y);
+
+/* With A = L + D + U (D its diagonal blocks, dinv their inverses as xx yy zz xy xz yz) restricted
+ * to the rows where fixed[i] == 0 (the others' t and u are 0 and their columns are ignored): the
+ * forward block Gauss-Seidel sweep t = (D + L)^-1 r, the backward one t = (D + U)^-1 r with
+ * u = U t = r - D t on the way when u is not NULL (t may be r; u another array), and y = D x
+ * (x and y do not overlap). */
+void sim_hm_bsr_lower_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t);
+void sim_hm_bsr_upper_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t,
+                            float *u);
+void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const float *x, float *y);
+
+/* y = A x for the same system from the springs' and tetrahedra's terms (matrix-free): the
+ * reference that the tests pin the assembled blocks against. */
 void sim_hm_apply(const sim_hm *h, const float *x, float *y);
 
-/* Solves A dv = rhs by modified CG: rows with fixed[i] keep dv_i = z_i. Returns the iterations. */
+/* Solves A dv = rhs by modified CG: rows with fixed[i] keep dv_i = z_i; starts from the previous
+ * solve's dv when that is nearer; symmetric block Gauss-Seidel preconditioning (Eisenstat's form).
+ * Returns the iterations. */
 int sim_hm_cg(sim_hm *h);
 
 /* Pushes the surface vertices out of the colliders of step k (world); marks pushes in h->push
@@ -85,7 +128,8 @@ int sim_hm_cg(sim_hm *h);
 uint32_t sim_hm_collide(sim_hm *h, const sim_step_desc *d, int k);
 
 /* Deformation minimization (eq. 3-4): moves the unfixed vertices of h->x to minimize the change
- * of the mesh edges from ref (the positions before collision handling). */
+ * of the mesh edges from ref (the positions before collision handling), by modified CG on the
+ * edges' A^T A with the same preconditioning as sim_hm_cg. */
 void sim_hm_deform_min(sim_hm *h, const float *ref);
 
 #endif

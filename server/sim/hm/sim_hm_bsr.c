@@ -1,0 +1,168 @@
+/* sim_hm: the implicit system as a block-sparse matrix (3x3 blocks over the mesh's fixed vertex
+ * adjacency): its pattern from the springs and tetrahedra, and its product. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "sim_hm_internal.h"
+
+static int cmp_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* The block at v (column-major, SIM_HM_BLOCK floats, 16-byte aligned) times the 3-vector at x. */
+static inline sim_hm_v4 block_mul(const float *restrict v, const float *restrict x)
+{
+    const sim_hm_v4 *c = (const sim_hm_v4 *)v;
+    return (c[0] * x[0] + c[1] * x[1]) + c[2] * x[2];
+}
+
+static uint64_t key(uint32_t r, uint32_t c) { return ((uint64_t)r << 32) | c; }
+
+/* The block (r, c), which the pattern holds. */
+static uint32_t find(const sim_hm_bsr *m, uint32_t r, uint32_t c)
+{
+    uint32_t lo = m->row[r], hi = m->row[r + 1];
+    while (hi - lo > 1) {
+        const uint32_t mid = (lo + hi) / 2;
+        if (m->col[mid] <= c) lo = mid;
+        else hi = mid;
+    }
+    return lo;
+}
+
+core_status sim_hm_bsr_build(sim_hm *h, core_err *err)
+{
+    sim_hm_bsr *m = &h->bsr;
+    const sim_hm_springs *s = &h->sp;
+    const sim_hm_tets *t = &h->tets;
+    memset(m, 0, sizeof *m);
+    const size_t nk = (size_t)h->n + 2 * (size_t)s->n + 12 * (size_t)t->n;
+    uint64_t *k = malloc(nk * sizeof *k);
+    m->row = malloc(((size_t)h->n + 1) * sizeof *m->row);
+    m->diag = malloc((size_t)h->n * sizeof *m->diag);
+    m->sp_at = malloc(2 * (size_t)s->n * sizeof *m->sp_at);
+    m->tet_at = malloc(16 * (size_t)t->n * sizeof *m->tet_at);
+    if (!k || !m->row || !m->diag || !m->sp_at || !m->tet_at) {
+        free(k);
+        return core_fail(err, CORE_ENOMEM, "out of memory for the hair-mesh system's pattern");
+    }
+    size_t n = 0;
+    for (uint32_t i = 0; i < h->n; i++) k[n++] = key(i, i);
+    for (uint32_t i = 0; i < s->n; i++) k[n++] = key(s->a[i], s->b[i]), k[n++] = key(s->b[i], s->a[i]);
+    for (uint32_t i = 0; i < t->n; i++)
+        for (int a = 0; a < 4; a++)
+            for (int b = 0; b < 4; b++)
+                if (a != b) k[n++] = key(t->v[4 * (size_t)i + a], t->v[4 * (size_t)i + b]);
+    qsort(k, n, sizeof *k, cmp_u64);
+    size_t u = 0;
+    for (size_t i = 0; i < n; i++)
+        if (u == 0 || k[u - 1] != k[i]) k[u++] = k[i];
+    m->n = h->n, m->nnz = (uint32_t)u;
+    m->col = malloc(u * sizeof *m->col);
+    m->val = aligned_alloc(16, SIM_HM_BLOCK * u * sizeof *m->val);
+    if (!m->col || !m->val) {
+        free(k);
+        return core_fail(err, CORE_ENOMEM, "out of memory for the hair-mesh system's blocks");
+    }
+    memset(m->row, 0, ((size_t)h->n + 1) * sizeof *m->row);
+    for (size_t i = 0; i < u; i++) {
+        m->col[i] = (uint32_t)(k[i] & 0xffffffffu);
+        m->row[(k[i] >> 32) + 1]++;
+    }
+    free(k);
+    for (uint32_t i = 0; i < h->n; i++) m->row[i + 1] += m->row[i];
+    for (uint32_t i = 0; i < h->n; i++) m->diag[i] = find(m, i, i);
+    for (uint32_t i = 0; i < s->n; i++)
+        m->sp_at[2 * i] = find(m, s->a[i], s->b[i]), m->sp_at[2 * i + 1] = find(m, s->b[i], s->a[i]);
+    for (uint32_t i = 0; i < t->n; i++)
+        for (int a = 0; a < 4; a++)
+            for (int b = 0; b < 4; b++)
+                m->tet_at[16 * (size_t)i + 4 * a + b] = find(m, t->v[4 * (size_t)i + a], t->v[4 * (size_t)i + b]);
+    return CORE_OK;
+}
+
+void sim_hm_bsr_free(sim_hm_bsr *m)
+{
+    free(m->row), free(m->col), free(m->diag), free(m->val), free(m->sp_at), free(m->tet_at);
+    memset(m, 0, sizeof *m);
+}
+
+void sim_hm_bsr_apply(const sim_hm_bsr *restrict m, const float *restrict x, float *restrict y)
+{
+    for (uint32_t i = 0; i < m->n; i++) {
+        /* two sums (even and odd blocks) so the additions of a row do not wait on each other */
+        sim_hm_v4 s0 = { 0 }, s1 = { 0 };
+        uint32_t b = m->row[i];
+        const uint32_t e = m->row[i + 1];
+        for (; b + 2 <= e; b += 2) {
+            s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, x + 3 * (size_t)m->col[b]);
+            s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), x + 3 * (size_t)m->col[b + 1]);
+        }
+        if (b < e) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, x + 3 * (size_t)m->col[b]);
+        s0 += s1;
+        y[3 * i] = s0[0], y[3 * i + 1] = s0[1], y[3 * i + 2] = s0[2];
+    }
+}
+
+/* The symmetric block p (xx yy zz xy xz yz) times a. */
+static inline sim_hm_v4 sym_mul(const float *p, sim_hm_v4 a)
+{
+    return (sim_hm_v4){ p[0] * a[0] + p[3] * a[1] + p[4] * a[2], p[3] * a[0] + p[1] * a[1] + p[5] * a[2],
+                        p[4] * a[0] + p[5] * a[1] + p[2] * a[2], 0.0f };
+}
+
+static inline void store3(float *y, sim_hm_v4 a) { y[0] = a[0], y[1] = a[1], y[2] = a[2]; }
+
+void sim_hm_bsr_lower_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t)
+{
+    for (uint32_t i = 0; i < m->n; i++) {
+        float *ti = t + 3 * (size_t)i;
+        if (fixed[i]) {
+            ti[0] = ti[1] = ti[2] = 0.0f;
+            continue;
+        }
+        sim_hm_v4 s0 = { 0 }, s1 = { 0 };
+        uint32_t b = m->row[i];
+        for (; b + 2 <= m->diag[i]; b += 2) {
+            s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
+            s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
+        }
+        if (b < m->diag[i]) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
+        const float *ri = r + 3 * (size_t)i;
+        store3(ti, sym_mul(dinv + 6 * (size_t)i, (sim_hm_v4){ ri[0], ri[1], ri[2], 0.0f } - (s0 + s1)));
+    }
+}
+
+void sim_hm_bsr_upper_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t,
+                            float *u)
+{
+    for (uint32_t i = m->n; i-- > 0;) {
+        float *ti = t + 3 * (size_t)i;
+        sim_hm_v4 s0 = { 0 }, s1 = { 0 };
+        if (!fixed[i]) {
+            uint32_t b = m->diag[i] + 1;
+            for (; b + 2 <= m->row[i + 1]; b += 2) {
+                s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
+                s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
+            }
+            if (b < m->row[i + 1]) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
+            s0 += s1;
+            const float *ri = r + 3 * (size_t)i;
+            store3(ti, sym_mul(dinv + 6 * (size_t)i, (sim_hm_v4){ ri[0], ri[1], ri[2], 0.0f } - s0));
+        } else {
+            ti[0] = ti[1] = ti[2] = 0.0f;
+        }
+        if (u) store3(u + 3 * (size_t)i, s0);
+    }
+}
+
+void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const float *restrict x, float *restrict y)
+{
+    for (uint32_t i = 0; i < m->n; i++) {
+        float *yi = y + 3 * (size_t)i;
+        if (fixed[i]) yi[0] = yi[1] = yi[2] = 0.0f;
+        else store3(yi, block_mul(m->val + SIM_HM_BLOCK * (size_t)m->diag[i], x + 3 * (size_t)i));
+    }
+}
