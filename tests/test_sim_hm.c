@@ -511,9 +511,11 @@ static void test_fast_motion_recovers(void **state)
     close_run(&r);
 }
 
-/* Figure 9: a ball reaching 2 cm into the mesh from the first step (1/30 s steps, no substeps):
- * the volume the corner tetrahedra lost (tetrahedron by tetrahedron) 8 steps later is smaller
- * with the deformation minimization than without. */
+/* Figure 9: a ball of 5 cm radius reaching 2 cm into the mesh from the first step (1/30 s steps,
+ * no substeps): the volume the corner tetrahedra lost (tetrahedron by tetrahedron) 8 steps later
+ * is smaller with the deformation minimization than without. The procedural mesh is a thin sheet
+ * lying on the head: a 3 cm ball pushes few of its prisms (2.3% lost either way, within the
+ * solver's tolerance); from a 4.5 cm ball on the difference is clear (5 cm: 3.3% against 2.2%). */
 static void test_deform_min_keeps_volume(void **state)
 {
     (void)state;
@@ -523,7 +525,7 @@ static void test_deform_min_keeps_volume(void **state)
         sim_params_default(&p);
         p.dt = 1.0f / 30.0f, p.substeps = 1; /* large time steps, where the paper sees the difference */
         hm_run r;
-        open_run_ball(&r, 2, 6, false, 0.03f, &p);
+        open_run_ball(&r, 2, 6, false, 0.05f, &p);
         core_err err;
         p.hm.deform_min = on != 0;
         assert_int_equal(sim_set_params(&r.s, &p, &err), CORE_OK);
