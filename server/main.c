@@ -37,6 +37,9 @@ static void usage(FILE *f)
             "  --device N             Vulkan device: 0 = automatic (default), N = vulkaninfo's GPU<N-1>\n"
             "  --threads N            CPU solver threads (default 0 = every online core)\n"
             "Network\n"
+            "  --room NAME            the room this daemon serves: 1..64 letters, digits, '-', '_' (default\n"
+            "                         \"default\", the room of the path /; any other at /rooms/NAME); clients asking\n"
+            "                         for another room get error unknown_room and close 4404\n"
             "  --listen ADDR          IP address to bind (default 127.0.0.1; localhost; ::1; 0.0.0.0 = every interface)\n"
             "  --port N               TCP port (default 7681; 0 = a free port, printed at start-up)\n"
             "  --web DIR              folder served at / (default %s/web)\n"
@@ -101,7 +104,7 @@ enum {
     OPT_GROOM = 256, OPT_COLLIDER, OPT_STRANDS, OPT_VERTS, OPT_SEED, OPT_SOLVER, OPT_BACKEND, OPT_DEVICE, OPT_THREADS, OPT_LISTEN,
     OPT_PORT, OPT_WEB, OPT_ASSETS, OPT_RATE, OPT_MAX_ERROR, OPT_KEY_INTERVAL, OPT_CLIENT_BUFFER, OPT_PING_INTERVAL,
     OPT_PING_TIMEOUT, OPT_MAX_CLIENTS, OPT_MIN_STEP_RATE, OPT_TOKEN_FILE, OPT_INSECURE_OPEN, OPT_ALLOW_ORIGIN, OPT_TLS_CERT, OPT_TLS_KEY,
-    OPT_NO_NET, OPT_STEPS, OPT_RECORD, OPT_RECORD_DIGESTS, OPT_REPLAY, OPT_VERSION
+    OPT_NO_NET, OPT_STEPS, OPT_RECORD, OPT_RECORD_DIGESTS, OPT_REPLAY, OPT_VERSION, OPT_ROOM
 };
 
 static const struct option options[] = {
@@ -138,6 +141,7 @@ static const struct option options[] = {
     { "replay", required_argument, NULL, OPT_REPLAY },
     { "help", no_argument, NULL, 'h' },
     { "version", no_argument, NULL, OPT_VERSION },
+    { "room", required_argument, NULL, OPT_ROOM },
     { NULL, 0, NULL, 0 },
 };
 
@@ -222,6 +226,10 @@ static int apply(int opt, const char *flag, const char *v, app_desc *d, extra_ar
         break;
     case OPT_THREADS:
         if (!(rc = core_cli_u64(PROG, flag, v, 0, 256, &u))) d->threads = (int)u;
+        break;
+    case OPT_ROOM:
+        if (!proto_room_valid(v)) return bad(flag, v, "expected 1..64 letters, digits, '-' or '_'");
+        d->room = v;
         break;
     case OPT_LISTEN:
         if (!*v) return bad(flag, v, "expected an address");

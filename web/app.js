@@ -195,6 +195,8 @@ export class App {
       this.banner.show(`Connection to strandcastd lost (${s.reason}). Reconnecting in ${(s.delayMs / 1000).toFixed(1)} s (attempt ${s.attempt})…`, false);
     } else if (s.state === 'connecting' && s.attempt > 0) {
       this.banner.show(`Reconnecting to strandcastd (attempt ${s.attempt})…`, false);
+    } else if (s.state === 'no_room') {
+      this.banner.show(`No such room here: ${s.reason}. Open / or a room this server serves (/rooms/NAME).`, true);
     } else if (s.state === 'mismatch') {
       this.banner.show(`Protocol version mismatch: ${s.reason}. This page cannot talk to this server; reload the page from the server you want to use.`, true);
     }

@@ -55,7 +55,7 @@ static void client_open(app_world *w, uint32_t id)
         .animation = { app_preset_names[w->anim.preset], w->anim.speed }, .styles = w->styles, .nstyles = APP_NSTYLES,
         .files = (const char *const *)as->files, .nfiles = as->nfiles,
         .meshes = (const char *const *)as->meshes, .nmeshes = as->nmeshes, .stream = stream_info(w, c),
-        .state = app_world_state(w), .token_required = w->d->token != NULL,
+        .state = app_world_state(w), .token_required = w->d->token != NULL, .room = w->d->room,
     };
     char *hello = proto_build_hello(&h);
     if (!hello) {

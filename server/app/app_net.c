@@ -25,9 +25,27 @@ static void post_essential(app_gate *g, const app_cmd *c)
     }
 }
 
-void app_on_open(void *user, uint32_t client)
+/* The room the client's path names is served here; else it gets an error (no id) and is closed
+ * (PROTOCOL.md "Rooms"). */
+static bool room_served(app_gate *g, uint32_t client, const char *path)
+{
+    char room[PROTO_MAX_ROOM + 1];
+    proto_error e;
+    int code = PROTO_CLOSE_BAD_ROOM;
+    if (proto_room_of_path(path, room, &e) == CORE_OK) {
+        if (strcmp(room, g->room) == 0) return true;
+        proto_fail(&e, PROTO_ERR_UNKNOWN_ROOM, "room", "this server serves room \"%s\", not \"%s\"", g->room, room);
+        code = PROTO_CLOSE_UNKNOWN_ROOM;
+    }
+    app_reply_error(g->out, client, NULL, &e);
+    net_close_client(g->out->net, client, code, e.message);
+    return false;
+}
+
+void app_on_open(void *user, uint32_t client, const char *path)
 {
     app_gate *g = user;
+    if (!room_served(g, client, path)) return;
     if (app_peers_open(&g->peers, client, g->token == NULL, core_now_ns()) != CORE_OK)
         core_log(CORE_LOG_WARN, "app", "client %u: out of memory for its entry; it is read-only and not rate-limited", client);
     app_cmd c = { .kind = APP_CMD_OPEN, .client = client };

@@ -40,6 +40,7 @@ int app_default_max_clients(void)
 static void defaults(app_desc *d)
 {
     if (!d->groom) d->groom = "straight";
+    if (!d->room) d->room = PROTO_DEFAULT_ROOM;
     if (d->rate <= 0.0) d->rate = APP_DEFAULT_RATE;
     if (d->max_error <= 0.0) d->max_error = CODEC_DEFAULT_MAX_ERROR;
     if (d->keyframe_interval <= 0) d->keyframe_interval = (int)CODEC_DEFAULT_KEY_INTERVAL;
@@ -183,13 +184,13 @@ static core_status setup(app *a, core_err *err)
     if (a->d.replay && (st = open_replay(a, err)) != CORE_OK) return st;
     if ((st = setup_world(a, ptable, nparams, err)) != CORE_OK) return st;
     if (a->d.record && (st = open_record(a, err)) != CORE_OK) return st;
-    a->gate = (app_gate){ &a->parser, &a->mb, &a->out, &a->board, &a->grooms_pending, &a->w.done, a->d.token, { 0 }, a->w.rec };
+    a->gate = (app_gate){ &a->parser, &a->mb, &a->out, &a->board, &a->grooms_pending, &a->w.done, a->d.token, a->d.room, { 0 }, a->w.rec };
     if (!a->d.no_net) {
         net_desc nd = {
             .listen = a->d.listen, .port = a->d.port, .web_dir = a->d.web_dir, .subprotocol = PROTO_SUBPROTOCOL,
             .max_message = PROTO_MAX_MESSAGE, .sndbuf = a->d.client_buffer, .max_clients = a->d.max_clients,
             .allow_origins = a->d.allow_origins, .tls_cert = a->d.tls_cert, .tls_key = a->d.tls_key,
-            .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout, .blobs = { APP_MESH_PATH, APP_GROOM_PATH, APP_HAIRMESH_PATH },
+            .page_prefix = PROTO_ROOM_PREFIX, .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout, .blobs = { APP_MESH_PATH, APP_GROOM_PATH, APP_HAIRMESH_PATH },
             .cb = { &a->gate, app_on_open, app_on_text, app_on_close, app_metrics },
         };
         if ((st = net_create(&a->net, &nd, err)) != CORE_OK) return st;

@@ -44,10 +44,11 @@ void net_buf_ref(net_buf *b);
 void net_buf_unref(net_buf *b);
 
 /* Called on the net thread. text is a complete, UTF-8-valid text message of at most
- * max_message bytes, valid only during the call. */
+ * max_message bytes, valid only during the call; path is the WebSocket request's path (without
+ * the query), valid only during the call. */
 typedef struct net_callbacks {
     void *user;
-    void (*on_open)(void *user, uint32_t client);
+    void (*on_open)(void *user, uint32_t client, const char *path);
     void (*on_text)(void *user, uint32_t client, const char *text, size_t len);
     void (*on_close)(void *user, uint32_t client);
     /* Appends Prometheus text lines for /metrics to buf (at most cap bytes); returns the count
@@ -79,6 +80,9 @@ typedef struct net_desc {
     const char *const *allow_origins;
     /* PEM certificate and key: serve TLS only (https, wss); NULL = plain. Read at net_create. */
     const char *tls_cert, *tls_key;
+    /* A path prefix ("/rooms/"; '/' first and last) under which every GET is answered with the
+     * web folder's index.html (pages that one viewer serves under many names); NULL = none. */
+    const char *page_prefix;
     net_callbacks cb;
 } net_desc;
 
@@ -118,6 +122,14 @@ core_status net_send_text(net *n, uint32_t client, const char *text, size_t len,
 /* Makes a client ready: queues its first message (the hello), then delivers broadcasts and the
  * frames of `stream` to it, at most max_rate frames per second (0 = every frame). Any thread. */
 core_status net_start_client(net *n, uint32_t client, const char *hello, size_t len, uint32_t stream, double max_rate);
+
+#define NET_MAX_CLOSE_REASON 123 /* bytes of a close reason (a close frame's payload is at most 125) */
+
+/* Closes a client once the text queued for it before this call has gone out (a message queued
+ * after it is dropped, and it gets no more frames), with close code (1000..4999) and reason
+ * (copied; cut to NET_MAX_CLOSE_REASON bytes at a UTF-8 boundary). Unknown clients are ignored.
+ * Any thread. Fails only when out of memory or the inbox is full. */
+core_status net_close_client(net *n, uint32_t client, int code, const char *reason);
 
 /* Moves a ready client to another stream and/or rate; it gets that stream's keyframe first.
  * Any thread. */

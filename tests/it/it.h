@@ -139,6 +139,8 @@ int setup_large_groom(void **state);
 int setup_token(void **state);
 int setup_origin(void **state);
 int setup_tls(void **state);
+/* it_rooms.c: the daemon serving room "studio-2" (--room). */
+int setup_room(void **state);
 #define IT_TOKEN "k3Jq9-Vx2Lm7Tz8Wb4Np6Rs1Yd5Hf0Gc"
 int teardown_ratboy(void **state);
 #define IT_SCENARIO(name, su, td, timeout, labels) void test_##name(void **state);
