@@ -63,7 +63,7 @@ static void client_open(app_world *w, uint32_t id)
         return;
     }
     uint32_t stream = c->stream >= 0 ? (uint32_t)c->stream : NET_MAX_STREAMS;
-    if (w->out->net) net_start_client(w->out->net, id, hello, strlen(hello), stream, c->max_rate);
+    app_out_start(w->out, id, hello, stream, c->max_rate);
     proto_free(hello);
     app_cmd_tell_failure(w, c->stream, id);
     w->dirty = w->dirty || w->paused; /* a paused server still shows the newcomer a frame */
@@ -148,7 +148,7 @@ static void fall_back(app_world *w, app_client *c)
     app_stream_release(&w->streams, c->stream);
     c->stream = stream;
     c->source = PROTO_SOURCE_STRANDS;
-    if (w->out->net) net_subscribe(w->out->net, c->id, (uint32_t)stream, c->max_rate);
+    app_out_subscribe(w->out, c->id, (uint32_t)stream, c->max_rate);
     proto_stream s = stream_info(w, c);
     app_send(w->out, c->id, proto_build_subscribed(&(proto_id){ .kind = PROTO_ID_NONE }, &s), 0);
     w->dirty = true;
@@ -196,7 +196,7 @@ static void subscribe(app_world *w, uint32_t client, const proto_msg *m)
     c->stride = stride;
     c->max_error = max_error;
     c->max_rate = max_rate;
-    if (w->out->net) net_subscribe(w->out->net, client, (uint32_t)stream, c->max_rate);
+    app_out_subscribe(w->out, client, (uint32_t)stream, c->max_rate);
     w->dirty = w->dirty || w->paused;
     app_count_accepted(w->out);
     proto_stream s = stream_info(w, c);

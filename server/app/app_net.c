@@ -2,6 +2,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "app_nats.h"
 #include "app_net.h"
 
 /* Queues c, or answers busy when the mailbox is full; true when queued. */
@@ -38,7 +39,7 @@ static bool room_served(app_gate *g, uint32_t client, const char *path)
         code = PROTO_CLOSE_UNKNOWN_ROOM;
     }
     app_reply_error(g->out, client, NULL, &e);
-    net_close_client(g->out->net, client, code, e.message);
+    app_out_close(g->out, client, code, e.message);
     return false;
 }
 
@@ -139,6 +140,7 @@ size_t app_metrics(void *user, char *buf, size_t cap)
     app_gate *g = user;
     app_stats s = app_stats_read(g->board);
     size_t n = app_stats_metrics(&s, atomic_load(&g->out->accepted), atomic_load(&g->out->rejected), buf, cap);
+    if (g->bus && n + 1 < cap) n += app_nats_metrics(g->bus, buf + n, cap - n);
     if (!g->rec || n + 1 >= cap) return n;
     int k = snprintf(buf + n, cap - n,
                      "# HELP strandcast_record_bytes_total Bytes written to the --record file.\n"

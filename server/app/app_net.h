@@ -25,6 +25,7 @@ typedef struct app_gate {
     const char *room;             /* the room served: a client whose path names another is refused */
     app_peers peers;              /* owned: each client's budget and access */
     app_record *rec;              /* --record's counters for /metrics; NULL = not recording */
+    struct app_nats *bus;         /* --nats: its counters for /metrics; NULL = none */
 } app_gate;
 
 /* Net-thread callbacks (net_callbacks.user = the app_gate). app_gate_free releases the peers

@@ -33,6 +33,7 @@
 #define PROTO_ROOM_PREFIX "/rooms/"   /* the page and WebSocket path of a room: /rooms/NAME */
 #define PROTO_CLOSE_BAD_ROOM 4400     /* close code: the path names no valid room */
 #define PROTO_CLOSE_UNKNOWN_ROOM 4404 /* close code: a valid room this server does not serve */
+#define PROTO_CLOSE_ROOM_UNAVAILABLE 4503 /* close code: the room's simulation node is gone (reconnect later) */
 
 typedef enum proto_type {
     PROTO_GET_PARAMS = 1,
@@ -66,7 +67,8 @@ typedef enum proto_code {
     PROTO_ERR_FORBIDDEN,     /* a read-only client asked to change shared state (or a wrong token) */
     PROTO_ERR_FAILED,        /* valid request that failed while being carried out */
     PROTO_ERR_BAD_ROOM,      /* the connection's path names no valid room (charset, length) */
-    PROTO_ERR_UNKNOWN_ROOM   /* a valid room name this server does not serve */
+    PROTO_ERR_UNKNOWN_ROOM,  /* a valid room name this server does not serve */
+    PROTO_ERR_ROOM_UNAVAILABLE /* an edge relay lost (or never found) the simulation node of the room */
 } proto_code;
 
 /* A rejection: code, the offending field as a path ("values.gravity", "" for the whole
