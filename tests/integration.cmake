@@ -1,7 +1,8 @@
 # Integration tests: the real strandcastd on a free loopback port, driven by WebSocket clients
 # (tests/it/, with the lws client server/wsc/). One ctest test per scenario.
 file(GLOB IT_SOURCES CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/it/*.c)
-add_executable(it_net ${IT_SOURCES} ${CMAKE_CURRENT_SOURCE_DIR}/support/daemon.c ${CMAKE_CURRENT_SOURCE_DIR}/support/rawws.c)
+add_executable(it_net ${IT_SOURCES} ${CMAKE_CURRENT_SOURCE_DIR}/support/daemon.c ${CMAKE_CURRENT_SOURCE_DIR}/support/rawws.c
+                      ${CMAKE_CURRENT_SOURCE_DIR}/support/natsd.c)
 target_include_directories(it_net PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
 target_link_libraries(it_net PRIVATE strandcast PkgConfig::CMOCKA)
 add_dependencies(it_net strandcastd strandcastc)
