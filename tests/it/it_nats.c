@@ -4,7 +4,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "it.h"
 #include "support/natsd.h"
@@ -17,6 +20,7 @@ typedef struct seen {
     uint64_t seq[256], hash[256];
     size_t n;
     uint64_t frames;
+    uint32_t strands;  /* of the last frame */
 } seen;
 
 typedef struct nats_fx {
@@ -45,6 +49,7 @@ static void on_raw(wsc_conn *c, const uint8_t *data, size_t len, void *user)
     s->hash[s->n % 256] = fnv(data, len);
     s->n++;
     s->frames++;
+    s->strands = info.nstrands_sent;
 }
 
 static void start_node(nats_fx *fx, int i, const char *room)
@@ -181,8 +186,23 @@ void test_nats_rooms_on_edges(void **state)
     size_t nt;
     char *const *texts = wsc_texts(c, &nt);
     for (size_t i = 0; i < nt; i++) assert_null(strstr(texts[i], "\"gravity\":2.5"));
+    /* stream settings are requests to the node: a stride-2 stream through the edge */
+    wsc_send_text(b, "{\"type\":\"subscribe\",\"id\":3,\"stride\":2}");
+    t = wsc_next_of_type(fx->w, b, "subscribed", 5000);
+    assert_non_null(t);
+    cJSON *sub = cJSON_Parse(t);
+    assert_true(num(sub, "id") == 3 && num(get(sub, "stream"), "strands") == 32);
+    cJSON_Delete(sub);
+    uint64_t before = fx->seen[1].frames;
+    wait_seen(fx, &fx->seen[1], before + 10, 10000);
+    assert_int_equal(fx->seen[1].strands, 32);
+    assert_int_equal(fx->seen[0].strands, 64);
     /* the edges' pages and metrics */
     http_reply r;
+    assert_int_equal(http_get(fx->edges[1].port, "/rooms/r1", &r), 0);
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.body, "<title>strandcast</title>"));
+    http_reply_free(&r);
     assert_int_equal(http_get(fx->edges[1].port, "/metrics", &r), 0);
     assert_int_equal(r.status, 200);
     assert_true(metric(r.body, "strandcast_relay_frames_in_total") > 0);
@@ -255,6 +275,70 @@ void test_nats_restart(void **state)
     wsc_send_text(a, "{\"type\":\"set_params\",\"id\":9,\"values\":{\"gravity\":4}}");
     cJSON *p = expect_params_by(fx, b, ida);
     cJSON_Delete(p);
+}
+
+/* haproxy -f tests/haproxy.cfg in front of the two edges, on port (its pid). */
+static pid_t start_haproxy(const nats_fx *fx, int port)
+{
+    static const char exe[] = "/usr/sbin/haproxy";
+    if (access(exe, X_OK) != 0) fail_msg("%s is not installed (.ci/deps installs it)", exe);
+    char listen[32], e1[32], e2[32];
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
+    snprintf(e1, sizeof e1, "127.0.0.1:%d", fx->edges[0].port);
+    snprintf(e2, sizeof e2, "127.0.0.1:%d", fx->edges[1].port);
+    pid_t pid = fork();
+    if (pid == 0) {
+        prctl(PR_SET_PDEATHSIG, SIGTERM);
+        setenv("SC_LISTEN", listen, 1);
+        setenv("SC_EDGE1", e1, 1);
+        setenv("SC_EDGE2", e2, 1);
+        execl(exe, exe, "-db", "-q", "-f", STRANDCAST_SOURCE_DIR "/tests/haproxy.cfg", (char *)NULL);
+        _exit(127);
+    }
+    assert_true(pid > 0);
+    return pid;
+}
+
+/* A client of room r1 through haproxy (retrying until haproxy listens and routes). */
+static wsc_conn *join_via(nats_fx *fx, int port, seen *s)
+{
+    for (int i = 0; i < 20; i++) {
+        wsc_conn *c = wsc_connect_path(fx->w, port, "/rooms/r1", SUBPROTOCOL, on_raw, s);
+        const char *t = wsc_next_of_type(fx->w, c, "hello", 1500);
+        if (t) return c;
+        wsc_run(fx->w, 100);
+    }
+    fail_msg("no hello through haproxy");
+    return NULL;
+}
+
+void test_nats_haproxy(void **state)
+{
+    nats_fx *fx = *state;
+    int port = natsd_free_port();
+    pid_t hp = start_haproxy(fx, port);
+    wsc_conn *a = join_via(fx, port, &fx->seen[0]);
+    wsc_conn *b = join_via(fx, port, &fx->seen[1]);
+    wait_seen(fx, &fx->seen[0], 30, 15000);
+    wait_seen(fx, &fx->seen[1], 30, 15000);
+    /* leastconn put them on both edges */
+    http_reply r;
+    double clients[2];
+    for (int i = 0; i < 2; i++) {
+        assert_int_equal(http_get(fx->edges[i].port, "/metrics", &r), 0);
+        clients[i] = metric(r.body, "strandcast_clients");
+        http_reply_free(&r);
+    }
+    assert_true(clients[0] == 1 && clients[1] == 1);
+    /* an edge stops: its client is cut, the other streams on, and reconnecting through haproxy
+     * lands on the edge left */
+    daemon_stop(&fx->edges[0], SIGKILL, 5000);
+    wsc_run(fx->w, 1500); /* haproxy's health check marks it down */
+    assert_true(!wsc_is_open(a) || !wsc_is_open(b));
+    join_via(fx, port, &fx->seen[2]);
+    wait_seen(fx, &fx->seen[2], 30, 15000);
+    kill(hp, SIGTERM);
+    waitpid(hp, NULL, 0);
 }
 
 void test_nats_token(void **state)
