@@ -34,7 +34,9 @@ typedef struct fanout_opts {
     const char *params; /* a set_params "values" object sent before measuring, or NULL */
     const char *animate; /* a head-motion preset started before the warm-up, or NULL (head at rest) */
     int edges;           /* 0: clients on the daemon itself; else a simulation node and this many edge relays over
-                          * nats-server, the clients spread over the edges */
+                          * nats-server, the clients spread over the edges (the case being run) */
+    int edge_list[MAX_EDGES]; /* --edges: the edge counts to run, in order */
+    int nedge_list;           /* 0: one run with the clients on the daemon */
     bool json;
 } fanout_opts;
 
@@ -121,7 +123,7 @@ static double metric(int port, const char *name)
 
 static const char *const FANOUT_USAGE =
     "usage: strandbench fanout [--clients 1,10,100] [--seconds S] [--warmup S] [--rate HZ] [--server-rate HZ]\n"
-    "                          [--strands N] [--verts N] [--edges E] [--daemon PATH] [--json]\n"
+    "                          [--strands N] [--verts N] [--edges 1,2] [--daemon PATH] [--json]\n"
     "Starts strandcastd (default scene unless --strands/--verts) on a free loopback port, connects N\n"
     "WebSocket clients from one thread (lean raw-socket receivers on one epoll loop; each subscribes\n"
     "with max_rate HZ, default 30; 0 = every frame), streams for the warm-up (default 6 s: the hair\n"
@@ -133,8 +135,9 @@ static const char *const FANOUT_USAGE =
     "--params '{\"sph\":false}' sends set_params first (e.g. to separate solver cost from fan-out cost).\n"
     "--animate PRESET starts a head-motion preset first (nod, shake, circle, headbang, sway; default: the\n"
     "head stays at rest, and once the hair has settled the delta frames are small).\n"
-    "--edges E (1..8): edge mode: nats-server, the daemon as a simulation node (--nats) and E edge relays\n"
-    "(--relay) on free loopback ports, the clients spread evenly over the edges; adds the edges' CPU per\n"
+    "--edges 1,2 (counts 0..8; 0 = no NATS): edge mode, run for each count in turn (a fresh baseline each):\n"
+    "nats-server, the daemon as a simulation node (--nats) and E edge relays (--relay) on free loopback\n"
+    "ports, the clients spread evenly over the edges; adds the edges' CPU per\n"
     "frame delivered to one client, and the node's CPU and NATS publishes (once per stream frame, which must\n"
     "not grow with edges or clients).";
 
@@ -214,7 +217,13 @@ static int parse_opts(int argc, char **argv, fanout_opts *o)
             break;
         case OPT_DAEMON: o->daemon = v; break;
         case OPT_EDGES:
-            if (!(rc = core_cli_u64(PROG, flag, v, 1, MAX_EDGES, &u))) o->edges = (int)u;
+            for (const char *p = v; *p && !rc; p += strcspn(p, ",") + (p[strcspn(p, ",")] == ',')) {
+                char item[8];
+                size_t n = strcspn(p, ",");
+                snprintf(item, sizeof item, "%.*s", (int)(n < sizeof item ? n : sizeof item - 1), p);
+                if (o->nedge_list == MAX_EDGES || n >= sizeof item) rc = core_cli_bad(PROG, flag, v, "expected at most 8 counts");
+                else if (!(rc = core_cli_u64(PROG, flag, item, 0, MAX_EDGES, &u))) o->edge_list[o->nedge_list++] = (int)u;
+            }
             break;
         }
         if (rc) return rc;
@@ -413,6 +422,55 @@ static int run_case(const fanout_opts *o, const char *exe, int nclients, fanout_
     return 0;
 }
 
+/* One series: the baseline and every client count, with o->edges edges (0: none). */
+static int run_edges(fanout_opts *o, const char *exe, long cores)
+{
+    fanout_result base;
+    if (run_case(o, exe, 0, &base)) return 1;
+    if (!o->json) {
+        printf("fanout: %d strands x %d verts, server publishes %g frames/s, clients subscribe at max_rate %g, "
+               "%g s per case, %ld cores\n",
+               o->strands ? o->strands : 4096, o->verts ? o->verts : 32, o->server_rate ? o->server_rate : 60.0, o->max_rate,
+               o->seconds, cores);
+        if (o->params) printf("scene parameters changed with set_params %s\n", o->params);
+        if (o->animate) printf("head motion: preset %s\n", o->animate);
+        if (o->edges) printf("edge mode: a simulation node and %d edge relays over nats-server; server = the node\n", o->edges);
+        printf("baseline (0 clients): %.1f sim steps/s, server CPU %.2f cores\n", base.steps_per_s, base.server_cpu);
+        printf("%8s %9s %8s %12s %12s %8s %11s %9s %12s %10s", "clients", "steps/s", "vs base", "frames/cl/s",
+               "min fr/cl/s", "MB/s", "server CPU", "net CPU", "net us/frame", "bench CPU");
+        if (o->edges) printf(" %9s %13s %13s %10s", "edge CPU", "edge us/frame", "e.net us/fr", "node pub/s");
+        printf("\n");
+    }
+    for (int i = 0; i < o->ncases; i++) {
+        fanout_result r;
+        if (run_case(o, exe, o->clients[i], &r)) return 1;
+        double ratio = base.steps_per_s > 0 ? r.steps_per_s / base.steps_per_s : 0;
+        if (o->json) {
+            printf("{\"bench\":\"fanout\",\"clients\":%d,\"strands\":%d,\"verts\":%d,\"max_rate\":%g,\"server_rate\":%g,\"seconds\":%g,\"warmup_s\":%g,"
+                   "\"sim_steps_per_s\":%.2f,\"baseline_steps_per_s\":%.2f,\"frames_per_client_per_s\":%.2f,"
+                   "\"min_frames_per_client_per_s\":%.2f,\"mbytes_per_s\":%.3f,\"frames_skipped_per_s\":%.1f,"
+                   "\"server_cpu\":%.3f,\"net_thread_cpu\":%.3f,\"net_us_per_client_frame\":%.1f,"
+                   "\"bench_cpu\":%.3f,\"cores\":%ld,\"params\":%s,\"animate\":\"%s\",\"edges\":%d,\"edge_cpu\":%.3f,"
+                   "\"edge_us_per_client_frame\":%.1f,\"edge_net_us_per_client_frame\":%.1f,\"node_published_per_s\":%.1f,"
+                   "\"baseline_server_cpu\":%.3f}\n",
+                   r.clients, o->strands ? o->strands : 4096, o->verts ? o->verts : 32, o->max_rate,
+                   o->server_rate ? o->server_rate : 60.0, o->seconds, o->warmup, r.steps_per_s,
+                   base.steps_per_s, r.fpc, r.fpc_min, r.mbytes_per_s, r.skipped_per_s, r.server_cpu, r.net_cpu,
+                   r.net_us_per_frame, r.bench_cpu, cores,
+                   o->params ? o->params : "null", o->animate ? o->animate : "none", o->edges, r.edge_cpu, r.edge_us_per_frame,
+                   r.edge_net_us_per_frame, r.node_published_per_s, base.server_cpu);
+        } else {
+            printf("%8d %9.1f %7.2fx %12.1f %12.1f %8.2f %11.2f %9.3f %12.1f %10.2f", r.clients, r.steps_per_s, ratio,
+                   r.fpc, r.fpc_min, r.mbytes_per_s, r.server_cpu, r.net_cpu, r.net_us_per_frame, r.bench_cpu);
+            if (o->edges) printf(" %9.2f %13.1f %13.1f %10.1f", r.edge_cpu, r.edge_us_per_frame, r.edge_net_us_per_frame,
+                                r.node_published_per_s);
+            printf("\n");
+        }
+        fflush(stdout);
+    }
+    return 0;
+}
+
 int bench_fanout_main(int argc, char **argv)
 {
     fanout_opts o = { 0 };
@@ -426,48 +484,10 @@ int bench_fanout_main(int argc, char **argv)
     }
     signal(SIGPIPE, SIG_IGN);
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    fanout_result base;
-    if (run_case(&o, exe, 0, &base)) return 1;
-    if (!o.json) {
-        printf("fanout: %d strands x %d verts, server publishes %g frames/s, clients subscribe at max_rate %g, "
-               "%g s per case, %ld cores\n",
-               o.strands ? o.strands : 4096, o.verts ? o.verts : 32, o.server_rate ? o.server_rate : 60.0, o.max_rate,
-               o.seconds, cores);
-        if (o.params) printf("scene parameters changed with set_params %s\n", o.params);
-        if (o.animate) printf("head motion: preset %s\n", o.animate);
-        if (o.edges) printf("edge mode: a simulation node and %d edge relays over nats-server; server = the node\n", o.edges);
-        printf("baseline (0 clients): %.1f sim steps/s, server CPU %.2f cores\n", base.steps_per_s, base.server_cpu);
-        printf("%8s %9s %8s %12s %12s %8s %11s %9s %12s %10s", "clients", "steps/s", "vs base", "frames/cl/s",
-               "min fr/cl/s", "MB/s", "server CPU", "net CPU", "net us/frame", "bench CPU");
-        if (o.edges) printf(" %9s %13s %13s %10s", "edge CPU", "edge us/frame", "e.net us/fr", "node pub/s");
-        printf("\n");
-    }
-    for (int i = 0; i < o.ncases; i++) {
-        fanout_result r;
-        if (run_case(&o, exe, o.clients[i], &r)) return 1;
-        double ratio = base.steps_per_s > 0 ? r.steps_per_s / base.steps_per_s : 0;
-        if (o.json) {
-            printf("{\"bench\":\"fanout\",\"clients\":%d,\"strands\":%d,\"verts\":%d,\"max_rate\":%g,\"server_rate\":%g,\"seconds\":%g,\"warmup_s\":%g,"
-                   "\"sim_steps_per_s\":%.2f,\"baseline_steps_per_s\":%.2f,\"frames_per_client_per_s\":%.2f,"
-                   "\"min_frames_per_client_per_s\":%.2f,\"mbytes_per_s\":%.3f,\"frames_skipped_per_s\":%.1f,"
-                   "\"server_cpu\":%.3f,\"net_thread_cpu\":%.3f,\"net_us_per_client_frame\":%.1f,"
-                   "\"bench_cpu\":%.3f,\"cores\":%ld,\"params\":%s,\"animate\":\"%s\",\"edges\":%d,\"edge_cpu\":%.3f,"
-                   "\"edge_us_per_client_frame\":%.1f,\"edge_net_us_per_client_frame\":%.1f,\"node_published_per_s\":%.1f,"
-                   "\"baseline_server_cpu\":%.3f}\n",
-                   r.clients, o.strands ? o.strands : 4096, o.verts ? o.verts : 32, o.max_rate,
-                   o.server_rate ? o.server_rate : 60.0, o.seconds, o.warmup, r.steps_per_s,
-                   base.steps_per_s, r.fpc, r.fpc_min, r.mbytes_per_s, r.skipped_per_s, r.server_cpu, r.net_cpu,
-                   r.net_us_per_frame, r.bench_cpu, cores,
-                   o.params ? o.params : "null", o.animate ? o.animate : "none", o.edges, r.edge_cpu, r.edge_us_per_frame,
-                   r.edge_net_us_per_frame, r.node_published_per_s, base.server_cpu);
-        } else {
-            printf("%8d %9.1f %7.2fx %12.1f %12.1f %8.2f %11.2f %9.3f %12.1f %10.2f", r.clients, r.steps_per_s, ratio,
-                   r.fpc, r.fpc_min, r.mbytes_per_s, r.server_cpu, r.net_cpu, r.net_us_per_frame, r.bench_cpu);
-            if (o.edges) printf(" %9.2f %13.1f %13.1f %10.1f", r.edge_cpu, r.edge_us_per_frame, r.edge_net_us_per_frame,
-                                r.node_published_per_s);
-            printf("\n");
-        }
-        fflush(stdout);
+    for (int k = 0; k < (o.nedge_list ? o.nedge_list : 1); k++) {
+        o.edges = o.nedge_list ? o.edge_list[k] : 0;
+        if (run_edges(&o, exe, cores)) return 1;
     }
     return 0;
 }
+
