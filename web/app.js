@@ -11,7 +11,7 @@ import { ProtocolError } from './client.js';
 import { Banner, statsText } from './overlay.js';
 import { Panel } from './panel.js';
 import { pickColliders } from './pick.js';
-import { ColliderMeshLoader, httpBase } from './collider_mesh.js';
+import { ColliderMeshLoader, blobUrl, httpBase } from './collider_mesh.js';
 import { GroomDataLoader } from './groom_data.js';
 import { meshStrands } from './hairmesh.js';
 import { parseHairmeshData } from './hairmesh_data.js';
@@ -286,7 +286,7 @@ export class App {
     if (desc.etag === this.hairmeshEtag && this.hairmesh) { this._chooseSource(); return; }
     const etag = this.hairmeshEtag = desc.etag;
     this.hairmesh = null;
-    fetch(new URL(desc.url, httpBase(this.url)).toString(), { cache: 'no-cache' })
+    fetch(blobUrl(desc.url, httpBase(this.url)), { cache: 'no-cache' })
       .then((r) => { if (!r.ok) throw new Error(`GET ${desc.url}: HTTP ${r.status}`); return r.arrayBuffer(); })
       .then((buf) => {
         if (this.hairmeshEtag !== etag) return; // superseded by a newer groom

@@ -6,7 +6,7 @@
 // stream_worker.js). No reconnects: a lost connection ends the client (the viewer's net.js
 // reconnects).
 import { StrandDecoder } from './codec.js';
-import { parseGroomData } from './groom_data.js';
+import { blobUrl, httpBase, parseGroomData } from './groom_data.js';
 
 export const SUBPROTOCOL = 'strandcast.v3';
 export const PROTOCOL_VERSION = 3;
@@ -152,7 +152,7 @@ export class Client {
   async groomData() {
     const g = this.groom;
     if (!g || typeof g.url !== 'string') throw new Error('strandcast client: the groom description names no data url');
-    const url = new URL(g.url, httpUrl(this.url)).toString();
+    const url = blobUrl(g.url, httpBase(this.url));
     const r = await this.fetch(url, { cache: 'no-cache' });
     if (!r.ok) throw new Error(`strandcast client: GET ${url}: HTTP ${r.status}`);
     return parseGroomData(await r.arrayBuffer());
@@ -239,11 +239,6 @@ export class Client {
     for (const r of this.readers) if (r.wake) r.wake();
     this._emit('close', this.closed);
   }
-}
-
-// The HTTP address of a ws:// or wss:// URL (the same server's pages and binaries).
-export function httpUrl(wsUrl) {
-  return String(wsUrl).replace(/^ws(s?):/, 'http$1:');
 }
 
 // Connects to strandcastd at url (ws://HOST:PORT/) and resolves with a Client once the hello

@@ -58,6 +58,31 @@ static void to_edge(app_nats *b, const app_remote *r, const char *op, const char
     if (bus_publish(b->nc, subj, h, data, len, NULL) != CORE_OK) atomic_fetch_add(&b->publish_errors, 1);
 }
 
+/* One blob to subj (an edge's or the room's) (tab_lock held). */
+static void send_blob(app_nats *b, const char *subj, const app_nats_binary *x)
+{
+    const char *h[] = { "Sc-Op", "blob", "Sc-Room", b->room, "Sc-Path", x->path, "Sc-Etag", x->etag, NULL };
+    const void *data = x->body ? net_buf_data(x->body) : NULL;
+    size_t len = x->body ? net_buf_len(x->body) : 0;
+    core_err err;
+    if (bus_publish(b->nc, subj, h, data, len, &err) != CORE_OK) {
+        atomic_fetch_add(&b->publish_errors, 1);
+        core_log(CORE_LOG_WARN, "nats", "%s (%zu bytes; over the NATS server's max_payload?): edges cannot serve it", err.msg, len);
+    }
+}
+
+/* The edge of r gets the current blobs unless it has them (tab_lock held). */
+static void blobs_to_edge(app_nats *b, const app_remote *r)
+{
+    app_edge *e = &b->edges[r->edge];
+    if (e->blob_gen == b->blob_gen) return;
+    char subj[BUS_MAX_SUBJECT];
+    edge_subject(b, r->edge, subj, sizeof subj);
+    for (int i = 0; i < APP_NATS_BLOBS; i++)
+        if (b->blobs[i].path[0]) send_blob(b, subj, &b->blobs[i]);
+    e->blob_gen = b->blob_gen;
+}
+
 /* Forgets remote client r (tab_lock held). */
 static void forget(app_nats *b, app_remote *r)
 {
@@ -255,6 +280,7 @@ void app_nats_close(app_nats *b)
     }
     bus_close(b->nc);
     for (int i = 0; i < NET_MAX_STREAMS; i++) net_buf_unref(b->key[i]);
+    for (int i = 0; i < APP_NATS_BLOBS; i++) net_buf_unref(b->blobs[i].body);
     app_peers_free(&b->gate.peers);
     pthread_mutex_destroy(&b->gate_lock);
     pthread_mutex_destroy(&b->tab_lock);
@@ -291,6 +317,7 @@ static void place(app_nats *b, uint32_t client, const char *op, const char *text
     pthread_mutex_lock(&b->tab_lock);
     app_remote *r = find_id(b, client);
     if (r) {
+        blobs_to_edge(b, r); /* before the hello that names them */
         to_edge(b, r, op, more, text, len);
         set_stream(b, r, stream < NET_MAX_STREAMS ? (int32_t)stream : -1);
     }
@@ -370,6 +397,28 @@ void app_nats_drop(app_nats *b, uint32_t stream)
     bus_room_subject(subj, sizeof subj, b->room, leaf);
     const char *h[] = { "Sc-Op", "drop", NULL };
     bus_publish(b->nc, subj, h, NULL, 0, NULL);
+}
+
+void app_nats_blob(app_nats *b, const char *path, net_buf *body, const char *etag)
+{
+    pthread_mutex_lock(&b->tab_lock);
+    app_nats_binary *x = NULL;
+    for (int i = 0; i < APP_NATS_BLOBS && !x; i++)
+        if (!b->blobs[i].path[0] || strcmp(b->blobs[i].path, path) == 0) x = &b->blobs[i];
+    if (x) {
+        snprintf(x->path, sizeof x->path, "%s", path);
+        if (body) net_buf_ref(body);
+        net_buf_unref(x->body);
+        x->body = body;
+        snprintf(x->etag, sizeof x->etag, "%s", body && etag ? etag : "");
+        b->blob_gen++;
+        char subj[BUS_MAX_SUBJECT];
+        bus_room_subject(subj, sizeof subj, b->room, "blob");
+        send_blob(b, subj, x);
+        for (int e = 0; e < APP_MAX_EDGES; e++) /* those with clients here are subscribed to the room's blobs */
+            if (b->edges[e].id[0] && b->edges[e].clients && b->edges[e].blob_gen == b->blob_gen - 1) b->edges[e].blob_gen = b->blob_gen;
+    }
+    pthread_mutex_unlock(&b->tab_lock);
 }
 
 size_t app_nats_metrics(app_nats *b, char *buf, size_t cap)

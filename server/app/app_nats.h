@@ -18,6 +18,7 @@
 #define APP_REMOTE_CLIENT 0x80000000u /* client ids of edge relays' clients have this bit */
 #define APP_MAX_EDGES 64              /* edge relays with clients in this room at once */
 #define APP_EDGE_ID 24                /* bytes of an edge's id (letters, digits), NUL included */
+#define APP_NATS_BLOBS 3              /* the groom data, hair mesh and collision mesh binaries */
 
 typedef struct app_remote {
     uint32_t id;                       /* 0: free */
@@ -30,7 +31,15 @@ typedef struct app_edge {
     char id[APP_EDGE_ID];              /* "": free */
     unsigned long long last_ms;        /* when it was last heard from */
     uint32_t clients;
+    uint64_t blob_gen;                 /* the blobs' generation this edge holds */
 } app_edge;
+
+/* A binary the node serves over HTTP (groom.bin, ...), for the edges to serve too. */
+typedef struct app_nats_binary {
+    char path[NET_MAX_BLOB_PATH];      /* "/groom.bin"; "": unused */
+    net_buf *body;                     /* NULL: none (404) */
+    char etag[NET_MAX_ETAG + 1];
+} app_nats_binary;
 
 typedef struct app_nats {
     natsConnection *nc;
@@ -45,6 +54,8 @@ typedef struct app_nats {
     uint32_t next_gen;
     uint32_t on_stream[NET_MAX_STREAMS]; /* remote clients on each stream (frames go out when > 0) */
     uint64_t key_to[NET_MAX_STREAMS];    /* edges (bits) that get the stream's next keyframe themselves */
+    app_nats_binary blobs[APP_NATS_BLOBS];
+    uint64_t blob_gen;                   /* bumped by every app_nats_blob */
     /* sim thread only: each stream's latest keyframe, for remote clients that join it */
     net_buf *key[NET_MAX_STREAMS];
     uint64_t key_seq[NET_MAX_STREAMS];
@@ -84,6 +95,9 @@ void app_nats_close_client(app_nats *b, uint32_t client, int code, const char *r
 void app_nats_frame(app_nats *b, uint32_t stream, net_buf *frame, uint64_t seq, bool key);
 /* A stream's retained frames are void (groom change, last subscriber gone): edges drop theirs. Sim thread. */
 void app_nats_drop(app_nats *b, uint32_t stream);
+/* A binary served at path (body NULL: none) changed: sent to the edges with clients in the room
+ * now (strandcast.room.R.blob), and to any other edge before its next client's hello. Sim thread. */
+void app_nats_blob(app_nats *b, const char *path, net_buf *body, const char *etag);
 /* Prometheus lines for /metrics (strandcast_nats_*); returns the bytes written. Any thread. */
 size_t app_nats_metrics(app_nats *b, char *buf, size_t cap);
 

@@ -35,7 +35,7 @@ typedef struct relay_stream {
 typedef struct relay_room {
     char name[PROTO_MAX_ROOM + 1];     /* "": free */
     uint32_t users;
-    natsSubscription *bcast, *beat;
+    natsSubscription *bcast, *beat, *blob;
     unsigned long long last_beat_ms;   /* the node's last heartbeat (or when the room was opened here) */
     char node[24];                     /* the node's id from its heartbeats ("" before the first) */
 } relay_room;
@@ -86,6 +86,7 @@ static void refuse(relay *r, uint32_t client, const proto_error *e, int code)
 static void on_bcast(natsConnection *nc, natsSubscription *sub, natsMsg *m, void *closure);
 static void on_beat(natsConnection *nc, natsSubscription *sub, natsMsg *m, void *closure);
 static void on_frame(natsConnection *nc, natsSubscription *sub, natsMsg *m, void *closure);
+static void on_blob(natsConnection *nc, natsSubscription *sub, natsMsg *m, void *closure);
 
 /* The room's entry, opened (subscribed to its broadcasts and heartbeat) when new; -1 when full
  * (lock held). */
@@ -106,6 +107,8 @@ static int open_room(relay *r, const char *name)
     natsConnection_Subscribe(&rm->bcast, r->nc, subj, on_bcast, r);
     bus_room_subject(subj, sizeof subj, name, "beat");
     natsConnection_Subscribe(&rm->beat, r->nc, subj, on_beat, r);
+    bus_room_subject(subj, sizeof subj, name, "blob");
+    natsConnection_Subscribe(&rm->blob, r->nc, subj, on_blob, r);
     return free_slot;
 }
 
@@ -143,14 +146,38 @@ static int use_stream(relay *r, int room, int32_t slot)
     return free_slot;
 }
 
-/* Closes a room's entry when its last client left (lock held); its subscriptions into dead[0..1]. */
+/* Closes a room's entry when its last client left (lock held); its subscriptions into dead[0..2]. */
 static void leave_room(relay *r, int room, natsSubscription **dead)
 {
     relay_room *rm = &r->rooms[room];
     if (rm->users == 0 || --rm->users > 0) return;
     dead[0] = rm->bcast;
     dead[1] = rm->beat;
+    dead[2] = rm->blob;
     memset(rm, 0, sizeof *rm);
+}
+
+/* A binary of a room's node (Sc-Path "/groom.bin", ...; empty without Sc-Etag: none), served here
+ * at PROTO_ROOM_PREFIX ROOM PATH. */
+static void take_blob(relay *r, natsMsg *m)
+{
+    const char *room = bus_header(m, "Sc-Room"), *path = bus_header(m, "Sc-Path"), *etag = bus_header(m, "Sc-Etag");
+    if (!room || !path || !proto_room_valid(room)) return;
+    char full[NET_MAX_BLOB_PATH];
+    int k = snprintf(full, sizeof full, PROTO_ROOM_PREFIX "%s%s", room, path);
+    if (k < 0 || (size_t)k >= sizeof full) return;
+    size_t len = (size_t)natsMsg_GetDataLength(m);
+    net_buf *b = etag && *etag ? net_buf_new(len) : NULL;
+    if (b && len) memcpy(net_buf_data(b), natsMsg_GetData(m), len);
+    if (net_set_blob(r->net, full, b, etag) != CORE_OK) core_log(CORE_LOG_WARN, "relay", "cannot serve %s", full);
+}
+
+static void on_blob(natsConnection *nc, natsSubscription *sub, natsMsg *m, void *closure)
+{
+    (void)nc;
+    (void)sub;
+    take_blob(closure, m);
+    natsMsg_Destroy(m);
 }
 
 static void destroy_subs(natsSubscription **subs, int n)
@@ -204,7 +231,7 @@ static void relay_close(void *user, uint32_t client)
 {
     relay *r = user;
     char room[PROTO_MAX_ROOM + 1] = "";
-    natsSubscription *dead[3] = { NULL, NULL, NULL };
+    natsSubscription *dead[4] = { NULL, NULL, NULL, NULL };
     pthread_mutex_lock(&r->lock);
     relay_client *c = find_client(r, client);
     if (c) {
@@ -214,7 +241,7 @@ static void relay_close(void *user, uint32_t client)
         memset(c, 0, sizeof *c);
     }
     pthread_mutex_unlock(&r->lock);
-    destroy_subs(dead, 3);
+    destroy_subs(dead, 4);
     if (room[0]) to_node(r, room, "close", client, NULL, 0);
 }
 
@@ -241,6 +268,11 @@ static void on_inbox(natsConnection *nc, natsSubscription *sub, natsMsg *m, void
     const char *data = natsMsg_GetData(m);
     size_t len = (size_t)natsMsg_GetDataLength(m);
     if (!op || !room) {
+        natsMsg_Destroy(m);
+        return;
+    }
+    if (strcmp(op, "blob") == 0) {
+        take_blob(r, m);
         natsMsg_Destroy(m);
         return;
     }
@@ -460,11 +492,12 @@ static core_status start(relay *r, core_err *err)
 
 static void stop(relay *r)
 {
-    natsSubscription *dead[1 + 2 * RELAY_MAX_ROOMS + NET_MAX_STREAMS] = { r->inbox };
+    natsSubscription *dead[1 + 3 * RELAY_MAX_ROOMS + NET_MAX_STREAMS] = { r->inbox };
     int n = 1;
     for (int i = 0; i < RELAY_MAX_ROOMS; i++) {
         dead[n++] = r->rooms[i].bcast;
         dead[n++] = r->rooms[i].beat;
+        dead[n++] = r->rooms[i].blob;
     }
     for (int i = 0; i < NET_MAX_STREAMS; i++) dead[n++] = r->streams[i].sub;
     destroy_subs(dead, n);

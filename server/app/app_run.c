@@ -210,7 +210,7 @@ static core_status setup(app *a, core_err *err)
     }
     const core_hairmesh *hm = a->w.groom.g.hairmesh;
     app_streams_set_hairmesh(&a->w.streams, hm ? hm->ncols : 0, hm ? hm->nlayers : 0);
-    app_groom_publish(a->net, &a->w.groom);
+    app_groom_publish(&a->out, a->d.room, &a->w.groom);
     return CORE_OK;
 }
 

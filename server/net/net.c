@@ -84,7 +84,7 @@ static void setup_mounts(net *n)
         last->mount_next = b;
         last = b;
     }
-    if (n->web_dir && n->page_prefix[0]) { /* the pages under the prefix: also that callback */
+    if (n->page_prefix[0]) { /* the pages and blobs under the prefix: also that callback */
         struct lws_http_mount *p = &n->mounts[2 + NET_MAX_BLOBS];
         p->mountpoint = n->page_prefix;
         p->mountpoint_len = (unsigned char)(strlen(n->page_prefix) - 1); /* without its last '/' */

@@ -26,7 +26,8 @@
 #define NET_MAX_ORIGINS 16         /* net_desc.allow_origins entries */
 #define NET_MAX_ORIGIN 256         /* longest origin, bytes */
 #define NET_MAX_BLOBS 4            /* byte blobs served over HTTP from memory (net_set_blob) */
-#define NET_MAX_BLOB_PATH 64       /* longest blob path, bytes */
+#define NET_MAX_BLOB_PATH 96       /* longest blob path, bytes */
+#define NET_MAX_PAGE_BLOBS 192     /* blobs under desc.page_prefix (net_set_blob adds them) */
 #define NET_MAX_ETAG 64            /* longest blob version tag, bytes */
 
 typedef struct net net;
@@ -142,8 +143,9 @@ core_status net_subscribe(net *n, uint32_t client, uint32_t stream, double max_r
  * older frames are skipped. Any thread. */
 void net_publish(net *n, uint32_t stream, net_buf *frame, uint64_t seq, bool key);
 
-/* Serves body at path (one of desc.blobs) from now on, taking over the caller's reference
- * (NULL = 404 from now on), with etag (a version tag of the bytes, at most NET_MAX_ETAG bytes
+/* Serves body at path (one of desc.blobs, or PAGE_PREFIX "SEGMENT/NAME" under desc.page_prefix:
+ * such a path is added on its first use, up to NET_MAX_PAGE_BLOBS, and is served instead of the
+ * page) from now on, taking over the caller's reference (NULL = 404 from now on), with etag (a version tag of the bytes, at most NET_MAX_ETAG bytes
  * of letters, digits, '.', '_', '-'; sent quoted). A request already being answered finishes
  * with the bytes it started with. CORE_EINVAL (the reference is dropped) for an unknown path
  * or a bad tag. Any thread; net knows nothing of what the bytes mean. */

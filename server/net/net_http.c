@@ -124,11 +124,14 @@ static int metrics_headers(net *n, struct lws *wsi, net_http *h)
     char uri[NET_MAX_BLOB_PATH + 8] = "";
     size_t np = strlen(n->page_prefix);
     int ulen = lws_hdr_total_length(wsi, WSI_TOKEN_GET_URI);
-    if (np && n->web_dir && ulen > 0) { /* a page path may be longer than uri holds */
+    if (np && ulen > 0) { /* a page path may be longer than uri holds */
         char *full = malloc((size_t)ulen + 1);
-        bool is_page = full && lws_hdr_copy(wsi, full, ulen + 1, WSI_TOKEN_GET_URI) > 0 && strncmp(full, n->page_prefix, np) == 0;
+        bool under = full && lws_hdr_copy(wsi, full, ulen + 1, WSI_TOKEN_GET_URI) > 0 && strncmp(full, n->page_prefix, np) == 0;
+        bool blob = under && net_page_blob_known(n, full);
+        int rc = blob ? net_blob_headers(n, wsi, h, full) : 0;
         free(full);
-        if (is_page) return page(n, wsi);
+        if (blob) return rc;
+        if (under && n->web_dir) return page(n, wsi);
     }
     if (lws_hdr_copy(wsi, uri, sizeof uri, WSI_TOKEN_GET_URI) > 0 && strcmp(uri, "/metrics") != 0)
         return net_blob_headers(n, wsi, h, uri);

@@ -102,6 +102,8 @@ struct net {
     char page_prefix[NET_MAX_BLOB_PATH];  /* desc.page_prefix ("" = none) */
     net_blob blobs[NET_MAX_BLOBS];     /* guarded by lock */
     int nblobs;
+    net_blob *page_blobs;              /* NET_MAX_PAGE_BLOBS paths under the page prefix; guarded by lock */
+    int npage_blobs;
     struct lws_protocol_vhost_options mimes[12];
     int port;
     atomic_bool stop;
@@ -137,6 +139,8 @@ int net_method_callback(struct lws *wsi, enum lws_callback_reasons reason, net_h
 core_status net_blobs_init(net *n, core_err *err);
 /* Releases every blob body. */
 void net_blobs_free(net *n);
+/* True when path is a blob path under the page prefix that net_set_blob has added. */
+bool net_page_blob_known(net *n, const char *path);
 /* HTTP for a blob path: headers (200 or 304) or 404; the body follows in net_blob_write. */
 int net_blob_headers(net *n, struct lws *wsi, net_http *h, const char *uri);
 /* Writes the next chunk of the blob body (on HTTP_WRITEABLE). */

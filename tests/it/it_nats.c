@@ -205,6 +205,15 @@ void test_nats_rooms_on_edges(void **state)
     assert_int_equal(r.status, 200);
     assert_non_null(strstr(r.body, "<title>strandcast</title>"));
     http_reply_free(&r);
+    /* the room's binaries: served by the edge at the room's path, the node's bytes */
+    http_reply node_bin, edge_bin;
+    assert_int_equal(http_get(fx->nodes[0].port, "/groom.bin", &node_bin), 0);
+    assert_int_equal(http_get(fx->edges[1].port, "/rooms/r1/groom.bin", &edge_bin), 0);
+    assert_int_equal(node_bin.status, 200);
+    assert_int_equal(edge_bin.status, 200);
+    assert_true(edge_bin.body_len == node_bin.body_len && memcmp(edge_bin.body, node_bin.body, node_bin.body_len) == 0);
+    http_reply_free(&node_bin);
+    http_reply_free(&edge_bin);
     assert_int_equal(http_get(fx->edges[1].port, "/metrics", &r), 0);
     assert_int_equal(r.status, 200);
     assert_true(metric(r.body, "strandcast_relay_frames_in_total") > 0);

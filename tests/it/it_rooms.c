@@ -49,6 +49,14 @@ void test_rooms_one_per_daemon(void **state)
     assert_true(wsc_is_open(c));
     /* the page at /rooms/NAME is the viewer's index.html */
     expect_http(fx, "GET /rooms/studio-2 HTTP/1.1\r\nHost: x\r\n\r\n", 200, "<title>t</title>", 3000);
+    /* and its binaries under its path, the same as at / */
+    http_reply a, b;
+    assert_int_equal(http_get(fx->d.port, "/groom.bin", &a), 0);
+    assert_int_equal(http_get(fx->d.port, "/rooms/studio-2/groom.bin", &b), 0);
+    assert_int_equal(b.status, 200);
+    assert_true(a.body_len == b.body_len && a.body_len > 0 && memcmp(a.body, b.body, a.body_len) == 0);
+    http_reply_free(&a);
+    http_reply_free(&b);
 }
 
 void test_rooms_default(void **state)
