@@ -165,8 +165,12 @@ static void on_ctl(natsConnection *nc, natsSubscription *sub, natsMsg *m, void *
     pthread_mutex_unlock(&b->tab_lock);
     const char *data = natsMsg_GetData(m);
     size_t len = (size_t)natsMsg_GetDataLength(m);
-    if (edge < 0) {
-    } else if (strcmp(op, "open") == 0) {
+    if (edge < 0) { /* an unknown edge's text or close: its client was never opened here */
+        pthread_mutex_unlock(&b->gate_lock);
+        natsMsg_Destroy(m);
+        return;
+    }
+    if (strcmp(op, "open") == 0) {
         char path[PROTO_MAX_ROOM + 64];
         snprintf(path, sizeof path, "%.*s", (int)(len < sizeof path - 1 ? len : sizeof path - 1), data ? data : "");
         on_open(b, edge, eclient, path);
