@@ -209,6 +209,7 @@ export class App {
     }
     this.limits = h.limits || {};
     this.clientId = Number.isInteger(h.client) ? h.client : null;
+    document.title = typeof h.room === 'string' && h.room !== 'default' ? `strandcast: ${h.room}` : 'strandcast';
     this.panel.buildParams(h.params || {});
     this.panel.buildMotion(h.presets, h.animation, this.limits);
     this.panel.buildGrooms(h.grooms, h.groom, this.limits);
