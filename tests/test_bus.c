@@ -55,7 +55,7 @@ static void test_connect(void **state)
     assert_int_equal(bus_connect(&nc, &d, &err), CORE_OK);
     assert_non_null(nc);
     assert_false(natsConnection_Status(nc) == NATS_CONN_STATUS_CONNECTED);
-    bus_close(nc);
+    bus_close(nc, NULL, 0);
 }
 
 int main(void)

@@ -272,17 +272,13 @@ void app_nats_close(app_nats *b)
     if (!b || !b->room[0]) return;
     atomic_store(&b->stop, true);
     if (b->beat_started) pthread_join(b->beat, NULL);
-    if (b->ctl) {
-        natsSubscription_Unsubscribe(b->ctl);
-        natsSubscription_Destroy(b->ctl);
-    }
     if (b->nc) {
         char subj[BUS_MAX_SUBJECT];
         bus_room_subject(subj, sizeof subj, b->room, "beat");
         const char *h[] = { "Sc-Node", b->node_id, "Sc-Op", "bye", NULL };
         bus_publish(b->nc, subj, h, NULL, 0, NULL); /* edges need not wait for the timeout */
     }
-    bus_close(b->nc);
+    bus_close(b->nc, &b->ctl, 1);
     for (int i = 0; i < NET_MAX_STREAMS; i++) net_buf_unref(b->key[i]);
     for (int i = 0; i < APP_NATS_BLOBS; i++) net_buf_unref(b->blobs[i].body);
     app_peers_free(&b->gate.peers);

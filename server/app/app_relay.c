@@ -500,8 +500,7 @@ static void stop(relay *r)
         dead[n++] = r->rooms[i].blob;
     }
     for (int i = 0; i < NET_MAX_STREAMS; i++) dead[n++] = r->streams[i].sub;
-    destroy_subs(dead, n);
-    if (r->nc || r->net) bus_close(r->nc);
+    if (r->nc || r->net) bus_close(r->nc, dead, n);
     net_destroy(r->net);
     free(r->clients);
 }

@@ -1,4 +1,5 @@
 /* bus: connecting to NATS (reconnect forever, credentials), subjects and header helpers. */
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -80,13 +81,25 @@ core_status bus_connect(natsConnection **out, const bus_desc *d, core_err *err)
     return CORE_OK;
 }
 
-void bus_close(natsConnection *nc)
+static void sub_done(void *closure) { atomic_fetch_add((atomic_int *)closure, 1); }
+
+void bus_close(natsConnection *nc, natsSubscription **subs, int n)
 {
+    /* closing a subscription posts a message to the delivery thread; the library must not shut
+     * down before that thread took every one (it would leak them): wait for each subscription's
+     * completion callback, which runs once it has */
+    atomic_int done = 0;
+    int want = 0;
+    for (int i = 0; i < n; i++)
+        if (subs[i] && natsSubscription_SetOnCompleteCB(subs[i], sub_done, &done) == NATS_OK) want++;
     if (nc) {
         natsConnection_FlushTimeout(nc, 1000);
         natsConnection_Close(nc);
-        natsConnection_Destroy(nc);
     }
+    for (int t = 0; t < 400 && atomic_load(&done) < want; t++) nats_Sleep(5);
+    for (int i = 0; i < n; i++)
+        if (subs[i]) natsSubscription_Destroy(subs[i]);
+    if (nc) natsConnection_Destroy(nc);
     nats_CloseAndWait(2000);
 }
 

@@ -34,9 +34,11 @@ typedef struct bus_desc {
  * *out (bus_close). Any thread. */
 core_status bus_connect(natsConnection **out, const bus_desc *d, core_err *err);
 
-/* Flushes, closes and destroys the connection, then releases libnats' threads (call once per
- * process, after the last connection's subscriptions are destroyed). */
-void bus_close(natsConnection *nc);
+/* Flushes and closes the connection (which ends its subscriptions), waits (up to 2 s) until the
+ * delivery thread has finished with each of the n subscriptions in subs (NULL entries skipped),
+ * destroys them and the connection, then releases libnats' threads (once per process, for its
+ * last connection). nc NULL: only the latter. */
+void bus_close(natsConnection *nc, natsSubscription **subs, int n);
 
 /* "strandcast.room.ROOM.LEAF" (leaf may hold dots: "stream.3"); false when it does not fit. */
 bool bus_room_subject(char *out, size_t cap, const char *room, const char *leaf);
