@@ -341,6 +341,13 @@ int main(int argc, char **argv)
     static extra_args x;
     int rc = parse_args(argc, argv, &d, &x);
     if (rc) return rc < 0 ? 0 : rc;
+    if (d.relay && d.token)
+        return bad("--token-file", NULL,
+                   "an edge relay hands auth to the room's simulation node: give --token-file to the nodes");
+    if (d.relay && !loopback(d.listen) && !d.insecure_open)
+        return bad("--listen", d.listen,
+                   "an edge relay beyond loopback lets anyone reach the rooms' nodes: give the nodes --token-file FILE "
+                   "(clients then need its token to make changes) and this relay --insecure-open");
     if (!d.no_net && !loopback(d.listen) && !d.token && !d.insecure_open)
         return bad("--listen", d.listen,
                    "beyond loopback anyone could change the simulation: give --token-file FILE (clients then need "
