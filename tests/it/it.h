@@ -145,6 +145,7 @@ int setup_room(void **state);
  * requiring a token in setup_nats_token); skipped without nats-server. */
 int setup_nats(void **state);
 int setup_nats_token(void **state);
+int setup_nats_client_token(void **state); /* the node of r1 with --token-file (IT_TOKEN) */
 int teardown_nats(void **state);
 #define IT_TOKEN "k3Jq9-Vx2Lm7Tz8Wb4Np6Rs1Yd5Hf0Gc"
 int teardown_ratboy(void **state);

@@ -52,10 +52,12 @@ static void on_raw(wsc_conn *c, const uint8_t *data, size_t len, void *user)
     s->strands = info.nstrands_sent;
 }
 
-static void start_node(nats_fx *fx, int i, const char *room)
+/* A node of room; with token_file, clients need that token to change anything. */
+static void start_node(nats_fx *fx, int i, const char *room, const char *token_file)
 {
     char *argv[] = { (char *)fx->cfg->exe, "--port", "0", "--backend", "cpu", "--strands", "64", "--verts", "8", "--threads", "1",
-                     "--min-step-rate", "0", "--nats", fx->nats.url, "--room", (char *)room, NULL };
+                     "--min-step-rate", "0", "--nats", fx->nats.url, "--room", (char *)room,
+                     token_file ? "--token-file" : NULL, (char *)token_file, NULL };
     assert_int_equal(daemon_start(&fx->nodes[i], fx->cfg->exe, argv, 20000), 0);
 }
 
@@ -65,8 +67,9 @@ static void start_edge(nats_fx *fx, int i)
     assert_int_equal(daemon_start(&fx->edges[i], fx->cfg->exe, argv, 20000), 0);
 }
 
-/* nats-server, nodes of rooms r1 and r2, two edges (token: nats-server requires it). */
-static int setup_nodes(void **state, const char *token)
+/* nats-server, nodes of rooms r1 and r2, two edges (token: nats-server requires it; token_file:
+ * the node of r1 requires its token from clients). */
+static int setup_nodes(void **state, const char *token, const char *token_file)
 {
     if (!natsd_exe()) {
         print_message("nats-server is not installed (.ci/deps installs it): skipped\n");
@@ -75,8 +78,8 @@ static int setup_nodes(void **state, const char *token)
     nats_fx *fx = calloc(1, sizeof *fx);
     fx->cfg = *state;
     assert_int_equal(natsd_start(&fx->nats, 0, token), 0);
-    start_node(fx, 0, "r1");
-    start_node(fx, 1, "r2");
+    start_node(fx, 0, "r1", token_file);
+    start_node(fx, 1, "r2", NULL);
     start_edge(fx, 0);
     start_edge(fx, 1);
     fx->w = wsc_new();
@@ -84,8 +87,20 @@ static int setup_nodes(void **state, const char *token)
     return 0;
 }
 
-int setup_nats(void **state) { return setup_nodes(state, NULL); }
-int setup_nats_token(void **state) { return setup_nodes(state, NATS_TOKEN); }
+int setup_nats(void **state) { return setup_nodes(state, NULL, NULL); }
+int setup_nats_token(void **state) { return setup_nodes(state, NATS_TOKEN, NULL); }
+
+int setup_nats_client_token(void **state)
+{
+    char path[] = "/tmp/strandcast-nats-token-XXXXXX";
+    int fd = mkstemp(path); /* mode 0600 */
+    assert_true(fd >= 0);
+    assert_true(write(fd, IT_TOKEN "\n", strlen(IT_TOKEN) + 1) == (ssize_t)strlen(IT_TOKEN) + 1);
+    close(fd);
+    int rc = setup_nodes(state, NULL, path); /* the node has read it */
+    unlink(path);
+    return rc;
+}
 
 int teardown_nats(void **state)
 {
@@ -350,6 +365,23 @@ void test_nats_haproxy(void **state)
     wait_seen(fx, &fx->seen[2], 30, 15000);
     kill(hp, SIGTERM);
     waitpid(hp, NULL, 0);
+}
+
+/* The node's --token-file holds for its clients on an edge: read-only until auth. */
+void test_nats_client_token(void **state)
+{
+    nats_fx *fx = *state;
+    wsc_conn *a = join(fx, 0, "r1", &fx->seen[0], NULL);
+    wsc_send_text(a, "{\"type\":\"set_params\",\"id\":1,\"values\":{\"gravity\":3}}");
+    const char *t = wsc_next_of_type(fx->w, a, "error", 5000);
+    assert_non_null(t);
+    assert_non_null(strstr(t, "forbidden"));
+    wsc_send_text(a, "{\"type\":\"auth\",\"id\":2,\"token\":\"" IT_TOKEN "\"}");
+    assert_non_null(wsc_next_of_type(fx->w, a, "ok", 5000));
+    wsc_send_text(a, "{\"type\":\"set_params\",\"id\":3,\"values\":{\"gravity\":3}}");
+    t = wsc_next_of_type(fx->w, a, "ok", 5000);
+    assert_non_null(t);
+    assert_non_null(strstr(t, "\"id\":3"));
 }
 
 void test_nats_token(void **state)
