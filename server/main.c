@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "app/app.h"
 #include "app/app_budget.h"
@@ -37,6 +38,15 @@ static void usage(FILE *f)
             "  --device N             Vulkan device: 0 = automatic (default), N = vulkaninfo's GPU<N-1>\n"
             "  --threads N            CPU solver threads (default 0 = every online core)\n"
             "Network\n"
+            "  --room NAME            the room this daemon serves: 1..64 letters, digits, '-', '_' (default\n"
+            "                         \"default\", the room of the path /; any other at /rooms/NAME); clients asking\n"
+            "                         for another room get error unknown_room and close 4404\n"
+            "Scaling out (proto/PROTOCOL.md \"Scaling out\")\n"
+            "  --nats URL             NATS server, nats://[user:password@|token@]HOST:PORT: with --room, a\n"
+            "                         simulation node (edge relays' clients of that room are served too)\n"
+            "  --relay                an edge relay (needs --nats): no simulation; the page, /metrics and\n"
+            "                         WebSockets of any room (/rooms/NAME), relayed to the room's node\n"
+            "  --nats-creds FILE      NATS credentials file (JWT + NKey seed) for nodes and edges\n"
             "  --listen ADDR          IP address to bind (default 127.0.0.1; localhost; ::1; 0.0.0.0 = every interface)\n"
             "  --port N               TCP port (default 7681; 0 = a free port, printed at start-up)\n"
             "  --web DIR              folder served at / (default %s/web)\n"
@@ -101,7 +111,7 @@ enum {
     OPT_GROOM = 256, OPT_COLLIDER, OPT_STRANDS, OPT_VERTS, OPT_SEED, OPT_SOLVER, OPT_BACKEND, OPT_DEVICE, OPT_THREADS, OPT_LISTEN,
     OPT_PORT, OPT_WEB, OPT_ASSETS, OPT_RATE, OPT_MAX_ERROR, OPT_KEY_INTERVAL, OPT_CLIENT_BUFFER, OPT_PING_INTERVAL,
     OPT_PING_TIMEOUT, OPT_MAX_CLIENTS, OPT_MIN_STEP_RATE, OPT_TOKEN_FILE, OPT_INSECURE_OPEN, OPT_ALLOW_ORIGIN, OPT_TLS_CERT, OPT_TLS_KEY,
-    OPT_NO_NET, OPT_STEPS, OPT_RECORD, OPT_RECORD_DIGESTS, OPT_REPLAY, OPT_VERSION
+    OPT_NO_NET, OPT_STEPS, OPT_RECORD, OPT_RECORD_DIGESTS, OPT_REPLAY, OPT_VERSION, OPT_ROOM, OPT_NATS, OPT_NATS_CREDS, OPT_RELAY
 };
 
 static const struct option options[] = {
@@ -138,6 +148,10 @@ static const struct option options[] = {
     { "replay", required_argument, NULL, OPT_REPLAY },
     { "help", no_argument, NULL, 'h' },
     { "version", no_argument, NULL, OPT_VERSION },
+    { "room", required_argument, NULL, OPT_ROOM },
+    { "nats", required_argument, NULL, OPT_NATS },
+    { "nats-creds", required_argument, NULL, OPT_NATS_CREDS },
+    { "relay", no_argument, NULL, OPT_RELAY },
     { NULL, 0, NULL, 0 },
 };
 
@@ -223,6 +237,20 @@ static int apply(int opt, const char *flag, const char *v, app_desc *d, extra_ar
     case OPT_THREADS:
         if (!(rc = core_cli_u64(PROG, flag, v, 0, 256, &u))) d->threads = (int)u;
         break;
+    case OPT_ROOM:
+        if (!proto_room_valid(v)) return bad(flag, v, "expected 1..64 letters, digits, '-' or '_'");
+        d->room = v;
+        break;
+    case OPT_NATS:
+        if (strncmp(v, "nats://", 7) != 0 && strncmp(v, "tls://", 6) != 0)
+            return bad(flag, v, "expected nats://[user:password@|token@]HOST:PORT");
+        d->nats = v;
+        break;
+    case OPT_NATS_CREDS:
+        if (access(v, R_OK) != 0) return bad(flag, v, strerror(errno));
+        d->nats_creds = v;
+        break;
+    case OPT_RELAY: d->relay = true; break;
     case OPT_LISTEN:
         if (!*v) return bad(flag, v, "expected an address");
         d->listen = v;
@@ -313,11 +341,21 @@ int main(int argc, char **argv)
     static extra_args x;
     int rc = parse_args(argc, argv, &d, &x);
     if (rc) return rc < 0 ? 0 : rc;
+    if (d.relay && d.token)
+        return bad("--token-file", NULL,
+                   "an edge relay hands auth to the room's simulation node: give --token-file to the nodes");
+    if (d.relay && !loopback(d.listen) && !d.insecure_open)
+        return bad("--listen", d.listen,
+                   "an edge relay beyond loopback lets anyone reach the rooms' nodes: give the nodes --token-file FILE "
+                   "(clients then need its token to make changes) and this relay --insecure-open");
     if (!d.no_net && !loopback(d.listen) && !d.token && !d.insecure_open)
         return bad("--listen", d.listen,
                    "beyond loopback anyone could change the simulation: give --token-file FILE (clients then need "
                    "its token to make changes), or --insecure-open");
     if (d.record && d.replay) return bad("--record", d.record, "not with --replay");
+    if (d.relay && !d.nats) return bad("--relay", NULL, "needs --nats URL");
+    if (d.nats_creds && !d.nats) return bad("--nats-creds", d.nats_creds, "needs --nats URL");
+    if (d.nats && d.no_net) return bad("--nats", d.nats, "not with --no-net");
     if (d.record_digests && !d.record) return bad("--record-digests", NULL, "needs --record FILE");
     if (!d.tls_cert != !d.tls_key) return bad(d.tls_cert ? "--tls-cert" : "--tls-key", NULL, "needs both --tls-cert and --tls-key");
     int interval = d.ping_interval ? d.ping_interval : NET_DEFAULT_PING_S;

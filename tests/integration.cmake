@@ -1,7 +1,8 @@
 # Integration tests: the real strandcastd on a free loopback port, driven by WebSocket clients
 # (tests/it/, with the lws client server/wsc/). One ctest test per scenario.
 file(GLOB IT_SOURCES CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/it/*.c)
-add_executable(it_net ${IT_SOURCES} ${CMAKE_CURRENT_SOURCE_DIR}/support/daemon.c ${CMAKE_CURRENT_SOURCE_DIR}/support/rawws.c)
+add_executable(it_net ${IT_SOURCES} ${CMAKE_CURRENT_SOURCE_DIR}/support/daemon.c ${CMAKE_CURRENT_SOURCE_DIR}/support/rawws.c
+                      ${CMAKE_CURRENT_SOURCE_DIR}/support/natsd.c)
 target_include_directories(it_net PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
 target_link_libraries(it_net PRIVATE strandcast PkgConfig::CMOCKA)
 add_dependencies(it_net strandcastd strandcastc)
@@ -31,7 +32,8 @@ set_tests_properties(protocol_schema PROPERTIES LABELS "integration;no_asan" TIM
 # strandbench fanout drives the real daemon with lean raw-socket receivers (tests/bench/fanout_rx.c)
 # and the tests' lws client for control messages.
 target_sources(strandbench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/support/daemon.c
-                                   ${CMAKE_CURRENT_SOURCE_DIR}/support/rawws.c)
+                                   ${CMAKE_CURRENT_SOURCE_DIR}/support/rawws.c
+                                   ${CMAKE_CURRENT_SOURCE_DIR}/support/natsd.c)
 target_include_directories(strandbench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
 add_dependencies(strandbench strandcastd)
 # A short fan-out run: the receivers parse the stream (frames counted, a moving head so the frames
@@ -41,6 +43,14 @@ add_test(NAME bench_fanout_smoke
            --row "r => r.bench === 'fanout' && r.clients === 3 && r.min_frames_per_client_per_s >= 1"
            -- $<TARGET_FILE:strandbench> fanout --clients 3 --seconds 2 --warmup 1 --animate shake --json)
 set_tests_properties(bench_fanout_smoke PROPERTIES TIMEOUT 120 LABELS integration)
+# The same in edge mode: a simulation node and two edge relays over nats-server, 4 clients spread
+# over them; every client gets frames and the node publishes each stream frame once (at most the
+# daemon's 60 frames/s, not once per client: 4 clients of a 30 Hz stream would be 120).
+add_test(NAME bench_fanout_edges_smoke
+         COMMAND ${STRANDCAST_NODE} ${STRANDCAST_EXPECT_ROWS}
+           --row "r => r.bench === 'fanout' && r.edges === 2 && r.clients === 4 && r.min_frames_per_client_per_s >= 1 && r.node_published_per_s > 0 && r.node_published_per_s < 65 && r.edge_us_per_client_frame > 0"
+           -- $<TARGET_FILE:strandbench> fanout --edges 2 --clients 4 --seconds 2 --warmup 1 --strands 512 --verts 16 --animate shake --json)
+set_tests_properties(bench_fanout_edges_smoke PROPERTIES TIMEOUT 120 LABELS "integration;nats")
 # A short latency run: every change gets a reply with its step and a frame at that step; the
 # figures are only checked for sanity (a loaded machine is slow), strandbench latency measures.
 add_test(NAME bench_latency_smoke

@@ -929,6 +929,37 @@ static void test_build_state_stats_subscribed(void **state)
     cJSON_Delete(j);
 }
 
+/* Room names (charset, length) and the room a WebSocket path names. */
+static void test_rooms(void **state)
+{
+    (void)state;
+    assert_true(proto_room_valid("a"));
+    assert_true(proto_room_valid("Studio_2-b"));
+    char name[PROTO_MAX_ROOM + 2];
+    memset(name, 'x', sizeof name);
+    name[PROTO_MAX_ROOM] = '\0';
+    assert_true(proto_room_valid(name));
+    name[PROTO_MAX_ROOM] = 'x';
+    name[PROTO_MAX_ROOM + 1] = '\0';
+    assert_false(proto_room_valid(name));
+    static const char *const bad[] = { "", "a.b", "a b", "a*", "a>", "r\xc3\xa9", "a/b", "%41" };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) assert_false(proto_room_valid(bad[i]));
+    char room[PROTO_MAX_ROOM + 1];
+    proto_error e;
+    assert_int_equal(proto_room_of_path("/", room, &e), CORE_OK);
+    assert_string_equal(room, PROTO_DEFAULT_ROOM);
+    assert_int_equal(proto_room_of_path("/rooms", room, &e), CORE_OK); /* not under /rooms/ */
+    assert_string_equal(room, PROTO_DEFAULT_ROOM);
+    assert_int_equal(proto_room_of_path("/rooms/studio", room, &e), CORE_OK);
+    assert_string_equal(room, "studio");
+    assert_int_equal(proto_room_of_path("/rooms/a.b\x01\xff", room, &e), CORE_EINVAL);
+    assert_int_equal(e.code, PROTO_ERR_BAD_ROOM);
+    assert_string_equal(e.field, "room");
+    assert_non_null(strstr(e.message, "\"a.b??\""));
+    assert_string_equal(proto_code_name(PROTO_ERR_BAD_ROOM), "bad_room");
+    assert_string_equal(proto_code_name(PROTO_ERR_UNKNOWN_ROOM), "unknown_room");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -941,7 +972,7 @@ int main(void)
         cmocka_unit_test(test_build_params),      cmocka_unit_test(test_build_hello_and_groom), cmocka_unit_test(test_groom_bin),
         cmocka_unit_test(test_hairmesh_bin),      cmocka_unit_test(test_groom_json_hairmesh),
         cmocka_unit_test(test_build_state_stats_subscribed),
-        cmocka_unit_test(test_read_envelope),
+        cmocka_unit_test(test_read_envelope),      cmocka_unit_test(test_rooms),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -33,3 +33,10 @@ add_test(NAME web_e2e_hairmesh
   COMMAND ${STRANDCAST_NODE} ${CMAKE_CURRENT_SOURCE_DIR}/e2e/hairmesh.mjs
           --daemon $<TARGET_FILE:strandcastd> --web ${PROJECT_SOURCE_DIR}/web --out ${CMAKE_BINARY_DIR}/e2e)
 set_tests_properties(web_e2e_hairmesh PROPERTIES LABELS "web;e2e;no_asan" TIMEOUT 900 RUN_SERIAL TRUE)
+# A room's page through an edge relay (tests/e2e/edge.mjs): nats-server, a simulation node, an edge,
+# the viewer at the edge's /rooms/NAME drawing hair (its groom data binary came through the edge)
+# and a parameter change acknowledged. Screenshot in <build>/e2e/edge-room.png.
+add_test(NAME web_e2e_edge
+  COMMAND ${STRANDCAST_NODE} ${CMAKE_CURRENT_SOURCE_DIR}/e2e/edge.mjs
+          --daemon $<TARGET_FILE:strandcastd> --web ${PROJECT_SOURCE_DIR}/web --out ${CMAKE_BINARY_DIR}/e2e)
+set_tests_properties(web_e2e_edge PROPERTIES LABELS "web;e2e;no_asan;nats" TIMEOUT 900 RUN_SERIAL TRUE)

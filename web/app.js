@@ -11,7 +11,7 @@ import { ProtocolError } from './client.js';
 import { Banner, statsText } from './overlay.js';
 import { Panel } from './panel.js';
 import { pickColliders } from './pick.js';
-import { ColliderMeshLoader, httpBase } from './collider_mesh.js';
+import { ColliderMeshLoader, blobUrl, httpBase } from './collider_mesh.js';
 import { GroomDataLoader } from './groom_data.js';
 import { meshStrands, strandParams } from './hairmesh.js';
 import { parseHairmeshData } from './hairmesh_data.js';
@@ -195,6 +195,8 @@ export class App {
       this.banner.show(`Connection to strandcastd lost (${s.reason}). Reconnecting in ${(s.delayMs / 1000).toFixed(1)} s (attempt ${s.attempt})…`, false);
     } else if (s.state === 'connecting' && s.attempt > 0) {
       this.banner.show(`Reconnecting to strandcastd (attempt ${s.attempt})…`, false);
+    } else if (s.state === 'no_room') {
+      this.banner.show(`No such room here: ${s.reason}. Open / or a room this server serves (/rooms/NAME).`, true);
     } else if (s.state === 'mismatch') {
       this.banner.show(`Protocol version mismatch: ${s.reason}. This page cannot talk to this server; reload the page from the server you want to use.`, true);
     }
@@ -207,6 +209,7 @@ export class App {
     }
     this.limits = h.limits || {};
     this.clientId = Number.isInteger(h.client) ? h.client : null;
+    document.title = typeof h.room === 'string' && h.room !== 'default' ? `strandcast: ${h.room}` : 'strandcast';
     this.panel.buildParams(h.params || {});
     this.panel.buildMotion(h.presets, h.animation, this.limits);
     this.panel.buildGrooms(h.grooms, h.groom, this.limits);
@@ -284,7 +287,7 @@ export class App {
     if (desc.etag === this.hairmeshEtag && this.hairmesh) { this._chooseSource(); return; }
     const etag = this.hairmeshEtag = desc.etag;
     this.hairmesh = null;
-    fetch(new URL(desc.url, httpBase(this.url)).toString(), { cache: 'no-cache' })
+    fetch(blobUrl(desc.url, httpBase(this.url)), { cache: 'no-cache' })
       .then((r) => { if (!r.ok) throw new Error(`GET ${desc.url}: HTTP ${r.status}`); return r.arrayBuffer(); })
       .then((buf) => {
         if (this.hairmeshEtag !== etag) return; // superseded by a newer groom

@@ -6,10 +6,14 @@
 // stream_worker.js). No reconnects: a lost connection ends the client (the viewer's net.js
 // reconnects).
 import { StrandDecoder } from './codec.js';
-import { parseGroomData } from './groom_data.js';
+import { blobUrl, httpBase, parseGroomData } from './groom_data.js';
 
 export const SUBPROTOCOL = 'strandcast.v3';
 export const PROTOCOL_VERSION = 3;
+// Close codes after the error of a connection whose path names no valid room (bad_room) or a room
+// the server does not serve (unknown_room), proto/PROTOCOL.md "Rooms".
+export const CLOSE_BAD_ROOM = 4400;
+export const CLOSE_UNKNOWN_ROOM = 4404;
 // Decoded frames a frames() iterator holds for a reader that lags; older ones are dropped.
 const FRAME_QUEUE = 64;
 const ANNOUNCEMENTS = ['params', 'state', 'groom', 'stats', 'error', 'frame', 'close'];
@@ -148,7 +152,7 @@ export class Client {
   async groomData() {
     const g = this.groom;
     if (!g || typeof g.url !== 'string') throw new Error('strandcast client: the groom description names no data url');
-    const url = new URL(g.url, httpUrl(this.url)).toString();
+    const url = blobUrl(g.url, httpBase(this.url));
     const r = await this.fetch(url, { cache: 'no-cache' });
     if (!r.ok) throw new Error(`strandcast client: GET ${url}: HTTP ${r.status}`);
     return parseGroomData(await r.arrayBuffer());
@@ -237,11 +241,6 @@ export class Client {
   }
 }
 
-// The HTTP address of a ws:// or wss:// URL (the same server's pages and binaries).
-export function httpUrl(wsUrl) {
-  return String(wsUrl).replace(/^ws(s?):/, 'http$1:');
-}
-
 // Connects to strandcastd at url (ws://HOST:PORT/) and resolves with a Client once the hello
 // arrived (and, with a token and a hello asking for one, once auth was accepted). Rejects when the
 // server refuses the subprotocol, speaks another protocol version, refuses the token or closes
@@ -258,13 +257,13 @@ export function connect(url, options = {}) {
     ws.binaryType = 'arraybuffer';
     const client = new Client(ws, url, options);
     let settled = false;
-    const fail = (why) => {
+    const fail = (why, error) => {
       if (settled) return;
       settled = true;
       clearTimeout(timer);
       try { ws.close(1000, 'connect failed'); } catch { /* already closing */ }
       client._ended(1006, why);
-      reject(new Error(`strandcast client: ${why}`));
+      reject(error || new Error(`strandcast client: ${why}`));
     };
     const timer = setTimeout(() => fail(`no hello from ${url} within ${options.timeoutMs || 10000} ms`), options.timeoutMs || 10000);
     ws.addEventListener('open', () => {
@@ -281,6 +280,8 @@ export function connect(url, options = {}) {
       if (settled) { client._text(ev.data); return; }
       let hello;
       try { hello = JSON.parse(ev.data); } catch { hello = null; }
+      // a refusal before any hello (a room this server does not serve, bad_room / unknown_room)
+      if (hello && hello.type === 'error') { fail(hello.message, new ProtocolError(hello)); return; }
       if (!hello || hello.type !== 'hello') { fail('the first message was not a hello'); return; }
       const mismatch = helloMismatch(hello, 'this client');
       if (mismatch) { fail(mismatch); return; }

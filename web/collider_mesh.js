@@ -1,5 +1,6 @@
 // The character's collision mesh: the /collider.bin binary (proto/PROTOCOL.md, "Collision mesh
 // binary"), its smooth normals, and fetching it when hello/groom name a new version.
+import { blobUrl, httpBase } from './groom_data.js';
 
 export const MESH_MAGIC = 'SCMH';
 export const MESH_VERSION = 1;
@@ -48,10 +49,7 @@ export function meshNormals(positions, indices) {
   return n;
 }
 
-// The HTTP base of a strandcastd WebSocket URL (ws://h:p/ -> http://h:p/).
-export function httpBase(wsUrl) {
-  return String(wsUrl).replace(/^ws(s?):/, 'http$1:');
-}
+export { blobUrl, httpBase }; // (groom_data.js) where the viewer's loaders find a room's binaries
 
 // Keeps the drawn mesh in step with the collider_mesh descriptions of hello and groom:
 // update(desc) fetches desc.url (relative to base) when desc.etag is new, and calls
@@ -76,7 +74,7 @@ export class ColliderMeshLoader {
     }
     if (desc.etag === this.etag) return Promise.resolve();
     const etag = this.etag = desc.etag;
-    const url = new URL(desc.url, this.base).toString();
+    const url = blobUrl(desc.url, this.base);
     return this.fetch(url, { cache: 'no-cache' })
       .then((r) => {
         if (!r.ok) throw new Error(`GET ${desc.url}: HTTP ${r.status}`);

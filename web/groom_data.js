@@ -1,5 +1,18 @@
 // The groom's per-strand data: the /groom.bin binary (proto/PROTOCOL.md, "Groom data binary":
 // rest segment lengths and rest roots), fetched when hello/groom name a new version.
+// The HTTP base of a strandcastd WebSocket URL (ws://h:p/ -> http://h:p/; a room's,
+// ws://h:p/rooms/NAME -> http://h:p/rooms/NAME/, whose binaries are served under its path, so
+// that an edge relay serving many rooms serves each room's own).
+export function httpBase(wsUrl) {
+  const http = String(wsUrl).replace(/^ws(s?):/, 'http$1:');
+  const m = /^(https?:\/\/[^/]+)(\/rooms\/[^/?#]+)?/.exec(http);
+  return m ? `${m[1]}${m[2] || ''}/` : http;
+}
+
+// The URL of a binary a hello or groom message names (url "/groom.bin") on the server of base.
+export function blobUrl(url, base) {
+  return new URL(String(url).replace(/^\//, ''), base).toString();
+}
 
 export const GROOM_MAGIC = 'SCGR';
 export const GROOM_VERSION = 1;
@@ -60,7 +73,7 @@ export class GroomDataLoader {
       this.onGroom(groom, this.held.data, extra);
       return Promise.resolve();
     }
-    const url = new URL(groom.url, this.base).toString();
+    const url = blobUrl(groom.url, this.base);
     return this.fetch(url, { cache: 'no-cache' })
       .then((r) => {
         if (!r.ok) throw new Error(`GET ${groom.url}: HTTP ${r.status}`);

@@ -2,7 +2,7 @@
 // binary strand frames, a silence watchdog, and reconnects with backoff after a lost connection.
 // The protocol's constants, hello check and request ids are client.js's (the client module).
 import { Backoff } from './backoff.js';
-import { PROTOCOL_VERSION, Requests, SUBPROTOCOL, helloMismatch } from './client.js';
+import { CLOSE_BAD_ROOM, CLOSE_UNKNOWN_ROOM, PROTOCOL_VERSION, Requests, SUBPROTOCOL, helloMismatch } from './client.js';
 
 export { PROTOCOL_VERSION, SUBPROTOCOL };
 // The server sends stats about once a second; a connection silent for this long is taken as
@@ -11,7 +11,8 @@ const WATCHDOG_MS = 30000;
 
 // The endpoint for a page served by strandcastd: same host, ws or wss like the page.
 export function defaultUrl(loc) {
-  return `${loc.protocol === 'https:' ? 'wss' : 'ws'}://${loc.host}/`;
+  const room = (loc.pathname || '').startsWith('/rooms/') ? loc.pathname : '/'; // the page of a room: its socket
+  return `${loc.protocol === 'https:' ? 'wss' : 'ws'}://${loc.host}${room}`;
 }
 
 // The access token in a page URL ending in #token=TOKEN (strandcastd --token-file), or null. When
@@ -112,6 +113,7 @@ export class Connection {
       if (this.ws !== ws) return;
       const why = ev.reason ? `${ev.reason} (code ${ev.code})` : `code ${ev.code}`;
       if (!this.helloSeen && ev.code === 1002) this._mismatch(`the server refused the connection: ${why}`);
+      else if (ev.code === CLOSE_BAD_ROOM || ev.code === CLOSE_UNKNOWN_ROOM) this._noRoom(ev.reason || why);
       else if (!opened) this._refused(why);
       else this._lost(why);
     };
@@ -161,6 +163,12 @@ export class Connection {
         this._status({ state: 'refused', reason: `the server at ${httpUrl} answers HTTP but refused the ${SUBPROTOCOL} WebSocket ${this.refusals} times: most likely a protocol version mismatch (reload the page from that server)` });
       }
     }, () => { this.refusals = 0; });
+  }
+
+  // The server does not serve the room the URL names: no reconnects (they would be refused alike).
+  _noRoom(reason) {
+    this._status({ state: 'no_room', reason });
+    this.stop('no such room');
   }
 
   _mismatch(reason) {

@@ -24,6 +24,11 @@ typedef struct app_desc {
     int32_t solver;            /* sim_solver to start with (the solver parameter); 0 = dftl */
     sim_backend_kind backend;
     int device, threads;
+    const char *room;          /* the room this daemon serves (proto_room_valid); NULL = PROTO_DEFAULT_ROOM */
+    const char *nats;          /* NATS URL: a simulation node (publishes the room's frames, serves edges'
+                                * clients); with relay an edge; NULL = neither */
+    const char *nats_creds;    /* NATS .creds file; NULL = none (user:password@ or token@ may be in the URL) */
+    bool relay;                /* an edge relay (needs nats): no simulation, serves any room's clients */
     const char *listen;        /* NULL = 127.0.0.1 */
     int port;                  /* 0 = NET_DEFAULT_PORT; NET_PORT_ANY = a free port */
     const char *web_dir;       /* NULL = no static files */

@@ -40,6 +40,16 @@ static proto_stream stream_info(const app_world *w, const app_client *c)
     return s;
 }
 
+/* The rate cap net applies to the client's frames: its max_rate where its stream is faster (a
+ * fallback stream, or one that could not be thinned to it), else none: a stream already at the
+ * client's rate is not thinned again, which would drop frames that arrive unevenly (through an
+ * edge relay). */
+static double delivery_cap(const app_world *w, const app_client *c)
+{
+    proto_stream s = stream_info(w, c);
+    return c->max_rate > 0 && s.frame_rate > c->max_rate * (1 + 1e-9) ? c->max_rate : 0;
+}
+
 static void client_open(app_world *w, uint32_t id)
 {
     app_client *c = app_clients_add(&w->clients, id);
@@ -55,7 +65,7 @@ static void client_open(app_world *w, uint32_t id)
         .animation = { app_preset_names[w->anim.preset], w->anim.speed }, .styles = w->styles, .nstyles = APP_NSTYLES,
         .files = (const char *const *)as->files, .nfiles = as->nfiles,
         .meshes = (const char *const *)as->meshes, .nmeshes = as->nmeshes, .stream = stream_info(w, c),
-        .state = app_world_state(w), .token_required = w->d->token != NULL,
+        .state = app_world_state(w), .token_required = w->d->token != NULL, .room = w->d->room,
     };
     char *hello = proto_build_hello(&h);
     if (!hello) {
@@ -63,7 +73,7 @@ static void client_open(app_world *w, uint32_t id)
         return;
     }
     uint32_t stream = c->stream >= 0 ? (uint32_t)c->stream : NET_MAX_STREAMS;
-    if (w->out->net) net_start_client(w->out->net, id, hello, strlen(hello), stream, c->max_rate);
+    app_out_start(w->out, id, hello, stream, delivery_cap(w, c));
     proto_free(hello);
     app_cmd_tell_failure(w, c->stream, id);
     w->dirty = w->dirty || w->paused; /* a paused server still shows the newcomer a frame */
@@ -148,7 +158,7 @@ static void fall_back(app_world *w, app_client *c)
     app_stream_release(&w->streams, c->stream);
     c->stream = stream;
     c->source = PROTO_SOURCE_STRANDS;
-    if (w->out->net) net_subscribe(w->out->net, c->id, (uint32_t)stream, c->max_rate);
+    app_out_subscribe(w->out, c->id, (uint32_t)stream, delivery_cap(w, c));
     proto_stream s = stream_info(w, c);
     app_send(w->out, c->id, proto_build_subscribed(&(proto_id){ .kind = PROTO_ID_NONE }, &s), 0);
     w->dirty = true;
@@ -196,7 +206,7 @@ static void subscribe(app_world *w, uint32_t client, const proto_msg *m)
     c->stride = stride;
     c->max_error = max_error;
     c->max_rate = max_rate;
-    if (w->out->net) net_subscribe(w->out->net, client, (uint32_t)stream, c->max_rate);
+    app_out_subscribe(w->out, client, (uint32_t)stream, delivery_cap(w, c));
     w->dirty = w->dirty || w->paused;
     app_count_accepted(w->out);
     proto_stream s = stream_info(w, c);

@@ -144,7 +144,7 @@ void app_cmd_groom_poll(app_world *w)
         unsigned long long t0 = core_now_ns();
         const bool fell_back = swap_groom(w, l);
         app_play_record(w, m);
-        app_groom_publish(w->out->net, &w->groom); /* before the groom message that names it */
+        app_groom_publish(w->out, w->d->room, &w->groom); /* before the groom message that names it */
         core_log(CORE_LOG_INFO, "app",
                  "client %u: groom %s, %u strands x %u vertices (load %.0f ms), collider %s (load %.0f ms, grid %.0f ms), "
                  "simulation %.0f ms; off the sim thread %.0f ms, swap on it %.1f ms",

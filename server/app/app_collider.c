@@ -5,6 +5,8 @@
 #include <string.h>
 
 #include "app_groom.h"
+#include "app_nats.h"
+#include "app_outbox.h"
 #include "groom/groom.h"
 
 /* Drops g's mesh, grid and binary. */
@@ -65,17 +67,24 @@ core_status app_groom_set_collider(app_groom *g, core_mesh *mesh, const char *la
     return app_groom_render(g, err);
 }
 
-/* Hands one binary (a new reference) to n at path. */
-static void publish(net *n, const char *path, net_buf *b, const char *etag)
+/* Hands one binary (new references) to net at path and at the room's page path, and to the
+ * NATS bridge. */
+static void publish(app_outbox *o, const char *room, const char *path, net_buf *b, const char *etag)
 {
-    if (b) net_buf_ref(b);
-    if (net_set_blob(n, path, b, etag) != CORE_OK) core_log(CORE_LOG_ERROR, "app", "%s could not be handed to net", path);
+    char rpath[NET_MAX_BLOB_PATH];
+    snprintf(rpath, sizeof rpath, PROTO_ROOM_PREFIX "%s%s", room, path);
+    const char *paths[] = { path, rpath };
+    for (int i = 0; i < 2 && o->net; i++) {
+        if (b) net_buf_ref(b);
+        if (net_set_blob(o->net, paths[i], b, etag) != CORE_OK)
+            core_log(CORE_LOG_ERROR, "app", "%s could not be handed to net", paths[i]);
+    }
+    if (o->bus) app_nats_blob(o->bus, path, b, etag);
 }
 
-void app_groom_publish(net *n, const app_groom *g)
+void app_groom_publish(app_outbox *out, const char *room, const app_groom *g)
 {
-    if (!n) return;
-    publish(n, APP_GROOM_PATH, g->groom_bin, g->groom_etag);
-    publish(n, APP_HAIRMESH_PATH, g->hairmesh_bin, g->hairmesh_etag);
-    publish(n, APP_MESH_PATH, g->mesh_bin, g->mesh_etag);
+    publish(out, room, APP_GROOM_PATH, g->groom_bin, g->groom_etag);
+    publish(out, room, APP_HAIRMESH_PATH, g->hairmesh_bin, g->hairmesh_etag);
+    publish(out, room, APP_MESH_PATH, g->mesh_bin, g->mesh_etag);
 }

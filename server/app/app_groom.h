@@ -62,9 +62,11 @@ core_status app_groom_check_size(const app_groom *g, core_err *err);
  * the hair cannot reach the mesh), its binary and the re-rendered JSON. mesh NULL removes
  * g's mesh. (app_collider.c) */
 core_status app_groom_set_collider(app_groom *g, core_mesh *mesh, const char *label, core_err *err);
-/* Hands g's binaries to n: its groom data at APP_GROOM_PATH, its mesh at APP_MESH_PATH and its
- * hair mesh topology at APP_HAIRMESH_PATH (or none); before any message naming their tags is
- * sent. n NULL does nothing. Sim thread. */
-void app_groom_publish(net *n, const app_groom *g);
+/* Hands g's binaries to out's net: its groom data at APP_GROOM_PATH, its mesh at APP_MESH_PATH
+ * and its hair mesh topology at APP_HAIRMESH_PATH (or none), each also under the room's page
+ * path (PROTO_ROOM_PREFIX room "/groom.bin", ...), and to its NATS bridge for the edges (when
+ * out->bus); before any message naming their tags is sent. Sim thread. */
+struct app_outbox;
+void app_groom_publish(struct app_outbox *out, const char *room, const app_groom *g);
 
 #endif

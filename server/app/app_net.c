@@ -2,6 +2,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "app_nats.h"
 #include "app_net.h"
 
 /* Queues c, or answers busy when the mailbox is full; true when queued. */
@@ -25,9 +26,27 @@ static void post_essential(app_gate *g, const app_cmd *c)
     }
 }
 
-void app_on_open(void *user, uint32_t client)
+/* The room the client's path names is served here; else it gets an error (no id) and is closed
+ * (PROTOCOL.md "Rooms"). */
+static bool room_served(app_gate *g, uint32_t client, const char *path)
+{
+    char room[PROTO_MAX_ROOM + 1];
+    proto_error e;
+    int code = PROTO_CLOSE_BAD_ROOM;
+    if (proto_room_of_path(path, room, &e) == CORE_OK) {
+        if (strcmp(room, g->room) == 0) return true;
+        proto_fail(&e, PROTO_ERR_UNKNOWN_ROOM, "room", "this server serves room \"%s\", not \"%s\"", g->room, room);
+        code = PROTO_CLOSE_UNKNOWN_ROOM;
+    }
+    app_reply_error(g->out, client, NULL, &e);
+    app_out_close(g->out, client, code, e.message);
+    return false;
+}
+
+void app_on_open(void *user, uint32_t client, const char *path)
 {
     app_gate *g = user;
+    if (!room_served(g, client, path)) return;
     if (app_peers_open(&g->peers, client, g->token == NULL, core_now_ns()) != CORE_OK)
         core_log(CORE_LOG_WARN, "app", "client %u: out of memory for its entry; it is read-only and not rate-limited", client);
     app_cmd c = { .kind = APP_CMD_OPEN, .client = client };
@@ -121,6 +140,7 @@ size_t app_metrics(void *user, char *buf, size_t cap)
     app_gate *g = user;
     app_stats s = app_stats_read(g->board);
     size_t n = app_stats_metrics(&s, atomic_load(&g->out->accepted), atomic_load(&g->out->rejected), buf, cap);
+    if (g->bus && n + 1 < cap) n += app_nats_metrics(g->bus, buf + n, cap - n);
     if (!g->rec || n + 1 >= cap) return n;
     int k = snprintf(buf + n, cap - n,
                      "# HELP strandcast_record_bytes_total Bytes written to the --record file.\n"

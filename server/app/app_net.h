@@ -22,13 +22,15 @@ typedef struct app_gate {
     atomic_uint *grooms_pending;  /* set_groom requests queued or being carried out (at most 1) */
     const atomic_bool *sim_done;  /* the sim thread has stopped: opens and closes are not waited for */
     const char *token;            /* NULL: every client is a writer */
+    const char *room;             /* the room served: a client whose path names another is refused */
     app_peers peers;              /* owned: each client's budget and access */
     app_record *rec;              /* --record's counters for /metrics; NULL = not recording */
+    struct app_nats *bus;         /* --nats: its counters for /metrics; NULL = none */
 } app_gate;
 
 /* Net-thread callbacks (net_callbacks.user = the app_gate). app_gate_free releases the peers
  * table once the net thread has stopped. */
-void app_on_open(void *user, uint32_t client);
+void app_on_open(void *user, uint32_t client, const char *path);
 void app_on_text(void *user, uint32_t client, const char *text, size_t len);
 void app_on_close(void *user, uint32_t client);
 size_t app_metrics(void *user, char *buf, size_t cap);

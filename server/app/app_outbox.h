@@ -1,6 +1,6 @@
-/* app: the way out to clients: sends text messages through net and counts the control
- * messages accepted and rejected (for /metrics). Borrows the net handle (NULL with --no-net);
- * any thread. */
+/* app: the way out to clients: sends text messages, starts, moves and closes clients through net
+ * (WebSocket clients) or the NATS bridge (remote clients of edge relays, app_nats.h), and counts
+ * the control messages accepted and rejected (for /metrics). Borrows both; any thread. */
 #ifndef APP_OUTBOX_H
 #define APP_OUTBOX_H
 
@@ -17,13 +17,21 @@
 #define APP_ANNOUNCE_STATE NET_TEXT_LATEST(2)
 #define APP_ANNOUNCE_GROOM NET_TEXT_LATEST(3)
 
+struct app_nats;
+
 typedef struct app_outbox {
     net *net;                           /* NULL: messages are dropped (--no-net) */
+    struct app_nats *bus;               /* NULL: no remote clients (no --nats) */
     atomic_uint_fast64_t accepted, rejected;
 } app_outbox;
 
-/* Sends text (freed here) to a client or NET_ALL; ignores NULL (out of memory: logged). */
+/* Sends text (freed here) to a client or NET_ALL (WebSocket and remote clients); ignores NULL
+ * (out of memory: logged). */
 void app_send(app_outbox *o, uint32_t client, char *text, unsigned flags);
+/* net_start_client / net_subscribe / net_close_client for a WebSocket or a remote client. */
+void app_out_start(app_outbox *o, uint32_t client, const char *hello, uint32_t stream, double max_rate);
+void app_out_subscribe(app_outbox *o, uint32_t client, uint32_t stream, double max_rate);
+void app_out_close(app_outbox *o, uint32_t client, int code, const char *reason);
 /* An error reply to one client; counts a rejection. */
 void app_reply_error(app_outbox *o, uint32_t client, const proto_id *id, const proto_error *e);
 /* app_reply_error of (code, field, msg). */

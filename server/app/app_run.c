@@ -9,7 +9,9 @@
 #include <unistd.h>
 
 #include "app_budget.h"
+#include "app_nats.h"
 #include "app_net.h"
+#include "app_relay.h"
 #include "app_sim.h"
 #include "codec/codec.h"
 #include "groom/groom.h"
@@ -28,6 +30,7 @@ typedef struct app {
     app_world w;              /* the sim thread's */
     app_record rec;           /* --record (the sim thread appends, its own thread writes) */
     app_replay replay;        /* --replay (read-only but for the sim thread's cursor) */
+    app_nats bus;             /* --nats: the simulation node's bridge */
 } app;
 
 int app_default_max_clients(void)
@@ -40,6 +43,7 @@ int app_default_max_clients(void)
 static void defaults(app_desc *d)
 {
     if (!d->groom) d->groom = "straight";
+    if (!d->room) d->room = PROTO_DEFAULT_ROOM;
     if (d->rate <= 0.0) d->rate = APP_DEFAULT_RATE;
     if (d->max_error <= 0.0) d->max_error = CODEC_DEFAULT_MAX_ERROR;
     if (d->keyframe_interval <= 0) d->keyframe_interval = (int)CODEC_DEFAULT_KEY_INTERVAL;
@@ -183,13 +187,13 @@ static core_status setup(app *a, core_err *err)
     if (a->d.replay && (st = open_replay(a, err)) != CORE_OK) return st;
     if ((st = setup_world(a, ptable, nparams, err)) != CORE_OK) return st;
     if (a->d.record && (st = open_record(a, err)) != CORE_OK) return st;
-    a->gate = (app_gate){ &a->parser, &a->mb, &a->out, &a->board, &a->grooms_pending, &a->w.done, a->d.token, { 0 }, a->w.rec };
+    a->gate = (app_gate){ &a->parser, &a->mb, &a->out, &a->board, &a->grooms_pending, &a->w.done, a->d.token, a->d.room, { 0 }, a->w.rec, NULL };
     if (!a->d.no_net) {
         net_desc nd = {
             .listen = a->d.listen, .port = a->d.port, .web_dir = a->d.web_dir, .subprotocol = PROTO_SUBPROTOCOL,
             .max_message = PROTO_MAX_MESSAGE, .sndbuf = a->d.client_buffer, .max_clients = a->d.max_clients,
             .allow_origins = a->d.allow_origins, .tls_cert = a->d.tls_cert, .tls_key = a->d.tls_key,
-            .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout, .blobs = { APP_MESH_PATH, APP_GROOM_PATH, APP_HAIRMESH_PATH },
+            .page_prefix = PROTO_ROOM_PREFIX, .ping_s = a->d.ping_interval, .hangup_s = a->d.ping_timeout, .blobs = { APP_MESH_PATH, APP_GROOM_PATH, APP_HAIRMESH_PATH },
             .cb = { &a->gate, app_on_open, app_on_text, app_on_close, app_metrics },
         };
         if ((st = net_create(&a->net, &nd, err)) != CORE_OK) return st;
@@ -197,9 +201,16 @@ static core_status setup(app *a, core_err *err)
     a->out.net = a->net;
     app_streams_init(&a->w.streams, a->net, a->d.rate, a->d.max_error, (uint32_t)a->d.keyframe_interval,
                      a->w.groom.g.nstrands, a->w.groom.g.nverts);
+    if (a->d.nats && a->net) {
+        app_nats_desc bd = { .url = a->d.nats, .creds = a->d.nats_creds, .room = a->d.room, .gate = a->gate };
+        if ((st = app_nats_open(&a->bus, &bd, err)) != CORE_OK) return st;
+        a->out.bus = &a->bus;
+        a->w.streams.bus = &a->bus;
+        a->gate.bus = &a->bus;
+    }
     const core_hairmesh *hm = a->w.groom.g.hairmesh;
     app_streams_set_hairmesh(&a->w.streams, hm ? hm->ncols : 0, hm ? hm->nlayers : 0);
-    app_groom_publish(a->net, &a->w.groom);
+    app_groom_publish(&a->out, a->d.room, &a->w.groom);
     return CORE_OK;
 }
 
@@ -244,6 +255,7 @@ static void wait_for_stop(app *a, const sigset_t *set)
 
 core_status app_run(const app_desc *desc, core_err *err)
 {
+    if (desc->relay) return app_relay_run(desc, err);
     sigset_t set, old;
     sigemptyset(&set);
     sigaddset(&set, SIGINT);
@@ -289,6 +301,7 @@ core_status app_run(const app_desc *desc, core_err *err)
         net_stop(a->net);
         pthread_join(net_thread, NULL);
     }
+    app_nats_close(&a->bus); /* its delivery thread posts to the mailbox and net: before teardown */
     if (st == CORE_OK) {
         sim_stats ss;
         sim_get_stats(&a->w.sim, &ss);

@@ -3,6 +3,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "app_nats.h"
 #include "app_stream.h"
 
 void app_streams_init(app_streams *ss, net *n, double rate, double max_error, uint32_t keyframe_interval,
@@ -99,6 +100,7 @@ void app_stream_release(app_streams *ss, int stream)
     codec_encoder_free(&t->enc);
     memset(t, 0, sizeof *t);
     if (ss->net) net_drop_stream(ss->net, (uint32_t)stream);
+    if (ss->bus) app_nats_drop(ss->bus, (uint32_t)stream);
 }
 
 void app_streams_set_hairmesh(app_streams *ss, uint32_t ncols, uint32_t nlayers)
@@ -125,6 +127,7 @@ void app_streams_regroom(app_streams *ss, uint32_t nstrands, uint32_t nverts, ui
         /* no frame of the old groom may follow the groom message (posted after this); a failure
          * of the new groom's frames is told afresh */
         if (ss->net) net_drop_stream(ss->net, (uint32_t)i);
+        if (ss->bus) app_nats_drop(ss->bus, (uint32_t)i);
         t->failing = false;
         codec_encoder_free(&t->enc);
         core_err err;
@@ -210,6 +213,7 @@ app_publish_result app_streams_publish(app_streams *ss, const float *xyz, const 
         net_buf *b = net_buf_new(ss->enc_buf.len);
         if (!b) continue;
         memcpy(net_buf_data(b), ss->enc_buf.data, ss->enc_buf.len);
+        if (ss->bus) app_nats_frame(ss->bus, (uint32_t)i, b, seq, info.keyframe); /* before net takes b over */
         net_publish(ss->net, (uint32_t)i, b, seq, info.keyframe);
         r.frames++;
         r.bytes += ss->enc_buf.len;

@@ -11,6 +11,8 @@
 #include "net/net.h"
 #include "proto/proto.h"
 
+struct app_nats;
+
 #define APP_MAX_DECIMATION 100000u /* publish rounds per stream frame, at most */
 
 typedef struct app_stream {
@@ -35,6 +37,7 @@ typedef struct app_stream {
 typedef struct app_streams {
     app_stream s[NET_MAX_STREAMS];
     net *net;                 /* borrowed; NULL: nothing is published (--no-net, tests) */
+    struct app_nats *bus;     /* borrowed; NULL: frames go to WebSocket clients only (no --nats) */
     double rate;              /* the server's publish rate, Hz */
     double max_error;         /* the default stream's bound, m */
     uint32_t keyframe_interval;

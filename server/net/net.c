@@ -84,6 +84,15 @@ static void setup_mounts(net *n)
         last->mount_next = b;
         last = b;
     }
+    if (n->page_prefix[0]) { /* the pages and blobs under the prefix: also that callback */
+        struct lws_http_mount *p = &n->mounts[2 + NET_MAX_BLOBS];
+        p->mountpoint = n->page_prefix;
+        p->mountpoint_len = (unsigned char)(strlen(n->page_prefix) - 1); /* without its last '/' */
+        p->origin = "http";
+        p->origin_protocol = LWSMPRO_CALLBACK;
+        last->mount_next = p;
+        last = p;
+    }
     if (n->web_dir) {
         last->mount_next = files;
         files->mountpoint = "/";
@@ -151,6 +160,16 @@ core_status net_create(net **out, const net_desc *d, core_err *err)
         }
         snprintf(n->origins[n->norigins++], NET_MAX_ORIGIN, "%s", *o);
     }
+    if (d->page_prefix) {
+        size_t k = strlen(d->page_prefix);
+        if (k < 3 || k >= sizeof n->page_prefix || d->page_prefix[0] != '/' || d->page_prefix[k - 1] != '/') {
+            net_destroy(n);
+            return core_fail(err, CORE_EINVAL, "net: page prefix \"%s\" must be /NAME/ (under %zu bytes)", d->page_prefix,
+                             sizeof n->page_prefix);
+        }
+        memcpy(n->page_prefix, d->page_prefix, k + 1);
+    }
+    n->desc.page_prefix = NULL;
     pthread_mutex_init(&n->lock, NULL);
     n->next_client = 1;
     if ((st = net_blobs_init(n, err)) != CORE_OK) {
@@ -323,6 +342,19 @@ core_status net_start_client(net *n, uint32_t client, const char *hello, size_t 
     return post(n, e);
 }
 
+core_status net_close_client(net *n, uint32_t client, int code, const char *reason)
+{
+    size_t len = strlen(reason);
+    if (len > NET_MAX_CLOSE_REASON) {
+        len = NET_MAX_CLOSE_REASON;
+        while (len && ((unsigned char)reason[len] & 0xC0) == 0x80) len--; /* not inside a character */
+    }
+    net_event *e = new_event(NET_EV_CLOSE, client, reason, len);
+    if (!e) return CORE_ENOMEM;
+    e->flags = (unsigned)code;
+    return post(n, e);
+}
+
 core_status net_subscribe(net *n, uint32_t client, uint32_t stream, double max_rate)
 {
     net_event *e = new_event(NET_EV_SUBSCRIBE, client, NULL, 0);
@@ -463,6 +495,16 @@ static void apply(net *n, net_event *e)
         break;
     case NET_EV_SUBSCRIBE:
         if ((s = find_session(n, e->client))) set_stream(s, e->stream, e->max_rate);
+        break;
+    case NET_EV_CLOSE:
+        if ((s = find_session(n, e->client)) && !s->closing) {
+            size_t len = net_buf_len(e->buf);
+            memcpy(s->close_text, net_buf_data(e->buf), len);
+            s->close_text[len] = '\0';
+            s->linger = true;
+            s->ready = false; /* no more frames or broadcasts */
+            net_session_close(s, (int)e->flags, s->close_text);
+        }
         break;
     case NET_EV_FRAME: apply_frame(n, e); break;
     case NET_EV_DROP:

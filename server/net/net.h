@@ -26,7 +26,8 @@
 #define NET_MAX_ORIGINS 16         /* net_desc.allow_origins entries */
 #define NET_MAX_ORIGIN 256         /* longest origin, bytes */
 #define NET_MAX_BLOBS 4            /* byte blobs served over HTTP from memory (net_set_blob) */
-#define NET_MAX_BLOB_PATH 64       /* longest blob path, bytes */
+#define NET_MAX_BLOB_PATH 96       /* longest blob path, bytes */
+#define NET_MAX_PAGE_BLOBS 192     /* blobs under desc.page_prefix (net_set_blob adds them) */
 #define NET_MAX_ETAG 64            /* longest blob version tag, bytes */
 
 typedef struct net net;
@@ -44,10 +45,11 @@ void net_buf_ref(net_buf *b);
 void net_buf_unref(net_buf *b);
 
 /* Called on the net thread. text is a complete, UTF-8-valid text message of at most
- * max_message bytes, valid only during the call. */
+ * max_message bytes, valid only during the call; path is the WebSocket request's path (without
+ * the query), valid only during the call. */
 typedef struct net_callbacks {
     void *user;
-    void (*on_open)(void *user, uint32_t client);
+    void (*on_open)(void *user, uint32_t client, const char *path);
     void (*on_text)(void *user, uint32_t client, const char *text, size_t len);
     void (*on_close)(void *user, uint32_t client);
     /* Appends Prometheus text lines for /metrics to buf (at most cap bytes); returns the count
@@ -79,6 +81,9 @@ typedef struct net_desc {
     const char *const *allow_origins;
     /* PEM certificate and key: serve TLS only (https, wss); NULL = plain. Read at net_create. */
     const char *tls_cert, *tls_key;
+    /* A path prefix ("/rooms/"; '/' first and last) under which every GET is answered with the
+     * web folder's index.html (pages that one viewer serves under many names); NULL = none. */
+    const char *page_prefix;
     net_callbacks cb;
 } net_desc;
 
@@ -119,6 +124,14 @@ core_status net_send_text(net *n, uint32_t client, const char *text, size_t len,
  * frames of `stream` to it, at most max_rate frames per second (0 = every frame). Any thread. */
 core_status net_start_client(net *n, uint32_t client, const char *hello, size_t len, uint32_t stream, double max_rate);
 
+#define NET_MAX_CLOSE_REASON 123 /* bytes of a close reason (a close frame's payload is at most 125) */
+
+/* Closes a client once the text queued for it before this call has gone out (a message queued
+ * after it is dropped, and it gets no more frames), with close code (1000..4999) and reason
+ * (copied; cut to NET_MAX_CLOSE_REASON bytes at a UTF-8 boundary). Unknown clients are ignored.
+ * Any thread. Fails only when out of memory or the inbox is full. */
+core_status net_close_client(net *n, uint32_t client, int code, const char *reason);
+
 /* Moves a ready client to another stream and/or rate; it gets that stream's keyframe first.
  * Any thread. */
 core_status net_subscribe(net *n, uint32_t client, uint32_t stream, double max_rate);
@@ -130,8 +143,9 @@ core_status net_subscribe(net *n, uint32_t client, uint32_t stream, double max_r
  * older frames are skipped. Any thread. */
 void net_publish(net *n, uint32_t stream, net_buf *frame, uint64_t seq, bool key);
 
-/* Serves body at path (one of desc.blobs) from now on, taking over the caller's reference
- * (NULL = 404 from now on), with etag (a version tag of the bytes, at most NET_MAX_ETAG bytes
+/* Serves body at path (one of desc.blobs, or PAGE_PREFIX "SEGMENT/NAME" under desc.page_prefix:
+ * such a path is added on its first use, up to NET_MAX_PAGE_BLOBS, and is served instead of the
+ * page) from now on, taking over the caller's reference (NULL = 404 from now on), with etag (a version tag of the bytes, at most NET_MAX_ETAG bytes
  * of letters, digits, '.', '_', '-'; sent quoted). A request already being answered finishes
  * with the bytes it started with. CORE_EINVAL (the reference is dropped) for an unknown path
  * or a bad tag. Any thread; net knows nothing of what the bytes mean. */

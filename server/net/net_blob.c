@@ -35,23 +35,68 @@ void net_blobs_free(net *n)
         net_buf_unref(n->blobs[i].body);
         n->blobs[i].body = NULL;
     }
+    for (int i = 0; i < n->npage_blobs; i++) net_buf_unref(n->page_blobs[i].body);
+    free(n->page_blobs);
+    n->page_blobs = NULL;
+    n->npage_blobs = 0;
 }
 
+/* The blob at path (lock held), or NULL. */
 static net_blob *find(net *n, const char *path)
 {
     for (int i = 0; i < n->nblobs; i++)
         if (strcmp(n->blobs[i].path, path) == 0) return &n->blobs[i];
+    for (int i = 0; i < n->npage_blobs; i++)
+        if (strcmp(n->page_blobs[i].path, path) == 0) return &n->page_blobs[i];
     return NULL;
+}
+
+/* PAGE_PREFIX "SEGMENT/NAME", both of letters, digits, '.', '_', '-', under NET_MAX_BLOB_PATH bytes. */
+static bool page_blob_path(const net *n, const char *path)
+{
+    size_t k = strlen(n->page_prefix);
+    if (!k || strncmp(path, n->page_prefix, k) != 0 || strlen(path) >= NET_MAX_BLOB_PATH) return false;
+    char seg[NET_MAX_BLOB_PATH], name[NET_MAX_BLOB_PATH];
+    const char *slash = strchr(path + k, '/');
+    if (!slash || slash == path + k || !slash[1]) return false;
+    snprintf(seg, sizeof seg, "%.*s", (int)(slash - (path + k)), path + k);
+    snprintf(name, sizeof name, "%s", slash + 1);
+    return name_chars(seg) && name_chars(name);
+}
+
+bool net_page_blob_known(net *n, const char *path)
+{
+    pthread_mutex_lock(&n->lock);
+    bool known = false;
+    for (int i = 0; i < n->npage_blobs && !known; i++) known = strcmp(n->page_blobs[i].path, path) == 0;
+    pthread_mutex_unlock(&n->lock);
+    return known;
+}
+
+/* The blob at path, added under the page prefix when new (lock held); NULL when path is neither. */
+static net_blob *find_or_add(net *n, const char *path)
+{
+    net_blob *b = find(n, path);
+    if (b || !page_blob_path(n, path) || n->npage_blobs == NET_MAX_PAGE_BLOBS) return b;
+    if (!n->page_blobs && !(n->page_blobs = calloc(NET_MAX_PAGE_BLOBS, sizeof *n->page_blobs))) return NULL;
+    b = &n->page_blobs[n->npage_blobs++];
+    snprintf(b->path, sizeof b->path, "%s", path);
+    return b;
 }
 
 core_status net_set_blob(net *n, const char *path, net_buf *body, const char *etag)
 {
-    net_blob *b = find(n, path);
-    if (!b || (body && (!etag || !*etag || strlen(etag) > NET_MAX_ETAG || !name_chars(etag)))) {
+    if (body && (!etag || !*etag || strlen(etag) > NET_MAX_ETAG || !name_chars(etag))) {
         net_buf_unref(body);
         return CORE_EINVAL;
     }
     pthread_mutex_lock(&n->lock);
+    net_blob *b = find_or_add(n, path);
+    if (!b) {
+        pthread_mutex_unlock(&n->lock);
+        net_buf_unref(body);
+        return CORE_EINVAL;
+    }
     net_buf *old = b->body;
     b->body = body;
     snprintf(b->etag, sizeof b->etag, "\"%s\"", body ? etag : "");

@@ -2,6 +2,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <stdbool.h>
 #include <strings.h>
 
 #include "net_internal.h"
@@ -107,9 +108,31 @@ static void metrics_body(net *n, net_http *h)
     h->len = used;
 }
 
+/* A page under desc.page_prefix: the web folder's index.html. */
+static int page(net *n, struct lws *wsi)
+{
+    char path[4096];
+    int k = snprintf(path, sizeof path, "%s/index.html", n->web_dir);
+    if (k < 0 || (size_t)k >= sizeof path)
+        return lws_return_http_status(wsi, HTTP_STATUS_NOT_FOUND, "not found") || lws_http_transaction_completed(wsi) ? -1 : 0;
+    int r = lws_serve_http_file(wsi, path, "text/html; charset=utf-8", NULL, 0);
+    return r < 0 || (r > 0 && lws_http_transaction_completed(wsi)) ? -1 : 0;
+}
+
 static int metrics_headers(net *n, struct lws *wsi, net_http *h)
 {
     char uri[NET_MAX_BLOB_PATH + 8] = "";
+    size_t np = strlen(n->page_prefix);
+    int ulen = lws_hdr_total_length(wsi, WSI_TOKEN_GET_URI);
+    if (np && ulen > 0) { /* a page path may be longer than uri holds */
+        char *full = malloc((size_t)ulen + 1);
+        bool under = full && lws_hdr_copy(wsi, full, ulen + 1, WSI_TOKEN_GET_URI) > 0 && strncmp(full, n->page_prefix, np) == 0;
+        bool blob = under && net_page_blob_known(n, full);
+        int rc = blob ? net_blob_headers(n, wsi, h, full) : 0;
+        free(full);
+        if (blob) return rc;
+        if (under && n->web_dir) return page(n, wsi);
+    }
     if (lws_hdr_copy(wsi, uri, sizeof uri, WSI_TOKEN_GET_URI) > 0 && strcmp(uri, "/metrics") != 0)
         return net_blob_headers(n, wsi, h, uri);
     if (strcmp(uri, "/metrics") != 0)

@@ -19,17 +19,17 @@ struct net_buf {
     unsigned char mem[]; /* LWS_PRE bytes of headroom, then len bytes of data */
 };
 
-typedef enum net_ev_kind { NET_EV_TEXT, NET_EV_START, NET_EV_SUBSCRIBE, NET_EV_FRAME, NET_EV_DROP } net_ev_kind;
+typedef enum net_ev_kind { NET_EV_TEXT, NET_EV_START, NET_EV_SUBSCRIBE, NET_EV_FRAME, NET_EV_DROP, NET_EV_CLOSE } net_ev_kind;
 
 /* One post from another thread, applied in order on the net thread. */
 typedef struct net_event {
     struct net_event *next;
     net_ev_kind kind;
-    uint32_t client;   /* TEXT, START, SUBSCRIBE */
+    uint32_t client;   /* TEXT, START, SUBSCRIBE, CLOSE */
     uint32_t stream;   /* START, SUBSCRIBE, FRAME, DROP */
-    unsigned flags;    /* TEXT */
+    unsigned flags;    /* TEXT; CLOSE: the close code */
     double max_rate;   /* START, SUBSCRIBE */
-    net_buf *buf;      /* TEXT, START (hello), FRAME */
+    net_buf *buf;      /* TEXT, START (hello), FRAME, CLOSE (the reason) */
     uint64_t seq;      /* FRAME */
     bool key;          /* FRAME */
     uint32_t merged;   /* FRAME: older frames this one replaced in the inbox (never sent) */
@@ -52,6 +52,8 @@ typedef struct net_session {
     bool closing;         /* close with close_code at the next WRITEABLE */
     int close_code;
     const char *close_reason;
+    bool linger;          /* closing: its queued text goes out first (net_close_client) */
+    char close_text[NET_MAX_CLOSE_REASON + 1]; /* net_close_client's reason */
     /* text queue (ring of qcap) */
     net_buf **q;
     unsigned char *qflags;
@@ -96,9 +98,12 @@ struct net {
     int norigins;                                  /* 0: any */
     lws_retry_bo_t retry;
     struct lws_protocols protocols[3];
-    struct lws_http_mount mounts[2 + NET_MAX_BLOBS];
+    struct lws_http_mount mounts[3 + NET_MAX_BLOBS]; /* /metrics, files, the blobs, the page prefix */
+    char page_prefix[NET_MAX_BLOB_PATH];  /* desc.page_prefix ("" = none) */
     net_blob blobs[NET_MAX_BLOBS];     /* guarded by lock */
     int nblobs;
+    net_blob *page_blobs;              /* NET_MAX_PAGE_BLOBS paths under the page prefix; guarded by lock */
+    int npage_blobs;
     struct lws_protocol_vhost_options mimes[12];
     int port;
     atomic_bool stop;
@@ -134,6 +139,8 @@ int net_method_callback(struct lws *wsi, enum lws_callback_reasons reason, net_h
 core_status net_blobs_init(net *n, core_err *err);
 /* Releases every blob body. */
 void net_blobs_free(net *n);
+/* True when path is a blob path under the page prefix that net_set_blob has added. */
+bool net_page_blob_known(net *n, const char *path);
 /* HTTP for a blob path: headers (200 or 304) or 404; the body follows in net_blob_write. */
 int net_blob_headers(net *n, struct lws *wsi, net_http *h, const char *uri);
 /* Writes the next chunk of the blob body (on HTTP_WRITEABLE). */

@@ -83,7 +83,7 @@ static bool frame_pending(net *n, const net_session *s)
 
 void net_session_kick(net *n, net_session *s)
 {
-    if (s->closing ? s->close_code != 0 : s->tx || s->qlen > 0 || frame_pending(n, s)) lws_callback_on_writable(s->wsi);
+    if (s->closing ? s->close_code != 0 || s->tx : s->tx || s->qlen > 0 || frame_pending(n, s)) lws_callback_on_writable(s->wsi);
 }
 
 static void session_open(net *n, net_session *s, struct lws *wsi)
@@ -108,7 +108,15 @@ static void session_open(net *n, net_session *s, struct lws *wsi)
         net_session_close(s, LWS_CLOSE_STATUS_UNEXPECTED_CONDITION, "out of memory");
         return;
     }
-    if (n->desc.cb.on_open) n->desc.cb.on_open(n->desc.cb.user, s->client);
+    int plen = lws_hdr_total_length(wsi, WSI_TOKEN_GET_URI);
+    char *path = malloc(plen > 0 ? (size_t)plen + 1 : 1);
+    if (!path) {
+        net_session_close(s, LWS_CLOSE_STATUS_UNEXPECTED_CONDITION, "out of memory");
+        return;
+    }
+    if (plen <= 0 || lws_hdr_copy(wsi, path, plen + 1, WSI_TOKEN_GET_URI) < 0) path[0] = '\0';
+    if (n->desc.cb.on_open) n->desc.cb.on_open(n->desc.cb.user, s->client, path);
+    free(path);
 }
 
 static void session_closed(net *n, net_session *s)
@@ -234,7 +242,8 @@ static int send_frame(net *n, net_session *s, struct lws *wsi)
 
 static int session_writeable(net *n, net_session *s, struct lws *wsi)
 {
-    if (s->closing) {
+    /* a lingering close first finishes the frame being written and the text queued before it */
+    if (s->closing && !(s->linger && s->close_code && (s->tx || s->qlen > 0))) {
         if (!s->close_code) return 0; /* lws is already closing it */
         const char *r = s->close_reason ? s->close_reason : "";
         lws_close_reason(wsi, (enum lws_close_status)s->close_code, (unsigned char *)r, strlen(r));
@@ -255,7 +264,7 @@ static int session_writeable(net *n, net_session *s, struct lws *wsi)
     } else if (frame_pending(n, s)) {
         if (send_frame(n, s, wsi)) return -1;
     }
-    if (s->tx || s->qlen > 0) lws_callback_on_writable(wsi);
+    if (s->tx || s->qlen > 0 || s->closing) lws_callback_on_writable(wsi);
     else if (frame_pending(n, s) && !(s->max_rate > 0 && core_now_ns() < s->next_due_ns)) lws_callback_on_writable(wsi);
     else if (frame_pending(n, s)) lws_set_timer_usecs(wsi, (lws_usec_t)((s->next_due_ns - core_now_ns()) / 1000 + 1));
     return 0;

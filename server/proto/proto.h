@@ -28,6 +28,12 @@
 #define PROTO_MAX_ERROR 1e-2
 #define PROTO_MAX_RATE 240.0          /* subscribe max_rate, Hz (0 = the server's rate) */
 #define PROTO_MAX_TOKEN 256           /* auth token, bytes */
+#define PROTO_MAX_ROOM 64             /* longest room name, bytes */
+#define PROTO_DEFAULT_ROOM "default"  /* the room of the WebSocket path "/" */
+#define PROTO_ROOM_PREFIX "/rooms/"   /* the page and WebSocket path of a room: /rooms/NAME */
+#define PROTO_CLOSE_BAD_ROOM 4400     /* close code: the path names no valid room */
+#define PROTO_CLOSE_UNKNOWN_ROOM 4404 /* close code: a valid room this server does not serve */
+#define PROTO_CLOSE_ROOM_UNAVAILABLE 4503 /* close code: the room's simulation node is gone (reconnect later) */
 
 typedef enum proto_type {
     PROTO_GET_PARAMS = 1,
@@ -59,7 +65,10 @@ typedef enum proto_code {
     PROTO_ERR_BUSY,          /* the server's command queue is full; retry later */
     PROTO_ERR_RATE_LIMITED,  /* the client is over its control-message budget */
     PROTO_ERR_FORBIDDEN,     /* a read-only client asked to change shared state (or a wrong token) */
-    PROTO_ERR_FAILED         /* valid request that failed while being carried out */
+    PROTO_ERR_FAILED,        /* valid request that failed while being carried out */
+    PROTO_ERR_BAD_ROOM,      /* the connection's path names no valid room (charset, length) */
+    PROTO_ERR_UNKNOWN_ROOM,  /* a valid room name this server does not serve */
+    PROTO_ERR_ROOM_UNAVAILABLE /* an edge relay lost (or never found) the simulation node of the room */
 } proto_code;
 
 /* A rejection: code, the offending field as a path ("values.gravity", "" for the whole
@@ -275,7 +284,17 @@ typedef struct proto_hello {
     proto_stream stream;
     proto_state state;
     bool token_required;      /* access "token": changes need an accepted auth first; else "open" */
+    const char *room;         /* the room this connection is in (proto_room_valid); NULL = PROTO_DEFAULT_ROOM */
 } proto_hello;
+
+/* True when name is a room name: 1..PROTO_MAX_ROOM bytes of ASCII letters, digits, '-' and '_'
+ * (so that it is one token of a NATS subject). Any thread. */
+bool proto_room_valid(const char *name);
+
+/* The room a WebSocket request path addresses: PROTO_ROOM_PREFIX "NAME" gives NAME (copied
+ * into room, PROTO_MAX_ROOM + 1 bytes), any other path the default room. A path under the prefix
+ * whose name is not a room name is PROTO_ERR_BAD_ROOM in *e (field "room"). Any thread. */
+core_status proto_room_of_path(const char *path, char *room, proto_error *e);
 
 /* The first message of every connection; see proto/PROTOCOL.md. */
 char *proto_build_hello(const proto_hello *h);

@@ -262,7 +262,7 @@ char *proto_build_hello(const proto_hello *h)
     bool ok = o && cJSON_AddStringToObject(o, "server", h->server) && cJSON_AddStringToObject(o, "version", h->version) &&
               cJSON_AddNumberToObject(o, "protocol", PROTO_VERSION) &&
               cJSON_AddStringToObject(o, "subprotocol", PROTO_SUBPROTOCOL) &&
-              cJSON_AddNumberToObject(o, "client", h->client) &&
+              cJSON_AddNumberToObject(o, "client", h->client) && cJSON_AddStringToObject(o, "room", h->room ? h->room : PROTO_DEFAULT_ROOM) &&
               cJSON_AddStringToObject(o, "access", h->token_required ? "token" : "open") &&
               add_item(o, "capabilities", string_array(caps, sizeof caps / sizeof caps[0])) &&
               add_item(o, "groom", cJSON_CreateRaw(h->groom->groom)) &&

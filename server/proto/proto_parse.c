@@ -33,6 +33,9 @@ static const char *const code_names[] = {
     [PROTO_ERR_FORBIDDEN] = "forbidden",
     [PROTO_ERR_BUSY] = "busy",
     [PROTO_ERR_FAILED] = "failed",
+    [PROTO_ERR_BAD_ROOM] = "bad_room",
+    [PROTO_ERR_UNKNOWN_ROOM] = "unknown_room",
+    [PROTO_ERR_ROOM_UNAVAILABLE] = "room_unavailable",
 };
 
 const char *proto_type_name(proto_type type)

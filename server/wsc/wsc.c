@@ -265,9 +265,9 @@ wsc_conn *wsc_connect(wsc *w, int port, const char *subprotocol, wsc_binary_fn o
     return wsc_connect_host(w, "127.0.0.1", port, subprotocol, on_binary, user);
 }
 
-/* A connection to host:port, over TLS when tls (any certificate accepted: tests only). */
-static wsc_conn *connect_to(wsc *w, const char *host, int port, bool tls, const char *subprotocol, wsc_binary_fn on_binary,
-                            void *user)
+/* A connection to host:port at path, over TLS when tls (any certificate accepted: tests only). */
+static wsc_conn *connect_to(wsc *w, const char *host, int port, const char *path, bool tls, const char *subprotocol,
+                            wsc_binary_fn on_binary, void *user)
 {
     wsc_conn *c = calloc(1, sizeof *c);
     if (!c) return NULL;
@@ -281,7 +281,7 @@ static wsc_conn *connect_to(wsc *w, const char *host, int port, bool tls, const 
     ci.context = w->ctx;
     ci.address = host;
     ci.port = port;
-    ci.path = "/";
+    ci.path = path;
     ci.host = host;
     ci.origin = host;
     ci.protocol = subprotocol;
@@ -296,12 +296,17 @@ static wsc_conn *connect_to(wsc *w, const char *host, int port, bool tls, const 
 wsc_conn *wsc_connect_host(wsc *w, const char *host, int port, const char *subprotocol, wsc_binary_fn on_binary,
                            void *user)
 {
-    return connect_to(w, host, port, false, subprotocol, on_binary, user);
+    return connect_to(w, host, port, "/", false, subprotocol, on_binary, user);
+}
+
+wsc_conn *wsc_connect_path(wsc *w, int port, const char *path, const char *subprotocol, wsc_binary_fn on_binary, void *user)
+{
+    return connect_to(w, "127.0.0.1", port, path, false, subprotocol, on_binary, user);
 }
 
 wsc_conn *wsc_connect_tls(wsc *w, int port, const char *subprotocol, wsc_binary_fn on_binary, void *user)
 {
-    return connect_to(w, "127.0.0.1", port, true, subprotocol, on_binary, user);
+    return connect_to(w, "127.0.0.1", port, "/", true, subprotocol, on_binary, user);
 }
 
 static unsigned long long now_ms(void)

@@ -26,6 +26,9 @@ wsc_conn *wsc_connect(wsc *w, int port, const char *subprotocol, wsc_binary_fn o
 wsc_conn *wsc_connect_host(wsc *w, const char *host, int port, const char *subprotocol, wsc_binary_fn on_binary,
                            void *user);
 
+/* wsc_connect to the request path ("/rooms/NAME"; the string must outlive the connection attempt). */
+wsc_conn *wsc_connect_path(wsc *w, int port, const char *path, const char *subprotocol, wsc_binary_fn on_binary, void *user);
+
 /* wsc_connect over TLS (wss://), accepting any certificate (self-signed test certificates). */
 wsc_conn *wsc_connect_tls(wsc *w, int port, const char *subprotocol, wsc_binary_fn on_binary, void *user);
 

@@ -139,6 +139,14 @@ int setup_large_groom(void **state);
 int setup_token(void **state);
 int setup_origin(void **state);
 int setup_tls(void **state);
+/* it_rooms.c: the daemon serving room "studio-2" (--room). */
+int setup_room(void **state);
+/* it_nats.c: nats-server, simulation nodes of rooms r1 and r2 and two edge relays (the server
+ * requiring a token in setup_nats_token); skipped without nats-server. */
+int setup_nats(void **state);
+int setup_nats_token(void **state);
+int setup_nats_client_token(void **state); /* the node of r1 with --token-file (IT_TOKEN) */
+int teardown_nats(void **state);
 #define IT_TOKEN "k3Jq9-Vx2Lm7Tz8Wb4Np6Rs1Yd5Hf0Gc"
 int teardown_ratboy(void **state);
 #define IT_SCENARIO(name, su, td, timeout, labels) void test_##name(void **state);

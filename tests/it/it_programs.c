@@ -47,7 +47,8 @@ void test_flags(void **state)
                                          "--listen", "--port", "--web", "--assets", "--rate", "--max-error",
                                          "--keyframe-interval", "--client-buffer", "--ping-interval", "--ping-timeout",
                                          "--max-clients", "--token-file", "--insecure-open", "--allow-origin",
-                                         "--tls-cert", "--tls-key", "--no-net", "--steps", "default" };
+                                         "--tls-cert", "--tls-key", "--no-net", "--steps", "--room", "--nats",
+                                         "--relay", "--nats-creds", "default" };
     for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++)
         if (!strstr(out, flags[i])) fail_msg("--help does not mention %s", flags[i]);
     static const char *const bad[][4] = {
@@ -58,6 +59,8 @@ void test_flags(void **state)
         { "--ping-timeout", "20", NULL }, { "--ping-timeout=5", "--ping-interval", "5" }, { "--ping-timeout", "x", NULL },
         { "--max-clients", "0", NULL }, { "--max-clients", "5000", NULL }, { "--token-file", "/nonexistent/t", NULL },
         { "--allow-origin", "good.example", NULL }, { "--tls-cert", "/tmp/c.pem", NULL },
+        { "--room", "a.b", NULL }, { "--room", "", NULL }, { "--nats", "http://127.0.0.1:4222", NULL },
+        { "--relay", NULL, NULL }, { "--nats-creds", "/nonexistent/c.creds", NULL },
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         int rc = run_capture(cfg->exe, bad[i], out, sizeof out);
@@ -69,6 +72,10 @@ void test_flags(void **state)
     const char *open_wide[] = { "--listen", "0.0.0.0", "--port", "0", "--steps", "1", NULL };
     int rc0 = run_capture(cfg->exe, open_wide, out, sizeof out);
     if (rc0 != 2 || !strstr(out, "--token-file")) fail_msg("--listen 0.0.0.0 without a token: exit %d, said: %s", rc0, out);
+    /* an edge relay beyond loopback: only with --insecure-open (the token is the nodes') */
+    const char *relay_wide[] = { "--relay", "--nats", "nats://127.0.0.1:1", "--listen", "0.0.0.0", NULL };
+    rc0 = run_capture(cfg->exe, relay_wide, out, sizeof out);
+    if (rc0 != 2 || !strstr(out, "--insecure-open")) fail_msg("--relay --listen 0.0.0.0: exit %d, said: %s", rc0, out);
     const char *insecure[] = { "--listen", "0.0.0.0", "--port", "0", "--steps", "2", "--insecure-open", "--backend", "cpu",
                                "--strands", "16", "--verts", "4", NULL };
     assert_int_equal(run_capture(cfg->exe, insecure, out, sizeof out), 0);

@@ -78,6 +78,14 @@ test('connect refuses a hello of another protocol version and a missing WebSocke
   await assert.rejects(connect('ws://fake/', { WebSocket: 0 }), /no WebSocket/);
 });
 
+test('connect to a room the server does not serve rejects with its error code', async () => {
+  class Elsewhere extends FakeSocket {
+    hello() { return { type: 'error', code: 'unknown_room', field: 'room', message: 'this server serves room "default", not "b"' }; }
+  }
+  await assert.rejects(connect('ws://fake/rooms/b', { WebSocket: Elsewhere }),
+                       (e) => e instanceof ProtocolError && e.code === 'unknown_room' && e.field === 'room');
+});
+
 function startDaemon() {
   assert.ok(fs.existsSync(daemonPath), `no daemon at ${daemonPath} (set STRANDCASTD)`);
   const child = spawn(daemonPath, ['--port', '0', '--min-step-rate', '0', '--backend', 'cpu', '--strands', String(STRANDS), '--verts', String(VERTS)],

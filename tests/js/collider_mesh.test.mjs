@@ -2,7 +2,7 @@
 // the loader that follows hello/groom's collider_mesh.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { ColliderMeshLoader, httpBase, meshNormals, parseColliderMesh } from '../../web/collider_mesh.js';
+import { ColliderMeshLoader, blobUrl, httpBase, meshNormals, parseColliderMesh } from '../../web/collider_mesh.js';
 
 // A tetrahedron, counter-clockwise seen from outside (as the server's meshes are).
 const TET_POS = [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1];
@@ -55,6 +55,9 @@ test('normals point outward', () => {
 test('httpBase', () => {
   assert.equal(httpBase('ws://127.0.0.1:7681/'), 'http://127.0.0.1:7681/');
   assert.equal(httpBase('wss://h/'), 'https://h/');
+  assert.equal(httpBase('ws://h:1/rooms/studio-2'), 'http://h:1/rooms/studio-2/');
+  assert.equal(blobUrl('/groom.bin', httpBase('ws://h:1/')), 'http://h:1/groom.bin');
+  assert.equal(blobUrl('/groom.bin', httpBase('wss://h/rooms/a_b')), 'https://h/rooms/a_b/groom.bin');
 });
 
 test('the loader fetches a new etag once, drops superseded replies and clears on null', async () => {

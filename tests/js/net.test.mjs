@@ -51,6 +51,22 @@ function make(extra = {}, token = null) {
 test('defaultUrl follows the page scheme and host', () => {
   assert.equal(defaultUrl({ protocol: 'http:', host: 'a:7681' }), 'ws://a:7681/');
   assert.equal(defaultUrl({ protocol: 'https:', host: 'b' }), 'wss://b/');
+  assert.equal(defaultUrl({ protocol: 'http:', host: 'a', pathname: '/rooms/studio-2' }), 'ws://a/rooms/studio-2');
+  assert.equal(defaultUrl({ protocol: 'http:', host: 'a', pathname: '/index.html' }), 'ws://a/');
+});
+
+test('a room the server does not serve stops the connection (no reconnects)', async () => {
+  for (const code of [4404, 4400]) {
+    const { c, log } = make();
+    c.start();
+    FakeSocket.all[0].accept();
+    FakeSocket.all[0].text({ type: 'error', code: 'unknown_room', field: 'room', message: 'not here' });
+    FakeSocket.all[0].drop(code, 'this server serves room "a", not "b"');
+    assert.equal(log.status.at(-1).state, 'no_room');
+    assert.match(log.status.at(-1).reason, /serves room "a"/);
+    await sleep(30);
+    assert.equal(FakeSocket.all.length, 1, 'no reconnect');
+  }
 });
 
 test('hello opens the session; messages and frames flow only after it', () => {

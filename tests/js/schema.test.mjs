@@ -116,8 +116,8 @@ function startDaemon(assets) {
   });
 }
 
-function open(port) {
-  const ws = new WebSocket(`ws://127.0.0.1:${port}/`, 'strandcast.v3');
+function open(port, path = '/') {
+  const ws = new WebSocket(`ws://127.0.0.1:${port}${path}`, 'strandcast.v3');
   const texts = [];
   let waiters = [];
   ws.on('message', (data, isBinary) => {
@@ -146,9 +146,13 @@ test('every server message validates against its schema', async () => {
   writeFileSync(join(dir, 'tet.obj'), 'v -0.2 -0.2 -0.2\nv 0.3 -0.2 -0.2\nv -0.2 0.3 -0.2\nv -0.2 -0.2 0.3\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n');
   const { child, port } = await startDaemon(dir);
   try {
-    const a = await open(port), b = await open(port);
+    const a = await open(port), b = await open(port, '/rooms/default');
     await a.until((m) => m.type === 'hello', 'hello');
     await b.until((m) => m.type === 'hello', 'hello');
+    // a room this server does not serve, and a name that is no room name: an error, then a close
+    const elsewhere = await open(port, '/rooms/elsewhere'), badRoom = await open(port, '/rooms/no.dots');
+    await elsewhere.until((m) => m.type === 'error' && m.code === 'unknown_room', 'unknown_room');
+    await badRoom.until((m) => m.type === 'error' && m.code === 'bad_room', 'bad_room');
     const send = (c, m) => c.ws.send(JSON.stringify(m));
     let id = 100;
     for (const m of CLIENT_OK) {
@@ -173,7 +177,7 @@ test('every server message validates against its schema', async () => {
     await b.until((m) => m.type === 'stats', 'stats');
     await b.until((m) => m.type === 'groom', 'groom');
     const seen = new Set();
-    for (const m of [...a.texts, ...b.texts]) {
+    for (const m of [...a.texts, ...b.texts, ...elsewhere.texts, ...badRoom.texts]) {
       check(get(`server.${m.type}`), m, true);
       seen.add(m.type);
     }

@@ -1,0 +1,392 @@
+/* Integration tests: rooms on simulation nodes and edge relays over a real nats-server (started
+ * here on a free loopback port; the scenarios skip when the binary is absent). */
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "it.h"
+#include "support/natsd.h"
+
+#define NATS_TOKEN "it-nats-token-5c1e"
+#define NODE_LOST_MS 6000 /* the edges' 3 s heartbeat timeout, plus slack for a loaded host */
+
+/* The last frames of one client, by seq, with a hash of their bytes. */
+typedef struct seen {
+    uint64_t seq[256], hash[256];
+    size_t n;
+    uint64_t frames;
+    uint32_t strands;  /* of the last frame */
+} seen;
+
+typedef struct nats_fx {
+    const config *cfg;
+    natsd nats;
+    daemon_proc nodes[2], edges[2];
+    wsc *w;
+    seen seen[4];
+} nats_fx;
+
+static uint64_t fnv(const uint8_t *p, size_t n)
+{
+    uint64_t h = 1469598103934665603ull;
+    for (size_t i = 0; i < n; i++) h = (h ^ p[i]) * 1099511628211ull;
+    return h;
+}
+
+static void on_raw(wsc_conn *c, const uint8_t *data, size_t len, void *user)
+{
+    (void)c;
+    seen *s = user;
+    codec_frame_info info;
+    core_err err;
+    if (codec_peek_header(data, len, &info, &err) != CORE_OK) return;
+    s->seq[s->n % 256] = info.seq;
+    s->hash[s->n % 256] = fnv(data, len);
+    s->n++;
+    s->frames++;
+    s->strands = info.nstrands_sent;
+}
+
+/* A node of room; with token_file, clients need that token to change anything. */
+static void start_node(nats_fx *fx, int i, const char *room, const char *token_file)
+{
+    char *argv[] = { (char *)fx->cfg->exe, "--port", "0", "--backend", "cpu", "--strands", "64", "--verts", "8", "--threads", "1",
+                     "--min-step-rate", "0", "--nats", fx->nats.url, "--room", (char *)room,
+                     token_file ? "--token-file" : NULL, (char *)token_file, NULL };
+    assert_int_equal(daemon_start(&fx->nodes[i], fx->cfg->exe, argv, 20000), 0);
+}
+
+static void start_edge(nats_fx *fx, int i)
+{
+    char *argv[] = { (char *)fx->cfg->exe, "--relay", "--port", "0", "--nats", fx->nats.url, NULL };
+    assert_int_equal(daemon_start(&fx->edges[i], fx->cfg->exe, argv, 20000), 0);
+}
+
+/* nats-server, nodes of rooms r1 and r2, two edges (token: nats-server requires it; token_file:
+ * the node of r1 requires its token from clients). */
+static int setup_nodes(void **state, const char *token, const char *token_file)
+{
+    if (!natsd_exe()) {
+        print_message("nats-server is not installed (.ci/deps installs it): skipped\n");
+        return -1;
+    }
+    nats_fx *fx = calloc(1, sizeof *fx);
+    fx->cfg = *state;
+    assert_int_equal(natsd_start(&fx->nats, 0, token), 0);
+    start_node(fx, 0, "r1", token_file);
+    start_node(fx, 1, "r2", NULL);
+    start_edge(fx, 0);
+    start_edge(fx, 1);
+    fx->w = wsc_new();
+    *state = fx;
+    return 0;
+}
+
+int setup_nats(void **state) { return setup_nodes(state, NULL, NULL); }
+int setup_nats_token(void **state) { return setup_nodes(state, NATS_TOKEN, NULL); }
+
+int setup_nats_client_token(void **state)
+{
+    char path[] = "/tmp/strandcast-nats-token-XXXXXX";
+    int fd = mkstemp(path); /* mode 0600 */
+    assert_true(fd >= 0);
+    assert_true(write(fd, IT_TOKEN "\n", strlen(IT_TOKEN) + 1) == (ssize_t)strlen(IT_TOKEN) + 1);
+    close(fd);
+    int rc = setup_nodes(state, NULL, path); /* the node has read it */
+    unlink(path);
+    return rc;
+}
+
+int teardown_nats(void **state)
+{
+    nats_fx *fx = *state;
+    wsc_free(fx->w);
+    int bad = 0; /* those the test did not stop itself exit cleanly (no leak, no error) */
+    for (int i = 0; i < 2; i++) {
+        if (fx->edges[i].pid > 0 && daemon_stop(&fx->edges[i], SIGTERM, 15000) != 0) bad++;
+        if (fx->nodes[i].pid > 0 && daemon_stop(&fx->nodes[i], SIGTERM, 15000) != 0) bad++;
+    }
+    natsd_stop(&fx->nats);
+    free(fx);
+    if (bad) fprintf(stderr, "%d strandcastd processes did not exit with 0 after SIGTERM\n", bad);
+    return bad ? -1 : 0;
+}
+
+/* A client of room at edge i whose frames go into s; returns it after its hello (room checked). */
+static wsc_conn *join(nats_fx *fx, int edge, const char *room, seen *s, double *client)
+{
+    static char paths[8][80];
+    static int np;
+    char *path = paths[np++ % 8];
+    snprintf(path, 80, "/rooms/%s", room);
+    wsc_conn *c = wsc_connect_path(fx->w, fx->edges[edge].port, path, SUBPROTOCOL, on_raw, s);
+    const char *t = wsc_next_of_type(fx->w, c, "hello", 10000);
+    if (!t) fail_msg("no hello from edge %d for room %s", edge, room);
+    cJSON *h = cJSON_Parse(t);
+    assert_string_equal(str(h, "room"), room);
+    if (client) *client = num(h, "client");
+    cJSON_Delete(h);
+    return c;
+}
+
+static bool frames_reach(void *arg)
+{
+    const reach_arg *a = arg;
+    return *a->count >= a->n;
+}
+
+static void wait_seen(nats_fx *fx, seen *s, uint64_t n, int ms)
+{
+    reach_arg a = { &s->frames, n };
+    if (!wsc_until(fx->w, frames_reach, &a, ms)) fail_msg("%llu frames, want %llu", (unsigned long long)s->frames, (unsigned long long)n);
+}
+
+/* Frames both clients got with the same seq: at least min of them, every one byte-identical. */
+static void same_frames(const seen *a, const seen *b, size_t min)
+{
+    size_t common = 0;
+    for (size_t i = 0; i < (a->n < 256 ? a->n : 256); i++)
+        for (size_t j = 0; j < (b->n < 256 ? b->n : 256); j++)
+            if (a->seq[i] == b->seq[j]) {
+                assert_true(a->hash[i] == b->hash[j]);
+                common++;
+            }
+    if (common < min) fail_msg("only %zu frames in common", common);
+}
+
+/* The next message of type on c that satisfies key == value (a number), within ms. */
+static cJSON *expect_params_by(nats_fx *fx, wsc_conn *c, double by)
+{
+    for (int i = 0; i < 50; i++) {
+        const char *t = wsc_next_of_type(fx->w, c, "params", 5000);
+        if (!t) break;
+        cJSON *m = cJSON_Parse(t);
+        const cJSON *b = cJSON_GetObjectItemCaseSensitive(m, "by");
+        if (cJSON_IsNumber(b) && b->valuedouble == by) return m;
+        cJSON_Delete(m);
+    }
+    fail_msg("no params by client %.0f", by);
+    return NULL;
+}
+
+void test_nats_rooms_on_edges(void **state)
+{
+    nats_fx *fx = *state;
+    double ida, idb;
+    wsc_conn *a = join(fx, 0, "r1", &fx->seen[0], &ida);
+    wsc_conn *b = join(fx, 1, "r1", &fx->seen[1], &idb);
+    wsc_conn *c = join(fx, 0, "r2", &fx->seen[2], NULL);
+    assert_true(ida != idb);
+    wait_seen(fx, &fx->seen[0], 60, 15000);
+    wait_seen(fx, &fx->seen[1], 60, 15000);
+    wait_seen(fx, &fx->seen[2], 10, 15000);
+    /* the same room on two edges: the same bytes */
+    same_frames(&fx->seen[0], &fx->seen[1], 20);
+    /* a change on one edge: its reply (id intact) there, the announcement on the other edge
+     * with by = the sender */
+    wsc_send_text(a, "{\"type\":\"set_params\",\"id\":\"edge-7\",\"values\":{\"gravity\":2.5}}");
+    const char *t = wsc_next_of_type(fx->w, a, "ok", 5000);
+    assert_non_null(t);
+    cJSON *ok = cJSON_Parse(t);
+    assert_string_equal(str(ok, "id"), "edge-7");
+    cJSON_Delete(ok);
+    cJSON *p = expect_params_by(fx, b, ida);
+    assert_true(num(get(p, "values"), "gravity") == 2.5);
+    cJSON_Delete(p);
+    /* the other room does not see it */
+    wsc_run(fx->w, 300);
+    size_t nt;
+    char *const *texts = wsc_texts(c, &nt);
+    for (size_t i = 0; i < nt; i++) assert_null(strstr(texts[i], "\"gravity\":2.5"));
+    /* stream settings are requests to the node: a stride-2 stream through the edge */
+    wsc_send_text(b, "{\"type\":\"subscribe\",\"id\":3,\"stride\":2}");
+    t = wsc_next_of_type(fx->w, b, "subscribed", 5000);
+    assert_non_null(t);
+    cJSON *sub = cJSON_Parse(t);
+    assert_true(num(sub, "id") == 3 && num(get(sub, "stream"), "strands") == 32);
+    cJSON_Delete(sub);
+    uint64_t before = fx->seen[1].frames;
+    wait_seen(fx, &fx->seen[1], before + 10, 10000);
+    assert_int_equal(fx->seen[1].strands, 32);
+    assert_int_equal(fx->seen[0].strands, 64);
+    /* the edges' pages and metrics */
+    http_reply r;
+    assert_int_equal(http_get(fx->edges[1].port, "/rooms/r1", &r), 0);
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.body, "<title>strandcast</title>"));
+    http_reply_free(&r);
+    /* the room's binaries: served by the edge at the room's path, the node's bytes */
+    http_reply node_bin, edge_bin;
+    assert_int_equal(http_get(fx->nodes[0].port, "/groom.bin", &node_bin), 0);
+    assert_int_equal(http_get(fx->edges[1].port, "/rooms/r1/groom.bin", &edge_bin), 0);
+    assert_int_equal(node_bin.status, 200);
+    assert_int_equal(edge_bin.status, 200);
+    assert_true(edge_bin.body_len == node_bin.body_len && memcmp(edge_bin.body, node_bin.body, node_bin.body_len) == 0);
+    http_reply_free(&node_bin);
+    http_reply_free(&edge_bin);
+    assert_int_equal(http_get(fx->edges[1].port, "/metrics", &r), 0);
+    assert_int_equal(r.status, 200);
+    assert_true(metric(r.body, "strandcast_relay_frames_in_total") > 0);
+    http_reply_free(&r);
+    /* the node published each frame once, whatever the clients and edges */
+    assert_int_equal(http_get(fx->nodes[0].port, "/metrics", &r), 0);
+    double published = metric(r.body, "strandcast_nats_frames_published_total"),
+           encoded = metric(r.body, "strandcast_frames_encoded_total");
+    assert_true(published > 0 && published <= encoded);
+    http_reply_free(&r);
+}
+
+void test_nats_node_killed(void **state)
+{
+    nats_fx *fx = *state;
+    wsc_conn *a = join(fx, 0, "r1", &fx->seen[0], NULL);
+    wsc_conn *c = join(fx, 1, "r2", &fx->seen[2], NULL);
+    wait_seen(fx, &fx->seen[0], 10, 15000);
+    daemon_stop(&fx->nodes[0], SIGKILL, 5000);
+    double t0 = now_s();
+    const char *t = wsc_next_of_type(fx->w, a, "error", NODE_LOST_MS);
+    assert_non_null(t);
+    cJSON *e = cJSON_Parse(t);
+    assert_string_equal(str(e, "code"), "room_unavailable");
+    cJSON_Delete(e);
+    assert_int_equal(wsc_wait_closed(fx->w, a, 3000), PROTO_CLOSE_ROOM_UNAVAILABLE);
+    double lost_s = now_s() - t0;
+    print_message("node loss noticed after %.1f s\n", lost_s);
+    assert_true(lost_s >= 2.0); /* by the heartbeat timeout, not by chance */
+    /* the other room streams on */
+    uint64_t before = fx->seen[2].frames;
+    wait_seen(fx, &fx->seen[2], before + 30, 10000);
+    assert_true(wsc_is_open(c));
+    /* a new client of the dead room: refused the same way once the timeout passes */
+    wsc_conn *late = wsc_connect_path(fx->w, fx->edges[0].port, "/rooms/r1", SUBPROTOCOL, NULL, NULL);
+    assert_int_equal(wsc_wait_closed(fx->w, late, NODE_LOST_MS), PROTO_CLOSE_ROOM_UNAVAILABLE);
+}
+
+void test_nats_edge_killed(void **state)
+{
+    nats_fx *fx = *state;
+    wsc_conn *a = join(fx, 0, "r1", &fx->seen[0], NULL);
+    wsc_conn *b = join(fx, 1, "r1", &fx->seen[1], NULL);
+    wait_seen(fx, &fx->seen[1], 10, 15000);
+    daemon_stop(&fx->edges[1], SIGKILL, 5000);
+    assert_true(wsc_wait_closed(fx->w, b, 5000) != -1 || !wsc_is_open(b));
+    uint64_t before = fx->seen[0].frames;
+    wait_seen(fx, &fx->seen[0], before + 240, 20000); /* past the node's 3 s edge timeout */
+    assert_true(wsc_is_open(a));
+    /* a client reconnecting to the edge left (as through a load balancer) gets the room */
+    join(fx, 0, "r1", &fx->seen[3], NULL);
+    wait_seen(fx, &fx->seen[3], 10, 10000);
+}
+
+void test_nats_restart(void **state)
+{
+    nats_fx *fx = *state;
+    double ida;
+    wsc_conn *a = join(fx, 0, "r1", &fx->seen[0], &ida);
+    wsc_conn *b = join(fx, 1, "r1", &fx->seen[1], NULL);
+    wait_seen(fx, &fx->seen[0], 10, 15000);
+    int port = fx->nats.port;
+    natsd_stop(&fx->nats);
+    wsc_run(fx->w, 1500);
+    assert_int_equal(natsd_start(&fx->nats, port, NULL), 0);
+    uint64_t before = fx->seen[0].frames;
+    wait_seen(fx, &fx->seen[0], before + 60, 20000);
+    assert_true(wsc_is_open(a) && wsc_is_open(b));
+    /* control still flows both ways */
+    wsc_send_text(a, "{\"type\":\"set_params\",\"id\":9,\"values\":{\"gravity\":4}}");
+    cJSON *p = expect_params_by(fx, b, ida);
+    cJSON_Delete(p);
+}
+
+/* haproxy -f tests/haproxy.cfg in front of the two edges, on port (its pid). */
+static pid_t start_haproxy(const nats_fx *fx, int port)
+{
+    static const char exe[] = "/usr/sbin/haproxy";
+    if (access(exe, X_OK) != 0) fail_msg("%s is not installed (.ci/deps installs it)", exe);
+    char listen[32], e1[32], e2[32];
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
+    snprintf(e1, sizeof e1, "127.0.0.1:%d", fx->edges[0].port);
+    snprintf(e2, sizeof e2, "127.0.0.1:%d", fx->edges[1].port);
+    pid_t pid = fork();
+    if (pid == 0) {
+        prctl(PR_SET_PDEATHSIG, SIGTERM);
+        setenv("SC_LISTEN", listen, 1);
+        setenv("SC_EDGE1", e1, 1);
+        setenv("SC_EDGE2", e2, 1);
+        execl(exe, exe, "-db", "-q", "-f", STRANDCAST_SOURCE_DIR "/tests/haproxy.cfg", (char *)NULL);
+        _exit(127);
+    }
+    assert_true(pid > 0);
+    return pid;
+}
+
+/* A client of room r1 through haproxy (retrying until haproxy listens and routes). */
+static wsc_conn *join_via(nats_fx *fx, int port, seen *s)
+{
+    for (int i = 0; i < 20; i++) {
+        wsc_conn *c = wsc_connect_path(fx->w, port, "/rooms/r1", SUBPROTOCOL, on_raw, s);
+        const char *t = wsc_next_of_type(fx->w, c, "hello", 1500);
+        if (t) return c;
+        wsc_run(fx->w, 100);
+    }
+    fail_msg("no hello through haproxy");
+    return NULL;
+}
+
+void test_nats_haproxy(void **state)
+{
+    nats_fx *fx = *state;
+    int port = natsd_free_port();
+    pid_t hp = start_haproxy(fx, port);
+    wsc_conn *a = join_via(fx, port, &fx->seen[0]);
+    wsc_conn *b = join_via(fx, port, &fx->seen[1]);
+    wait_seen(fx, &fx->seen[0], 30, 15000);
+    wait_seen(fx, &fx->seen[1], 30, 15000);
+    /* leastconn put them on both edges */
+    http_reply r;
+    double clients[2];
+    for (int i = 0; i < 2; i++) {
+        assert_int_equal(http_get(fx->edges[i].port, "/metrics", &r), 0);
+        clients[i] = metric(r.body, "strandcast_clients");
+        http_reply_free(&r);
+    }
+    assert_true(clients[0] == 1 && clients[1] == 1);
+    /* an edge stops: its client is cut, the other streams on, and reconnecting through haproxy
+     * lands on the edge left */
+    daemon_stop(&fx->edges[0], SIGKILL, 5000);
+    wsc_run(fx->w, 1500); /* haproxy's health check marks it down */
+    assert_true(!wsc_is_open(a) || !wsc_is_open(b));
+    join_via(fx, port, &fx->seen[2]);
+    wait_seen(fx, &fx->seen[2], 30, 15000);
+    kill(hp, SIGTERM);
+    waitpid(hp, NULL, 0);
+}
+
+/* The node's --token-file holds for its clients on an edge: read-only until auth. */
+void test_nats_client_token(void **state)
+{
+    nats_fx *fx = *state;
+    wsc_conn *a = join(fx, 0, "r1", &fx->seen[0], NULL);
+    wsc_send_text(a, "{\"type\":\"set_params\",\"id\":1,\"values\":{\"gravity\":3}}");
+    const char *t = wsc_next_of_type(fx->w, a, "error", 5000);
+    assert_non_null(t);
+    assert_non_null(strstr(t, "forbidden"));
+    wsc_send_text(a, "{\"type\":\"auth\",\"id\":2,\"token\":\"" IT_TOKEN "\"}");
+    assert_non_null(wsc_next_of_type(fx->w, a, "ok", 5000));
+    wsc_send_text(a, "{\"type\":\"set_params\",\"id\":3,\"values\":{\"gravity\":3}}");
+    t = wsc_next_of_type(fx->w, a, "ok", 5000);
+    assert_non_null(t);
+    assert_non_null(strstr(t, "\"id\":3"));
+}
+
+void test_nats_token(void **state)
+{
+    nats_fx *fx = *state;
+    join(fx, 1, "r2", &fx->seen[0], NULL);
+    wait_seen(fx, &fx->seen[0], 10, 15000);
+}
