@@ -176,8 +176,9 @@ static void on_ctl(natsConnection *nc, natsSubscription *sub, natsMsg *m, void *
         on_open(b, edge, eclient, path);
     } else if (strcmp(op, "close") == 0) {
         on_close(b, edge, eclient);
-    } else if (id && len <= PROTO_MAX_MESSAGE) {
-        app_on_text(&b->gate, id, data ? data : "", len);
+    } else if (strcmp(op, "text") == 0) {
+        atomic_fetch_add(&b->texts_in, 1);
+        if (id && len <= PROTO_MAX_MESSAGE) app_on_text(&b->gate, id, data ? data : "", len);
     }
     pthread_mutex_unlock(&b->gate_lock);
     natsMsg_Destroy(m);
@@ -429,9 +430,11 @@ size_t app_nats_metrics(app_nats *b, char *buf, size_t cap)
                      "# HELP strandcast_nats_bytes_published_total Frame bytes published on NATS.\n"
                      "# TYPE strandcast_nats_bytes_published_total counter\nstrandcast_nats_bytes_published_total %llu\n"
                      "# HELP strandcast_nats_publish_errors_total Messages libnats refused (connection closed).\n"
-                     "# TYPE strandcast_nats_publish_errors_total counter\nstrandcast_nats_publish_errors_total %llu\n",
+                     "# TYPE strandcast_nats_publish_errors_total counter\nstrandcast_nats_publish_errors_total %llu\n"
+                     "# HELP strandcast_nats_texts_in_total Client messages received from edge relays (after their budget).\n"
+                     "# TYPE strandcast_nats_texts_in_total counter\nstrandcast_nats_texts_in_total %llu\n",
                      (unsigned long long)atomic_load(&b->frames_out), (unsigned long long)atomic_load(&b->bytes_out),
-                     (unsigned long long)atomic_load(&b->publish_errors));
+                     (unsigned long long)atomic_load(&b->publish_errors), (unsigned long long)atomic_load(&b->texts_in));
     if (k < 0) return 0;
     return (size_t)k < cap ? (size_t)k : cap - 1;
 }

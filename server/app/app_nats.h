@@ -61,6 +61,7 @@ typedef struct app_nats {
     uint64_t key_seq[NET_MAX_STREAMS];
     atomic_bool link_up, stop;
     atomic_uint_fast64_t frames_out, bytes_out, publish_errors;
+    atomic_uint_fast64_t texts_in;       /* client messages received from edges */
     pthread_t beat;
     bool beat_started;
 } app_nats;

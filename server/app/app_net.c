@@ -66,14 +66,8 @@ void app_on_close(void *user, uint32_t client)
  * cannot get the flooder closed for the answers it provoked. */
 static void limited(app_gate *g, uint32_t client, const char *text, size_t len)
 {
-    app_cmd c;
-    proto_error e;
-    proto_parse(g->parser, text, len, &c.msg, &e); /* only for the id */
-    proto_fail(&e, PROTO_ERR_RATE_LIMITED, "",
-               "over the budget of %.0f control messages a second (%.0f at once); this one was not carried out",
-               APP_RATE_PER_S, APP_RATE_BURST);
     atomic_fetch_add(&g->out->rejected, 1);
-    app_send(g->out, client, proto_build_error(&c.msg.id, &e), NET_TEXT_DROPPABLE);
+    app_send(g->out, client, app_peers_limited(g->parser, text, len), NET_TEXT_DROPPABLE);
 }
 
 /* Same length and bytes, in time that does not depend on where they differ. */

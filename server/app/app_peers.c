@@ -82,3 +82,14 @@ void app_peers_free(app_peers *r)
     free(r->v);
     memset(r, 0, sizeof *r);
 }
+
+char *app_peers_limited(const proto_parser *p, const char *text, size_t len)
+{
+    proto_msg m;
+    proto_error e;
+    proto_parse(p, text, len, &m, &e); /* only for the id */
+    proto_fail(&e, PROTO_ERR_RATE_LIMITED, "",
+               "over the budget of %.0f control messages a second (%.0f at once); this one was not carried out",
+               APP_RATE_PER_S, APP_RATE_BURST);
+    return proto_build_error(&m.id, &e);
+}

@@ -12,6 +12,7 @@
 #include <stdint.h>
 
 #include "core/core.h"
+#include "proto/proto.h"
 
 #define APP_RATE_PER_S 400.0
 #define APP_RATE_BURST 128.0 /* the replies to a full burst fit a client's text queue (NET_DEFAULT_TEXT_QUEUE) */
@@ -40,5 +41,9 @@ void app_peers_close(app_peers *r, uint32_t client);
  * message is over budget). Unknown clients are not limited. */
 bool app_peers_take(app_peers *r, uint32_t client, unsigned long long now_ns);
 void app_peers_free(app_peers *r);
+/* The rate_limited error for a message over the budget (its id echoed when p can read one; the
+ * text is not otherwise judged), for the caller to send and proto_free; NULL when out of memory.
+ * Used wherever the budget is enforced (a daemon's own clients, an edge relay's). */
+char *app_peers_limited(const proto_parser *p, const char *text, size_t len);
 
 #endif

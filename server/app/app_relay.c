@@ -10,6 +10,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "app_parser.h"
+#include "app_peers.h"
 #include "app_relay.h"
 #include "bus/bus.h"
 #include "net/net.h"
@@ -51,8 +53,11 @@ typedef struct relay {
     size_t nclients;                   /* capacity of clients (max_clients) */
     relay_stream streams[NET_MAX_STREAMS];
     relay_room rooms[RELAY_MAX_ROOMS];
+    proto_parser parser;               /* read-only after start */
+    app_peers peers;                   /* each client's control-message budget (net thread only) */
     atomic_bool link_up;
     atomic_uint_fast64_t frames_in, frames_dropped, nodes_lost;
+    atomic_uint_fast64_t texts_forwarded, texts_refused; /* client messages sent on to a node / answered here */
 } relay;
 
 static unsigned long long now_ms(void) { return core_now_ns() / 1000000ull; }
@@ -213,18 +218,43 @@ static void relay_open(void *user, uint32_t client, const char *path)
         refuse(r, client, &e, 1013); /* try again later */
         return;
     }
+    if (app_peers_open(&r->peers, client, true, core_now_ns()) != CORE_OK)
+        core_log(CORE_LOG_WARN, "relay", "client %u: out of memory for its budget; its node still limits it", client);
     to_node(r, room, "open", client, path, strlen(path));
 }
 
+/* An answer of this edge to a client's message that goes no further (any error). */
+static void answer(relay *r, uint32_t client, char *text, unsigned flags)
+{
+    atomic_fetch_add(&r->texts_refused, 1);
+    if (text) net_send_text(r->net, client, text, strlen(text), flags);
+    proto_free(text);
+}
+
+/* A client's message goes on to its node only within its budget (else rate_limited, droppable as
+ * a daemon's) and when it parses (else the error the node would give, at once): a flooding client
+ * costs NATS and its node no more than the budget (PROTOCOL.md "Scaling out"). */
 static void relay_text(void *user, uint32_t client, const char *text, size_t len)
 {
     relay *r = user;
+    if (!app_peers_take(&r->peers, client, core_now_ns())) {
+        answer(r, client, app_peers_limited(&r->parser, text, len), NET_TEXT_DROPPABLE);
+        return;
+    }
+    proto_msg m;
+    proto_error e;
+    if (proto_parse(&r->parser, text, len, &m, &e) != CORE_OK) {
+        answer(r, client, proto_build_error(&m.id, &e), 0);
+        return;
+    }
     char room[PROTO_MAX_ROOM + 1] = "";
     pthread_mutex_lock(&r->lock);
     relay_client *c = find_client(r, client);
     if (c) snprintf(room, sizeof room, "%s", r->rooms[c->room].name);
     pthread_mutex_unlock(&r->lock);
-    if (room[0]) to_node(r, room, "text", client, text, len);
+    if (!room[0]) return;
+    atomic_fetch_add(&r->texts_forwarded, 1);
+    to_node(r, room, "text", client, text, len);
 }
 
 static void relay_close(void *user, uint32_t client)
@@ -232,6 +262,7 @@ static void relay_close(void *user, uint32_t client)
     relay *r = user;
     char room[PROTO_MAX_ROOM + 1] = "";
     natsSubscription *dead[4] = { NULL, NULL, NULL, NULL };
+    app_peers_close(&r->peers, client);
     pthread_mutex_lock(&r->lock);
     relay_client *c = find_client(r, client);
     if (c) {
@@ -448,9 +479,15 @@ static size_t relay_metrics(void *user, char *buf, size_t cap)
                      "# HELP strandcast_relay_frames_stale_total Frames from NATS older than one already relayed (dropped).\n"
                      "# TYPE strandcast_relay_frames_stale_total counter\nstrandcast_relay_frames_stale_total %llu\n"
                      "# HELP strandcast_relay_nodes_lost_total Times a room's simulation node was found gone.\n"
-                     "# TYPE strandcast_relay_nodes_lost_total counter\nstrandcast_relay_nodes_lost_total %llu\n",
+                     "# TYPE strandcast_relay_nodes_lost_total counter\nstrandcast_relay_nodes_lost_total %llu\n"
+                     "# HELP strandcast_control_messages_total Client control messages: sent on to their node (accepted) "
+                     "or answered with an error here (rejected: over the budget, or not valid).\n"
+                     "# TYPE strandcast_control_messages_total counter\n"
+                     "strandcast_control_messages_total{result=\"accepted\"} %llu\n"
+                     "strandcast_control_messages_total{result=\"rejected\"} %llu\n",
                      (unsigned long long)atomic_load(&r->frames_in), (unsigned long long)atomic_load(&r->frames_dropped),
-                     (unsigned long long)atomic_load(&r->nodes_lost));
+                     (unsigned long long)atomic_load(&r->nodes_lost), (unsigned long long)atomic_load(&r->texts_forwarded),
+                     (unsigned long long)atomic_load(&r->texts_refused));
     if (k < 0) return 0;
     return (size_t)k < cap ? (size_t)k : cap - 1;
 }
@@ -468,6 +505,8 @@ static core_status start(relay *r, core_err *err)
     r->nclients = (size_t)(d->max_clients > 0 ? d->max_clients : app_default_max_clients());
     r->clients = calloc(r->nclients, sizeof *r->clients);
     if (!r->clients) return core_fail(err, CORE_ENOMEM, "relay: out of memory");
+    core_status st = app_parser_init(&r->parser, err);
+    if (st != CORE_OK) return st;
     for (int i = 0; i < NET_MAX_STREAMS; i++) r->streams[i].room = -1;
     snprintf(r->id, sizeof r->id, "%llx", (unsigned long long)(core_now_ns() ^ ((uint64_t)getpid() << 40)));
     atomic_store(&r->link_up, true);
@@ -478,8 +517,7 @@ static core_status start(relay *r, core_err *err)
         .ping_s = d->ping_interval, .hangup_s = d->ping_timeout,
         .cb = { r, relay_open, relay_text, relay_close, relay_metrics },
     };
-    core_status st = net_create(&r->net, &nd, err);
-    if (st != CORE_OK) return st;
+    if ((st = net_create(&r->net, &nd, err)) != CORE_OK) return st;
     bus_desc bd = { .url = d->nats, .creds = d->nats_creds, .name = "strandcastd edge", .on_link = on_link, .user = r };
     if ((st = bus_connect(&r->nc, &bd, err)) != CORE_OK) return st;
     char subj[BUS_MAX_SUBJECT];
@@ -502,6 +540,7 @@ static void stop(relay *r)
     for (int i = 0; i < NET_MAX_STREAMS; i++) dead[n++] = r->streams[i].sub;
     if (r->nc || r->net) bus_close(r->nc, dead, n);
     net_destroy(r->net);
+    app_peers_free(&r->peers);
     free(r->clients);
 }
 

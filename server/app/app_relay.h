@@ -1,5 +1,7 @@
 /* app: the edge relay (strandcastd --relay --nats URL): serves the page, /metrics and WebSockets
- * for any room; each client's open, text and close go to its room's simulation node over NATS,
+ * for any room; each client's open, text and close go to its room's simulation node over NATS
+ * (text only within the client's control-message budget and when it parses: else the edge
+ * answers the error itself, as a daemon would),
  * what the node sends back (hello, replies with their ids, announcements, closes) goes to the
  * client, and each stream a client here uses is subscribed once and fed to the same net
  * delivery as the daemon's own (newest frame, bounded memory, slow clients skip). A node silent

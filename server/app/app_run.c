@@ -11,6 +11,7 @@
 #include "app_budget.h"
 #include "app_nats.h"
 #include "app_net.h"
+#include "app_parser.h"
 #include "app_relay.h"
 #include "app_sim.h"
 #include "codec/codec.h"
@@ -174,18 +175,13 @@ static core_status open_record(app *a, core_err *err)
 
 static core_status setup(app *a, core_err *err)
 {
-    size_t nparams;
-    const core_param_info *ptable = sim_param_table(&nparams);
-    if (nparams > PROTO_MAX_PARAMS)
-        return core_fail(err, CORE_EINVAL, "the parameter table has %zu entries; proto serves at most %d", nparams,
-                         PROTO_MAX_PARAMS);
-    a->parser = (proto_parser){ ptable, nparams, app_preset_names, APP_PRESET_COUNT, app_groom_styles, APP_NSTYLES };
-    app_stats_board_init(&a->board);
-    core_status st = app_mailbox_init(&a->mb, err);
+    core_status st = app_parser_init(&a->parser, err);
     if (st != CORE_OK) return st;
+    app_stats_board_init(&a->board);
+    if ((st = app_mailbox_init(&a->mb, err)) != CORE_OK) return st;
     app_assets_list(&a->assets, a->d.assets_dir, &a->parser);
     if (a->d.replay && (st = open_replay(a, err)) != CORE_OK) return st;
-    if ((st = setup_world(a, ptable, nparams, err)) != CORE_OK) return st;
+    if ((st = setup_world(a, a->parser.params, a->parser.nparams, err)) != CORE_OK) return st;
     if (a->d.record && (st = open_record(a, err)) != CORE_OK) return st;
     a->gate = (app_gate){ &a->parser, &a->mb, &a->out, &a->board, &a->grooms_pending, &a->w.done, a->d.token, a->d.room, { 0 }, a->w.rec, NULL };
     if (!a->d.no_net) {

@@ -390,3 +390,93 @@ void test_nats_token(void **state)
     join(fx, 1, "r2", &fx->seen[0], NULL);
     wait_seen(fx, &fx->seen[0], 10, 15000);
 }
+
+static double node_texts_in(nats_fx *fx)
+{
+    http_reply r;
+    assert_int_equal(http_get(fx->nodes[0].port, "/metrics", &r), 0);
+    double v = metric(r.body, "strandcast_nats_texts_in_total");
+    http_reply_free(&r);
+    return v;
+}
+
+/* Sends get_params with id on c and waits for its params reply (earlier messages are read). */
+static void expect_reply(nats_fx *fx, wsc_conn *c, const char *id)
+{
+    char msg[96], want[80];
+    snprintf(msg, sizeof msg, "{\"type\":\"get_params\",\"id\":\"%s\"}", id);
+    snprintf(want, sizeof want, "\"id\":\"%s\"", id);
+    wsc_send_text(c, msg);
+    for (;;) {
+        const char *t = wsc_next_of_type(fx->w, c, "params", 5000);
+        if (!t) fail_msg("no params with id %s", id);
+        if (strstr(t, want)) return;
+    }
+}
+
+/* The code of the next error on c (within 5 s). */
+static void expect_error(nats_fx *fx, wsc_conn *c, const char *code)
+{
+    const char *t = wsc_next_of_type(fx->w, c, "error", 5000);
+    if (!t) fail_msg("no error %s", code);
+    cJSON *e = cJSON_Parse(t);
+    assert_string_equal(str(e, "code"), code);
+    cJSON_Delete(e);
+}
+
+/* The per-client limits hold at the edge: a flood through an edge reaches the node only within
+ * the budget (128 at once, 400/s), the flooder gets rate_limited from the edge, and a client of
+ * the same room on another edge streams on; messages that do not parse are answered by the
+ * edge and a binary one closes the connection there, none of them reaching the node. */
+void test_nats_edge_limits(void **state)
+{
+    nats_fx *fx = *state;
+    wsc_conn *a = join(fx, 0, "r1", &fx->seen[0], NULL);
+    wsc_conn *b = join(fx, 1, "r1", &fx->seen[1], NULL);
+    wait_seen(fx, &fx->seen[1], 10, 15000);
+    double in0 = node_texts_in(fx), t0 = now_s();
+    char msg[128];
+    for (int i = 0; i < 2000; i++) {
+        snprintf(msg, sizeof msg, "{\"type\":\"set_params\",\"values\":{\"wind_x\":%d}}", i % 50);
+        wsc_send_text(a, msg);
+    }
+    wsc_send_text(a, "{\"type\":\"get_params\",\"id\":\"last\"}");
+    const char *t = wsc_next_of_type(fx->w, a, "error", 10000);
+    assert_non_null(t);
+    cJSON *e = cJSON_Parse(t);
+    assert_string_equal(str(e, "code"), "rate_limited");
+    cJSON_Delete(e);
+    wsc_run(fx->w, 500); /* what the edge sent on has reached the node */
+    double reached = node_texts_in(fx) - in0, elapsed = now_s() - t0;
+    http_reply r;
+    assert_int_equal(http_get(fx->edges[0].port, "/metrics", &r), 0);
+    double refused = metric(r.body, "strandcast_control_messages_total{result=\"rejected\"}");
+    http_reply_free(&r);
+    print_message("flood of 2001 through an edge: %.0f reached the node in %.2f s, %.0f refused at the edge\n", reached,
+                  elapsed, refused);
+    assert_true(reached >= 1 && reached <= 128 + 400 * elapsed + 1);
+    assert_true(refused >= 1000 && reached + refused == 2001);
+    /* the other edge's client of the room streams on */
+    uint64_t before = fx->seen[1].frames;
+    wait_seen(fx, &fx->seen[1], before + 30, 10000);
+    assert_true(wsc_is_open(a) && wsc_is_open(b));
+    /* the budget back: bad messages are answered by the edge, ids intact, and go no further */
+    wsc_run(fx->w, 1000);
+    expect_reply(fx, a, "mark"); /* the flood's answers all read */
+    double in1 = node_texts_in(fx);
+    wsc_send_text(a, "{\"type\":\"set_params\",\"id\":\"j\",\"values\":");
+    expect_error(fx, a, "bad_json");
+    wsc_send_text(a, "{\"type\":\"set_params\",\"id\":\"p\",\"values\":{\"no_such_param\":1}}");
+    t = wsc_next_of_type(fx->w, a, "error", 5000);
+    assert_non_null(t);
+    assert_non_null(strstr(t, "\"id\":\"p\""));
+    wsc_send_text(a, "{\"type\":\"no_such_type\"}");
+    expect_error(fx, a, "unknown_type");
+    wsc_send_frame(a, "\x01\x02", 2, true, false, true);
+    assert_int_equal(wsc_wait_closed(fx->w, a, 5000), 1003);
+    wsc_run(fx->w, 300);
+    assert_true(node_texts_in(fx) == in1);
+    /* a valid request through the edge still reaches the node and is answered, id intact */
+    expect_reply(fx, b, "ok-b");
+    assert_true(node_texts_in(fx) == in1 + 1);
+}
