@@ -39,9 +39,10 @@ static int edge_slot(app_nats *b, const char *id, bool make)
     return free_slot;
 }
 
+/* Where everything for an edge's clients goes: the reply subject of its requests. */
 static void edge_subject(const app_nats *b, int edge, char *out, size_t cap)
 {
-    snprintf(out, cap, BUS_PREFIX ".edge.%s", b->edges[edge].id);
+    snprintf(out, cap, "%s", b->edges[edge].reply);
 }
 
 /* Publishes to the edge of remote client r (tab_lock held): op with headers (pairs after the
@@ -141,22 +142,26 @@ static void on_close(app_nats *b, int edge, uint32_t eclient)
     if (id) app_on_close(&b->gate, id);
 }
 
-/* A control message from an edge (the delivery thread): open, text, close or beat. */
+/* A control request from an edge (the delivery thread): open, text, close or beat; what it
+ * causes for the edge's clients is answered on the request's reply subject. */
 static void on_ctl(natsConnection *nc, natsSubscription *sub, natsMsg *m, void *closure)
 {
     (void)nc;
     (void)sub;
     app_nats *b = closure;
-    const char *op = bus_header(m, "Sc-Op"), *edge_id = bus_header(m, "Sc-Edge");
+    const char *op = bus_header(m, "Sc-Op"), *edge_id = bus_header(m, "Sc-Edge"), *reply = natsMsg_GetReply(m);
     uint32_t eclient = (uint32_t)bus_header_u64(m, "Sc-Client", 0);
-    if (!op || !edge_id || strlen(edge_id) >= APP_EDGE_ID) {
+    if (!op || !edge_id || strlen(edge_id) >= APP_EDGE_ID || !reply || !*reply || strlen(reply) >= BUS_MAX_SUBJECT) {
         natsMsg_Destroy(m);
         return;
     }
     pthread_mutex_lock(&b->gate_lock);
     pthread_mutex_lock(&b->tab_lock);
     int edge = edge_slot(b, edge_id, strcmp(op, "open") == 0 || strcmp(op, "beat") == 0);
-    if (edge >= 0) b->edges[edge].last_ms = now_ms();
+    if (edge >= 0) {
+        b->edges[edge].last_ms = now_ms();
+        snprintf(b->edges[edge].reply, sizeof b->edges[edge].reply, "%s", reply);
+    }
     uint32_t id = 0;
     if (edge >= 0 && strcmp(op, "text") == 0) {
         app_remote *r = find_edge_client(b, edge, eclient);

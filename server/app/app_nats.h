@@ -1,8 +1,9 @@
 /* app: the simulation node's side of NATS (strandcastd --nats URL --room NAME): the clients of edge
  * relays become remote clients of this daemon (ids with APP_REMOTE_CLIENT set) that go through
- * the same gate and commands as WebSocket clients; what is sent to them goes to their edge's
- * subject, broadcasts once to the room's, each stream's frames once to the stream's subject,
- * and a heartbeat every BUS_BEAT_MS. Subjects: proto/PROTOCOL.md "Scaling out". */
+ * the same gate and commands as WebSocket clients; their edge's control messages are NATS
+ * requests, and what is sent to them goes to the requests' reply subject, broadcasts once to
+ * the room's, each stream's frames once to the stream's subject, and a heartbeat every
+ * BUS_BEAT_MS. Subjects: proto/PROTOCOL.md "Scaling out". */
 #ifndef APP_NATS_H
 #define APP_NATS_H
 
@@ -29,6 +30,7 @@ typedef struct app_remote {
 
 typedef struct app_edge {
     char id[APP_EDGE_ID];              /* "": free */
+    char reply[BUS_MAX_SUBJECT];       /* where its requests ask to be answered (their msg->reply) */
     unsigned long long last_ms;        /* when it was last heard from */
     uint32_t clients;
     uint64_t blob_gen;                 /* the blobs' generation this edge holds */

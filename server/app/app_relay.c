@@ -46,7 +46,8 @@ typedef struct relay {
     const app_desc *d;
     net *net;
     natsConnection *nc;
-    char id[24];                       /* this edge's id: its subject is strandcast.edge.ID */
+    char id[24];                       /* this edge's id */
+    char subject[BUS_MAX_SUBJECT];     /* strandcast.edge.ID: the reply subject of its requests */
     natsSubscription *inbox;
     pthread_mutex_t lock;              /* guards the tables (net thread, delivery thread, main thread) */
     relay_client *clients;
@@ -69,14 +70,15 @@ static relay_client *find_client(relay *r, uint32_t id)
     return NULL;
 }
 
-/* Publishes a control message of client id to room's node. */
+/* A control message of client id to room's node, as a request the node answers on this edge's
+ * subject (PROTOCOL.md "Scaling out": why that keeps each client's order). */
 static void to_node(relay *r, const char *room, const char *op, uint32_t id, const void *data, size_t len)
 {
     char subj[BUS_MAX_SUBJECT], c[16];
     bus_room_subject(subj, sizeof subj, room, "ctl");
     snprintf(c, sizeof c, "%u", id);
     const char *h[] = { "Sc-Op", op, "Sc-Edge", r->id, "Sc-Client", c, NULL };
-    bus_publish(r->nc, subj, h, data, len, NULL);
+    bus_request(r->nc, subj, r->subject, h, data, len, NULL);
 }
 
 /* An error without id, then a close, for one client (any thread). */
@@ -520,10 +522,9 @@ static core_status start(relay *r, core_err *err)
     if ((st = net_create(&r->net, &nd, err)) != CORE_OK) return st;
     bus_desc bd = { .url = d->nats, .creds = d->nats_creds, .name = "strandcastd edge", .on_link = on_link, .user = r };
     if ((st = bus_connect(&r->nc, &bd, err)) != CORE_OK) return st;
-    char subj[BUS_MAX_SUBJECT];
-    snprintf(subj, sizeof subj, BUS_PREFIX ".edge.%s", r->id);
-    natsStatus s = natsConnection_Subscribe(&r->inbox, r->nc, subj, on_inbox, r);
-    if (s != NATS_OK) return core_fail(err, CORE_EIO, "relay: subscribe %s: %s", subj, natsStatus_GetText(s));
+    snprintf(r->subject, sizeof r->subject, BUS_PREFIX ".edge.%s", r->id);
+    natsStatus s = natsConnection_Subscribe(&r->inbox, r->nc, r->subject, on_inbox, r);
+    if (s != NATS_OK) return core_fail(err, CORE_EIO, "relay: subscribe %s: %s", r->subject, natsStatus_GetText(s));
     core_log(CORE_LOG_INFO, "relay", "edge %s on %s: any room at /rooms/NAME", r->id, d->nats);
     return CORE_OK;
 }

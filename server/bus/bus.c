@@ -112,8 +112,14 @@ bool bus_room_subject(char *out, size_t cap, const char *room, const char *leaf)
 core_status bus_publish(natsConnection *nc, const char *subj, const char *const *headers, const void *data, size_t len,
                         core_err *err)
 {
+    return bus_request(nc, subj, NULL, headers, data, len, err);
+}
+
+core_status bus_request(natsConnection *nc, const char *subj, const char *reply, const char *const *headers,
+                        const void *data, size_t len, core_err *err)
+{
     natsMsg *m = NULL;
-    natsStatus s = natsMsg_Create(&m, subj, NULL, data, (int)len);
+    natsStatus s = natsMsg_Create(&m, subj, reply, data, (int)len);
     for (const char *const *h = headers; s == NATS_OK && h && h[0]; h += 2) s = natsMsgHeader_Set(m, h[0], h[1]);
     if (s == NATS_OK) s = natsConnection_PublishMsg(nc, m);
     natsMsg_Destroy(m);

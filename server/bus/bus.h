@@ -48,6 +48,11 @@ bool bus_room_subject(char *out, size_t cap, const char *room, const char *leaf)
  * while it reconnects libnats buffers). Any thread. */
 core_status bus_publish(natsConnection *nc, const char *subj, const char *const *headers, const void *data, size_t len,
                         core_err *err);
+/* As bus_publish, as a NATS request: the message carries reply, the subject its receiver answers
+ * on (its msg->reply). Not natsConnection_Request: nothing waits here and the receiver may answer
+ * any number of times; the caller subscribes to reply. Any thread. */
+core_status bus_request(natsConnection *nc, const char *subj, const char *reply, const char *const *headers,
+                        const void *data, size_t len, core_err *err);
 
 /* Header key of m as text (NULL when absent); as an unsigned number (def when absent or bad). */
 const char *bus_header(natsMsg *m, const char *key);

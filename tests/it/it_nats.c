@@ -9,6 +9,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "bus/bus.h"
 #include "it.h"
 #include "support/natsd.h"
 
@@ -479,4 +480,67 @@ void test_nats_edge_limits(void **state)
     /* a valid request through the edge still reaches the node and is answered, id intact */
     expect_reply(fx, b, "ok-b");
     assert_true(node_texts_in(fx) == in1 + 1);
+}
+
+/* The next message on sub whose Sc-Op is op (others skipped), within 5 s; the caller destroys it. */
+static natsMsg *next_op(natsSubscription *sub, const char *op)
+{
+    for (int i = 0; i < 50; i++) {
+        natsMsg *m = NULL;
+        if (natsSubscription_NextMsg(&m, sub, 5000) != NATS_OK) break;
+        const char *o = bus_header(m, "Sc-Op");
+        if (o && strcmp(o, op) == 0) return m;
+        natsMsg_Destroy(m);
+    }
+    fail_msg("no %s message", op);
+    return NULL;
+}
+
+/* m's body holds needle. */
+static bool has(natsMsg *m, const char *needle)
+{
+    const char *d = natsMsg_GetData(m);
+    size_t n = (size_t)natsMsg_GetDataLength(m), k = strlen(needle);
+    for (size_t i = 0; d && i + k <= n; i++)
+        if (memcmp(d + i, needle, k) == 0) return true;
+    return false;
+}
+
+/* Control is NATS request/reply: the node answers a request on its reply subject, whatever that
+ * is (here an inbox of a bare NATS client acting as an edge), with the client's messages in the
+ * order it made them: the hello, then the reply to a request that carried an id. A message
+ * without a reply subject is not served. */
+void test_nats_request_reply(void **state)
+{
+    nats_fx *fx = *state;
+    natsConnection *nc = NULL;
+    bus_desc bd = { .url = fx->nats.url, .name = "it request/reply" };
+    core_err err;
+    assert_int_equal(bus_connect(&nc, &bd, &err), CORE_OK);
+    natsSubscription *sub = NULL;
+    assert_int_equal(natsConnection_SubscribeSync(&sub, nc, "_INBOX.it-rr"), NATS_OK);
+    char ctl[BUS_MAX_SUBJECT];
+    bus_room_subject(ctl, sizeof ctl, "r1", "ctl");
+    const char *open_h[] = { "Sc-Op", "open", "Sc-Edge", "itrr", "Sc-Client", "5", NULL };
+    const char *text_h[] = { "Sc-Op", "text", "Sc-Edge", "itrr", "Sc-Client", "5", NULL };
+    const char *close_h[] = { "Sc-Op", "close", "Sc-Edge", "itrr", "Sc-Client", "5", NULL };
+    assert_int_equal(bus_request(nc, ctl, "_INBOX.it-rr", open_h, "/rooms/r1", 9, &err), CORE_OK);
+    /* not a request (no reply subject): not served */
+    static const char get0[] = "{\"type\":\"get_params\",\"id\":\"rr-0\"}", get1[] = "{\"type\":\"get_params\",\"id\":\"rr-1\"}";
+    assert_int_equal(bus_publish(nc, ctl, text_h, get0, strlen(get0), &err), CORE_OK);
+    assert_int_equal(bus_request(nc, ctl, "_INBOX.it-rr", text_h, get1, strlen(get1), &err), CORE_OK);
+    natsMsg *m = next_op(sub, "start");
+    assert_string_equal(bus_header(m, "Sc-Room"), "r1");
+    assert_true(bus_header_u64(m, "Sc-Client", 0) == 5);
+    assert_true(has(m, "\"type\":\"hello\""));
+    natsMsg_Destroy(m);
+    m = next_op(sub, "text");
+    assert_true(has(m, "\"id\":\"rr-1\""));
+    natsMsg_Destroy(m);
+    assert_int_equal(bus_request(nc, ctl, "_INBOX.it-rr", close_h, NULL, 0, &err), CORE_OK);
+    http_reply r;
+    assert_int_equal(http_get(fx->nodes[0].port, "/metrics", &r), 0);
+    assert_true(metric(r.body, "strandcast_nats_texts_in_total") == 1);
+    http_reply_free(&r);
+    bus_close(nc, &sub, 1);
 }
