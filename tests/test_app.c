@@ -13,6 +13,7 @@
 
 #include "app/app_anim.h"
 #include "app/app_mailbox.h"
+#include "app/app_parser.h"
 #include "app/app_peers.h"
 #include "app/app_stream.h"
 
@@ -344,6 +345,26 @@ static void test_rate_budget(void **state)
     app_peers_free(&r);
 }
 
+/* The rate_limited reply (a daemon's and an edge's): the request's id echoed, whatever else the
+ * message holds (even one that would not parse further), none when it has none. */
+static void test_rate_limited_reply(void **state)
+{
+    (void)state;
+    proto_parser p;
+    core_err err;
+    assert_int_equal(app_parser_init(&p, &err), CORE_OK);
+    static const char with_id[] = "{\"type\":\"set_params\",\"id\":\"f-1\",\"values\":{\"no_such\":1}}";
+    char *t = app_peers_limited(&p, with_id, strlen(with_id));
+    assert_non_null(t);
+    assert_non_null(strstr(t, "\"code\":\"rate_limited\""));
+    assert_non_null(strstr(t, "\"id\":\"f-1\""));
+    proto_free(t);
+    t = app_peers_limited(&p, "{not json", 9);
+    assert_non_null(strstr(t, "\"code\":\"rate_limited\""));
+    assert_null(strstr(t, "\"id\""));
+    proto_free(t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -354,6 +375,7 @@ int main(void)
         cmocka_unit_test(test_preset_switch_blends),
         cmocka_unit_test(test_stream_decimation),
         cmocka_unit_test(test_rate_budget),
+        cmocka_unit_test(test_rate_limited_reply),
         cmocka_unit_test(test_streams_share_and_fall_back),
         cmocka_unit_test(test_streams_due_schedule),
     };
