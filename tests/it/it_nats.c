@@ -428,7 +428,8 @@ static void expect_error(nats_fx *fx, wsc_conn *c, const char *code)
 /* The per-client limits hold at the edge: a flood through an edge reaches the node only within
  * the budget (128 at once, 400/s), the flooder gets rate_limited from the edge, and a client of
  * the same room on another edge streams on; messages that do not parse are answered by the
- * edge and a binary one closes the connection there, none of them reaching the node. */
+ * edge, and a binary or oversized one closes the connection there, none of them reaching the
+ * node. */
 void test_nats_edge_limits(void **state)
 {
     nats_fx *fx = *state;
@@ -475,6 +476,13 @@ void test_nats_edge_limits(void **state)
     expect_error(fx, a, "unknown_type");
     wsc_send_frame(a, "\x01\x02", 2, true, false, true);
     assert_int_equal(wsc_wait_closed(fx->w, a, 5000), 1003);
+    wsc_conn *big = join(fx, 0, "r1", &fx->seen[2], NULL);
+    char *huge = malloc(PROTO_MAX_MESSAGE + 2);
+    memset(huge, ' ', PROTO_MAX_MESSAGE + 1);
+    huge[PROTO_MAX_MESSAGE + 1] = '\0';
+    wsc_send_text(big, huge);
+    free(huge);
+    assert_int_equal(wsc_wait_closed(fx->w, big, 5000), 1009);
     wsc_run(fx->w, 300);
     assert_true(node_texts_in(fx) == in1);
     /* a valid request through the edge still reaches the node and is answered, id intact */
