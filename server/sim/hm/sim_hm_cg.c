@@ -124,14 +124,14 @@ int sim_hm_cg(sim_hm *h)
 {
     const size_t n3 = 3 * (size_t)h->n;
     const sim_hm_bsr *m = &h->bsr;
-    /* s = the previous solve's dv on the free rows (the warm start), dv = the cold start */
+    /* s = the previous solve's vn on the free rows (the warm start), vn = the cold start (still) */
     for (uint32_t i = 0; i < h->n; i++)
         for (int k = 0; k < 3; k++) {
             const size_t j = 3 * (size_t)i + (size_t)k;
-            h->s[j] = h->fixed[i] ? 0.0f : h->dv[j];
-            h->dv[j] = h->fixed[i] ? h->z[j] : 0.0f;
+            h->s[j] = h->fixed[i] ? 0.0f : h->vn[j];
+            h->vn[j] = h->fixed[i] ? h->z[j] : 0.0f;
         }
-    sim_hm_bsr_apply(m, h->dv, h->q);
+    sim_hm_bsr_apply(m, h->vn, h->q);
     for (size_t i = 0; i < n3; i++) h->r[i] = h->rhs[i] - h->q[i];
     filter(h, h->r);
     sys_lower(h, h->r, h->r);
@@ -143,14 +143,14 @@ int sim_hm_cg(sim_hm *h)
     sys_lower(h, h->q, h->q);
     for (size_t i = 0; i < n3; i++) h->q[i] = h->r[i] - h->q[i];
     double delta = d_norm(h, &sys_ops, h->q, h->c);
-    if (delta < cold) { /* the warm start is nearer: dv = cold + s, r' = its residual */
-        for (size_t i = 0; i < n3; i++) h->dv[i] += h->s[i];
+    if (delta < cold) { /* the warm start is nearer: vn = cold + s, r' = its residual */
+        for (size_t i = 0; i < n3; i++) h->vn[i] += h->s[i];
         memcpy(h->r, h->q, n3 * sizeof *h->r);
     } else {
         delta = cold;
         memcpy(h->c, h->w, n3 * sizeof *h->c);
     }
-    return split_cg(h, &sys_ops, delta, stop, h->dv);
+    return split_cg(h, &sys_ops, delta, stop, h->vn);
 }
 
 /* The deformation minimization's A^T A (the mesh edges' graph Laplacian: the degree on the

@@ -20,12 +20,16 @@ typedef struct sim_hm_springs {
     float *u, *alpha, *beta;
 } sim_hm_springs;
 
+/* The most a corner tetrahedron's volume mode may hold at rest, k' |dC/dx|^2, as a multiple of
+ * volume_stiffness (a sliver's k' is lowered to it). */
+#define SIM_HM_TET_STIFF_MAX 1000.0f
+
 /* Corner tetrahedra (create time): 4 vertices and the rest volume's force scale. */
 typedef struct sim_hm_tets {
     uint32_t n;
     uint32_t *v;   /* 4 per tetrahedron */
     float *v0;     /* rest volume, m^3 */
-    float *scale;  /* |v0|^(2/3) / v0^2 */
+    float *scale;  /* |v0|^(2/3) / v0^2, at most SIM_HM_TET_STIFF_MAX / |dC/dx|^2 */
     /* per step: the volume gradients (12 per tetrahedron) and the system's weight dt^2 k' */
     float *g, *w;
 } sim_hm_tets;
@@ -68,7 +72,7 @@ typedef struct sim_hm {
     core_xform head, prev_head;
     float *x, *v;               /* 3n, world */
     float *xs, *xp;             /* 3n: positions at the substep's start, after the implicit step */
-    float *rhs, *dv, *z;        /* 3n: right-hand side, velocity change, prescribed values (fixed rows) */
+    float *rhs, *vn, *z;        /* 3n: right-hand side, the substep's new velocity, prescribed values (fixed rows) */
     float diag;                 /* the system's diagonal: 1 + dt air_drag (unit masses) */
     float *pinv;                /* 6n: inverses of the system's diagonal blocks (xx yy zz xy xz yz), for the sweeps */
     float *r, *c, *q, *s, *w, *xh; /* 3n: CG scratch */
@@ -90,7 +94,12 @@ core_status sim_hm_build(sim_hm *h, core_err *err);
 void sim_hm_build_free(sim_hm *h);
 
 /* Forces at h->x, h->v (gravity and wind accel, air drag) and the implicit system
- * (I - dt df/dv - dt^2 df/dx) dv = dt (f + dt df/dx v) for substep length dt: fills
+ * (I - dt df/dv - dt^2 df/dx) vn = v + dt f_e for substep length dt (the new velocity vn; f_e the
+ * forces less the dampers, which A's dt df/dv carries): the same step as solving for the velocity
+ * change dv = vn - v with right-hand side dt (f + dt df/dx v), but without that side's dt^2 df/dx v,
+ * which for stiff elements is huge and almost cancelled by A dv, so that CG stopped at a relative
+ * tolerance left errors of that size (the wavy and curly meshes exploded); and a CG stopped early
+ * from vn = 0 errs towards stillness instead of keeping the old velocity's stiff part. Fills
  * h->rhs, h->diag, h->pinv, h->bsr's blocks, the springs' blocks and the tetrahedra's gradients.
  * head_rot turns the springs' rest directions into the world (the direction of a spring of zero
  * length). */
@@ -118,8 +127,8 @@ void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const floa
  * reference that the tests pin the assembled blocks against. */
 void sim_hm_apply(const sim_hm *h, const float *x, float *y);
 
-/* Solves A dv = rhs by modified CG: rows with fixed[i] keep dv_i = z_i; starts from the previous
- * solve's dv when that is nearer; symmetric block Gauss-Seidel preconditioning (Eisenstat's form).
+/* Solves A vn = rhs by modified CG: rows with fixed[i] keep vn_i = z_i; starts from vn = 0 or from
+ * the previous solve's vn when that is nearer; symmetric block Gauss-Seidel preconditioning (Eisenstat's form).
  * Returns the iterations. */
 int sim_hm_cg(sim_hm *h);
 
