@@ -170,6 +170,12 @@ static void substep(sim_hm *h, const sim_step_desc *d, int k)
     sim_hm_forces(h, d->accel, dt, d->head[k].rot);
     h->stage_ms[0] += ms_since(t0);
     memset(h->fixed, 0, h->n);
+    const float *m = d->carry[k];
+    for (uint32_t i = 0; i < h->n; i++) { /* the head's rigid velocity: the free rows' cold start */
+        const float *x = h->x + 3 * (size_t)i;
+        for (int a = 0; a < 3; a++)
+            h->z[3 * i + a] = (m[4 * a] * x[0] + m[4 * a + 1] * x[1] + m[4 * a + 2] * x[2] + m[4 * a + 3] - x[a]) * d->inv_h;
+    }
     for (uint32_t c = 0; c < h->ncols; c++) {
         const uint32_t i = c * h->nlayers;
         const float *r = h->mesh.pos + 3 * (size_t)i;

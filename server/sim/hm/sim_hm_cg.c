@@ -124,13 +124,12 @@ int sim_hm_cg(sim_hm *h)
 {
     const size_t n3 = 3 * (size_t)h->n;
     const sim_hm_bsr *m = &h->bsr;
-    /* s = the previous solve's vn on the free rows (the warm start), vn = the cold start (still) */
-    for (uint32_t i = 0; i < h->n; i++)
-        for (int k = 0; k < 3; k++) {
-            const size_t j = 3 * (size_t)i + (size_t)k;
-            h->s[j] = h->fixed[i] ? 0.0f : h->vn[j];
-            h->vn[j] = h->fixed[i] ? h->z[j] : 0.0f;
-        }
+    /* vn = the cold start z (moving with the head), s = the previous solve's vn less it on the free
+     * rows (the warm start is cold + s) */
+    for (size_t j = 0; j < n3; j++) {
+        h->s[j] = h->fixed[j / 3] ? 0.0f : h->vn[j] - h->z[j];
+        h->vn[j] = h->z[j];
+    }
     sim_hm_bsr_apply(m, h->vn, h->q);
     for (size_t i = 0; i < n3; i++) h->r[i] = h->rhs[i] - h->q[i];
     filter(h, h->r);

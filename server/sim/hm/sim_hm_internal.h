@@ -72,7 +72,8 @@ typedef struct sim_hm {
     core_xform head, prev_head;
     float *x, *v;               /* 3n, world */
     float *xs, *xp;             /* 3n: positions at the substep's start, after the implicit step */
-    float *rhs, *vn, *z;        /* 3n: right-hand side, the substep's new velocity, prescribed values (fixed rows) */
+    float *rhs, *vn, *z;        /* 3n: right-hand side, the substep's new velocity, its prescribed values
+                                 * (fixed rows) or cold start (the others: the head's rigid velocity) */
     float diag;                 /* the system's diagonal: 1 + dt air_drag (unit masses) */
     float *pinv;                /* 6n: inverses of the system's diagonal blocks (xx yy zz xy xz yz), for the sweeps */
     float *r, *c, *q, *s, *w, *xh; /* 3n: CG scratch */
@@ -99,7 +100,8 @@ void sim_hm_build_free(sim_hm *h);
  * change dv = vn - v with right-hand side dt (f + dt df/dx v), but without that side's dt^2 df/dx v,
  * which for stiff elements is huge and almost cancelled by A dv, so that CG stopped at a relative
  * tolerance left errors of that size (the wavy and curly meshes exploded); and a CG stopped early
- * from vn = 0 errs towards stillness instead of keeping the old velocity's stiff part. Fills
+ * from the head's rigid velocity (sim_hm_cg) errs towards moving with the head instead of keeping
+ * the old velocity's stiff part. Fills
  * h->rhs, h->diag, h->pinv, h->bsr's blocks, the springs' blocks and the tetrahedra's gradients.
  * head_rot turns the springs' rest directions into the world (the direction of a spring of zero
  * length). */
@@ -127,8 +129,8 @@ void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const floa
  * reference that the tests pin the assembled blocks against. */
 void sim_hm_apply(const sim_hm *h, const float *x, float *y);
 
-/* Solves A vn = rhs by modified CG: rows with fixed[i] keep vn_i = z_i; starts from vn = 0 or from
- * the previous solve's vn when that is nearer; symmetric block Gauss-Seidel preconditioning (Eisenstat's form).
+/* Solves A vn = rhs by modified CG: rows with fixed[i] keep vn_i = z_i; starts from vn = z (the
+ * others: moving with the head) or from the previous solve's vn when that is nearer; symmetric block Gauss-Seidel preconditioning (Eisenstat's form).
  * Returns the iterations. */
 int sim_hm_cg(sim_hm *h);
 
