@@ -801,9 +801,9 @@ static void open_run_style(hm_run *r, groom_style style, bool colliders, const s
 /* Every procedural style (straight, wavy, curly: thin sheets with a few sliver corner tetrahedra)
  * under the codec benchmark's gentle head motion, which starts with a jump of the head from the
  * identity to its first pose (2 s): finite, every vertex within MOTION_REACH of the head after
- * the first half second, no nan reset. The wavy and curly meshes exploded within two frames when
- * the implicit step solved for the velocity change (see sim_hm_forces) and, without colliders, the
- * wavy one still did without SIM_HM_TET_STIFF_MAX: both with and without the default colliders. */
+ * the first half second, no nan reset; with and without the default colliders. The wavy and curly
+ * meshes exploded within two frames when the implicit step solved for the velocity change from
+ * dv = 0 (see sim_hm_forces). */
 static void test_every_style_gentle_motion(void **state)
 {
     (void)state;

@@ -77,14 +77,7 @@ static void add_tet(sim_hm *h, uint32_t v0, uint32_t v1, uint32_t v2, uint32_t v
     uint32_t i = t->n++;
     t->v[4 * i] = v0, t->v[4 * i + 1] = v1, t->v[4 * i + 2] = v2, t->v[4 * i + 3] = v3;
     t->v0[i] = vol;
-    /* k' |dC/dx|^2 / k at rest (the volume mode's stiffness per unit of volume_stiffness): about 1.4
-     * for a regular tetrahedron, 10-30 in the thin sheets of the procedural meshes, but up to 85,000
-     * for the few slivers of a wavy or curly sheet (|V0| tiny, faces not), whose Gauss-Newton step
-     * is wrong as soon as they deform: those are held at SIM_HM_TET_STIFF_MAX */
-    const core_vec3 g1 = core_v3_cross(e2, e3), g2 = core_v3_cross(e3, e1), g3 = core_v3_cross(e1, e2);
-    const core_vec3 g0 = core_v3_add(core_v3_add(g1, g2), g3);
-    const float gg = (core_v3_dot(g0, g0) + core_v3_dot(g1, g1) + core_v3_dot(g2, g2) + core_v3_dot(g3, g3)) / 36.0f;
-    t->scale[i] = fminf(powf(fabsf(vol), 2.0f / 3.0f) / (vol * vol), SIM_HM_TET_STIFF_MAX / gg);
+    t->scale[i] = powf(fabsf(vol), 2.0f / 3.0f) / (vol * vol);
 }
 
 static core_status alloc_all(sim_hm *h, uint32_t nsp, uint32_t ntet, uint32_t ned, core_err *err)

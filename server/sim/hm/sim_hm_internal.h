@@ -20,16 +20,12 @@ typedef struct sim_hm_springs {
     float *u, *alpha, *beta;
 } sim_hm_springs;
 
-/* The most a corner tetrahedron's volume mode may hold at rest, k' |dC/dx|^2, as a multiple of
- * volume_stiffness (a sliver's k' is lowered to it). */
-#define SIM_HM_TET_STIFF_MAX 1000.0f
-
 /* Corner tetrahedra (create time): 4 vertices and the rest volume's force scale. */
 typedef struct sim_hm_tets {
     uint32_t n;
     uint32_t *v;   /* 4 per tetrahedron */
     float *v0;     /* rest volume, m^3 */
-    float *scale;  /* |v0|^(2/3) / v0^2, at most SIM_HM_TET_STIFF_MAX / |dC/dx|^2 */
+    float *scale;  /* |v0|^(2/3) / v0^2 */
     /* per step: the volume gradients (12 per tetrahedron) and the system's weight dt^2 k' */
     float *g, *w;
 } sim_hm_tets;
@@ -101,8 +97,8 @@ void sim_hm_build_free(sim_hm *h);
  * which for stiff elements is huge and almost cancelled by A dv, so that CG stopped at a relative
  * tolerance left errors of that size (the wavy and curly meshes exploded); and a CG stopped early
  * from the head's rigid velocity (sim_hm_cg) errs towards moving with the head instead of keeping
- * the old velocity's stiff part. Fills
- * h->rhs, h->diag, h->pinv, h->bsr's blocks, the springs' blocks and the tetrahedra's gradients.
+ * the old velocity's stiff part. Fills h->rhs, h->diag, h->pinv, h->bsr's blocks, the springs'
+ * blocks and the tetrahedra's gradients.
  * head_rot turns the springs' rest directions into the world (the direction of a spring of zero
  * length). */
 void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat head_rot);
@@ -130,8 +126,8 @@ void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const floa
 void sim_hm_apply(const sim_hm *h, const float *x, float *y);
 
 /* Solves A vn = rhs by modified CG: rows with fixed[i] keep vn_i = z_i; starts from vn = z (the
- * others: moving with the head) or from the previous solve's vn when that is nearer; symmetric block Gauss-Seidel preconditioning (Eisenstat's form).
- * Returns the iterations. */
+ * others: moving with the head) or from the previous solve's vn when that is nearer; symmetric
+ * block Gauss-Seidel preconditioning (Eisenstat's form). Returns the iterations. */
 int sim_hm_cg(sim_hm *h);
 
 /* Pushes the surface vertices out of the colliders of step k (world); marks pushes in h->push
