@@ -16,7 +16,7 @@ static void hm_destroy(void *self)
     core_hairmesh_free(&h->mesh);
     if (h->sdf) core_sdf_free(h->sdf);
     free(h->sdf);
-    float *arrays[] = { h->x, h->v, h->xs, h->xp, h->rhs, h->vn, h->z, h->pinv, h->r, h->c, h->q, h->s, h->w, h->xh, h->push };
+    float *arrays[] = { h->x, h->v, h->xs, h->xp, h->rhs, h->vn, h->dvp, h->z, h->pinv, h->r, h->c, h->q, h->s, h->w, h->xh, h->push };
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; i++) free(arrays[i]);
     free(h->fixed);
     free(h);
@@ -84,7 +84,7 @@ static core_status hm_create(const sim_desc *desc, const core_groom *g, const si
     h->ginfo.rho_rest = 1.0f;
     h->ginfo.sph_auto_h = (float)SIM_SPH_FALLBACK_H;
     const size_t n3 = 3 * (size_t)h->n;
-    float **arrays[] = { &h->x, &h->v, &h->xs, &h->xp, &h->rhs, &h->vn, &h->z, &h->r, &h->c, &h->q, &h->s, &h->w, &h->xh, &h->push };
+    float **arrays[] = { &h->x, &h->v, &h->xs, &h->xp, &h->rhs, &h->vn, &h->dvp, &h->z, &h->r, &h->c, &h->q, &h->s, &h->w, &h->xh, &h->push };
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0] && st == CORE_OK; i++)
         if (!(*arrays[i] = calloc(n3, sizeof(float)))) st = core_fail(err, CORE_ENOMEM, "out of memory for the hair-mesh solver");
     if (st == CORE_OK && (!(h->pinv = calloc(2 * n3, sizeof(float))) || !(h->fixed = calloc(h->n, 1))))

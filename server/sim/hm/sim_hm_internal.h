@@ -70,6 +70,7 @@ typedef struct sim_hm {
     float *xs, *xp;             /* 3n: positions at the substep's start, after the implicit step */
     float *rhs, *vn, *z;        /* 3n: right-hand side, the substep's new velocity, its prescribed values
                                  * (fixed rows) or cold start (the others: the head's rigid velocity) */
+    float *dvp;                 /* 3n: the last solve's velocity change vn - v (the warm start's) */
     float diag;                 /* the system's diagonal: 1 + dt air_drag (unit masses) */
     float *pinv;                /* 6n: inverses of the system's diagonal blocks (xx yy zz xy xz yz), for the sweeps */
     float *r, *c, *q, *s, *w, *xh; /* 3n: CG scratch */
@@ -126,8 +127,9 @@ void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const floa
 void sim_hm_apply(const sim_hm *h, const float *x, float *y);
 
 /* Solves A vn = rhs by modified CG: rows with fixed[i] keep vn_i = z_i; starts from vn = z (the
- * others: moving with the head) or from the previous solve's vn when that is nearer; symmetric
- * block Gauss-Seidel preconditioning (Eisenstat's form). Returns the iterations. */
+ * others: moving with the head) or from h->v plus the last solve's change h->dvp (which it then
+ * sets) when that is nearer; stops at cg_tolerance of the residual of vn = h->v; symmetric block
+ * Gauss-Seidel preconditioning (Eisenstat's form). Returns the iterations. */
 int sim_hm_cg(sim_hm *h);
 
 /* Pushes the surface vertices out of the colliders of step k (world); marks pushes in h->push
