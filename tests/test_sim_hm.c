@@ -13,10 +13,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "bench/codec_synth.h"
 #include "groom/groom.h"
 #include "sim/hm/sim_hm.h"
 #include "sim/hm/sim_hm_internal.h"
 #include "sim/sim.h"
+#include "support/sim_check.h"
 
 /* The project's stillness bound: 99.9th percentile of per-frame vertex displacement, metres. */
 #define REST_P999 1e-5
@@ -32,15 +34,14 @@ typedef struct hm_run {
     float *x, *prev;
 } hm_run;
 
-/* A run on the procedural hair mesh of patches x patches patches of 2 x 2 quads and `layers` layers, with the default
+/* A run on the procedural hair mesh d, with the default
  * colliders when asked, plus a sphere of radius `ball` (when > 0) reaching 2 cm into the mesh
  * past the tip of the first patch's middle column (a deep collision from the first step). */
-static void open_run_ball(hm_run *r, uint32_t patches, uint32_t layers, bool colliders, float ball, const sim_params *p)
+static void open_run_desc(hm_run *r, const groom_hairmesh_desc *d, bool colliders, float ball, const sim_params *p)
 {
     core_err err;
     core_hairmesh m;
-    groom_hairmesh_desc d = { .patches = patches, .nlayers = layers };
-    assert_int_equal(groom_hairmesh_procedural(&d, &m, &err), CORE_OK);
+    assert_int_equal(groom_hairmesh_procedural(d, &m, &err), CORE_OK);
     if (groom_from_hairmesh(&m, 1, 12, &r->groom, &err) != CORE_OK) fail_msg("groom_from_hairmesh: %s", err.msg);
     core_hairmesh_free(&m);
     if (colliders) groom_default_colliders(&r->groom);
@@ -58,6 +59,13 @@ static void open_run_ball(hm_run *r, uint32_t patches, uint32_t layers, bool col
     r->x = malloc(12 * (size_t)r->nv);
     r->prev = malloc(12 * (size_t)r->nv);
     assert_true(r->x && r->prev);
+}
+
+/* open_run_desc on the straight mesh of patches x patches patches and `layers` layers. */
+static void open_run_ball(hm_run *r, uint32_t patches, uint32_t layers, bool colliders, float ball, const sim_params *p)
+{
+    const groom_hairmesh_desc d = { .patches = patches, .nlayers = layers };
+    open_run_desc(r, &d, colliders, ball, p);
 }
 
 static void open_run(hm_run *r, uint32_t patches, uint32_t layers, bool colliders, const sim_params *p)
@@ -680,7 +688,7 @@ static void test_cg_solves_system(void **state)
             h->fixed[i] = 1;
             for (int k = 0; k < 3; k++) h->z[3 * i + k] = 0.01f * lcg(&seed);
         }
-    for (size_t i = 0; i < n3; i++) h->dv[i] = 0.0f; /* the cold start: the residual of dv = z on the fixed rows, 0 elsewhere */
+    for (size_t i = 0; i < n3; i++) h->vn[i] = 0.0f; /* the cold start: the residual of vn = z on the fixed rows, 0 elsewhere */
     for (uint32_t i = 0; i < h->n; i++)
         for (int k = 0; k < 3; k++) res[3 * i + k] = h->fixed[i] ? h->z[3 * i + k] : 0.0f;
     sim_hm_apply(h, res, y);
@@ -689,12 +697,12 @@ static void test_cg_solves_system(void **state)
     const int it = sim_hm_cg(h);
     for (uint32_t i = 0; i < h->n; i++)
         if (h->fixed[i])
-            for (int k = 0; k < 3; k++) assert_true(h->dv[3 * i + k] == h->z[3 * i + k]);
-    sim_hm_apply(h, h->dv, y);
+            for (int k = 0; k < 3; k++) assert_true(h->vn[3 * i + k] == h->z[3 * i + k]);
+    sim_hm_apply(h, h->vn, y);
     for (size_t i = 0; i < n3; i++) res[i] = h->rhs[i] - y[i];
     const double rel = free_norm(h, res) / cold;
     const int again = sim_hm_cg(h);
-    sim_hm_apply(h, h->dv, y);
+    sim_hm_apply(h, h->vn, y);
     for (size_t i = 0; i < n3; i++) res[i] = h->rhs[i] - y[i];
     const double rel2 = free_norm(h, res) / cold;
     print_message("implicit CG: %d iterations, residual %.2e of the cold start's; again from it: %d iterations, %.2e\n", it,
@@ -764,6 +772,112 @@ static void test_deform_min_solves(void **state)
     close_run(&r);
 }
 
+/* How far from the head's origin a vertex of the default procedural mesh may be while the hair
+ * moves (at rest the farthest tip is about 0.25 m away), metres. */
+#define MOTION_REACH 0.5
+/* Seconds of a still head after the violent script before the mesh (without colliders) must be
+ * still: it settles 5.1-5.4 s after the stop. */
+#define REST_AFTER_VIOLENT 6.0
+
+/* The largest distance of a vertex of x from head's origin; fails on a value that is not finite. */
+static double reach(const hm_run *r, const float *x, core_xform head)
+{
+    double worst = 0.0;
+    for (uint32_t i = 0; i < 3 * r->nv; i++) assert_true(isfinite(x[i]));
+    for (uint32_t i = 0; i < r->nv; i++) {
+        const float o[3] = { head.pos.x, head.pos.y, head.pos.z };
+        worst = fmax(worst, dist(x + 3 * i, o));
+    }
+    return worst;
+}
+
+/* A run on the procedural mesh of `style` at the benchmark's size (3 x 3 patches, 9 layers). */
+static void open_run_style(hm_run *r, groom_style style, bool colliders, const sim_params *p)
+{
+    const groom_hairmesh_desc d = { .style = style, .nlayers = 9 };
+    open_run_desc(r, &d, colliders, 0.0f, p);
+}
+
+/* Every procedural style (straight, wavy, curly: thin sheets with a few sliver corner tetrahedra)
+ * under the codec benchmark's gentle head motion, which starts with a jump of the head from the
+ * identity to its first pose (2 s): finite, every vertex within MOTION_REACH of the head after
+ * the first half second, no nan reset; with and without the default colliders. The wavy and curly
+ * meshes exploded within two frames when the implicit step solved for the velocity change from
+ * dv = 0 (see sim_hm_forces). */
+static void test_every_style_gentle_motion(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    for (int run = 0; run < 6; run++) {
+        const groom_style style = (groom_style)(run / 2);
+        const bool colliders = run % 2;
+        hm_run r;
+        open_run_style(&r, style, colliders, &p);
+        double worst = 0.0;
+        for (int f = 0; f < 120; f++) {
+            const codec_sim_info c = codec_synth_sim(f * (double)p.dt, (uint64_t)f, CODEC_SYNTH_GENTLE);
+            const core_xform head = { core_v3(c.head_pos[0], c.head_pos[1], c.head_pos[2]),
+                                      { c.head_rot[0], c.head_rot[1], c.head_rot[2], c.head_rot[3] } };
+            sim_set_motion(&r.s, head);
+            steps(&r, 1);
+            mesh_now(&r, r.x);
+            const double w = reach(&r, r.x, head);
+            if (f >= 30) worst = fmax(worst, w);
+        }
+        sim_stats st;
+        sim_get_stats(&r.s, &st);
+        print_message("%s%s, gentle motion: farthest vertex %.3f m from the head\n", groom_style_name(style),
+                      colliders ? " with colliders" : "", worst);
+        assert_int_equal(st.nan_resets, 0);
+        assert_true(worst <= MOTION_REACH);
+        close_run(&r);
+    }
+}
+
+/* Every procedural style without colliders under the violent test script (2 s,
+ * simcheck_rest_head), then a still head for REST_AFTER_VIOLENT s: finite, every vertex within
+ * MOTION_REACH of the head, no nan reset, and still at the end (p99.9 of the last frame's
+ * displacement within REST_P999). Prints when the displacement last exceeded REST_P999. (With the
+ * default colliders a few vertices in contact keep creeping at 0.01-0.02 mm per frame.) */
+static void test_every_style_violent_then_rest(void **state)
+{
+    (void)state;
+    sim_params p;
+    sim_params_default(&p);
+    const int moving = 120, stop = moving + 15; /* the head is still 0.25 s after the script */
+    const int frames = stop + (int)lround(REST_AFTER_VIOLENT * 60.0);
+    for (int style = GROOM_STRAIGHT; style <= GROOM_CURLY; style++) {
+        hm_run r;
+        open_run_style(&r, (groom_style)style, false, &p);
+        double *dd = malloc(sizeof *dd * r.nv);
+        assert_non_null(dd);
+        double worst = 0.0, p999 = 0.0, settle = 0.0;
+        for (int f = 0; f < frames; f++) {
+            const core_xform head = simcheck_rest_head((f + 1) * (double)p.dt, moving * (double)p.dt);
+            sim_set_motion(&r.s, head);
+            memcpy(r.prev, r.x, 12 * (size_t)r.nv);
+            steps(&r, 1);
+            mesh_now(&r, r.x);
+            worst = fmax(worst, reach(&r, r.x, head));
+            for (uint32_t i = 0; i < r.nv; i++) dd[i] = dist(r.x + 3 * i, r.prev + 3 * i);
+            qsort(dd, r.nv, sizeof *dd, cmp_double);
+            p999 = dd[(size_t)(0.999 * (r.nv - 1))];
+            if (f >= stop && p999 > REST_P999) settle = (f + 1 - stop) * (double)p.dt;
+        }
+        sim_stats st;
+        sim_get_stats(&r.s, &st);
+        print_message("%s, violent motion: farthest vertex %.3f m from the head; p99.9 %.3g mm/frame %.0f s after the "
+                      "stop, last above %.3g mm %.2f s after\n",
+                      groom_style_name((groom_style)style), worst, p999 * 1e3, REST_AFTER_VIOLENT, REST_P999 * 1e3, settle);
+        assert_int_equal(st.nan_resets, 0);
+        assert_true(worst <= MOTION_REACH);
+        assert_true(p999 <= REST_P999);
+        free(dd);
+        close_run(&r);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -779,6 +893,8 @@ int main(void)
         cmocka_unit_test(test_assembly_matches_matrix_free),
         cmocka_unit_test(test_cg_solves_system),
         cmocka_unit_test(test_deform_min_solves),
+        cmocka_unit_test(test_every_style_gentle_motion),
+        cmocka_unit_test(test_every_style_violent_then_rest),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -16,7 +16,7 @@ static void hm_destroy(void *self)
     core_hairmesh_free(&h->mesh);
     if (h->sdf) core_sdf_free(h->sdf);
     free(h->sdf);
-    float *arrays[] = { h->x, h->v, h->xs, h->xp, h->rhs, h->dv, h->z, h->pinv, h->r, h->c, h->q, h->s, h->w, h->xh, h->push };
+    float *arrays[] = { h->x, h->v, h->xs, h->xp, h->rhs, h->vn, h->dvp, h->z, h->pinv, h->r, h->c, h->q, h->s, h->w, h->xh, h->push };
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; i++) free(arrays[i]);
     free(h->fixed);
     free(h);
@@ -84,7 +84,7 @@ static core_status hm_create(const sim_desc *desc, const core_groom *g, const si
     h->ginfo.rho_rest = 1.0f;
     h->ginfo.sph_auto_h = (float)SIM_SPH_FALLBACK_H;
     const size_t n3 = 3 * (size_t)h->n;
-    float **arrays[] = { &h->x, &h->v, &h->xs, &h->xp, &h->rhs, &h->dv, &h->z, &h->r, &h->c, &h->q, &h->s, &h->w, &h->xh, &h->push };
+    float **arrays[] = { &h->x, &h->v, &h->xs, &h->xp, &h->rhs, &h->vn, &h->dvp, &h->z, &h->r, &h->c, &h->q, &h->s, &h->w, &h->xh, &h->push };
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0] && st == CORE_OK; i++)
         if (!(*arrays[i] = calloc(n3, sizeof(float)))) st = core_fail(err, CORE_ENOMEM, "out of memory for the hair-mesh solver");
     if (st == CORE_OK && (!(h->pinv = calloc(2 * n3, sizeof(float))) || !(h->fixed = calloc(h->n, 1))))
@@ -170,13 +170,19 @@ static void substep(sim_hm *h, const sim_step_desc *d, int k)
     sim_hm_forces(h, d->accel, dt, d->head[k].rot);
     h->stage_ms[0] += ms_since(t0);
     memset(h->fixed, 0, h->n);
+    const float *m = d->carry[k];
+    for (uint32_t i = 0; i < h->n; i++) { /* the head's rigid velocity: the free rows' cold start */
+        const float *x = h->x + 3 * (size_t)i;
+        for (int a = 0; a < 3; a++)
+            h->z[3 * i + a] = (m[4 * a] * x[0] + m[4 * a + 1] * x[1] + m[4 * a + 2] * x[2] + m[4 * a + 3] - x[a]) * d->inv_h;
+    }
     for (uint32_t c = 0; c < h->ncols; c++) {
         const uint32_t i = c * h->nlayers;
         const float *r = h->mesh.pos + 3 * (size_t)i;
         const core_vec3 p = core_xform_point(d->head[k], core_v3(r[0], r[1], r[2]));
         const float tgt[3] = { p.x, p.y, p.z };
         h->fixed[i] = 1;
-        for (int a = 0; a < 3; a++) h->z[3 * i + a] = (tgt[a] - h->x[3 * i + a]) * d->inv_h - h->v[3 * i + a];
+        for (int a = 0; a < 3; a++) h->z[3 * i + a] = (tgt[a] - h->x[3 * i + a]) * d->inv_h;
     }
     t0 = core_now_ns();
     sim_hm_cg(h);
@@ -184,7 +190,7 @@ static void substep(sim_hm *h, const sim_step_desc *d, int k)
     for (uint32_t i = 0; i < h->n; i++)
         for (int a = 0; a < 3; a++) {
             float *v = h->v + 3 * (size_t)i + a;
-            *v += h->dv[3 * (size_t)i + a];
+            *v = h->vn[3 * (size_t)i + a];
             h->x[3 * (size_t)i + a] += dt * *v;
         }
     for (uint32_t c = 0; c < h->ncols; c++) { /* the roots exactly on the head */

@@ -120,37 +120,47 @@ static void sys_diag(const sim_hm *h, const float *x, float *y) { sim_hm_bsr_dia
 
 static const split_ops sys_ops = { sys_lower, sys_upper, sys_diag };
 
+/* The free rows' preconditioned residual of A vn = rhs at x (fixed rows at z): r = (D + L)^-1 of
+ * it, out = D r; returns their dot product. Uses h->q. */
+static double residual_at(sim_hm *h, const float *x, float *r, float *out)
+{
+    const size_t n3 = 3 * (size_t)h->n;
+    sim_hm_bsr_apply(&h->bsr, x, h->q);
+    for (size_t i = 0; i < n3; i++) r[i] = h->rhs[i] - h->q[i];
+    filter(h, r);
+    sys_lower(h, r, r);
+    return d_norm(h, &sys_ops, r, out);
+}
+
 int sim_hm_cg(sim_hm *h)
 {
     const size_t n3 = 3 * (size_t)h->n;
-    const sim_hm_bsr *m = &h->bsr;
-    /* s = the previous solve's dv on the free rows (the warm start), dv = the cold start */
-    for (uint32_t i = 0; i < h->n; i++)
-        for (int k = 0; k < 3; k++) {
-            const size_t j = 3 * (size_t)i + (size_t)k;
-            h->s[j] = h->fixed[i] ? 0.0f : h->dv[j];
-            h->dv[j] = h->fixed[i] ? h->z[j] : 0.0f;
-        }
-    sim_hm_bsr_apply(m, h->dv, h->q);
-    for (size_t i = 0; i < n3; i++) h->r[i] = h->rhs[i] - h->q[i];
-    filter(h, h->r);
-    sys_lower(h, h->r, h->r);
-    const double cold = d_norm(h, &sys_ops, h->r, h->w);
-    /* the tolerance is relative to the cold start's residual whatever the start */
-    const double stop = cold * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
-    sim_hm_bsr_apply(m, h->s, h->q);
+    /* the tolerance is relative to the residual of keeping the velocity (vn = v, dv = 0) whatever
+     * the start */
+    for (size_t j = 0; j < n3; j++) h->xh[j] = h->fixed[j / 3] ? h->z[j] : h->v[j];
+    const double stop = residual_at(h, h->xh, h->r, h->w) * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
+    /* vn = the cold start z (moving with the head); s = v plus the last solve's change, less z, on
+     * the free rows (the warm start is cold + s) */
+    for (size_t j = 0; j < n3; j++) {
+        h->s[j] = h->fixed[j / 3] ? 0.0f : h->v[j] + h->dvp[j] - h->z[j];
+        h->vn[j] = h->z[j];
+    }
+    const double cold = residual_at(h, h->vn, h->r, h->w);
+    sim_hm_bsr_apply(&h->bsr, h->s, h->q);
     filter(h, h->q);
     sys_lower(h, h->q, h->q);
     for (size_t i = 0; i < n3; i++) h->q[i] = h->r[i] - h->q[i];
     double delta = d_norm(h, &sys_ops, h->q, h->c);
-    if (delta < cold) { /* the warm start is nearer: dv = cold + s, r' = its residual */
-        for (size_t i = 0; i < n3; i++) h->dv[i] += h->s[i];
+    if (delta < cold) { /* the warm start is nearer: vn = cold + s, r' = its residual */
+        for (size_t i = 0; i < n3; i++) h->vn[i] += h->s[i];
         memcpy(h->r, h->q, n3 * sizeof *h->r);
     } else {
         delta = cold;
         memcpy(h->c, h->w, n3 * sizeof *h->c);
     }
-    return split_cg(h, &sys_ops, delta, stop, h->dv);
+    const int it = split_cg(h, &sys_ops, delta, stop, h->vn);
+    for (size_t j = 0; j < n3; j++) h->dvp[j] = h->vn[j] - h->v[j];
+    return it;
 }
 
 /* The deformation minimization's A^T A (the mesh edges' graph Laplacian: the degree on the

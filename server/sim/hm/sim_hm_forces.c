@@ -43,7 +43,7 @@ static void springs(sim_hm *h, float dt, core_quat rot)
     sim_hm_springs *s = &h->sp;
     const float kind_k[3] = { h->p.hm.stretch_stiffness, h->p.hm.shear_stiffness, h->p.hm.bend_stiffness };
     const float kd = h->p.hm.damping, dt2 = dt * dt;
-    const float *x = h->x, *v = h->v;
+    const float *x = h->x;
     float *rhs = h->rhs;
     for (uint32_t i = 0; i < s->n; i++) {
         const uint32_t a = s->a[i], b = s->b[i];
@@ -59,14 +59,8 @@ static void springs(sim_hm *h, float dt, core_quat rot)
         const float k = kind_k[s->kind[i]];
         const float C = len - s->len[i];
         const float g = C > 0.0f ? C / len : 0.0f; /* the geometric term, kept only under tension */
-        const float dv[3] = { v[3 * a] - v[3 * b], v[3 * a + 1] - v[3 * b + 1], v[3 * a + 2] - v[3 * b + 2] };
-        const float udv = u[0] * dv[0] + u[1] * dv[1] + u[2] * dv[2];
-        const float fs = -k * C - kd * udv;
-        /* -K dv with K = k (1 - g) u u^T + k g I */
-        const float kv0 = -(k * (1.0f - g) * udv * u[0] + k * g * dv[0]);
-        const float kv1 = -(k * (1.0f - g) * udv * u[1] + k * g * dv[1]);
-        const float kv2 = -(k * (1.0f - g) * udv * u[2] + k * g * dv[2]);
-        const float r0 = dt * fs * u[0] + dt2 * kv0, r1 = dt * fs * u[1] + dt2 * kv1, r2 = dt * fs * u[2] + dt2 * kv2;
+        const float fe = -k * C;
+        const float r0 = dt * fe * u[0], r1 = dt * fe * u[1], r2 = dt * fe * u[2];
         rhs[3 * a] += r0, rhs[3 * a + 1] += r1, rhs[3 * a + 2] += r2;
         rhs[3 * b] -= r0, rhs[3 * b + 1] -= r1, rhs[3 * b + 2] -= r2;
         const float al = dt * kd + dt2 * k * (1.0f - g), be = dt2 * k * g;
@@ -89,7 +83,7 @@ static void volumes(sim_hm *h, float dt)
 {
     sim_hm_tets *t = &h->tets;
     const float kv = h->p.hm.volume_stiffness, dt2 = dt * dt;
-    const float *x = h->x, *v = h->v;
+    const float *x = h->x;
     for (uint32_t i = 0; i < t->n; i++) {
         const uint32_t *id = t->v + 4 * (size_t)i;
         const float *p0 = x + 3 * (size_t)id[0];
@@ -104,19 +98,14 @@ static void volumes(sim_hm *h, float dt)
         const float kk = kv * t->scale[i];
         float *g = t->g + 12 * (size_t)i;
         const core_vec3 gs[4] = { g0, g1, g2, g3 };
-        float gv = 0.0f;
-        for (int j = 0; j < 4; j++) {
-            g[3 * j] = gs[j].x, g[3 * j + 1] = gs[j].y, g[3 * j + 2] = gs[j].z;
-            const float *vj = v + 3 * (size_t)id[j];
-            gv += gs[j].x * vj[0] + gs[j].y * vj[1] + gs[j].z * vj[2];
-        }
+        for (int j = 0; j < 4; j++) g[3 * j] = gs[j].x, g[3 * j + 1] = gs[j].y, g[3 * j + 2] = gs[j].z;
         t->w[i] = dt2 * kk;
         for (int j = 0; j < 4; j++) {
             float *rj = h->rhs + 3 * (size_t)id[j];
-            const float fc = -kk * C, kc = -dt2 * kk * gv;
-            rj[0] += dt * fc * g[3 * j] + kc * g[3 * j];
-            rj[1] += dt * fc * g[3 * j + 1] + kc * g[3 * j + 1];
-            rj[2] += dt * fc * g[3 * j + 2] + kc * g[3 * j + 2];
+            const float fc = -kk * C;
+            rj[0] += dt * fc * g[3 * j];
+            rj[1] += dt * fc * g[3 * j + 1];
+            rj[2] += dt * fc * g[3 * j + 2];
         }
         /* the blocks w g_j g_k^T, column c of (j, k) = (w g_k[c]) g_j */
         const uint32_t *at = h->bsr.tet_at + 16 * (size_t)i;
@@ -140,7 +129,7 @@ void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat he
     for (uint32_t i = 0; i < h->n; i++) {
         float *r = h->rhs + 3 * (size_t)i, *d = h->bsr.val + SIM_HM_BLOCK * (size_t)h->bsr.diag[i];
         const float *v = h->v + 3 * (size_t)i;
-        for (int k = 0; k < 3; k++) r[k] = dt * (accel[k] - drag * v[k]);
+        for (int k = 0; k < 3; k++) r[k] = v[k] + dt * accel[k];
         d[0] = d[5] = d[10] = h->diag;
     }
     springs(h, dt, head_rot);

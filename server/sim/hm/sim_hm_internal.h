@@ -68,7 +68,9 @@ typedef struct sim_hm {
     core_xform head, prev_head;
     float *x, *v;               /* 3n, world */
     float *xs, *xp;             /* 3n: positions at the substep's start, after the implicit step */
-    float *rhs, *dv, *z;        /* 3n: right-hand side, velocity change, prescribed values (fixed rows) */
+    float *rhs, *vn, *z;        /* 3n: right-hand side, the substep's new velocity, its prescribed values
+                                 * (fixed rows) or cold start (the others: the head's rigid velocity) */
+    float *dvp;                 /* 3n: the last solve's velocity change vn - v (the warm start's) */
     float diag;                 /* the system's diagonal: 1 + dt air_drag (unit masses) */
     float *pinv;                /* 6n: inverses of the system's diagonal blocks (xx yy zz xy xz yz), for the sweeps */
     float *r, *c, *q, *s, *w, *xh; /* 3n: CG scratch */
@@ -90,8 +92,14 @@ core_status sim_hm_build(sim_hm *h, core_err *err);
 void sim_hm_build_free(sim_hm *h);
 
 /* Forces at h->x, h->v (gravity and wind accel, air drag) and the implicit system
- * (I - dt df/dv - dt^2 df/dx) dv = dt (f + dt df/dx v) for substep length dt: fills
- * h->rhs, h->diag, h->pinv, h->bsr's blocks, the springs' blocks and the tetrahedra's gradients.
+ * (I - dt df/dv - dt^2 df/dx) vn = v + dt f_e for substep length dt (the new velocity vn; f_e the
+ * forces less the dampers, which A's dt df/dv carries): the same step as solving for the velocity
+ * change dv = vn - v with right-hand side dt (f + dt df/dx v), but without that side's dt^2 df/dx v,
+ * which for stiff elements is huge and almost cancelled by A dv, so that CG stopped at a relative
+ * tolerance left errors of that size (the wavy and curly meshes exploded); and a CG stopped early
+ * from the head's rigid velocity (sim_hm_cg) errs towards moving with the head instead of keeping
+ * the old velocity's stiff part. Fills h->rhs, h->diag, h->pinv, h->bsr's blocks, the springs'
+ * blocks and the tetrahedra's gradients.
  * head_rot turns the springs' rest directions into the world (the direction of a spring of zero
  * length). */
 void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat head_rot);
@@ -118,9 +126,10 @@ void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const floa
  * reference that the tests pin the assembled blocks against. */
 void sim_hm_apply(const sim_hm *h, const float *x, float *y);
 
-/* Solves A dv = rhs by modified CG: rows with fixed[i] keep dv_i = z_i; starts from the previous
- * solve's dv when that is nearer; symmetric block Gauss-Seidel preconditioning (Eisenstat's form).
- * Returns the iterations. */
+/* Solves A vn = rhs by modified CG: rows with fixed[i] keep vn_i = z_i; starts from vn = z (the
+ * others: moving with the head) or from h->v plus the last solve's change h->dvp (which it then
+ * sets) when that is nearer; stops at cg_tolerance of the residual of vn = h->v; symmetric block
+ * Gauss-Seidel preconditioning (Eisenstat's form). Returns the iterations. */
 int sim_hm_cg(sim_hm *h);
 
 /* Pushes the surface vertices out of the colliders of step k (world); marks pushes in h->push
