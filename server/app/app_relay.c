@@ -1,17 +1,16 @@
 /* app: the edge relay: WebSocket clients of any room, relayed to and from the rooms' nodes over NATS. */
-#include <errno.h>
 #include <pthread.h>
 #include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/prctl.h>
 #include <time.h>
 #include <unistd.h>
 
 #include "app_parser.h"
 #include "app_peers.h"
+#include "app_process.h"
 #include "app_relay.h"
 #include "bus/bus.h"
 #include "net/net.h"
@@ -494,13 +493,6 @@ static size_t relay_metrics(void *user, char *buf, size_t cap)
     return (size_t)k < cap ? (size_t)k : cap - 1;
 }
 
-static void *net_main(void *arg)
-{
-    prctl(PR_SET_NAME, "sc-net");
-    net_run(arg);
-    return NULL;
-}
-
 static core_status start(relay *r, core_err *err)
 {
     const app_desc *d = r->d;
@@ -549,11 +541,7 @@ core_status app_relay_run(const app_desc *desc, core_err *err)
 {
     if (!desc->nats) return core_fail(err, CORE_EINVAL, "--relay needs --nats URL");
     sigset_t set, old;
-    sigemptyset(&set);
-    sigaddset(&set, SIGINT);
-    sigaddset(&set, SIGTERM);
-    pthread_sigmask(SIG_BLOCK, &set, &old);
-    signal(SIGPIPE, SIG_IGN);
+    app_process_block_signals(&set, &old);
     relay *r = calloc(1, sizeof *r);
     if (!r) return core_fail(err, CORE_ENOMEM, "out of memory");
     r->d = desc;
@@ -566,20 +554,12 @@ core_status app_relay_run(const app_desc *desc, core_err *err)
         printf("strandcastd: open %s://%s:%d/  (edge relay: any room at /rooms/NAME; WebSocket subprotocol %s)\n",
                desc->tls_cert ? "https" : "http", host, net_port(r->net), PROTO_SUBPROTOCOL);
         fflush(stdout);
-        if (pthread_create(&net_thread, NULL, net_main, r->net) != 0) st = core_fail(err, CORE_EBACKEND, "cannot start the net thread");
+        if (pthread_create(&net_thread, NULL, app_process_net_main, r->net) != 0) st = core_fail(err, CORE_EBACKEND, "cannot start the net thread");
         else net_started = true;
     }
     unsigned long long last_beat = 0;
-    struct timespec ts = { 0, 100 * 1000 * 1000 };
-    while (st == CORE_OK) {
-        int sig = sigtimedwait(&set, NULL, &ts);
-        if (sig == SIGINT || sig == SIGTERM) {
-            core_log(CORE_LOG_INFO, "relay", "%s: shutting down", sig == SIGINT ? "SIGINT" : "SIGTERM");
-            break;
-        }
-        if (sig < 0 && errno != EAGAIN && errno != EINTR) break;
-        tick(r, &last_beat);
-    }
+    const struct timespec ts = { 0, 100 * 1000 * 1000 };
+    while (st == CORE_OK && !app_process_stop_signal(&set, ts, "relay")) tick(r, &last_beat);
     if (net_started) {
         net_stop(r->net);
         pthread_join(net_thread, NULL);

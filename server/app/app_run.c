@@ -1,10 +1,8 @@
 /* app: app_run: wires groom -> sim -> codec -> net and back; owns the threads and the signal-driven shutdown. */
-#include <errno.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/prctl.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -12,6 +10,7 @@
 #include "app_nats.h"
 #include "app_net.h"
 #include "app_parser.h"
+#include "app_process.h"
 #include "app_relay.h"
 #include "app_sim.h"
 #include "codec/codec.h"
@@ -228,36 +227,19 @@ static void teardown(app *a)
     app_replay_free(&a->replay);
 }
 
-static void *net_main(void *arg)
-{
-    prctl(PR_SET_NAME, "sc-net"); /* thread names let tools (strandbench fanout) split CPU time */
-    net_run(arg);
-    return NULL;
-}
-
 /* Waits for SIGINT/SIGTERM (blocked, taken with sigtimedwait) or the sim thread's end. */
 static void wait_for_stop(app *a, const sigset_t *set)
 {
-    struct timespec tick = { 0, 50 * 1000 * 1000 };
-    while (!atomic_load(&a->w.done)) {
-        int sig = sigtimedwait(set, NULL, &tick);
-        if (sig == SIGINT || sig == SIGTERM) {
-            core_log(CORE_LOG_INFO, "app", "%s: shutting down", sig == SIGINT ? "SIGINT" : "SIGTERM");
-            return;
-        }
-        if (sig < 0 && errno != EAGAIN && errno != EINTR) return;
-    }
+    const struct timespec tick = { 0, 50 * 1000 * 1000 };
+    while (!atomic_load(&a->w.done))
+        if (app_process_stop_signal(set, tick, "app")) return;
 }
 
 core_status app_run(const app_desc *desc, core_err *err)
 {
     if (desc->relay) return app_relay_run(desc, err);
     sigset_t set, old;
-    sigemptyset(&set);
-    sigaddset(&set, SIGINT);
-    sigaddset(&set, SIGTERM);
-    pthread_sigmask(SIG_BLOCK, &set, &old);
-    signal(SIGPIPE, SIG_IGN);
+    app_process_block_signals(&set, &old);
 
     app *a = calloc(1, sizeof *a);
     if (!a) return core_fail(err, CORE_ENOMEM, "out of memory");
@@ -277,7 +259,7 @@ core_status app_run(const app_desc *desc, core_err *err)
         if (a->d.token)
             printf("strandcastd: TOKEN is the first line of the --token-file; without it a page is read-only\n");
         fflush(stdout);
-        if (pthread_create(&net_thread, NULL, net_main, a->net) != 0) st = core_fail(err, CORE_EBACKEND, "cannot start the net thread");
+        if (pthread_create(&net_thread, NULL, app_process_net_main, a->net) != 0) st = core_fail(err, CORE_EBACKEND, "cannot start the net thread");
         else net_started = true;
     }
     if (st == CORE_OK) {
