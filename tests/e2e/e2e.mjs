@@ -7,64 +7,24 @@ import { spawn } from 'node:child_process';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { fileURLToPath } from 'node:url';
-import { createRequire } from 'node:module';
+import { capture, harness, require } from './harness.mjs';
 import { diffShare, pixelStats } from './pixels.mjs';
 import { StrandDecoder } from '../../web/codec.js';
 import { parseGroomData } from '../../web/groom_data.js';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
-const require = createRequire(path.join(here, '..', 'package.json'));
-
-function arg(name, def) {
-  const end = process.argv.indexOf('--');
-  const i = process.argv.indexOf(name);
-  return i > 0 && (end < 0 || i < end) && i + 1 < process.argv.length ? process.argv[i + 1] : def;
-}
-
-const daemonPath = arg('--daemon');
-const outDir = path.resolve(arg('--out', 'e2e-out'));
-const webDir = path.resolve(arg('--web', path.join(here, '..', '..', 'web')));
-const bench = !process.argv.includes('--no-bench');
-const chromiumPath = arg('--chromium', '/usr/bin/chromium');
-const dashes = process.argv.indexOf('--');
-const daemonExtra = dashes > 0 ? process.argv.slice(dashes + 1) : [];
-
-function die(msg) {
-  console.error(`e2e: FAIL: ${msg}`);
-  process.exitCode = 1;
-  throw new Error(msg);
-}
-
-function check(cond, msg) {
-  if (!cond) die(msg);
-  console.log(`e2e: ok: ${msg}`);
-}
-
-let playwright, WebSocket;
+let WebSocket;
 try {
-  playwright = require('playwright-core');
+  require('playwright-core');
   WebSocket = require('ws');
 } catch (e) {
   console.error(`e2e: FAIL: npm packages missing (${e.message}); run .ci/deps (npm install in tests/)`);
   process.exit(1);
 }
-if (!daemonPath || !fs.existsSync(daemonPath)) {
-  console.error(`e2e: FAIL: --daemon ${daemonPath} does not exist`);
-  process.exit(1);
-}
-if (!fs.existsSync(chromiumPath)) {
-  console.error(`e2e: FAIL: ${chromiumPath} not found; install the Debian package chromium (.ci/deps)`);
-  process.exit(1);
-}
-fs.mkdirSync(outDir, { recursive: true });
-
-const cleanups = [];
-async function cleanup() {
-  while (cleanups.length) {
-    try { await cleanups.pop()(); } catch (e) { console.error(`e2e: cleanup: ${e.message}`); }
-  }
-}
+const h = harness('e2e');
+const { check, die, cleanups, daemonPath, outDir, webDir } = h;
+const bench = !process.argv.includes('--no-bench');
+const dashes = process.argv.indexOf('--');
+const daemonExtra = dashes > 0 ? process.argv.slice(dashes + 1) : [];
 
 // Starts the daemon on port (0: a free one), logging to logName in the output folder; resolves
 // with { url, stop } once it prints its URL. stop() ends it (SIGTERM) and waits for its exit.
@@ -141,16 +101,6 @@ function waitMessage(client, pred, ms, what) {
   });
 }
 
-async function capture(page) {
-  const c = await page.evaluate(async () => {
-    const f = await window.strandcast.capture();
-    let s = '';
-    for (let i = 0; i < f.rgba.length; i += 0x8000) s += String.fromCharCode.apply(null, f.rgba.subarray(i, i + 0x8000));
-    return { width: f.width, height: f.height, b64: btoa(s) };
-  });
-  return { width: c.width, height: c.height, rgba: Buffer.from(c.b64, 'base64') };
-}
-
 async function waitUploads(page, n, ms) {
   const start = await page.evaluate(() => window.strandcast.framesUploaded);
   await page.waitForFunction((target) => window.strandcast.framesUploaded >= target, start + n, { timeout: ms, polling: 100 });
@@ -206,16 +156,7 @@ async function main() {
   const url = daemon.url;
   console.log(`e2e: strandcastd at ${url}`);
   const wsUrl = url.replace(/^http/, 'ws');
-  const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'strandcast-e2e-'));
-  cleanups.push(async () => fs.rmSync(profile, { recursive: true, force: true }));
-  const context = await playwright.chromium.launchPersistentContext(profile, {
-    executablePath: chromiumPath,
-    headless: true,
-    viewport: { width: 1000, height: 640 },
-    args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist',
-      '--no-first-run', '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-  });
-  cleanups.push(async () => context.close());
+  const context = await h.launch({ width: 1000, height: 640 });
   const page = context.pages()[0] || (await context.newPage());
   const errors = [];
   let browserLog = fs.openSync(path.join(outDir, 'browser.log'), 'w');
@@ -448,7 +389,7 @@ async function main() {
 }
 
 for (const sig of ['SIGINT', 'SIGTERM']) {
-  process.on(sig, () => { console.error(`e2e: ${sig}: cleaning up`); cleanup().finally(() => process.exit(1)); });
+  process.on(sig, () => { console.error(`e2e: ${sig}: cleaning up`); h.cleanup().finally(() => process.exit(1)); });
 }
 
 try {
@@ -458,5 +399,5 @@ try {
   if (!process.exitCode) console.error(`e2e: FAIL: ${e.stack || e.message}`);
   process.exitCode = 1;
 } finally {
-  await cleanup();
+  await h.cleanup();
 }

@@ -5,71 +5,12 @@
 // kilobytes, that the canvas shows shaded hair grown on the GPU, that the wireframe overlay draws,
 // and that the page falls back to the strands when the solver changes. Screenshots go to --out.
 // Usage: node tests/e2e/hairmesh.mjs --daemon PATH/strandcastd --out DIR [--web DIR]
-import { spawn } from 'node:child_process';
-import fs from 'node:fs';
-import os from 'node:os';
 import path from 'node:path';
-import { fileURLToPath } from 'node:url';
-import { createRequire } from 'node:module';
+import { capture, harness } from './harness.mjs';
 import { diffShare, pixelStats } from './pixels.mjs';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
-const require = createRequire(path.join(here, '..', 'package.json'));
-const arg = (name, def) => { const i = process.argv.indexOf(name); return i > 0 && i + 1 < process.argv.length ? process.argv[i + 1] : def; };
-const daemonPath = arg('--daemon');
-const outDir = path.resolve(arg('--out', 'e2e-out'));
-const webDir = path.resolve(arg('--web', path.join(here, '..', '..', 'web')));
-const chromiumPath = arg('--chromium', '/usr/bin/chromium');
-
-function die(msg) {
-  console.error(`hairmesh e2e: FAIL: ${msg}`);
-  process.exitCode = 1;
-  throw new Error(msg);
-}
-function check(cond, msg) {
-  if (!cond) die(msg);
-  console.log(`hairmesh e2e: ok: ${msg}`);
-}
-
-const playwright = require('playwright-core');
-if (!daemonPath || !fs.existsSync(daemonPath)) die(`--daemon ${daemonPath} does not exist`);
-if (!fs.existsSync(chromiumPath)) die(`${chromiumPath} not found; install the Debian package chromium (.ci/deps)`);
-fs.mkdirSync(outDir, { recursive: true });
-const cleanups = [];
-
-// strandcastd with the hair-mesh solver on a hair-mesh groom; resolves with its URL.
-function startDaemon() {
-  const log = fs.openSync(path.join(outDir, 'strandcastd-hairmesh.log'), 'w');
-  const args = ['--port', '0', '--web', webDir, '--min-step-rate', '0', '--groom', 'hairmesh:straight', '--strands', '1024',
-    '--verts', '24', '--solver', 'hairmesh'];
-  const child = fs.existsSync('/usr/bin/setpriv')
-    ? spawn('/usr/bin/setpriv', ['--pdeathsig', 'TERM', '--', daemonPath, ...args], { stdio: ['ignore', 'pipe', 'pipe'] })
-    : spawn(daemonPath, args, { stdio: ['ignore', 'pipe', 'pipe'] });
-  const exited = new Promise((r) => child.once('exit', r));
-  cleanups.push(async () => { if (child.exitCode === null) { child.kill('SIGTERM'); await exited; } fs.closeSync(log); });
-  return new Promise((resolve, reject) => {
-    let text = '';
-    const timer = setTimeout(() => reject(new Error(`strandcastd printed no URL in 60 s:\n${text}`)), 60000);
-    const onData = (d) => {
-      fs.writeSync(log, d);
-      text += d.toString();
-      const m = /(http:\/\/[0-9.:]+\/)/.exec(text);
-      if (m) { clearTimeout(timer); resolve(m[1]); }
-    };
-    child.stdout.on('data', onData);
-    child.stderr.on('data', onData);
-  });
-}
-
-async function capture(page) {
-  const c = await page.evaluate(async () => {
-    const f = await window.strandcast.capture();
-    let s = '';
-    for (let i = 0; i < f.rgba.length; i += 0x8000) s += String.fromCharCode.apply(null, f.rgba.subarray(i, i + 0x8000));
-    return { width: f.width, height: f.height, b64: btoa(s) };
-  });
-  return { width: c.width, height: c.height, rgba: Buffer.from(c.b64, 'base64') };
-}
+const h = harness('hairmesh e2e');
+const { check, die, outDir } = h;
 
 async function waitUploads(page, n, ms) {
   const start = await page.evaluate(() => window.strandcast.framesUploaded);
@@ -77,18 +18,10 @@ async function waitUploads(page, n, ms) {
 }
 
 async function main() {
-  const url = await startDaemon();
+  const url = await h.start('strandcastd-hairmesh', h.daemonPath, ['--port', '0', '--web', h.webDir, '--min-step-rate', '0',
+    '--groom', 'hairmesh:straight', '--strands', '1024', '--verts', '24', '--solver', 'hairmesh'], /(http:\/\/[0-9.:]+\/)/);
   console.log(`hairmesh e2e: strandcastd at ${url}`);
-  const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'strandcast-hm-e2e-'));
-  cleanups.push(async () => fs.rmSync(profile, { recursive: true, force: true }));
-  const context = await playwright.chromium.launchPersistentContext(profile, {
-    executablePath: chromiumPath,
-    headless: true,
-    viewport: { width: 900, height: 640 },
-    args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist',
-      '--no-first-run', '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-  });
-  cleanups.push(async () => context.close());
+  const context = await h.launch({ width: 900, height: 640 });
   const page = context.pages()[0] || (await context.newPage());
   const errors = [];
   page.on('pageerror', (e) => errors.push(`page error: ${e.message}`));
@@ -149,4 +82,4 @@ async function main() {
 
 main()
   .catch((e) => { if (!process.exitCode) { console.error(`hairmesh e2e: FAIL: ${e.stack || e.message}`); process.exitCode = 1; } })
-  .finally(async () => { while (cleanups.length) { try { await cleanups.pop()(); } catch { /* already gone */ } } });
+  .finally(() => h.cleanup());
