@@ -15,46 +15,20 @@
 #include "app/app_anim.h"
 #include "groom/groom.h"
 #include "sim/sim.h"
-#include "support/quality.h"
 #include "support/sim_check.h"
 
 #define SEG_TOL 0.01     /* |length / rest - 1| */
 #define PEN_TOL 0.0005   /* metres inside any collider */
 #define MIN_REST 1e-4    /* segments shorter than this (Ratboy's 7.5 um strand) are not judged */
 
-/* Runs preset p for secs on g (CPU backend, defaults with collisions on); the worst segment
- * error and penetration (metres) over the steps' end states. */
-static void run_preset(const core_groom *g, app_preset p, double secs, double *seg, double *pen)
-{
-    core_err err;
-    sim_params prm;
-    sim_params_default(&prm);
-    sim s;
-    sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = 2 };
-    if (sim_create(&s, &d, g, &prm, &err) != CORE_OK) fail_msg("sim_create: %s", err.msg);
-    const size_t n = (size_t)g->nstrands * g->nverts;
-    float *x = malloc(3 * n * sizeof(float));
-    assert_non_null(x);
-    *seg = 0.0, *pen = 0.0;
-    const int steps = (int)lround(secs / prm.dt);
-    for (int k = 1; k <= steps; k++) {
-        const core_xform h = app_anim_head(p, k * (double)prm.dt, core_xform_identity());
-        sim_set_motion(&s, h);
-        if (sim_step(&s, &err) != CORE_OK) fail_msg("sim_step: %s", err.msg);
-        assert_int_equal(sim_read_positions(&s, x, &err), CORE_OK);
-        *seg = simcheck_worse(*seg, quality_segment_error_max(g, x, MIN_REST));
-        *pen = simcheck_worse(*pen, quality_penetration_max(g, h, x));
-    }
-    free(x);
-    sim_destroy(&s);
-}
-
 static int run_all(const char *name, const core_groom *g, double secs)
 {
     int failures = 0;
     for (int p = 0; p < APP_PRESET_COUNT; p++) {
         double seg, pen;
-        run_preset(g, (app_preset)p, secs, &seg, &pen);
+        sim_params prm;
+        sim_params_default(&prm);
+        simcheck_preset_errors(g, &prm, (app_preset)p, secs, MIN_REST, &seg, &pen);
         printf("%-8s %-9s max segment error %.3f%%, deepest penetration %.3f mm\n", name, app_preset_names[p],
                100.0 * seg, 1e3 * pen);
         if (!(seg <= SEG_TOL) || !(pen <= PEN_TOL)) failures++;

@@ -9,6 +9,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "quality.h"
+
 #define PI 3.14159265358979323846
 
 core_xform simcheck_head_motion(double t, double speed)
@@ -209,4 +211,28 @@ double simcheck_motion_then_rest(simcheck_run *r, float dt, double moving, doubl
     }
     if (settle) *settle = above;
     return last / (dt * 60.0);
+}
+
+void simcheck_preset_errors(const core_groom *g, const sim_params *prm, app_preset p, double secs, double min_rest,
+                            double *seg, double *pen)
+{
+    core_err err;
+    sim s;
+    sim_desc d = { .backend = SIM_BACKEND_CPU, .threads = 2 };
+    if (sim_create(&s, &d, g, prm, &err) != CORE_OK) fail_msg("sim_create: %s", err.msg);
+    const size_t n = (size_t)g->nstrands * g->nverts;
+    float *x = malloc(3 * n * sizeof(float));
+    assert_non_null(x);
+    *seg = 0.0, *pen = 0.0;
+    const int steps = (int)lround(secs / prm->dt);
+    for (int k = 1; k <= steps; k++) {
+        const core_xform h = app_anim_head(p, k * (double)prm->dt, core_xform_identity());
+        sim_set_motion(&s, h);
+        if (sim_step(&s, &err) != CORE_OK) fail_msg("sim_step: %s", err.msg);
+        assert_int_equal(sim_read_positions(&s, x, &err), CORE_OK);
+        *seg = simcheck_worse(*seg, quality_segment_error_max(g, x, min_rest));
+        *pen = simcheck_worse(*pen, quality_penetration_max(g, h, x));
+    }
+    free(x);
+    sim_destroy(&s);
 }

@@ -6,6 +6,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "app/app_anim.h"
 #include "core/groom_types.h"
 #include "core/math3.h"
 #include "groom/groom.h"
@@ -49,6 +50,13 @@ double simcheck_deepest_penetration(const core_groom *g, core_xform h, const flo
  * centre, 12 mm larger than the head ellipsoid's smallest semi-axis, so that the hair near the
  * scalp is pushed by it; g owns it (core_groom_free). Fails the running test when it cannot. */
 void simcheck_sphere_sdf(core_groom *g);
+
+/* Runs animation preset p for secs on g (CPU backend, 2 threads, parameters prm): the worst
+ * segment-length error (quality_segment_error_max of segments of at least min_rest) and the
+ * deepest penetration (metres, quality_penetration_max) over the steps' end states. Fails the
+ * running test when the solver refuses. */
+void simcheck_preset_errors(const core_groom *g, const sim_params *prm, app_preset p, double secs, double min_rest,
+                            double *seg, double *pen);
 
 /* The stillness bound of the rest tests: p99.9 of the per-frame displacement of the non-root
  * vertices, metres per 1/60 s. */
