@@ -613,18 +613,23 @@ static float lcg(uint32_t *x)
     return (float)(*x >> 8) / 8388608.0f - 1.0f;
 }
 
-/* A run on the smaller paper mesh after 20 frames of a turning head: springs stretched and
- * compressed, tetrahedra deformed. */
-static sim_hm *moved_run(hm_run *r, const sim_params *p)
+/* A run on the smaller paper mesh at the default parameters after 20 frames of a turning head:
+ * springs stretched and compressed, tetrahedra deformed. With tight, its solves then stop at a
+ * 1e-6 tolerance (up to 1000 iterations). */
+static sim_hm *moved_run(hm_run *r, bool tight)
 {
-    open_run(r, 2, 6, true, p);
+    sim_params p;
+    sim_params_default(&p);
+    open_run(r, 2, 6, true, &p);
     for (int f = 0; f < 20; f++) {
         core_xform head = core_xform_identity();
         head.rot = core_q_axis_angle(core_v3(0.0f, 1.0f, 0.0f), 0.05f * (float)f);
         sim_set_motion(&r->s, head);
         steps(r, 1);
     }
-    return r->s.self;
+    sim_hm *h = r->s.self;
+    if (tight) h->p.hm.cg_tolerance = 1e-6f, h->p.hm.cg_iterations = 1000;
+    return h;
 }
 
 /* sqrt(sum of a_i^2) over the free vertices' rows. */
@@ -651,10 +656,8 @@ static double residual_norm(sim_hm *h, const float *x, float *y, float *res)
 static void test_assembly_matches_matrix_free(void **state)
 {
     (void)state;
-    sim_params p;
-    sim_params_default(&p);
     hm_run r;
-    sim_hm *h = moved_run(&r, &p);
+    sim_hm *h = moved_run(&r, false);
     uint32_t tense = 0, slack = 0;
     for (uint32_t i = 0; i < h->sp.n; i++) h->sp.beta[i] > 0.0f ? tense++ : slack++;
     assert_true(tense > 0 && slack > 0); /* both branches of the springs' blocks */
@@ -680,11 +683,8 @@ static void test_assembly_matches_matrix_free(void **state)
 static void test_cg_solves_system(void **state)
 {
     (void)state;
-    sim_params p;
-    sim_params_default(&p);
     hm_run r;
-    sim_hm *h = moved_run(&r, &p);
-    h->p.hm.cg_tolerance = 1e-6f, h->p.hm.cg_iterations = 1000;
+    sim_hm *h = moved_run(&r, true);
     const float accel[3] = { 0.0f, -9.81f, 0.0f };
     sim_hm_forces(h, accel, 1.0f / 60.0f, h->head.rot);
     const size_t n3 = 3 * (size_t)h->n;
@@ -724,11 +724,8 @@ static void test_cg_solves_system(void **state)
 static void test_deform_min_solves(void **state)
 {
     (void)state;
-    sim_params p;
-    sim_params_default(&p);
     hm_run r;
-    sim_hm *h = moved_run(&r, &p);
-    h->p.hm.cg_tolerance = 1e-6f, h->p.hm.cg_iterations = 1000;
+    sim_hm *h = moved_run(&r, true);
     const sim_hm_edges *e = &h->edges;
     assert_int_equal(e->row[h->n], 2 * e->n);
     for (uint32_t i = 0; i < h->n; i++)
