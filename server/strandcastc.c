@@ -22,10 +22,10 @@
 #define CLI_META_BYTES 36u /* a recorded frame's u64 sim_step, float32 head position x3, orientation x4 */
 
 static const char *const USAGE =
-    "usage: strandcastc [--host H] [--port N] [--send JSON]... [--frames N] [--seconds S]\n"
+    "usage: strandcastc [--host H] [--port N] [--room NAME] [--send JSON]... [--frames N] [--seconds S]\n"
     "                   [--out FILE] [--json]\n"
-    "       strandcastc run [--host H] [--port N] [--json] SCRIPT.json   (a scripted scenario: run --help)\n"
-    "       strandcastc check [--host H] [--port N] [flags]             (frame invariants: check --help)\n"
+    "       strandcastc run [--host H] [--port N] [--room NAME] [--json] SCRIPT.json   (a scripted scenario: run --help)\n"
+    "       strandcastc check [--host H] [--port N] [--room NAME] [flags]             (frame invariants: check --help)\n"
     "       strandcastc --compare A.scfr B.scfr [--json]                (largest position difference per frame)\n"
     "Connects to a running strandcastd (subprotocol " PROTO_SUBPROTOCOL "), shows its hello, sends each\n"
     "--send message in order (replies and broadcasts are printed as they come; stats are not),\n"
@@ -34,6 +34,8 @@ static const char *const USAGE =
     "one an id to see its effect, e.g. a subscribe, in every frame shown).\n"
     "  --host H      address of the daemon (default 127.0.0.1)\n"
     "  --port N      its port (default 7681)\n"
+    "  --room NAME   the room to join, at ws://HOST:PORT/rooms/NAME (a daemon started with --room, or\n"
+    "                an edge relay); default: the room \"default\" at /\n"
     "  --send JSON   a control message, e.g. '{\"type\":\"subscribe\",\"stride\":4}' (up to 32)\n"
     "  --frames N    stop after N decoded frames (default 10; 0 = until --seconds)\n"
     "  --seconds S   stop after S seconds in any case, 0.001..86400 (default 10)\n"
@@ -51,6 +53,7 @@ static const char *const USAGE =
 typedef struct cli_desc {
     const char *host, *out;
     int port;
+    char path[PROTO_ROOM_PATH_MAX]; /* the WebSocket request path: "/" or /rooms/NAME */
     const char *send[CLI_MAX_SEND];
     int nsend;
     unsigned long frames;
@@ -77,11 +80,12 @@ typedef struct cli {
     char error[CORE_ERR_MAX + 64];
 } cli;
 
-enum { OPT_HOST = 256, OPT_PORT, OPT_SEND, OPT_FRAMES, OPT_SECONDS, OPT_OUT, OPT_JSON };
+enum { OPT_HOST = 256, OPT_PORT, OPT_ROOM, OPT_SEND, OPT_FRAMES, OPT_SECONDS, OPT_OUT, OPT_JSON };
 
 static const struct option options[] = {
     { "host", required_argument, NULL, OPT_HOST },
     { "port", required_argument, NULL, OPT_PORT },
+    { "room", required_argument, NULL, OPT_ROOM },
     { "send", required_argument, NULL, OPT_SEND },
     { "frames", required_argument, NULL, OPT_FRAMES },
     { "seconds", required_argument, NULL, OPT_SECONDS },
@@ -97,6 +101,7 @@ static int parse_args(int argc, char **argv, cli_desc *d)
     memset(d, 0, sizeof *d);
     d->host = "127.0.0.1";
     d->port = NET_DEFAULT_PORT;
+    strcpy(d->path, "/");
     d->frames = 10;
     d->seconds = 10.0;
     core_cli_begin();
@@ -112,6 +117,10 @@ static int parse_args(int argc, char **argv, cli_desc *d)
         int rc = 0;
         switch (opt) {
         case OPT_HOST: d->host = v; break;
+        case OPT_ROOM:
+            if (!proto_room_path(v, d->path, sizeof d->path))
+                return core_cli_bad(PROG, flag, v, "is not a room name: 1..64 letters, digits, '-' or '_'");
+            break;
         case OPT_OUT: d->out = v; break;
         case OPT_JSON: d->json = true; break;
         case OPT_SEND:
@@ -340,18 +349,19 @@ static int run(cli *c)
         }
     }
     wsc *w = wsc_new();
-    wsc_conn *conn = w ? wsc_connect_host(w, c->d.host, c->d.port, PROTO_SUBPROTOCOL, on_frame, c) : NULL;
+    wsc_conn *conn = w ? wsc_connect_host(w, c->d.host, c->d.port, c->d.path, PROTO_SUBPROTOCOL, on_frame, c) : NULL;
     int rc = 1;
     if (!conn || !wsc_wait_open(w, conn, CLI_CONNECT_MS)) {
-        fprintf(stderr, "strandcastc: cannot connect to ws://%s:%d/ with subprotocol %s\n", c->d.host, c->d.port,
-                PROTO_SUBPROTOCOL);
+        fprintf(stderr, "strandcastc: cannot connect to ws://%s:%d%s with subprotocol %s\n", c->d.host, c->d.port,
+                c->d.path, PROTO_SUBPROTOCOL);
         goto done;
     }
     const char *hello = wsc_next_of_type(w, conn, "hello", CLI_CONNECT_MS);
     proto_hello_info h;
     core_err err;
     if (!hello || proto_read_hello(hello, strlen(hello), &h, &err) != CORE_OK) {
-        fprintf(stderr, "strandcastc: no hello from the server%s%s\n", hello ? ": " : "", hello ? err.msg : "");
+        const char *why = hello ? err.msg : wsc_last_text(conn); /* a refusal the server sent */
+        fprintf(stderr, "strandcastc: no hello from the server%s%.300s\n", *why ? ": " : "", why);
         goto done;
     }
     print_hello(c, &h);

@@ -55,3 +55,17 @@ strandcast_scenario_test(check_fails_rate --exit 1 --expect "frame rate: "
   -- $<TARGET_FILE:strandcastc> check --port {port} --frames 10 --min-fps 100000)
 strandcast_scenario_test(check_bad_flag --exit 2 --expect "--max-depth x"
   -- $<TARGET_FILE:strandcastc> check --port {port} --max-depth x)
+# --room NAME: strandcastc (run, check and the plain client) joins a named room at /rooms/NAME;
+# another room is refused with the server's reason, a name that is not a room name before connecting.
+set(room_script ${CMAKE_CURRENT_SOURCE_DIR}/scenarios/rooms/lab.json)
+strandcast_scenario_test(scenario_room --daemon --room --daemon lab --expect "all 5 steps held"
+  -- $<TARGET_FILE:strandcastc> run --room lab --port {port} ${room_script})
+strandcast_scenario_test(strandcastc_check_room --daemon --room --daemon lab --expect "all 1 steps held"
+  -- $<TARGET_FILE:strandcastc> check --room lab --port {port} --frames 20 --max-gap-ms 5000)
+strandcast_scenario_test(strandcastc_room_frames --daemon --room --daemon lab --expect "2 frames"
+  -- $<TARGET_FILE:strandcastc> --room lab --port {port} --frames 2)
+strandcast_scenario_test(scenario_room_refused --daemon --room --daemon lab --exit 1
+  --expect "no usable hello from the server: " --expect "\"code\":\"unknown_room\""
+  -- $<TARGET_FILE:strandcastc> run --room other --port {port} ${room_script})
+strandcast_scenario_test(strandcastc_room_bad_name --exit 2 --expect "--room bad/name: is not a room name"
+  -- $<TARGET_FILE:strandcastc> --room bad/name --port {port})

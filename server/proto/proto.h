@@ -31,6 +31,7 @@
 #define PROTO_MAX_ROOM 64             /* longest room name, bytes */
 #define PROTO_DEFAULT_ROOM "default"  /* the room of the WebSocket path "/" */
 #define PROTO_ROOM_PREFIX "/rooms/"   /* the page and WebSocket path of a room: /rooms/NAME */
+#define PROTO_ROOM_PATH_MAX (sizeof PROTO_ROOM_PREFIX + PROTO_MAX_ROOM) /* its bytes with the NUL */
 #define PROTO_CLOSE_BAD_ROOM 4400     /* close code: the path names no valid room */
 #define PROTO_CLOSE_UNKNOWN_ROOM 4404 /* close code: a valid room this server does not serve */
 #define PROTO_CLOSE_ROOM_UNAVAILABLE 4503 /* close code: the room's simulation node is gone (reconnect later) */
@@ -295,6 +296,11 @@ bool proto_room_valid(const char *name);
  * into room, PROTO_MAX_ROOM + 1 bytes), any other path the default room. A path under the prefix
  * whose name is not a room name is PROTO_ERR_BAD_ROOM in *e (field "room"). Any thread. */
 core_status proto_room_of_path(const char *path, char *room, proto_error *e);
+
+/* The WebSocket request path of room (NULL or PROTO_DEFAULT_ROOM: "/", else PROTO_ROOM_PREFIX
+ * "NAME") into path (cap bytes; PROTO_ROOM_PATH_MAX is enough). False when room is not a room name
+ * (proto_room_valid) or path is too small. Any thread. */
+bool proto_room_path(const char *room, char *path, size_t cap);
 
 /* The first message of every connection; see proto/PROTOCOL.md. */
 char *proto_build_hello(const proto_hello *h);

@@ -1,4 +1,5 @@
 /* proto: room names and the room a WebSocket path addresses. */
+#include <stdio.h>
 #include <string.h>
 
 #include "proto.h"
@@ -32,4 +33,11 @@ core_status proto_room_of_path(const char *path, char *room, proto_error *e)
     }
     strcpy(room, name);
     return CORE_OK;
+}
+
+bool proto_room_path(const char *room, char *path, size_t cap)
+{
+    if (!room || !strcmp(room, PROTO_DEFAULT_ROOM)) return snprintf(path, cap, "/") < (int)cap;
+    if (!proto_room_valid(room)) return false;
+    return snprintf(path, cap, "%s%s", PROTO_ROOM_PREFIX, room) < (int)cap;
 }

@@ -195,6 +195,7 @@ const char *scen_kind_name(scen_kind k);
 typedef struct scen_run_desc {
     const char *host; /* NULL: 127.0.0.1 */
     int port;         /* 0: 7681 */
+    const char *room; /* the room to join (proto_room_valid; at /rooms/NAME); NULL: the default room at / */
     bool json;        /* one JSON object per step instead of a line */
     FILE *out;        /* NULL: stdout */
 } scen_run_desc;

@@ -8,7 +8,7 @@
 #include "scen.h"
 
 static const char *const RUN_USAGE =
-    "usage: strandcastc run [--host H] [--port N] [--json] SCRIPT.json\n"
+    "usage: strandcastc run [--host H] [--port N] [--room NAME] [--json] SCRIPT.json\n"
     "Connects to a running strandcastd (subprotocol " PROTO_SUBPROTOCOL "), reads its hello and runs the\n"
     "script's steps in order: send a message (at a wall time, a sim time or a step), wait for the\n"
     "reply to an id and expect its type or error code, wait for frames, a sim time or a step, expect a\n"
@@ -16,6 +16,7 @@ static const char *const RUN_USAGE =
     "per step. The script format: tests/scenarios/README.md.\n"
     "  --host H      address of the daemon (default 127.0.0.1)\n"
     "  --port N      its port (default 7681)\n"
+    "  --room NAME   the room to join, at /rooms/NAME (default: the room \"default\" at /)\n"
     "  --json        one JSON object per step, {\"step\":I,\"kind\":..,\"ok\":..,\"detail\":..,\"seen\":..},\n"
     "                then {\"summary\":true,\"ok\":..,\"failed_step\":I|null,...}\n"
     "Exit status: 0 when every expectation held, 1 at the first step that failed (named, with what\n"
@@ -23,7 +24,7 @@ static const char *const RUN_USAGE =
     "field are named).\n";
 
 static const char *const CHECK_USAGE =
-    "usage: strandcastc check [--host H] [--port N] [--frames N | --seconds S] [--max-stretch R]\n"
+    "usage: strandcastc check [--host H] [--port N] [--room NAME] [--frames N | --seconds S] [--max-stretch R]\n"
     "                         [--max-depth M] [--root-tolerance M] [--min-fps F] [--max-gap-ms MS] [--json]\n"
     "Connects to a running strandcastd, fetches the groom data (rest lengths and roots) from the\n"
     "hello's groom.url on the same host and port, and checks invariants on the frames it receives:\n"
@@ -36,6 +37,7 @@ static const char *const CHECK_USAGE =
     "be fetched or does not match the hello fails with \"groom data: ...\". A bound below 0 turns its\n"
     "check off.\n"
     "  --host H, --port N      the daemon (default 127.0.0.1:7681)\n"
+    "  --room NAME             the room to join, at /rooms/NAME (default: the room \"default\" at /)\n"
     "  --frames N              frames to check (default 120)\n"
     "  --seconds S             check for S seconds instead\n"
     "  --max-stretch R         default 0.02\n"
@@ -50,6 +52,7 @@ static const char *const CHECK_USAGE =
 enum {
     OPT_HOST = 256,
     OPT_PORT,
+    OPT_ROOM,
     OPT_JSON,
     OPT_FRAMES,
     OPT_SECONDS,
@@ -63,6 +66,7 @@ enum {
 static const struct option options[] = {
     { "host", required_argument, NULL, OPT_HOST },
     { "port", required_argument, NULL, OPT_PORT },
+    { "room", required_argument, NULL, OPT_ROOM },
     { "json", no_argument, NULL, OPT_JSON },
     { "frames", required_argument, NULL, OPT_FRAMES },
     { "seconds", required_argument, NULL, OPT_SECONDS },
@@ -92,6 +96,10 @@ static int parse(const char *prog, const char *usage, int argc, char **argv, sce
         if (!check_step && opt >= OPT_FRAMES) return core_cli_bad(prog, flag, NULL, "is a flag of strandcastc check");
         switch (opt) {
         case OPT_HOST: d->host = v; break;
+        case OPT_ROOM:
+            if (!proto_room_valid(v)) return core_cli_bad(prog, flag, v, "is not a room name: 1..64 letters, digits, '-' or '_'");
+            d->room = v;
+            break;
         case OPT_JSON: d->json = true; break;
         case OPT_PORT:
             if (!(rc = core_cli_u64(prog, flag, v, 1, 65535, &u))) d->port = (int)u;
@@ -118,7 +126,8 @@ int scen_cli_run(int argc, char **argv)
     bool help = false;
     for (int i = 1; i < argc; i++) help |= !strcmp(argv[i], "--help") || !strcmp(argv[i], "-h");
     /* the last argument is the script unless it is a flag or the value of one */
-    bool value = argc >= 3 && (!strcmp(argv[argc - 2], "--host") || !strcmp(argv[argc - 2], "--port"));
+    bool value = argc >= 3 && (!strcmp(argv[argc - 2], "--host") || !strcmp(argv[argc - 2], "--port") ||
+                               !strcmp(argv[argc - 2], "--room"));
     if (!help && (argc < 2 || argv[argc - 1][0] == '-' || value))
         return core_cli_bad(prog, "SCRIPT.json", NULL, "missing: give the script as the last argument");
     int rc = parse(prog, RUN_USAGE, help ? argc : argc - 1, argv, &d, NULL);

@@ -636,12 +636,13 @@ static bool run_step(runner *r, const scen_step *st)
     }
 }
 
-static bool connect_hello(runner *r, const char *host, int port)
+static bool connect_hello(runner *r, const char *host, int port, const char *path)
 {
     r->w = wsc_new();
-    r->conn = r->w ? wsc_connect_host(r->w, host, port, PROTO_SUBPROTOCOL, on_frame, r) : NULL;
+    r->conn = r->w ? wsc_connect_host(r->w, host, port, path, PROTO_SUBPROTOCOL, on_frame, r) : NULL;
     if (!r->conn || !wsc_wait_open(r->w, r->conn, SCEN_CONNECT_MS)) {
-        fprintf(stderr, "strandcastc: cannot connect to ws://%s:%d/ with subprotocol %s\n", host, port, PROTO_SUBPROTOCOL);
+        fprintf(stderr, "strandcastc: cannot connect to ws://%s:%d%s with subprotocol %s\n", host, port, path,
+                PROTO_SUBPROTOCOL);
         return false;
     }
     const char *hello = wsc_next_of_type(r->w, r->conn, "hello", SCEN_CONNECT_MS);
@@ -649,7 +650,8 @@ static bool connect_hello(runner *r, const char *host, int port)
     r->host = host;
     r->port = port;
     if (!hello || scen_world_hello(&r->world, hello, strlen(hello), fetch_http, r, &err) != CORE_OK) {
-        fprintf(stderr, "strandcastc: no usable hello from the server%s%s\n", hello ? ": " : "", hello ? err.msg : "");
+        const char *why = hello ? err.msg : wsc_last_text(r->conn); /* a refusal the server sent */
+        fprintf(stderr, "strandcastc: no usable hello from the server%s%.300s\n", *why ? ": " : "", why);
         return false;
     }
     r->have_world = true;
@@ -671,11 +673,17 @@ int scen_run(const scen_run_desc *d, const scen_script *s)
     const char *host = d->host ? d->host : "127.0.0.1";
     int port = d->port ? d->port : NET_DEFAULT_PORT;
     int rc = 1;
-    if (!connect_hello(&r, host, port)) goto done;
+    char path[PROTO_ROOM_PATH_MAX];
+    if (!proto_room_path(d->room, path, sizeof path)) {
+        fprintf(stderr, "strandcastc: \"%.64s\" is not a room name\n", d->room);
+        goto done;
+    }
+    if (!connect_hello(&r, host, port, path)) goto done;
     r.t0 = core_now_ns();
     if (!d->json)
-        fprintf(r.out, "strandcastc run: %s: ws://%s:%d/, groom %u x %u, %d colliders, %zu steps\n",
-                s->name[0] ? s->name : "script", host, port, r.world.strands, r.world.verts, r.world.ncolliders, s->nsteps);
+        fprintf(r.out, "strandcastc run: %s: ws://%s:%d%s, groom %u x %u, %d colliders, %zu steps\n",
+                s->name[0] ? s->name : "script", host, port, path, r.world.strands, r.world.verts, r.world.ncolliders,
+                s->nsteps);
     size_t failed = s->nsteps;
     for (size_t i = 0; i < s->nsteps && failed == s->nsteps; i++) {
         bool ok = run_step(&r, &s->steps[i]);

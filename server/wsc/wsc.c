@@ -262,7 +262,7 @@ void wsc_free(wsc *w)
 
 wsc_conn *wsc_connect(wsc *w, int port, const char *subprotocol, wsc_binary_fn on_binary, void *user)
 {
-    return wsc_connect_host(w, "127.0.0.1", port, subprotocol, on_binary, user);
+    return wsc_connect_host(w, "127.0.0.1", port, NULL, subprotocol, on_binary, user);
 }
 
 /* A connection to host:port at path, over TLS when tls (any certificate accepted: tests only). */
@@ -293,10 +293,10 @@ static wsc_conn *connect_to(wsc *w, const char *host, int port, const char *path
     return c;
 }
 
-wsc_conn *wsc_connect_host(wsc *w, const char *host, int port, const char *subprotocol, wsc_binary_fn on_binary,
-                           void *user)
+wsc_conn *wsc_connect_host(wsc *w, const char *host, int port, const char *path, const char *subprotocol,
+                           wsc_binary_fn on_binary, void *user)
 {
-    return connect_to(w, host, port, "/", false, subprotocol, on_binary, user);
+    return connect_to(w, host, port, path ? path : "/", false, subprotocol, on_binary, user);
 }
 
 wsc_conn *wsc_connect_path(wsc *w, int port, const char *path, const char *subprotocol, wsc_binary_fn on_binary, void *user)
@@ -393,6 +393,11 @@ char *const *wsc_texts(wsc_conn *c, size_t *count)
 {
     *count = c->ntexts;
     return c->texts;
+}
+
+const char *wsc_last_text(wsc_conn *c)
+{
+    return c->ntexts ? c->texts[c->ntexts - 1] : "";
 }
 
 typedef struct find_arg {

@@ -22,9 +22,10 @@ void wsc_free(wsc *w);
 /* Starts a connection to 127.0.0.1:port asking for subprotocol (NULL = none); on_binary (may be
  * NULL) gets user. The wsc owns the connection (freed by wsc_free). NULL when out of memory. */
 wsc_conn *wsc_connect(wsc *w, int port, const char *subprotocol, wsc_binary_fn on_binary, void *user);
-/* The same to host (an IP address or a name; the string must outlive the connection attempt). */
-wsc_conn *wsc_connect_host(wsc *w, const char *host, int port, const char *subprotocol, wsc_binary_fn on_binary,
-                           void *user);
+/* The same to host (an IP address or a name) at the request path ("/rooms/NAME"; NULL = "/");
+ * both strings must outlive the connection attempt. */
+wsc_conn *wsc_connect_host(wsc *w, const char *host, int port, const char *path, const char *subprotocol,
+                           wsc_binary_fn on_binary, void *user);
 
 /* wsc_connect to the request path ("/rooms/NAME"; the string must outlive the connection attempt). */
 wsc_conn *wsc_connect_path(wsc *w, int port, const char *path, const char *subprotocol, wsc_binary_fn on_binary, void *user);
@@ -56,6 +57,9 @@ void wsc_small_rcvbuf(wsc_conn *c, int bytes);
 
 /* Received text messages in order; *count set. Owned by the connection. */
 char *const *wsc_texts(wsc_conn *c, size_t *count);
+/* The last text message c received (what a server said before refusing it), or "" when none;
+ * owned by c. */
+const char *wsc_last_text(wsc_conn *c);
 /* Waits for the next unread text message whose "type" is type, consuming the unread messages
  * before it; returns it (owned by c) or NULL on timeout. */
 const char *wsc_next_of_type(wsc *w, wsc_conn *c, const char *type, int timeout_ms);

@@ -17,7 +17,7 @@ void test_listen_ipv6(void **state)
     fixture *fx = *state;
     view v = { 0 };
     codec_decoder_init(&v.dec);
-    wsc_conn *c6 = wsc_connect_host(fx->w, "::1", fx->d.port, SUBPROTOCOL, on_frame, &v);
+    wsc_conn *c6 = wsc_connect_host(fx->w, "::1", fx->d.port, NULL, SUBPROTOCOL, on_frame, &v);
     assert_true(wsc_wait_open(fx->w, c6, WAIT_MS));
     cJSON_Delete(expect_msg(fx, c6, "hello"));
     wait_frames(fx, &v, 3);
