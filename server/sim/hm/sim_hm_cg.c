@@ -5,37 +5,6 @@
 
 #include "sim_hm_internal.h"
 
-void sim_hm_apply(const sim_hm *h, const float *x, float *y)
-{
-    const float d = h->diag;
-    for (size_t i = 0; i < 3 * (size_t)h->n; i++) y[i] = d * x[i];
-    const sim_hm_springs *s = &h->sp;
-    for (uint32_t i = 0; i < s->n; i++) {
-        const uint32_t a = s->a[i], b = s->b[i];
-        const float *u = s->u + 3 * (size_t)i;
-        const float w0 = x[3 * a] - x[3 * b], w1 = x[3 * a + 1] - x[3 * b + 1], w2 = x[3 * a + 2] - x[3 * b + 2];
-        const float al = s->alpha[i] * (u[0] * w0 + u[1] * w1 + u[2] * w2), be = s->beta[i];
-        const float y0 = al * u[0] + be * w0, y1 = al * u[1] + be * w1, y2 = al * u[2] + be * w2;
-        y[3 * a] += y0, y[3 * a + 1] += y1, y[3 * a + 2] += y2;
-        y[3 * b] -= y0, y[3 * b + 1] -= y1, y[3 * b + 2] -= y2;
-    }
-    const sim_hm_tets *t = &h->tets;
-    for (uint32_t i = 0; i < t->n; i++) {
-        const uint32_t *id = t->v + 4 * (size_t)i;
-        const float *g = t->g + 12 * (size_t)i;
-        float gx = 0.0f;
-        for (int j = 0; j < 4; j++) {
-            const float *xj = x + 3 * (size_t)id[j];
-            gx += g[3 * j] * xj[0] + g[3 * j + 1] * xj[1] + g[3 * j + 2] * xj[2];
-        }
-        gx *= t->w[i];
-        for (int j = 0; j < 4; j++) {
-            float *yj = y + 3 * (size_t)id[j];
-            yj[0] += gx * g[3 * j], yj[1] += gx * g[3 * j + 1], yj[2] += gx * g[3 * j + 2];
-        }
-    }
-}
-
 /* a . b over n floats in double, in 8 interleaved partial sums (a fixed order: the same result
  * at any vector width) so the additions do not wait on each other. */
 static double dot3n(const float *restrict a, const float *restrict b, size_t n)

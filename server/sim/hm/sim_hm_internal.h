@@ -122,10 +122,6 @@ void sim_hm_bsr_upper_solve(const sim_hm_bsr *m, const float *dinv, const uint8_
                             float *u);
 void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const float *x, float *y);
 
-/* y = A x for the same system from the springs' and tetrahedra's terms (matrix-free): the
- * reference that the tests pin the assembled blocks against. */
-void sim_hm_apply(const sim_hm *h, const float *x, float *y);
-
 /* Solves A vn = rhs by modified CG: rows with fixed[i] keep vn_i = z_i; starts from vn = z (the
  * others: moving with the head) or from h->v plus the last solve's change h->dvp (which it then
  * sets) when that is nearer; stops at cg_tolerance of the residual of vn = h->v; symmetric block
