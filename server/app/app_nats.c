@@ -364,6 +364,10 @@ void app_nats_frame(app_nats *b, uint32_t stream, net_buf *frame, uint64_t seq, 
     bool wanted = b->on_stream[stream] > 0;
     uint64_t direct = key ? b->key_to[stream] : 0;
     if (key) b->key_to[stream] = 0;
+    if (!wanted && !direct) { /* no edge takes this stream: only its keyframe is kept */
+        pthread_mutex_unlock(&b->tab_lock);
+        return;
+    }
     char s[12], sq[24];
     snprintf(s, sizeof s, "%u", stream);
     snprintf(sq, sizeof sq, "%llu", (unsigned long long)seq);
