@@ -301,7 +301,13 @@ async function main() {
     const r = document.querySelector('input[type=range][data-param="wind_x"]');
     // the number box shows the exact value, the slider the nearest step
     return r && Math.abs(Number(r.parentElement.querySelector('.num').value) - 3.25) < 1e-9 && Math.abs(Number(r.value) - 3.25) <= Number(r.step);
-  }, null, { timeout: 20000, polling: 100 });
+  }, null, { timeout: 60000, polling: 100 }).catch(async (e) => {
+    const shown = await page.evaluate(() => {
+      const r = document.querySelector('input[type=range][data-param="wind_x"]');
+      return r ? { slider: r.value, step: r.step, box: r.parentElement.querySelector('.num').value } : null;
+    });
+    die(`wind_x = 3.25 from another client did not show in the panel: ${e.message}; the panel shows ${JSON.stringify(shown)}`);
+  });
   check(true, 'wind_x = 3.25 set by another client shows in the panel');
 
   // local_stiffness spans [0, 1e8] on a log slider (hello scale "log"): its middle position is
@@ -325,7 +331,7 @@ async function main() {
   await page.waitForFunction(() => {
     const r = document.querySelector('input[type=range][data-param="local_stiffness"]');
     return r && r.parentElement.querySelector('.num').value === '1000' && r.value === '101';
-  }, null, { timeout: 20000, polling: 100 });
+  }, null, { timeout: 60000, polling: 100 });
   check(true, 'local_stiffness = 1000 set by another client shows at slider position 101 of 601');
 
   // the solver is a drop-down: picking pbd switches the server (seen by the other client) and
@@ -343,11 +349,11 @@ async function main() {
   await page.waitForFunction(() => {
     const shown = (n) => { const r = document.querySelector(`[data-param="${n}"]`)?.closest('.row'); return !!r && getComputedStyle(r).display !== 'none'; };
     return shown('pbd_iterations') && !shown('dftl_correction');
-  }, null, { timeout: 20000, polling: 100 });
+  }, null, { timeout: 60000, polling: 100 });
   check(true, 'on pbd the panel shows pbd_iterations and hides dftl_correction');
   other.ws.send(JSON.stringify({ type: 'set_params', id: 'e2e-s', values: { solver: 'dftl' } }));
   await waitMessage(other, (m) => m.id === 'e2e-s', 20000, 'reply to set_params');
-  await page.waitForFunction(() => document.querySelector('select[data-param="solver"]').value === 'dftl', null, { timeout: 20000, polling: 100 });
+  await page.waitForFunction(() => document.querySelector('select[data-param="solver"]').value === 'dftl', null, { timeout: 60000, polling: 100 });
   check(true, 'solver = dftl set by another client shows in the drop-down');
 
   await page.screenshot({ path: path.join(outDir, 'e2e-screenshot.png'), timeout: 180000 });

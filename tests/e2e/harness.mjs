@@ -21,6 +21,8 @@ export function arg(name, def) {
 // A script's harness, its messages prefixed with `label`: the flags --daemon (required), --out,
 // --web and --chromium, checked; the output folder made; `cleanups` run by cleanup().
 export function harness(label) {
+  const started = Date.now();
+  const at = () => `${((Date.now() - started) / 1000).toFixed(1)} s`;
   const h = {
     daemonPath: arg('--daemon'),
     outDir: path.resolve(arg('--out', 'e2e-out')),
@@ -28,13 +30,13 @@ export function harness(label) {
     chromiumPath: arg('--chromium', '/usr/bin/chromium'),
     cleanups: [],
     die(msg) {
-      console.error(`${label}: FAIL: ${msg}`);
+      console.error(`${label}: FAIL (${at()}): ${msg}`);
       process.exitCode = 1;
       throw new Error(msg);
     },
     check(cond, msg) {
       if (!cond) h.die(msg);
-      console.log(`${label}: ok: ${msg}`);
+      console.log(`${label}: ok (${at()}): ${msg}`);
     },
     async cleanup() {
       while (h.cleanups.length) {
