@@ -555,12 +555,20 @@ static void test_build_params(void **state)
     assert_true(num_of(vals, "substeps") == 3.0);
     assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(vals, "sph")));
     assert_true(num_of(vals, "stiffness") == 0.2);
+    assert_null(cJSON_GetObjectItemCaseSensitive(j, "changed"));
     cJSON_Delete(j);
 
-    bool changed[4] = { true, false, false, false };
+    /* an announcement: every value (it may replace an older one in a client's queue), and
+     * the names of what changed */
+    bool changed[4] = { true, false, true, false };
     j = json(proto_build_params(NULL, table, 4, &v, changed, 3));
     vals = cJSON_GetObjectItemCaseSensitive(j, "values");
-    assert_int_equal(cJSON_GetArraySize(vals), 1);
+    assert_int_equal(cJSON_GetArraySize(vals), 4);
+    assert_true(num_of(vals, "substeps") == 3.0);
+    const cJSON *names = cJSON_GetObjectItemCaseSensitive(j, "changed");
+    assert_int_equal(cJSON_GetArraySize(names), 2);
+    assert_string_equal(cJSON_GetArrayItem(names, 0)->valuestring, "gravity");
+    assert_string_equal(cJSON_GetArrayItem(names, 1)->valuestring, "sph");
     assert_true(num_of(j, "by") == 3.0);
     cJSON_Delete(j);
 }

@@ -187,9 +187,11 @@ char *proto_build_error(const proto_id *id, const proto_error *e);
  * change to the simulation shows, proto/PROTOCOL.md) only when step >= 0. */
 char *proto_build_ok(const proto_id *id, proto_type request, int64_t step);
 
-/* {"type":"params","id":..,"values":{..},"by":..}: values read from the struct at `values`
- * through the table offsets; only the entries with changed[i] set when changed is non-NULL.
- * by < 0 writes null (a reply to get_params or a server-side change). */
+/* {"type":"params","id":..,"values":{..},"changed":[..],"by":..}: every value, read from the
+ * struct at `values` through the table offsets (an announcement carries the whole state, so a
+ * client's queue may keep only the newest one); "changed" names the entries with changed[i]
+ * set, only when changed is non-NULL. by < 0 writes null (a reply to get_params or a
+ * server-side change). Caller frees the result; any thread. */
 char *proto_build_params(const proto_id *id, const core_param_info *table, size_t n, const void *values,
                          const bool *changed, int64_t by);
 

@@ -71,12 +71,11 @@ static bool add_param_value(cJSON *obj, const core_param_info *t, const void *va
     return false;
 }
 
-static cJSON *param_values(const core_param_info *table, size_t n, const void *values, const bool *changed)
+static cJSON *param_values(const core_param_info *table, size_t n, const void *values)
 {
     cJSON *v = cJSON_CreateObject();
     bool ok = v != NULL;
-    for (size_t i = 0; ok && i < n; i++)
-        if (!changed || changed[i]) ok = add_param_value(v, &table[i], values);
+    for (size_t i = 0; ok && i < n; i++) ok = add_param_value(v, &table[i], values);
     if (!ok) {
         cJSON_Delete(v);
         return NULL;
@@ -84,13 +83,27 @@ static cJSON *param_values(const core_param_info *table, size_t n, const void *v
     return v;
 }
 
+/* Adds "changed": [the names of the entries with changed[i] set]. */
+static bool add_changed(cJSON *obj, const core_param_info *table, size_t n, const bool *changed)
+{
+    cJSON *arr = cJSON_AddArrayToObject(obj, "changed");
+    bool ok = arr != NULL;
+    for (size_t i = 0; ok && i < n; i++)
+        if (changed[i]) {
+            cJSON *s = cJSON_CreateString(table[i].name);
+            ok = s && cJSON_AddItemToArray(arr, s);
+        }
+    return ok;
+}
+
 char *proto_build_params(const proto_id *id, const core_param_info *table, size_t n, const void *values,
                          const bool *changed, int64_t by)
 {
     cJSON *o = new_message("params", id);
-    cJSON *v = o ? param_values(table, n, values, changed) : NULL;
+    cJSON *v = o ? param_values(table, n, values) : NULL;
     bool ok = v && cJSON_AddItemToObject(o, "values", v);
     if (!ok) cJSON_Delete(v);
+    ok = ok && (!changed || add_changed(o, table, n, changed));
     ok = ok && (by < 0 ? cJSON_AddNullToObject(o, "by") != NULL : cJSON_AddNumberToObject(o, "by", (double)by) != NULL);
     return finish(o, ok);
 }
@@ -271,7 +284,7 @@ char *proto_build_hello(const proto_hello *h)
               add_item(o, "head", head_object(h->head));
     cJSON *params = ok ? cJSON_CreateObject() : NULL;
     ok = ok && add_item(o, "params", params) && add_item(params, "schema", param_schema(h->params, h->nparams)) &&
-         add_item(params, "values", param_values(h->params, h->nparams, h->values, NULL)) &&
+         add_item(params, "values", param_values(h->params, h->nparams, h->values)) &&
          add_item(o, "presets", string_array(h->presets, h->npresets)) && add_item(o, "animation", anim_object(&h->animation));
     cJSON *grooms = ok ? cJSON_CreateObject() : NULL;
     ok = ok && add_item(o, "grooms", grooms) && add_item(grooms, "styles", string_array(h->styles, h->nstyles)) &&

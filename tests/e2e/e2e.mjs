@@ -322,7 +322,7 @@ async function main() {
     return { scale, max, num: r.parentElement.querySelector('.num').value };
   });
   check(stiff && stiff.scale === 'log', `local_stiffness has a log slider (${JSON.stringify(stiff)})`);
-  const ks = await waitMessage(other, (m) => m.type === 'params' && m.values && typeof m.values.local_stiffness === 'number', 60000, 'local_stiffness broadcast');
+  const ks = await waitMessage(other, (m) => m.type === 'params' && Array.isArray(m.changed) && m.changed.includes('local_stiffness'), 60000, 'local_stiffness broadcast');
   const kv = ks.values.local_stiffness;
   check(ks.by === pageClient && kv >= 3e4 && kv <= 3e5 && Number(stiff.num) === kv,
     `the local_stiffness slider's middle position sent ${kv} 1/s^2 (number box "${stiff.num}")`);
@@ -344,7 +344,7 @@ async function main() {
   const onDftl = await solverRows();
   check(onDftl.dftl && !onDftl.pbd, `on dftl the panel shows dftl_correction, not pbd_iterations (${JSON.stringify(onDftl)})`);
   await page.selectOption('select[data-param="solver"]', 'pbd');
-  const sw = await waitMessage(other, (m) => m.type === 'params' && m.values && m.values.solver === 'pbd', 60000, 'solver pbd broadcast');
+  const sw = await waitMessage(other, (m) => m.type === 'params' && Array.isArray(m.changed) && m.changed.includes('solver') && m.values.solver === 'pbd', 60000, 'solver pbd broadcast');
   check(sw.by === pageClient, `the solver drop-down switched the server to pbd (by client ${sw.by})`);
   await page.waitForFunction(() => {
     const shown = (n) => { const r = document.querySelector(`[data-param="${n}"]`)?.closest('.row'); return !!r && getComputedStyle(r).display !== 'none'; };

@@ -125,7 +125,10 @@ void test_params_broadcast_and_physics(void **state)
     cJSON *p2 = expect_msg(fx, c2, "params");
     assert_true(num(get(p2, "values"), "gravity") == 0.0);
     assert_true(num(p2, "by") == me);
-    assert_int_equal(cJSON_GetArraySize(get(p2, "values")), 1);
+    const cJSON *changed = get(p2, "changed");
+    assert_int_equal(cJSON_GetArraySize(changed), 1);
+    assert_string_equal(cJSON_GetArrayItem(changed, 0)->valuestring, "gravity");
+    assert_true(num(get(p2, "values"), "wind_x") == 0.0); /* every value, not only the changed one */
     cJSON *p1 = expect_msg(fx, c1, "params");
     assert_true(num(get(p1, "values"), "gravity") == 0.0);
     wsc_send_text(c2, "{\"type\":\"get_params\",\"id\":7}");

@@ -316,7 +316,9 @@ void test_groom_change_keeps_frames(void **state)
 
 /* One client's flood cannot hurt another: a burst of set_params (each announced to every
  * client) leaves a client that does not read meanwhile connected, since its queue keeps only
- * the newest params; past its budget the flooder gets rate_limited errors and stays open. */
+ * the newest params; past its budget the flooder gets rate_limited errors and stays open.
+ * The newest params carries every value: a change of another parameter in the middle of the
+ * burst (gravity) is not lost when later announcements replace the one that named it. */
 void test_flood_spares_others(void **state)
 {
     fixture *fx = *state;
@@ -330,7 +332,10 @@ void test_flood_spares_others(void **state)
     /* 2,000 at once: about the first 128 (the burst) are carried out and announced, the rest refused */
     char msg[128];
     for (int i = 0; i < 2000; i++) {
-        snprintf(msg, sizeof msg, "{\"type\":\"set_params\",\"values\":{\"wind_x\":%d}}", i % 50);
+        if (i == 60)
+            snprintf(msg, sizeof msg, "{\"type\":\"set_params\",\"values\":{\"gravity\":3.5}}");
+        else
+            snprintf(msg, sizeof msg, "{\"type\":\"set_params\",\"values\":{\"wind_x\":%d}}", i % 50);
         wsc_send_text(a, msg);
     }
     wsc_send_text(a, "{\"type\":\"get_params\",\"id\":\"last\"}");
@@ -344,6 +349,11 @@ void test_flood_spares_others(void **state)
     assert_true(wsc_is_open(b));
     assert_true(wsc_is_open(a));
     cJSON *p = expect_msg(fx, b, "params");
+    for (const char *t; (t = wsc_next_of_type(fx->w, b, "params", 300)) != NULL;) { /* the newest */
+        cJSON_Delete(p);
+        p = cJSON_Parse(t);
+    }
+    assert_true(num(get(p, "values"), "gravity") == 3.5);
     cJSON_Delete(p);
     http_reply r;
     assert_int_equal(http_get(fx->d.port, "/metrics", &r), 0);

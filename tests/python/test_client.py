@@ -34,7 +34,7 @@ def test_set_params_round_trip(daemon):
             # every client is told, with who changed it
             for c in (a, b):
                 params = await c.next_message("params")
-                assert params["values"] == {"gravity": 0} and params["by"] == a.hello["client"]
+                assert params["values"]["gravity"] == 0 and params["changed"] == ["gravity"] and params["by"] == a.hello["client"]
             got = await b.request({"type": "get_params"})
             assert got["type"] == "params" and got["values"]["gravity"] == 0 and got["by"] is None
             default = next(p["default"] for p in a.hello["params"]["schema"] if p["name"] == "gravity")
