@@ -45,13 +45,18 @@ static void animate(const core_hairmesh *m, const float *rest, double t, float *
     }
 }
 
+/* The synthetic head at time t. */
+static core_xform head_at(double t)
+{
+    const codec_sim_info h = codec_synth_sim(t, 0, CODEC_SYNTH_GENTLE);
+    return (core_xform){ core_v3(h.head_pos[0], h.head_pos[1], h.head_pos[2]),
+                         { h.head_rot[0], h.head_rot[1], h.head_rot[2], h.head_rot[3] } };
+}
+
 /* The next frame of the solver under the synthetic head at time t: its strands and its mesh. */
 static core_status sim_frame(sim *s, double t, float *strands, float *mesh, core_err *err)
 {
-    const codec_sim_info h = codec_synth_sim(t, 0, CODEC_SYNTH_GENTLE);
-    core_xform x = { core_v3(h.head_pos[0], h.head_pos[1], h.head_pos[2]),
-                     { h.head_rot[0], h.head_rot[1], h.head_rot[2], h.head_rot[3] } };
-    sim_set_motion(s, x);
+    sim_set_motion(s, head_at(t));
     core_status st = sim_step(s, err);
     if (st == CORE_OK) st = sim_read_positions(s, strands, err);
     if (st == CORE_OK) st = sim_read_hairmesh(s, mesh, err);
@@ -85,6 +90,8 @@ int bench_codec_hairmesh(const bench_hairmesh_opts *o)
             fprintf(stderr, "strandbench codec: hair-mesh solver: %s\n", err.msg);
             return 1;
         }
+        sim_set_motion(&s, head_at(0.0)); /* the hair starts at rest on the head, not 1.6 m below it */
+        sim_reset(&s);
         fps = 1.0 / (double)p.dt;
     }
     const uint32_t nf = (uint32_t)lrint(o->seconds * fps), ns = g.nstrands, nv = g.nverts;
