@@ -34,17 +34,18 @@ typedef struct hm_run {
     float *x, *prev;
 } hm_run;
 
-/* A run on the procedural hair mesh d, with the default
- * colliders when asked, plus a sphere of radius `ball` (when > 0) reaching 2 cm into the mesh
+/* A run on the procedural hair mesh d, with the default colliders when colliders > 0 and a
+ * distance grid (simcheck_sphere_sdf, the collision mesh's path) as well when it is 2, plus a sphere of radius `ball` (when > 0) reaching 2 cm into the mesh
  * past the tip of the first patch's middle column (a deep collision from the first step). */
-static void open_run_desc(hm_run *r, const groom_hairmesh_desc *d, bool colliders, float ball, const sim_params *p)
+static void open_run_desc(hm_run *r, const groom_hairmesh_desc *d, int colliders, float ball, const sim_params *p)
 {
     core_err err;
     core_hairmesh m;
     assert_int_equal(groom_hairmesh_procedural(d, &m, &err), CORE_OK);
     if (groom_from_hairmesh(&m, 1, 12, &r->groom, &err) != CORE_OK) fail_msg("groom_from_hairmesh: %s", err.msg);
     core_hairmesh_free(&m);
-    if (colliders) groom_default_colliders(&r->groom);
+    if (colliders > 0) groom_default_colliders(&r->groom);
+    if (colliders > 1) simcheck_sphere_sdf(&r->groom);
     if (ball > 0.0f) {
         const core_hairmesh *hm = r->groom.hairmesh;
         const float *q = hm->pos + 3 * ((size_t)4 * hm->nlayers + hm->nlayers - 1);
@@ -691,8 +692,10 @@ static void test_assembly_matches_matrix_free(void **state)
     (void)state;
     hm_run r;
     sim_hm *h = moved_run(&r, false);
+    /* every block's beta holds the damper's dt kd; a spring under tension adds its geometric term */
+    const float damper = h->p.hm.damping * h->p.dt / (float)h->p.substeps;
     uint32_t tense = 0, slack = 0;
-    for (uint32_t i = 0; i < h->sp.n; i++) h->sp.beta[i] > 0.0f ? tense++ : slack++;
+    for (uint32_t i = 0; i < h->sp.n; i++) h->sp.beta[i] > 1.001f * damper ? tense++ : slack++;
     assert_true(tense > 0 && slack > 0); /* both branches of the springs' blocks */
     const size_t n3 = 3 * (size_t)h->n;
     float *x = malloc(n3 * sizeof *x), *a = malloc(n3 * sizeof *a), *b = malloc(n3 * sizeof *b);
@@ -808,9 +811,10 @@ static void test_deform_min_solves(void **state)
 /* How far from the head's origin a vertex of the default procedural mesh may be while the hair
  * moves (at rest the farthest tip is about 0.25 m away), metres. */
 #define MOTION_REACH 0.5
-/* Seconds of a still head after the violent script before the mesh (without colliders) must be
- * still: it settles 5.1-5.4 s after the stop. */
-#define REST_AFTER_VIOLENT 6.0
+/* Seconds of a still head after the violent script within which the mesh must come to rest (the
+ * project's stillness bound, issue 13), and how long after that it is watched. */
+#define REST_AFTER_VIOLENT 3.0
+#define REST_WATCH 1.0
 
 /* The largest distance of a vertex of x from head's origin; fails on a value that is not finite. */
 static double reach(const hm_run *r, const float *x, core_xform head)
@@ -868,24 +872,33 @@ static void test_every_style_gentle_motion(void **state)
     }
 }
 
-/* Every procedural style without colliders under the violent test script (2 s,
- * simcheck_rest_head), then a still head for REST_AFTER_VIOLENT s: finite, every vertex within
- * MOTION_REACH of the head, no nan reset, and still at the end (p99.9 of the last frame's
- * displacement within REST_P999). Prints when the displacement last exceeded REST_P999. (With the
- * default colliders a few vertices in contact keep creeping at 0.01-0.02 mm per frame.) */
+/* Every procedural style under the violent test script (2 s, simcheck_rest_head), then a still
+ * head: without colliders, with the default ones (the head ellipsoid), and with a distance grid
+ * as well (simcheck_sphere_sdf, the collision mesh's path): finite, every vertex within
+ * MOTION_REACH of the head, no nan reset, and at rest REST_AFTER_VIOLENT s after the stop: p99.9
+ * of every frame's displacement within REST_P999 from then on for REST_WATCH s. Prints when the
+ * displacement last exceeded REST_P999. Main settled 4.9-5.1 s after the stop without colliders
+ * (the springs' dampers acted only along the springs: nothing damped the swinging but the air
+ * drag) and never with them (vertices in contact crept 0.01-0.02 mm a frame: pushed out after
+ * each solve that moved them in). */
 static void test_every_style_violent_then_rest(void **state)
 {
     (void)state;
     sim_params p;
     sim_params_default(&p);
     const int moving = 120, stop = moving + 15; /* the head is still 0.25 s after the script */
-    const int frames = stop + (int)lround(REST_AFTER_VIOLENT * 60.0);
-    for (int style = GROOM_STRAIGHT; style <= GROOM_CURLY; style++) {
+    const int from = stop + (int)lround(REST_AFTER_VIOLENT * 60.0), frames = from + (int)lround(REST_WATCH * 60.0);
+    static const char *const kinds[3] = { "no colliders", "head ellipsoid", "head ellipsoid and distance grid" };
+    for (int run = 0; run < 9; run++) {
+        const groom_style style = (groom_style)(run / 3);
+        const int kind = run % 3;
         hm_run r;
-        open_run_style(&r, (groom_style)style, false, &p);
+        const groom_hairmesh_desc d = { .style = style, .nlayers = 9 };
+        open_run_desc(&r, &d, kind, 0.0f, &p);
         double *dd = malloc(sizeof *dd * r.nv);
         assert_non_null(dd);
-        double worst = 0.0, p999 = 0.0, settle = 0.0;
+        mesh_now(&r, r.x);
+        double worst = 0.0, rest = 0.0, settle = 0.0;
         for (int f = 0; f < frames; f++) {
             const core_xform head = simcheck_rest_head((f + 1) * (double)p.dt, moving * (double)p.dt);
             sim_set_motion(&r.s, head);
@@ -895,17 +908,19 @@ static void test_every_style_violent_then_rest(void **state)
             worst = fmax(worst, reach(&r, r.x, head));
             for (uint32_t i = 0; i < r.nv; i++) dd[i] = dist(r.x + 3 * i, r.prev + 3 * i);
             qsort(dd, r.nv, sizeof *dd, cmp_double);
-            p999 = dd[(size_t)(0.999 * (r.nv - 1))];
+            const double p999 = dd[(size_t)(0.999 * (r.nv - 1))];
             if (f >= stop && p999 > REST_P999) settle = (f + 1 - stop) * (double)p.dt;
+            if (f >= from) rest = simcheck_worse(rest, p999);
         }
         sim_stats st;
         sim_get_stats(&r.s, &st);
-        print_message("%s, violent motion: farthest vertex %.3f m from the head; p99.9 %.3g mm/frame %.0f s after the "
-                      "stop, last above %.3g mm %.2f s after\n",
-                      groom_style_name((groom_style)style), worst, p999 * 1e3, REST_AFTER_VIOLENT, REST_P999 * 1e3, settle);
+        print_message("%s, %s, violent motion: farthest vertex %.3f m from the head; p99.9 at most %.3g mm/frame "
+                      "%.0f-%.0f s after the stop, last above %.3g mm %.2f s after\n",
+                      groom_style_name(style), kinds[kind], worst, rest * 1e3, REST_AFTER_VIOLENT,
+                      REST_AFTER_VIOLENT + REST_WATCH, REST_P999 * 1e3, settle);
         assert_int_equal(st.nan_resets, 0);
         assert_true(worst <= MOTION_REACH);
-        assert_true(p999 <= REST_P999);
+        assert_true(rest <= REST_P999);
         free(dd);
         close_run(&r);
     }

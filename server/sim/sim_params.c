@@ -68,9 +68,9 @@ static const core_param_info table[] = {
     HFLOG(shear_stiffness, 0.0, 1.0e6, 2.0e4, "1/s^2", "Shear: springs along the diagonals of the prisms' side faces and of the quads, per unit mass. Up: the bundles keep their cross-section."),
     HFLOG(bend_stiffness, 0.0, 1.0e6, 2.0e4, "1/s^2", "Bend: springs between layers l and l + 2 of each column, per unit mass. Up: the hair holds its authored shape against gravity."),
     HFLOG(volume_stiffness, 0.0, 1.0e6, 2.0e4, "1/s^2", "Volume force on the eight (six) overlapping corner tetrahedra of every prism (paper eq. 1-2), per unit mass and scaled by each tetrahedron's size. Recovers the volume even from flattened or inverted tetrahedra."),
-    HF(damping, 0.0, 100.0, 4.0, "1/s", "Each spring's damper: the relative velocity of its two ends along it decays at this rate."),
+    HF(damping, 0.0, 100.0, 8.0, "1/s", "Each spring's damper: the velocity of its two ends relative to each other (less the head's turning) decays at this rate, along the spring and across it, so swinging and bending settle as well as stretch."),
     HI(cg_iterations, 1, 1000, 200, "", "Most modified conjugate gradient iterations per solve (the implicit step, the deformation minimization)."),
-    HFLOG(cg_tolerance, 1.0e-8, 1.0e-1, 1.0e-2, "", "CG stops once the preconditioned residual norm is below this share of its starting value."),
+    HFLOG(cg_tolerance, 1.0e-8, 1.0e-1, 1.0e-2, "", "CG stops once the preconditioned residual norm is below this share of the right-hand side's (the implicit step) or of its starting value (the deformation minimization)."),
     HB(deform_min, 1, "Deformation minimization after collisions (paper eq. 3-4): the other vertices follow the pushed surface so the mesh keeps its local shape and volume."),
 };
 

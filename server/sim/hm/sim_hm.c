@@ -19,6 +19,8 @@ static void hm_destroy(void *self)
     float *arrays[] = { h->x, h->v, h->xs, h->xp, h->rhs, h->vn, h->dvp, h->z, h->pinv, h->r, h->c, h->q, h->s, h->w, h->xh, h->push };
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; i++) free(arrays[i]);
     free(h->fixed);
+    free(h->stick);
+    free(h->normal);
     free(h);
 }
 
@@ -32,6 +34,7 @@ static void hm_reset(void *self)
         h->x[3 * i] = p.x, h->x[3 * i + 1] = p.y, h->x[3 * i + 2] = p.z;
     }
     memset(h->v, 0, 3 * (size_t)h->n * sizeof *h->v);
+    memset(h->stick, 0, h->n);
     h->prev_head = h->head;
 }
 
@@ -87,7 +90,8 @@ static core_status hm_create(const sim_desc *desc, const core_groom *g, const si
     float **arrays[] = { &h->x, &h->v, &h->xs, &h->xp, &h->rhs, &h->vn, &h->dvp, &h->z, &h->r, &h->c, &h->q, &h->s, &h->w, &h->xh, &h->push };
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0] && st == CORE_OK; i++)
         if (!(*arrays[i] = calloc(n3, sizeof(float)))) st = core_fail(err, CORE_ENOMEM, "out of memory for the hair-mesh solver");
-    if (st == CORE_OK && (!(h->pinv = calloc(2 * n3, sizeof(float))) || !(h->fixed = calloc(h->n, 1))))
+    if (st == CORE_OK && (!(h->pinv = calloc(2 * n3, sizeof(float))) || !(h->normal = calloc(n3, sizeof(float))) ||
+                          !(h->fixed = calloc(h->n, 1)) || !(h->stick = calloc(h->n, 1))))
         st = core_fail(err, CORE_ENOMEM, "out of memory for the hair-mesh solver");
     if (st == CORE_OK) st = sim_hm_build(h, err);
     if (st != CORE_OK) {
@@ -110,13 +114,15 @@ static void hm_set_motion(void *self, core_xform head) { ((sim_hm *)self)->head 
 
 /* Friction and contact for a pushed vertex i: its velocity relative to the collider (moving with
  * the head over the substep, rows carry) loses the inward normal part, and its tangential part
- * shrinks by friction x the push (as a velocity), down to zero (Coulomb). */
+ * shrinks by friction x the push (as a velocity), down to zero (Coulomb). When friction stops it,
+ * it rests on the collider: marked in h->stick with its normal for the next implicit solve. */
 static void contact_velocity(sim_hm *h, uint32_t i, const float carry[12], float inv_h)
 {
     const float *u = h->push + 3 * (size_t)i, *p = h->xs + 3 * (size_t)i;
     const float ul = sqrtf(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
     if (!(ul > 0.0f)) return;
     const float n[3] = { u[0] / ul, u[1] / ul, u[2] / ul };
+    memcpy(h->normal + 3 * (size_t)i, n, sizeof n);
     float vc[3], vr[3];
     for (int r = 0; r < 3; r++)
         vc[r] = (carry[4 * r] * p[0] + carry[4 * r + 1] * p[1] + carry[4 * r + 2] * p[2] + carry[4 * r + 3] - p[r]) * inv_h;
@@ -132,6 +138,36 @@ static void contact_velocity(sim_hm *h, uint32_t i, const float carry[12], float
     const float cut = h->p.friction * ul * inv_h;
     const float keep = tl > cut ? (tl - cut) / tl : 0.0f;
     for (int r = 0; r < 3; r++) v[r] = vc[r] + vn * n[r] + t[r] * keep;
+    h->stick[i] = keep == 0.0f;
+}
+
+/* The resting vertices (h->stick) of substep k held on their colliders in its implicit solve
+ * (fixed 2, velocity the head's rigid z), their normals turned with the head (carry's rotation). */
+static void hold_contacts(sim_hm *h, const float carry[12])
+{
+    for (uint32_t i = 0; i < h->n; i++) {
+        if (!h->stick[i]) continue;
+        float *n = h->normal + 3 * (size_t)i;
+        const float m[3] = { n[0], n[1], n[2] };
+        for (int r = 0; r < 3; r++) n[r] = carry[4 * r] * m[0] + carry[4 * r + 1] * m[1] + carry[4 * r + 2] * m[2];
+        h->fixed[i] = 2;
+    }
+}
+
+/* After the implicit solve: a held vertex whose contact force (the impulse A vn - rhs of its row)
+ * no longer presses it onto the collider is let go for the next substep. Friction decided when it
+ * came to rest (contact_velocity); letting it go when the force leaves the friction cone as well
+ * made the vertices at the cone's edge chatter between held and pushed, each release shaking the
+ * mesh by up to 0.2 mm a frame for ever (the curly mesh on the head). */
+static void release_contacts(sim_hm *h)
+{
+    for (uint32_t i = 0; i < h->n; i++) {
+        if (!h->stick[i]) continue;
+        float f[3];
+        sim_hm_bsr_row_apply(&h->bsr, i, h->vn, f);
+        const float *n = h->normal + 3 * (size_t)i, *b = h->rhs + 3 * (size_t)i;
+        h->stick[i] = (f[0] - b[0]) * n[0] + (f[1] - b[1]) * n[1] + (f[2] - b[2]) * n[2] > 0.0f;
+    }
 }
 
 /* Collisions of the substep k: push the surface out, minimize the deformation with the pushed
@@ -165,17 +201,20 @@ static void substep(sim_hm *h, const sim_step_desc *d, int k)
 {
     const size_t n3 = 3 * (size_t)h->n;
     const float dt = d->h;
+    const bool collide = d->ncolliders > 0 || d->sdf;
     memcpy(h->xs, h->x, n3 * sizeof *h->x);
-    unsigned long long t0 = core_now_ns();
-    sim_hm_forces(h, d->accel, dt, d->head[k].rot);
-    h->stage_ms[0] += ms_since(t0);
-    memset(h->fixed, 0, h->n);
     const float *m = d->carry[k];
     for (uint32_t i = 0; i < h->n; i++) { /* the head's rigid velocity: the free rows' cold start */
         const float *x = h->x + 3 * (size_t)i;
         for (int a = 0; a < 3; a++)
             h->z[3 * i + a] = (m[4 * a] * x[0] + m[4 * a + 1] * x[1] + m[4 * a + 2] * x[2] + m[4 * a + 3] - x[a]) * d->inv_h;
     }
+    unsigned long long t0 = core_now_ns();
+    sim_hm_forces(h, d->accel, dt, d->head[k].rot);
+    h->stage_ms[0] += ms_since(t0);
+    memset(h->fixed, 0, h->n);
+    if (collide) hold_contacts(h, m);
+    else memset(h->stick, 0, h->n);
     for (uint32_t c = 0; c < h->ncols; c++) {
         const uint32_t i = c * h->nlayers;
         const float *r = h->mesh.pos + 3 * (size_t)i;
@@ -187,6 +226,7 @@ static void substep(sim_hm *h, const sim_step_desc *d, int k)
     t0 = core_now_ns();
     sim_hm_cg(h);
     h->stage_ms[1] += ms_since(t0);
+    if (collide) release_contacts(h);
     for (uint32_t i = 0; i < h->n; i++)
         for (int a = 0; a < 3; a++) {
             float *v = h->v + 3 * (size_t)i + a;
@@ -199,7 +239,7 @@ static void substep(sim_hm *h, const sim_step_desc *d, int k)
         const core_vec3 p = core_xform_point(d->head[k], core_v3(r[0], r[1], r[2]));
         h->x[3 * i] = p.x, h->x[3 * i + 1] = p.y, h->x[3 * i + 2] = p.z;
     }
-    if (d->ncolliders > 0 || d->sdf) collisions(h, d, k);
+    if (collide) collisions(h, d, k);
 }
 
 static core_status hm_step(void *self, core_err *err)
@@ -253,6 +293,7 @@ static core_status hm_write_state(void *self, const float *xyz, const float *vel
     memcpy(h->x, xyz, 3 * (size_t)h->n * sizeof *xyz);
     if (vel) memcpy(h->v, vel, 3 * (size_t)h->n * sizeof *vel);
     else memset(h->v, 0, 3 * (size_t)h->n * sizeof *h->v);
+    memset(h->stick, 0, h->n);
     return CORE_OK;
 }
 

@@ -89,21 +89,33 @@ void sim_hm_bsr_free(sim_hm_bsr *m)
     memset(m, 0, sizeof *m);
 }
 
+/* Row i of A x: the sum of its blocks times x's 3-vectors, in two partial sums (even and odd
+ * blocks) so the additions of a row do not wait on each other. */
+static inline sim_hm_v4 row_mul(const sim_hm_bsr *restrict m, uint32_t i, const float *restrict x)
+{
+    sim_hm_v4 s0 = { 0 }, s1 = { 0 };
+    uint32_t b = m->row[i];
+    const uint32_t e = m->row[i + 1];
+    for (; b + 2 <= e; b += 2) {
+        s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, x + 3 * (size_t)m->col[b]);
+        s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), x + 3 * (size_t)m->col[b + 1]);
+    }
+    if (b < e) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, x + 3 * (size_t)m->col[b]);
+    return s0 + s1;
+}
+
 void sim_hm_bsr_apply(const sim_hm_bsr *restrict m, const float *restrict x, float *restrict y)
 {
     for (uint32_t i = 0; i < m->n; i++) {
-        /* two sums (even and odd blocks) so the additions of a row do not wait on each other */
-        sim_hm_v4 s0 = { 0 }, s1 = { 0 };
-        uint32_t b = m->row[i];
-        const uint32_t e = m->row[i + 1];
-        for (; b + 2 <= e; b += 2) {
-            s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, x + 3 * (size_t)m->col[b]);
-            s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), x + 3 * (size_t)m->col[b + 1]);
-        }
-        if (b < e) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, x + 3 * (size_t)m->col[b]);
-        s0 += s1;
-        y[3 * i] = s0[0], y[3 * i + 1] = s0[1], y[3 * i + 2] = s0[2];
+        const sim_hm_v4 s = row_mul(m, i, x);
+        y[3 * i] = s[0], y[3 * i + 1] = s[1], y[3 * i + 2] = s[2];
     }
+}
+
+void sim_hm_bsr_row_apply(const sim_hm_bsr *m, uint32_t i, const float *x, float y[3])
+{
+    const sim_hm_v4 s = row_mul(m, i, x);
+    y[0] = s[0], y[1] = s[1], y[2] = s[2];
 }
 
 /* The symmetric block p (xx yy zz xy xz yz) times a. */

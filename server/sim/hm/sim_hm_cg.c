@@ -104,9 +104,12 @@ static double residual_at(sim_hm *h, const float *x, float *r, float *out)
 int sim_hm_cg(sim_hm *h)
 {
     const size_t n3 = 3 * (size_t)h->n;
-    /* the tolerance is relative to the residual of keeping the velocity (vn = v, dv = 0) whatever
-     * the start */
-    for (size_t j = 0; j < n3; j++) h->xh[j] = h->fixed[j / 3] ? h->z[j] : h->v[j];
+    /* the tolerance is relative to the right-hand side of the free rows (the residual of vn = 0
+     * there), whatever the start. Relative to the residual of keeping the velocity (vn = v), as
+     * before, it asked for 100x reductions once resting contacts were held: the mesh near a moving
+     * head is then calm and that residual tiny (31 iterations a solve at 2,304 vertices against
+     * 13, 3.75-4.0 ms a frame against main's 2.8-3.0) */
+    for (size_t j = 0; j < n3; j++) h->xh[j] = h->fixed[j / 3] ? h->z[j] : 0.0f;
     const double stop = residual_at(h, h->xh, h->r, h->w) * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
     /* vn = the cold start z (moving with the head); s = v plus the last solve's change, less z, on
      * the free rows (the warm start is cold + s) */

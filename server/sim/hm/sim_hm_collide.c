@@ -68,7 +68,7 @@ uint32_t sim_hm_collide(sim_hm *h, const sim_step_desc *d, int k)
 {
     uint32_t moved = 0;
     for (uint32_t i = 0; i < h->n; i++) {
-        if (!h->surface[i] || h->fixed[i] == 1) continue;
+        if (!h->surface[i] || h->fixed[i]) continue; /* roots, contacts held or pushed already */
         float *p = h->x + 3 * (size_t)i;
         const float before[3] = { p[0], p[1], p[2] };
         bool hit = false;

@@ -38,6 +38,11 @@ static void invert_block(float *p)
     p[3] = (float)(B * k), p[4] = (float)(C * k), p[5] = (float)((d * e - a * f) * k);
 }
 
+/* The springs' elastic forces along them (the geometric term only under tension) and their
+ * dampers: -kd ((v_a - v_b) - (z_a - z_b)), the ends' whole relative velocity less the head's
+ * rigid motion (z), so that the swinging and bending of the mesh, which hardly changes any
+ * spring's length, is damped as well as its stretch, while the hair turning with the head is not;
+ * the block S = alpha u u^T + beta I gets dt kd on beta, the head's part goes to the right side. */
 static void springs(sim_hm *h, float dt, core_quat rot)
 {
     sim_hm_springs *s = &h->sp;
@@ -60,10 +65,12 @@ static void springs(sim_hm *h, float dt, core_quat rot)
         const float C = len - s->len[i];
         const float g = C > 0.0f ? C / len : 0.0f; /* the geometric term, kept only under tension */
         const float fe = -k * C;
-        const float r0 = dt * fe * u[0], r1 = dt * fe * u[1], r2 = dt * fe * u[2];
+        const float *za = h->z + 3 * (size_t)a, *zb = h->z + 3 * (size_t)b;
+        const float r0 = dt * (fe * u[0] + kd * (za[0] - zb[0])), r1 = dt * (fe * u[1] + kd * (za[1] - zb[1])),
+                    r2 = dt * (fe * u[2] + kd * (za[2] - zb[2]));
         rhs[3 * a] += r0, rhs[3 * a + 1] += r1, rhs[3 * a + 2] += r2;
         rhs[3 * b] -= r0, rhs[3 * b + 1] -= r1, rhs[3 * b + 2] -= r2;
-        const float al = dt * kd + dt2 * k * (1.0f - g), be = dt2 * k * g;
+        const float al = dt2 * k * (1.0f - g), be = dt2 * k * g + dt * kd;
         memcpy(s->u + 3 * i, u, sizeof u);
         s->alpha[i] = al, s->beta[i] = be;
         float *val = h->bsr.val;

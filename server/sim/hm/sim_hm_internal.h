@@ -68,13 +68,17 @@ typedef struct sim_hm {
     core_xform head, prev_head;
     float *x, *v;               /* 3n, world */
     float *xs, *xp;             /* 3n: positions at the substep's start, after the implicit step */
-    float *rhs, *vn, *z;        /* 3n: right-hand side, the substep's new velocity, its prescribed values
-                                 * (fixed rows) or cold start (the others: the head's rigid velocity) */
+    float *rhs, *vn, *z;        /* 3n: right-hand side, the substep's new velocity, the head's rigid
+                                 * velocity at each vertex (the dampers' reference, the free rows' cold
+                                 * start, the held contacts' velocity; the roots' prescribed velocity) */
     float *dvp;                 /* 3n: the last solve's velocity change vn - v (the warm start's) */
     float diag;                 /* the system's diagonal: 1 + dt air_drag (unit masses) */
     float *pinv;                /* 6n: inverses of the system's diagonal blocks (xx yy zz xy xz yz), for the sweeps */
     float *r, *c, *q, *s, *w, *xh; /* 3n: CG scratch */
-    uint8_t *fixed;             /* n: 1 = position prescribed (roots; corrected vertices while minimizing) */
+    uint8_t *fixed;             /* n: 0 free, 1 root, 2 in contact (held on the collider during the
+                                 * implicit solve, or pushed by the collisions; held while minimizing) */
+    uint8_t *stick;             /* n: 1 = resting on a collider: held to it in the next implicit solve */
+    float *normal;              /* 3n: a resting vertex's contact normal (world, turned with the head) */
     uint8_t *surface;           /* n: 1 = on the outer surface (collided) */
     float *push;                /* 3n: this substep's collision push of each vertex */
     sim_hm_springs sp;
@@ -91,9 +95,11 @@ core_status sim_hm_build(sim_hm *h, core_err *err);
 /* Frees what sim_hm_build made. */
 void sim_hm_build_free(sim_hm *h);
 
-/* Forces at h->x, h->v (gravity and wind accel, air drag) and the implicit system
- * (I - dt df/dv - dt^2 df/dx) vn = v + dt f_e for substep length dt (the new velocity vn; f_e the
- * forces less the dampers, which A's dt df/dv carries): the same step as solving for the velocity
+/* Forces at h->x, h->v (gravity and wind accel, air drag, springs, volume; each spring's damper
+ * acts on the whole relative velocity of its ends less the head's rigid motion, h->z, which the
+ * caller fills) and the implicit system (I - dt df/dv - dt^2 df/dx) vn = v + dt f_e for substep
+ * length dt (the new velocity vn; f_e the forces less the dampers' dt df/dv vn, which A carries,
+ * so f_e keeps the dampers' head term): the same step as solving for the velocity
  * change dv = vn - v with right-hand side dt (f + dt df/dx v), but without that side's dt^2 df/dx v,
  * which for stiff elements is huge and almost cancelled by A dv, so that CG stopped at a relative
  * tolerance left errors of that size (the wavy and curly meshes exploded); and a CG stopped early
@@ -112,6 +118,9 @@ void sim_hm_bsr_free(sim_hm_bsr *m);
 /* y = A x with the blocks sim_hm_forces assembled in m (the CG's product); x and y do not overlap. */
 void sim_hm_bsr_apply(const sim_hm_bsr *m, const float *x, float *y);
 
+/* y = row i of A x (3 floats). */
+void sim_hm_bsr_row_apply(const sim_hm_bsr *m, uint32_t i, const float *x, float y[3]);
+
 /* With A = L + D + U (D its diagonal blocks, dinv their inverses as xx yy zz xy xz yz) restricted
  * to the rows where fixed[i] == 0 (the others' t and u are 0 and their columns are ignored): the
  * forward block Gauss-Seidel sweep t = (D + L)^-1 r, the backward one t = (D + U)^-1 r with
@@ -124,12 +133,13 @@ void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const floa
 
 /* Solves A vn = rhs by modified CG: rows with fixed[i] keep vn_i = z_i; starts from vn = z (the
  * others: moving with the head) or from h->v plus the last solve's change h->dvp (which it then
- * sets) when that is nearer; stops at cg_tolerance of the residual of vn = h->v; symmetric block
- * Gauss-Seidel preconditioning (Eisenstat's form). Returns the iterations. */
+ * sets) when that is nearer; stops at cg_tolerance of the residual of vn = 0 on the free rows
+ * (their right-hand side); symmetric block Gauss-Seidel preconditioning (Eisenstat's form).
+ * Returns the iterations. */
 int sim_hm_cg(sim_hm *h);
 
-/* Pushes the surface vertices out of the colliders of step k (world); marks pushes in h->push
- * and returns how many vertices moved. */
+/* Pushes the surface vertices not yet fixed out of the colliders of step k (world); marks them
+ * fixed 2, their pushes in h->push, and returns how many vertices moved. */
 uint32_t sim_hm_collide(sim_hm *h, const sim_step_desc *d, int k);
 
 /* Deformation minimization (eq. 3-4): moves the unfixed vertices of h->x to minimize the change
