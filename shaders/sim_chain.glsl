@@ -23,7 +23,7 @@ void box_reset(uint b)
 bool contacts_on() { return F.ncolliders > 0u || F.sdf_dims.w != 0u; }
 
 // Pushes out of collider ci, or the distance grid of substep k when ci == ~0u.
-vec3 push_any(vec3 p, uint ci, uint k) { return ci == ~0u ? sdf_push(p, k) : collide_one(p, ci); }
+vec3 push_any(vec3 p, uint ci, uint k) { return ci == ~0u ? sdf_push(p, k, SDF_SKIN) : collide_one(p, ci); }
 
 // collide_mid: the segment p -> c's midpoint pushed out, the vertex moved twice as far.
 vec3 collide_mid(vec3 p, vec3 c, uint ci, uint k)
@@ -219,7 +219,7 @@ void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred
                     xs = collide_mid(ch.p, xs, hit[h], k);
                 }
                 if (sdf) {
-                    xs = sdf_push(xs, k);
+                    xs = sdf_push(xs, k, SDF_SKIN);
                     xs = collide_mid(ch.p, xs, ~0u, k);
                 }
                 n = n + (xs - s0);

@@ -84,8 +84,9 @@ float sdf_sample(vec3 p, out vec3 grad)
     return inside + outside;
 }
 
-// collide_sdf of sim_cpu_chain.c for one point at substep k: out of the distance grid to the skin.
-vec3 sdf_push(vec3 p, uint k)
+// collide_sdf of sim_cpu_chain.c for one point at substep k: out of the distance grid to distance
+// target from its surface (the skin; the PBD solver: the vertex's contact floor).
+vec3 sdf_push(vec3 p, uint k, float target)
 {
     vec3 pos = F.sub[k].pos.xyz;
     vec3 m0 = F.sub[k].to_head[0].xyz, m1 = F.sub[k].to_head[1].xyz, m2 = F.sub[k].to_head[2].xyz;
@@ -100,7 +101,7 @@ vec3 sdf_push(vec3 p, uint k)
     if (!(qx >= org.x && qx <= hx && qy >= org.y && qy <= hy && qz >= org.z && qz <= hz)) return p;
     vec3 g;
     float d = sdf_sample(vec3(qx, qy, qz), g);
-    float push = SDF_SKIN - d;
+    float push = target - d;
     float gl = sqrt(g.x * g.x + g.y * g.y + g.z * g.z);
     if (!(push > 0.0) || !(gl > 1e-12)) return p;
     float kk = push / gl;

@@ -14,6 +14,10 @@ layout(local_size_x_id = 0) in;
 // level-major like X: 3 floats per vertex.
 layout(std430, set = 0, binding = 20) restrict buffer PbdBuf { float d[]; } P;
 
+// Per vertex, level-major like X: the distance from the grid's surface a push lifts it to
+// (sim_groom_contact_floor).
+layout(std430, set = 0, binding = 21) restrict readonly buffer FloorBuf { float d[]; } FLOOR;
+
 const uint NP = NS * NV;
 const uint P_O = 0u;    // position at the substep's start
 const uint P_SEG = 1u;  // rest segment ending at the level, under the head
@@ -129,12 +133,12 @@ vec3 push_collider(uint ci, vec3 x)
     return collide_one(x, ci);
 }
 
-// push_sdf of sim_pbd_solve.c: the box test, then sdf_push.
-vec3 push_grid(uint k, vec3 x)
+// push_sdf of sim_pbd_solve.c: the box test, then sdf_push to the vertex's contact floor.
+vec3 push_grid(uint k, vec3 x, float target)
 {
     vec3 lo = F.sub[k].lo.xyz, hi = F.sub[k].hi.xyz;
     if (x.x < lo.x || x.x > hi.x || x.y < lo.y || x.y > hi.y || x.z < lo.z || x.z > hi.z) return x;
-    return sdf_push(x, k);
+    return sdf_push(x, k, target);
 }
 
 vec3 friction(vec3 x, vec3 n, vec3 oc, float mu)
@@ -201,7 +205,7 @@ void main()
         for (uint l = 1u; l < NV; l++) {
             vec3 before = ldx(l, s), x = before;
             for (uint c = 0u; c < F.ncolliders; c++) x = push_collider(k * MAX_COLLIDERS + c, x);
-            if (grid) x = push_grid(k, x);
+            if (grid) x = push_grid(k, x, FLOOR.d[l * NS + s]);
             stx(l, s, x);
             stP(P_PUSH, l, s, ldP(P_PUSH, l, s) + (x - before));
         }

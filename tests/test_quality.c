@@ -143,6 +143,32 @@ static void test_penetration(void **state)
     core_groom_free(&g);
 }
 
+/* The mesh's distance grid counts a vertex's depth beyond the depth its rest position is
+ * authored at (the groom touches the body); a vertex authored outside gets no allowance. */
+static void test_penetration_authored_depth(void **state)
+{
+    (void)state;
+    core_err err;
+    core_groom g;
+    grid_groom(&g, 2, 1, 4); /* strands hanging from y = 0, vertices 10 mm apart */
+    g.sdf = calloc(1, sizeof *g.sdf);
+    assert_non_null(g.sdf);
+    const uint32_t dims[3] = { 3, 3, 3 };
+    assert_int_equal(core_sdf_alloc(g.sdf, dims, core_v3(-0.01f, -0.04f, -0.01f), 0.02f, &err), CORE_OK);
+    for (uint32_t k = 0; k < 3; k++) /* the body is below y = -15 mm */
+        for (uint32_t j = 0; j < 3; j++)
+            for (uint32_t i = 0; i < 3; i++) g.sdf->d[i + 3 * (j + 3 * k)] = -0.04f + 0.02f * (float)j + 0.015f;
+    float *x = copy_pos(&g);
+    /* vertices 2 and 3 are authored 5 and 15 mm inside: where authored, nothing counts */
+    assert_true(quality_penetration_max(&g, core_xform_identity(), x) == 0.0);
+    x[3 * 2 + 1] = -0.021f; /* 1 mm deeper than authored */
+    assert_float_equal(quality_penetration_max(&g, core_xform_identity(), x), 0.001, 1e-6);
+    x[3 * 1 + 1] = -0.017f; /* authored 5 mm outside, now 2 mm inside */
+    assert_float_equal(quality_penetration_max(&g, core_xform_identity(), x), 0.002, 1e-6);
+    free(x);
+    core_groom_free(&g);
+}
+
 static void test_shape_deviation(void **state)
 {
     (void)state;
@@ -241,8 +267,9 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_displacement_quantile), cmocka_unit_test(test_segment_error),
-        cmocka_unit_test(test_penetration),           cmocka_unit_test(test_shape_deviation),
-        cmocka_unit_test(test_tips_above_roots),      cmocka_unit_test(test_nearest_other_strand),
+        cmocka_unit_test(test_penetration),           cmocka_unit_test(test_penetration_authored_depth),
+        cmocka_unit_test(test_shape_deviation),       cmocka_unit_test(test_tips_above_roots),
+        cmocka_unit_test(test_nearest_other_strand),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -14,6 +14,7 @@
 
 #include "groom/groom.h"
 #include "sim/sim.h"
+#include "sim/sim_step.h"
 #include "sim/vk/sim_vk.h"
 #include "support/quality.h"
 #include "support/sim_check.h"
@@ -59,7 +60,9 @@ static void assert_no_validation_errors(const sim *s)
 }
 
 /* 30 steps of violent head motion with the head ellipsoid, the other colliders and a distance
- * grid, every feature of the solver on (shape, friction, damping, drag, 4 substeps): the Vulkan
+ * grid that holds some of the authored vertices (their contact floors below zero, so the pushes
+ * read each vertex's floor), every feature of the solver on (shape, friction, damping, drag, 4
+ * substeps): the Vulkan
  * positions stay within 1e-5 of the strand length of the C backend's at every step (the same
  * arithmetic in the same order; what differs is the rounding of a few operations on the
  * device, which the motion amplifies; lavapipe gives the same bits). */
@@ -71,10 +74,17 @@ static void test_matches_cpu(void **state)
     simcheck_groom(&g, GROOM_WAVY, 192, 16, 11);
     simcheck_sphere_sdf(&g);
     assert_true(g.ncolliders > 0);
+    const size_t n = (size_t)g.nstrands * g.nverts;
+    float *fl = malloc(n * sizeof(float));
+    assert_non_null(fl);
+    sim_groom_contact_floor(&g, fl);
+    size_t below = 0;
+    for (size_t i = 0; i < n; i++) below += i % g.nverts != 0 && fl[i] < 0.0f;
+    free(fl);
+    assert_true(below > 0);
     sim cpu, vk;
     open_sim(&cpu, SIM_BACKEND_CPU, &g, &p);
     open_sim(&vk, SIM_BACKEND_VULKAN, &g, &p);
-    const size_t n = (size_t)g.nstrands * g.nverts;
     float *xc = malloc(12 * n), *xv = malloc(12 * n);
     assert_true(xc && xv);
     const double len = simcheck_mean_strand_length(&g);

@@ -51,6 +51,7 @@ static void pbd_destroy(void *self)
     free(p->start);
     free(p->rest);
     free(p->len);
+    free(p->contact_floor);
     free(p->kg);
     free(p->kl);
     free(p->scratch);
@@ -87,9 +88,10 @@ static core_status pbd_create(const sim_desc *desc, const core_groom *g, const s
     p->start = malloc(bytes);
     p->rest = malloc(bytes);
     p->len = malloc(n * sizeof(float));
+    p->contact_floor = malloc(n * sizeof(float));
     p->kg = malloc(p->nv * sizeof(float));
     p->kl = malloc(p->nv * sizeof(float));
-    if (!p->x || !p->v || !p->start || !p->rest || !p->len || !p->kg || !p->kl) {
+    if (!p->x || !p->v || !p->start || !p->rest || !p->len || !p->contact_floor || !p->kg || !p->kl) {
         pbd_destroy(p);
         return core_fail(err, CORE_ENOMEM, "out of memory for %zu particles", n);
     }
@@ -99,6 +101,7 @@ static core_status pbd_create(const sim_desc *desc, const core_groom *g, const s
         p->len[i] = i % p->nv == 0 ? 0.0f : sqrtf((r[0] - r[-3]) * (r[0] - r[-3]) + (r[1] - r[-2]) * (r[1] - r[-2]) +
                                                  (r[2] - r[-1]) * (r[2] - r[-1]));
     }
+    sim_groom_contact_floor(g, p->contact_floor);
     if (g->sdf && (st = core_sdf_copy(&p->sdf, g->sdf, err)) != CORE_OK) {
         pbd_destroy(p);
         return st;

@@ -14,7 +14,7 @@
 #define SIM_PBD_LANES 8
 
 /* Floats per vertex and lane of a worker's scratch for the group it solves (group_view). */
-#define SIM_PBD_SCRATCH 40
+#define SIM_PBD_SCRATCH 41
 
 /* Strand-major arrays in groom order: vertex v of strand s at 3 * (s * nv + v). */
 typedef struct sim_pbd {
@@ -26,6 +26,8 @@ typedef struct sim_pbd {
     float *start;            /* positions at the substep's start */
     float *rest;             /* rest positions in the head frame */
     float *len;              /* rest length of the segment ending at each vertex (0 for roots) */
+    float *contact_floor;    /* per vertex: the distance from the grid's surface a push lifts it
+                                to (sim_groom_contact_floor) */
     float *kg, *kl;          /* per level: global and local stiffness (1/s^2), faded to the tip */
     float *scratch;          /* per worker: SIM_PBD_SCRATCH x nv x SIM_PBD_LANES floats for its group */
     uint32_t ncolliders;

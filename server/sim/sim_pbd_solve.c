@@ -47,8 +47,9 @@ static void push_collider(const sim_wcollider *w, float *x)
     st(x, dl > 1e-12f ? core_v3_add(c, core_v3_scale(d, w->radius / dl)) : core_v3_add(c, core_v3(0.0f, w->radius, 0.0f)));
 }
 
-/* Pushes point x out of the distance grid placed by ws, to SIM_SDF_SKIN above its surface. */
-static void push_sdf(const core_sdf *sdf, const sim_wsdf *ws, float *x)
+/* Pushes point x out of the distance grid placed by ws, to distance target from its surface
+ * (the vertex's contact floor, sim_groom_contact_floor). */
+static void push_sdf(const core_sdf *sdf, const sim_wsdf *ws, float target, float *x)
 {
     if (x[0] < ws->lo[0] || x[0] > ws->hi[0] || x[1] < ws->lo[1] || x[1] > ws->hi[1] || x[2] < ws->lo[2] || x[2] > ws->hi[2])
         return;
@@ -62,7 +63,7 @@ static void push_sdf(const core_sdf *sdf, const sim_wsdf *ws, float *x)
     if (!(q.x >= o.x && q.x <= o.x + span[0] && q.y >= o.y && q.y <= o.y + span[1] && q.z >= o.z && q.z <= o.z + span[2]))
         return;
     core_vec3 g;
-    const float push = (float)SIM_SDF_SKIN - core_sdf_sample(sdf, q, &g);
+    const float push = target - core_sdf_sample(sdf, q, &g);
     const float gl = core_v3_len(g);
     if (!(push > 0.0f && gl > 1e-12f)) return;
     const float k = push / gl;
@@ -86,11 +87,11 @@ static void friction(float *x, core_vec3 n, core_vec3 oc, float mu)
 }
 
 /* A group of SIM_PBD_LANES strands in the worker's scratch, lane-minor: component d of vertex l
- * of lane j at (3 * l + d) * SIM_PBD_LANES + j (len: l * SIM_PBD_LANES + j). Every constraint runs
+ * of lane j at (3 * l + d) * SIM_PBD_LANES + j (len, fl: l * SIM_PBD_LANES + j). Every constraint runs
  * the scalar arithmetic of one strand per lane, in the same order, so the compiler can vectorize
  * across the strands without changing a bit of any strand's result. */
 typedef struct group_view {
-    float *x, *v, *o, *r, *len;
+    float *x, *v, *o, *r, *len, *fl; /* fl: the contact floors */
     /* per level, fixed over the substep (so not recomputed every iteration): seg = the rest
      * segment ending there under the head, e0 = the unit rest direction of the segment before it
      * under the head, gt = the global target, gc = the start carried by the head, eo = the unit
@@ -246,18 +247,18 @@ static bool any_in_box(const group_view *s, uint32_t l, const float lo[3], const
     return all == 0;
 }
 
-/* push_collider (w) or push_sdf (sdf, ws) on lane j of vertex l. */
+/* push_collider (w) or push_sdf (sdf, ws, to the lane's contact floor) on lane j of vertex l. */
 static void push_lane(const group_view *s, uint32_t l, int j, const sim_wcollider *w, const core_sdf *sdf,
                       const sim_wsdf *ws)
 {
     float x[3] = { s->x[3 * l * W + j], s->x[(3 * l + 1) * W + j], s->x[(3 * l + 2) * W + j] };
     if (w) push_collider(w, x);
-    else push_sdf(sdf, ws, x);
+    else push_sdf(sdf, ws, s->fl[(size_t)l * W + j], x);
     stl(s->x, l, j, ld(x));
 }
 
-/* Copies strands s0 .. s0 + W - 1 (the last one repeated past ns) of x, v and rest into the
- * group's lanes. */
+/* Copies strands s0 .. s0 + W - 1 (the last one repeated past ns) of x, v, rest, the rest
+ * lengths and the contact floors into the group's lanes. */
 static void group_load(const sim_pbd *p, uint32_t s0, const group_view *s)
 {
     const uint32_t nv = p->nv;
@@ -269,6 +270,7 @@ static void group_load(const sim_pbd *p, uint32_t s0, const group_view *s)
             stl(s->v, l, j, ld(p->v + base + 3 * l));
             stl(s->r, l, j, ld(p->rest + base + 3 * l));
             s->len[(size_t)l * W + j] = p->len[(size_t)si * nv + l];
+            s->fl[(size_t)l * W + j] = p->contact_floor[(size_t)si * nv + l];
         }
     }
 }
@@ -280,10 +282,11 @@ static void group_substep(sim_pbd *p, int k, uint32_t s0, int worker)
     const uint32_t nv = p->nv;
     const size_t m = 3 * (size_t)nv * W;
     float *w = p->scratch + (size_t)worker * SIM_PBD_SCRATCH * nv * W;
-    const group_view s = { w,          w + m,      w + 2 * m,  w + 3 * m,  w + 4 * m,  w + 4 * m + nv * W,
-                           w + 5 * m + nv * W,      w + 6 * m + nv * W,     w + 7 * m + nv * W,
-                           w + 8 * m + nv * W,      w + 9 * m + nv * W,     w + 10 * m + nv * W,
-                           w + 11 * m + nv * W,     w + 12 * m + nv * W };
+    const size_t q = nv * W; /* len and fl: one float per vertex and lane */
+    const group_view s = { w,                 w + m,             w + 2 * m,         w + 3 * m,
+                           w + 4 * m,         w + 4 * m + q,     w + 4 * m + 2 * q, w + 5 * m + 2 * q,
+                           w + 6 * m + 2 * q, w + 7 * m + 2 * q, w + 8 * m + 2 * q, w + 9 * m + 2 * q,
+                           w + 10 * m + 2 * q, w + 11 * m + 2 * q, w + 12 * m + 2 * q };
     const float h = sd->h, inv_h = sd->inv_h, b = 0.5f * fmaxf((float)SIM_SHAPE_DAMPING_STEP - h, 0.0f);
     const core_xform head = sd->head[k];
     const core_vec3 acc = ld(sd->accel);

@@ -195,6 +195,21 @@ float sim_groom_max_segment(const core_groom *g)
     return m;
 }
 
+void sim_groom_contact_floor(const core_groom *g, float *out)
+{
+    const size_t n = (size_t)g->nstrands * g->nverts;
+    const core_sdf *s = g->sdf;
+    for (size_t i = 0; i < n; i++) {
+        const core_vec3 q = core_v3(g->pos[3 * i], g->pos[3 * i + 1], g->pos[3 * i + 2]);
+        float f = (float)SIM_SDF_SKIN;
+        if (s && q.x >= s->origin.x && q.x <= s->origin.x + (float)(s->dims[0] - 1) * s->cell && q.y >= s->origin.y &&
+            q.y <= s->origin.y + (float)(s->dims[1] - 1) * s->cell && q.z >= s->origin.z &&
+            q.z <= s->origin.z + (float)(s->dims[2] - 1) * s->cell)
+            f = fminf(f, core_sdf_sample(s, q, NULL));
+        out[i] = f;
+    }
+}
+
 static int cmp_root_x(const void *a, const void *b)
 {
     const float x = ((const float *)a)[0], y = ((const float *)b)[0];

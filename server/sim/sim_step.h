@@ -125,6 +125,16 @@ void sim_world_collider(const core_collider *in, core_xform head, sim_wcollider 
  * SIM_SDF_MAX_SAMPLES finite samples). Pure. */
 core_status sim_groom_check(const core_groom *g, core_err *err);
 
+/* The contact floor of every vertex of g (nstrands x nverts floats in g's order): the signed
+ * distance to the surface of g's distance grid that a collision push lifts the vertex to. The
+ * groom is authored in contact with its character, so a vertex whose rest position lies inside
+ * (or within the skin) may stay as deep as it is authored: min(SIM_SDF_SKIN, the grid's
+ * distance at its rest position) for rest positions inside the grid's box, SIM_SDF_SKIN
+ * elsewhere and without a grid. The PBD solver's pushes out of the grid (push_sdf in
+ * sim_pbd_solve.c, the same in shaders/sim_pbd_substep.comp) take it as their target, so its
+ * authored pose satisfies every contact. Pure; any thread. */
+void sim_groom_contact_floor(const core_groom *g, float *out);
+
 /* The longest rest segment of g (a collider-culling margin). Pure. */
 float sim_groom_max_segment(const core_groom *g);
 

@@ -152,13 +152,14 @@ static double sdf_depth(const core_sdf *s, core_xform h, core_vec3 p)
 }
 
 /* How deep p is inside the character, metres: the deepest of its collision shapes (the
- * colliders and the mesh's distance grid). */
-static double vertex_depth(const world_shapes *w, core_vec3 p)
+ * colliders, and the mesh's distance grid beyond the depth its rest position r is authored at,
+ * sim_groom_contact_floor). */
+static double vertex_depth(const world_shapes *w, core_vec3 p, core_vec3 r)
 {
     double d = -INFINITY;
     for (uint32_t k = 0; k < w->ncolliders; k++)
         d = worse(d, quality_collider_depth(&w->colliders[k], core_xform_identity(), p));
-    if (w->sdf) d = worse(d, sdf_depth(w->sdf, w->head, p));
+    if (w->sdf) d = worse(d, sdf_depth(w->sdf, w->head, p) - fmax(sdf_depth(w->sdf, core_xform_identity(), r), 0.0));
     return d;
 }
 
@@ -169,9 +170,10 @@ double quality_penetration_max(const core_groom *g, core_xform h, const float *x
     double worst = 0.0;
     for (uint32_t s = 0; s < g->nstrands; s++)
         for (uint32_t v = 1; v < g->nverts; v++) {
-            const float *p = x + 3 * ((size_t)s * g->nverts + v);
+            const size_t i = 3 * ((size_t)s * g->nverts + v);
+            const float *p = x + i, *r = g->pos + i;
             if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2])) return NAN;
-            worst = worse(worst, vertex_depth(&w, core_v3(p[0], p[1], p[2])));
+            worst = worse(worst, vertex_depth(&w, core_v3(p[0], p[1], p[2]), core_v3(r[0], r[1], r[2])));
         }
     return worst;
 }

@@ -41,8 +41,10 @@ double quality_collider_depth(const core_collider *c, core_xform h, core_vec3 p)
 /* Deepest penetration, in metres, of any non-root vertex of x (g's layout; roots are
  * kinematic, placed by the groom) into the character of g moved by h: every collider
  * (quality_collider_depth) and, where the groom gets other collision shapes (a mesh SDF),
- * their depth term in the same per-vertex function. 0 when nothing is inside or g has no
- * colliders; NaN when any position is non-finite. */
+ * their depth term in the same per-vertex function. The groom is authored in contact with its
+ * mesh: a vertex whose rest position (g->pos) lies d inside the mesh's distance grid counts
+ * only beyond that depth (the solvers hold it there, sim_groom_contact_floor). 0 when nothing
+ * is inside or g has no colliders; NaN when any position is non-finite. */
 double quality_penetration_max(const core_groom *g, core_xform h, const float *x);
 
 /* Mean rest length of g's strands (sum of the segment lengths of g->pos / nstrands), metres.

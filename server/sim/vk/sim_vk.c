@@ -107,6 +107,7 @@ static core_status make_buffers(sim_vk *s, core_err *err)
         { &s->rho, n * sizeof(float), SIM_VK_B_RHO, xfer, "sph density" },
         { &s->press, n * sizeof(float), SIM_VK_B_PRESS, 0, "sph pressure" },
         { &s->nnbr, n * sizeof(uint32_t), SIM_VK_B_NNBR, 0, "sph neighbour counts" },
+        { &s->floor_buf, n * sizeof(float), SIM_VK_B_FLOOR, xfer, "contact floors" },
     };
     for (size_t i = 0; i < sizeof specs / sizeof specs[0]; i++) {
         core_status st = sim_vk_buf_create(&s->ctx, specs[i].buf, specs[i].bytes,
@@ -187,7 +188,7 @@ static void vk_destroy(void *self)
         sim_vk_once_destroy(&s->ctx, &s->once);
         sim_vk_buf *bufs[] = { &s->x, &s->v, &s->a, &s->rest_buf, &s->strand, &s->grid, &s->count, &s->start,
                                &s->block, &s->cell_of, &s->order, &s->sx, &s->sv, &s->rho, &s->press, &s->nbr,
-                               &s->nnbr, &s->stats_buf, &s->staging, &s->sdf_buf, &s->pbd };
+                               &s->nnbr, &s->stats_buf, &s->staging, &s->sdf_buf, &s->pbd, &s->floor_buf };
         for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++) sim_vk_buf_destroy(&s->ctx, bufs[i]);
         sim_vk_pipes_destroy(&s->ctx, &s->pipes);
     }
@@ -208,12 +209,13 @@ static void to_strand_major(const sim_vk *s, const float *lm, float *sm)
         }
 }
 
-static void to_level_major(const sim_vk *s, const float *sm, float *lm)
+/* Groom order (sm) -> level-major in internal strand order (lm), k floats per vertex. */
+static void to_level_major(const sim_vk *s, const float *sm, float *lm, size_t k)
 {
     for (uint32_t st = 0; st < s->ns; st++)
         for (uint32_t l = 0; l < s->nv; l++) {
             size_t i = (size_t)l * s->ns + st, o = (size_t)s->perm[st] * s->nv + l;
-            memcpy(lm + 3 * i, sm + 3 * o, 3 * sizeof(float));
+            memcpy(lm + k * i, sm + k * o, k * sizeof(float));
         }
 }
 
@@ -383,9 +385,9 @@ static core_status vk_write_state(void *self, const float *xyz, const float *vel
     if (vel) {
         vtmp = malloc(s->n * 3 * sizeof(float));
         if (!vtmp) return core_fail(err, CORE_ENOMEM, "out of memory for %zu velocities", s->n);
-        to_level_major(s, vel, vtmp);
+        to_level_major(s, vel, vtmp, 3);
     }
-    to_level_major(s, xyz, s->host_tmp);
+    to_level_major(s, xyz, s->host_tmp, 3);
     st = upload_state(s, s->host_tmp, vtmp, false, err);
     free(vtmp);
     return st;
@@ -492,7 +494,7 @@ static core_status create_impl(const sim_desc *desc, const sim_vk_options *opt, 
         vk_destroy(s);
         return st;
     }
-    to_level_major(s, g->pos, s->rest);
+    to_level_major(s, g->pos, s->rest, 3);
     s->max_segment = sim_groom_max_segment(g);
     if (g->sdf) { /* the header only: the samples go to the device below */
         s->has_sdf = true;
@@ -520,12 +522,18 @@ static core_status create_impl(const sim_desc *desc, const sim_vk_options *opt, 
     if (st == CORE_OK) st = make_slots(s, err);
     if (st == CORE_OK) st = sim_vk_once_init(&s->ctx, &s->once, err);
     if (st == CORE_OK) {
-        /* rest positions, and COUNT zero as the sort expects on entry */
-        memcpy(s->staging.map, s->rest, s->n * 3 * sizeof(float));
+        /* rest positions, the contact floors after them, and COUNT zero as the sort expects on
+         * entry */
+        float *stage = s->staging.map;
+        memcpy(stage, s->rest, s->n * 3 * sizeof(float));
+        sim_groom_contact_floor(g, s->host_tmp);
+        to_level_major(s, s->host_tmp, stage + 3 * s->n, 1);
         st = sim_vk_once_begin(&s->ctx, &s->once, err);
         if (st == CORE_OK) {
             VkBufferCopy c = { 0, 0, s->n * 3 * sizeof(float) };
             vkCmdCopyBuffer(s->once.cmd, s->staging.buf, s->rest_buf.buf, 1, &c);
+            VkBufferCopy cf = { s->n * 3 * sizeof(float), 0, s->n * sizeof(float) };
+            vkCmdCopyBuffer(s->once.cmd, s->staging.buf, s->floor_buf.buf, 1, &cf);
             vkCmdFillBuffer(s->once.cmd, s->count.buf, 0, VK_WHOLE_SIZE, 0u);
             vkCmdFillBuffer(s->once.cmd, s->grid.buf, 0, VK_WHOLE_SIZE, 0u);
             st = sim_vk_once_submit_wait(&s->ctx, &s->once, err);

@@ -115,7 +115,7 @@ typedef enum sim_vk_binding {
     SIM_VK_B_FRAME = 0, SIM_VK_B_X, SIM_VK_B_V, SIM_VK_B_A, SIM_VK_B_REST, SIM_VK_B_STRAND,
     SIM_VK_B_GRID, SIM_VK_B_COUNT, SIM_VK_B_START, SIM_VK_B_BLOCK, SIM_VK_B_CELL_OF,
     SIM_VK_B_ORDER, SIM_VK_B_SX, SIM_VK_B_SV, SIM_VK_B_RHO, SIM_VK_B_PRESS, SIM_VK_B_NBR,
-    SIM_VK_B_NNBR, SIM_VK_B_STATS, SIM_VK_B_SDF, SIM_VK_B_PBD,
+    SIM_VK_B_NNBR, SIM_VK_B_STATS, SIM_VK_B_SDF, SIM_VK_B_PBD, SIM_VK_B_FLOOR,
     SIM_VK_NBINDINGS
 } sim_vk_binding;
 
@@ -277,6 +277,7 @@ typedef struct sim_vk {
     sim_vk_buf sdf_buf;   /* DEVICE: the distance samples (16 unused bytes without a grid) */
     sim_vk_buf pbd;       /* DEVICE: the PBD substep's scratch, 30 floats per vertex (16 unused
                              bytes with the DFTL solver) */
+    sim_vk_buf floor_buf; /* DEVICE: the contact floors (sim_groom_contact_floor), level-major */
     sim_vk_buf staging;   /* READBACK: 6n floats for uploads and readbacks */
     sim_vk_once once;
     sim_vk_slot slots[SIM_VK_FRAMES];
