@@ -25,10 +25,13 @@ layout(std430, set = 0, binding = 14) restrict buffer RhoBuf { float d[]; } RHO;
 layout(std430, set = 0, binding = 15) restrict buffer PressBuf { float d[]; } PRESS;  // per sorted slot
 layout(std430, set = 0, binding = 16) restrict buffer NbrBuf { uint d[]; } NBR;       // per sorted slot: cap slots
 layout(std430, set = 0, binding = 17) restrict buffer NnbrBuf { uint d[]; } NNBR;     // per sorted slot
+layout(std430, set = 0, binding = 22) restrict readonly buffer XeBuf { float d[]; } XE; // positions at the last evaluation
 
-// PC.arg0 == 1: the rest-density pass (positions from REST, zero velocities).
+// PC.arg0 == 1: the rest-density pass (positions from REST, zero velocities). Otherwise the
+// viscosity's velocity is the motion since the last evaluation (sim_step_desc.sph_inv_since).
 vec3 sph_pos(uint i) { return PC.arg0 == 1u ? ldRest(i) : ldX(i); }
-vec3 sph_vel(uint i) { return PC.arg0 == 1u ? vec3(0.0) : ldV(i); }
+vec3 ldXe(uint i) { return vec3(XE.d[3u * i], XE.d[3u * i + 1u], XE.d[3u * i + 2u]); }
+vec3 sph_vel(uint i) { return PC.arg0 == 1u ? vec3(0.0) : (ldX(i) - ldXe(i)) * F.sph_inv_since; }
 
 uint cell_coord(float p, float origin, float inv)
 {

@@ -207,7 +207,9 @@ typedef struct sim_timing {
  * matters). Used by the AUTO backend trial and the groom budget. Sim thread of s. (sim_time.c) */
 core_status sim_time_steps(sim *s, float *xyz, int steps, double budget_s, sim_timing *out, core_err *err);
 
-/* Reads or replaces the full state (positions and velocities, strand-major xyz). */
+/* Reads or replaces the full state (positions and velocities, strand-major xyz). A replaced
+ * state keeps the positions of the last SPH evaluation: the next evaluation's viscosity takes
+ * the change of position as motion (none on a solver that has not evaluated SPH yet). */
 core_status sim_read_state(sim *s, float *xyz, float *vel, core_err *err);
 core_status sim_write_state(sim *s, const float *xyz, const float *vel, core_err *err);
 

@@ -21,6 +21,7 @@ static void cpu_reset(void *self)
         c->v[0][i] = c->v[1][i] = c->v[2][i] = 0.0f;
         c->a[0][i] = c->a[1][i] = c->a[2][i] = 0.0f;
     }
+    for (int k = 0; k < 3; k++) memcpy(c->xe[k], c->x[k], c->n * sizeof(float));
     c->prev_head = c->head;
     c->sph.lists_valid = false;
     c->sph_clock = (sim_sph_clock){ 0 };
@@ -41,6 +42,8 @@ static void cpu_destroy(void *self)
         free(c->v[k]);
         free(c->a[k]);
         free(c->rest[k]);
+        free(c->xe[k]);
+        free(c->saved_xe[k]);
         free(c->saved_x[k]);
         free(c->saved_v[k]);
         free(c->saved_a[k]);
@@ -70,7 +73,7 @@ static core_status rest_density(sim_cpu *c, core_err *err)
 {
     if (c->rho_rest_valid) return CORE_OK;
     double mean;
-    core_status st = sim_cpu_sph_pass(c, c->rest, NULL, c->params.dt, core_xform_identity(), &mean, false, err);
+    core_status st = sim_cpu_sph_pass(c, c->rest, NULL, 0.0f, c->params.dt, core_xform_identity(), &mean, false, err);
     if (st != CORE_OK) return st;
     c->rho_rest = (float)mean;
     c->rho_rest_valid = true;
@@ -98,7 +101,8 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
         c->v[k] = malloc(bytes);
         c->a[k] = malloc(bytes);
         c->rest[k] = malloc(bytes);
-        ok = ok && c->x[k] && c->v[k] && c->a[k] && c->rest[k];
+        c->xe[k] = malloc(bytes);
+        ok = ok && c->x[k] && c->v[k] && c->a[k] && c->rest[k] && c->xe[k];
     }
     c->sw = malloc(c->nv * sizeof *c->sw);
     if (!ok || !c->sw || sim_strand_order(g, &c->perm, err) != CORE_OK) {
@@ -164,13 +168,14 @@ static void copy3(float *const dst[3], float *const src[3], size_t n)
 static bool save_state(sim_cpu *c)
 {
     for (int k = 0; k < 3; k++) {
-        float **bufs[3] = { &c->saved_x[k], &c->saved_v[k], &c->saved_a[k] };
-        for (int b = 0; b < 3; b++)
+        float **bufs[4] = { &c->saved_x[k], &c->saved_v[k], &c->saved_a[k], &c->saved_xe[k] };
+        for (int b = 0; b < 4; b++)
             if (!*bufs[b] && !(*bufs[b] = malloc(c->n * sizeof(float)))) return false;
     }
     copy3(c->saved_x, c->x, c->n);
     copy3(c->saved_v, c->v, c->n);
     copy3(c->saved_a, c->a, c->n);
+    copy3(c->saved_xe, c->xe, c->n);
     c->saved_clock = c->sph_clock;
     memcpy(c->saved_nan, c->nan_per_thread, sizeof c->saved_nan);
     return true;
@@ -184,6 +189,7 @@ static core_status cancel_step(sim_cpu *c, core_err *err)
     copy3(c->x, c->saved_x, c->n);
     copy3(c->v, c->saved_v, c->n);
     copy3(c->a, c->saved_a, c->n);
+    copy3(c->xe, c->saved_xe, c->n);
     c->sph_clock = c->saved_clock;
     memcpy(c->nan_per_thread, c->saved_nan, sizeof c->saved_nan);
     return core_fail(err, CORE_ECANCELED, "step abandoned on request");
@@ -204,9 +210,10 @@ static core_status cpu_step(void *self, core_err *err)
         core_status st = rest_density(c, err);
         if (st != CORE_OK) return st;
         c->step.inv_rho0 = 1.0f / (c->params.rest_density * c->rho_rest);
-        st = sim_cpu_sph_pass(c, c->x, c->v, dt, c->prev_head, NULL, cancellable, err);
+        st = sim_cpu_sph_pass(c, c->x, c->xe, c->step.sph_inv_since, dt, c->prev_head, NULL, cancellable, err);
         if (st == CORE_ECANCELED) return cancel_step(c, err);
         if (st != CORE_OK) return st;
+        copy3(c->xe, c->x, c->n);
         t1 = core_now_ns();
         if (cancellable && c->cancel(c->cancel_ctx)) return cancel_step(c, err);
     }

@@ -43,6 +43,7 @@ typedef struct sim_cpu {
     sim_pool pool;
     /* level-major SoA: index = level * ns + strand */
     float *x[3], *v[3], *a[3], *rest[3];
+    float *xe[3];            /* positions at the last SPH evaluation (the viscosity's motion) */
     sim_shape_weights *sw;   /* per-level shape weights (sim_step_stiffness) */
     float max_segment;       /* longest rest segment */
     uint32_t *perm;          /* internal strand -> groom strand (roots in Morton order, so
@@ -62,20 +63,21 @@ typedef struct sim_cpu {
     /* sim_set_cancel: the poll, and the state before the step in progress to go back to */
     sim_cancel_fn cancel;
     void *cancel_ctx;
-    float *saved_x[3], *saved_v[3], *saved_a[3]; /* allocated on the first cancellable step */
+    float *saved_x[3], *saved_v[3], *saved_a[3], *saved_xe[3]; /* allocated on the first cancellable step */
     sim_sph_clock saved_clock;
     uint64_t saved_nan[256];
 } sim_cpu;
 
-/* Computes SPH accelerations into c->a from c->x, c->v (positions `pos` may be c->rest for the
- * rest-density pass, with vel NULL and out_mean_rho set). The particles move with head `frame`
+/* Computes SPH accelerations into c->a from positions pos (c->x) and, for the viscosity, their
+ * motion (pos - prev) * inv_since since the last evaluation (prev: c->xe; pos may be c->rest
+ * for the rest-density pass, with prev NULL and out_mean_rho set). The particles move with head `frame`
  * (the head the positions were last placed under). The neighbours are those within h now,
  * whether the skin lists of the previous pass are kept or rebuilt. With cancellable, c->cancel
  * is polled after the lists and after the densities: CORE_ECANCELED when it says so, c->a not
  * yet written and the lists complete (built from `pos`, so a pass taken again from the same
  * positions keeps them and gives the same bits). Sim thread; uses the pool. */
-core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt, core_xform frame,
-                             double *out_mean_rho, bool cancellable, core_err *err);
+core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const prev[3], float inv_since, float dt,
+                             core_xform frame, double *out_mean_rho, bool cancellable, core_err *err);
 void sim_cpu_sph_free(sim_cpu_sph *s);
 
 /* Substep k of c->step: predict + DFTL/shape/collision chain + velocity update. Sim thread;

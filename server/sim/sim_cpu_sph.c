@@ -31,7 +31,8 @@
 typedef struct sph_ctx {
     sim_cpu *c;
     float *const *pos;
-    float *const *vel;
+    float *const *prev;     /* positions at the last evaluation (NULL in the rest pass) */
+    float inv_since;        /* velocity = (pos - prev) * inv_since (sim_step_desc.sph_inv_since) */
     float dt;
     bool pressure;          /* the selection pass also sets the pressure (not in the rest pass) */
     float carry[12];        /* rows (m0 m1 m2 t): the head's rigid motion since the lists' build */
@@ -761,8 +762,15 @@ static void force_job(void *vctx, int tid, int nt)
     }
 }
 
-/* Copies positions and velocities (zero without vel) into the sorted slots given by order,
- * and the positions again into the SoA arrays the neighbour search scans. */
+/* The velocity component k of particle i for the viscosity: its motion since the last
+ * evaluation (zero in the rest pass). */
+static inline float motion(const sph_ctx *ctx, int k, uint32_t i)
+{
+    return ctx->prev ? (ctx->pos[k][i] - ctx->prev[k][i]) * ctx->inv_since : 0.0f;
+}
+
+/* Copies positions and velocities (motion) into the sorted slots given by order, and the
+ * positions again into the SoA arrays the neighbour search scans. */
 static void gather_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
@@ -772,11 +780,11 @@ static void gather_job(void *vctx, int tid, int nt)
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     for (size_t slot = b; slot < e; slot++) {
         prefetch_unsorted(s, slot, e, ctx->pos, 3, 0);
-        if (ctx->vel) prefetch_unsorted(s, slot, e, ctx->vel, 3, 0);
+        if (ctx->prev) prefetch_unsorted(s, slot, e, ctx->prev, 3, 0);
         const uint32_t i = s->order[slot];
         for (int k = 0; k < 3; k++) {
             s->sp[4 * slot + k] = ctx->pos[k][i];
-            s->sv[4 * slot + k] = ctx->vel ? ctx->vel[k][i] : 0.0f;
+            s->sv[4 * slot + k] = motion(ctx, k, i);
         }
         s->sx[slot] = ctx->pos[0][i], s->sy[slot] = ctx->pos[1][i], s->sz[slot] = ctx->pos[2][i];
     }
@@ -801,11 +809,11 @@ static void regather_job(void *vctx, int tid, int nt)
             if (strayed || atomic_load_explicit(&ctx->strayed, memory_order_relaxed)) return;
         }
         prefetch_unsorted(s, slot, e, ctx->pos, 3, 0);
-        prefetch_unsorted(s, slot, e, ctx->vel, 3, 0);
+        prefetch_unsorted(s, slot, e, ctx->prev, 3, 0);
         const uint32_t i = s->order[slot];
         const float x = ctx->pos[0][i], y = ctx->pos[1][i], z = ctx->pos[2][i];
         s->sp[4 * slot] = x, s->sp[4 * slot + 1] = y, s->sp[4 * slot + 2] = z;
-        s->sv[4 * slot] = ctx->vel[0][i], s->sv[4 * slot + 1] = ctx->vel[1][i], s->sv[4 * slot + 2] = ctx->vel[2][i];
+        s->sv[4 * slot] = motion(ctx, 0, i), s->sv[4 * slot + 1] = motion(ctx, 1, i), s->sv[4 * slot + 2] = motion(ctx, 2, i);
         const float bx = s->sx[slot], by = s->sy[slot], bz = s->sz[slot];
         const float dx = x - (m[0] * bx + m[1] * by + m[2] * bz + m[3]);
         const float dy = y - (m[4] * bx + m[5] * by + m[6] * bz + m[7]);
@@ -929,12 +937,12 @@ static bool sph_cancelled(const sim_cpu *c, bool cancellable)
     return cancellable && c->cancel(c->cancel_ctx);
 }
 
-core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const vel[3], float dt, core_xform frame,
-                             double *out_mean_rho, bool cancellable, core_err *err)
+core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const prev[3], float inv_since, float dt,
+                             core_xform frame, double *out_mean_rho, bool cancellable, core_err *err)
 {
-    sph_ctx ctx = { .c = c, .pos = pos, .vel = vel, .dt = dt, .pressure = out_mean_rho == NULL };
+    sph_ctx ctx = { .c = c, .pos = pos, .prev = prev, .inv_since = inv_since, .dt = dt, .pressure = out_mean_rho == NULL };
     sim_cpu_sph *s = &c->sph;
-    if (!(s->lists_valid && vel && lists_hold(&ctx, frame))) {
+    if (!(s->lists_valid && prev && lists_hold(&ctx, frame))) {
         core_status st = rebuild_lists(&ctx, err);
         if (st != CORE_OK) return st;
         s->build_head = frame;

@@ -137,6 +137,7 @@ void sim_step_sph_clock(const sim_params *p, sim_sph_clock *clk, sim_step_desc *
 {
     out->sph_eval = false;
     out->sph_keep = 0.0f;
+    out->sph_inv_since = 0.0f;
     if (!out->sph) {
         *clk = (sim_sph_clock){ 0 };
         return;
@@ -151,6 +152,7 @@ void sim_step_sph_clock(const sim_params *p, sim_sph_clock *clk, sim_step_desc *
     out->sph_eval = !clk->warm || elapsed >= every;
     if (out->sph_eval && clk->warm && p->shape)
         out->sph_keep = expf(-(float)elapsed * p->dt / (float)SIM_SPH_SMOOTH_TIME); /* sim_limits.h */
+    if (out->sph_eval && clk->warm) out->sph_inv_since = 1.0f / ((float)elapsed * p->dt);
     clk->age = out->sph_eval ? 0u : elapsed;
     clk->warm = true;
 }

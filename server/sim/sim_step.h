@@ -61,6 +61,11 @@ typedef struct sim_step_desc {
                                  since the last evaluation: share of the held SPH acceleration an
                                  evaluation keeps (0 with shape off, and when the backend has none:
                                  after a reset or a step without SPH) */
+    float sph_inv_since;      /* 1 / the time since the last SPH evaluation when this step evaluates
+                                 and the backend kept that evaluation's positions, else 0: the
+                                 viscosity's velocities are the hair's motion over that time
+                                 ((x - x at that evaluation) x this), not the solver's velocities,
+                                 which carry the DFTL correction (eq. 14) even where nothing moves */
     float inv_rho0;           /* 1 / (rest_density * rest-pose mean density) */
     uint32_t ncolliders;      /* 0 when collisions are off */
     float friction;           /* contact friction (sim_params.friction) */
@@ -98,8 +103,8 @@ typedef struct sim_sph_clock {
 } sim_sph_clock;
 /* After sim_step_plan: decides whether this step evaluates SPH (out->sph_eval: when the
  * backend holds no acceleration, with shape off, or once 1 / SIM_SPH_RATE has passed since the
- * last evaluation, counted in whole steps) and sets out->sph_keep for the time since the last
- * one; advances clk (reset to zero when SPH is off). Pure apart from clk; the backend's step
+ * last evaluation, counted in whole steps) and sets out->sph_keep and out->sph_inv_since for the
+ * time since the last one; advances clk (reset to zero when SPH is off). Pure apart from clk; the backend's step
  * thread. */
 void sim_step_sph_clock(const sim_params *p, sim_sph_clock *clk, sim_step_desc *out);
 /* The shape weights of one level for one substep: a vertex at s moves by

@@ -92,6 +92,7 @@ static core_status make_buffers(sim_vk *s, core_err *err)
     const VkBufferUsageFlags xfer = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     const buf_spec specs[] = {
         { &s->x, p3, SIM_VK_B_X, xfer, "positions" },
+        { &s->xe, p3, SIM_VK_B_XE, xfer, "positions at the last sph evaluation" },
         { &s->v, p3, SIM_VK_B_V, xfer, "velocities" },
         { &s->a, p3, SIM_VK_B_A, xfer, "sph accelerations" },
         { &s->rest_buf, p3, SIM_VK_B_REST, xfer, "rest positions" },
@@ -186,7 +187,7 @@ static void vk_destroy(void *self)
             if (sl->cmd) vkFreeCommandBuffers(s->ctx.device, s->ctx.pool, 1, &sl->cmd);
         }
         sim_vk_once_destroy(&s->ctx, &s->once);
-        sim_vk_buf *bufs[] = { &s->x, &s->v, &s->a, &s->rest_buf, &s->strand, &s->grid, &s->count, &s->start,
+        sim_vk_buf *bufs[] = { &s->x, &s->xe, &s->v, &s->a, &s->rest_buf, &s->strand, &s->grid, &s->count, &s->start,
                                &s->block, &s->cell_of, &s->order, &s->sx, &s->sv, &s->rho, &s->press, &s->nbr,
                                &s->nnbr, &s->stats_buf, &s->staging, &s->sdf_buf, &s->pbd, &s->floor_buf };
         for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++) sim_vk_buf_destroy(&s->ctx, bufs[i]);
@@ -219,8 +220,9 @@ static void to_level_major(const sim_vk *s, const float *sm, float *lm, size_t k
         }
 }
 
-/* Uploads x and v (level-major, v may be NULL = zero) and zeroes a when zero_a. Blocking. */
-static core_status upload_state(sim_vk *s, const float *x, const float *v, bool zero_a, core_err *err)
+/* Uploads x and v (level-major, v may be NULL = zero); with fresh, also x as the positions of
+ * the last SPH evaluation (no motion yet) and zero accelerations. Blocking. */
+static core_status upload_state(sim_vk *s, const float *x, const float *v, bool fresh, core_err *err)
 {
     core_status st = collect_all(s, err);
     if (st != CORE_OK) return st;
@@ -235,8 +237,9 @@ static core_status upload_state(sim_vk *s, const float *x, const float *v, bool 
     if (st != CORE_OK) return fail_sticky(s, st, err);
     VkBufferCopy cx = { 0, 0, p3 }, cv = { p3, 0, p3 };
     vkCmdCopyBuffer(s->once.cmd, s->staging.buf, s->x.buf, 1, &cx);
+    if (fresh) vkCmdCopyBuffer(s->once.cmd, s->staging.buf, s->xe.buf, 1, &cx);
     vkCmdCopyBuffer(s->once.cmd, s->staging.buf, s->v.buf, 1, &cv);
-    if (zero_a) vkCmdFillBuffer(s->once.cmd, s->a.buf, 0, VK_WHOLE_SIZE, 0u);
+    if (fresh) vkCmdFillBuffer(s->once.cmd, s->a.buf, 0, VK_WHOLE_SIZE, 0u);
     st = sim_vk_once_submit_wait(&s->ctx, &s->once, err);
     if (st != CORE_OK) return fail_sticky(s, st, err);
     return CORE_OK;

@@ -70,6 +70,10 @@ void sim_vk_record_sph(sim_vk *s, VkCommandBuffer cmd, VkDescriptorSet set, sim_
     stamp(s, cmd, queries, SIM_VK_S_DENSITY + 1);
     if (mode == SIM_VK_SPH_REST) return;
     pass_n(s, cmd, SIM_VK_P_SPH_FORCE, rest, cells);
+    /* the positions of this evaluation, for the next one's motion (sim_step_desc.sph_inv_since) */
+    const VkBufferCopy all = { 0, 0, s->n * 3 * sizeof(float) };
+    vkCmdCopyBuffer(cmd, s->x.buf, s->xe.buf, 1, &all);
+    sim_vk_barrier(cmd);
     stamp(s, cmd, queries, SIM_VK_S_FORCE + 1);
 }
 
