@@ -153,10 +153,33 @@ static void cpu_set_cancel(void *self, sim_cancel_fn poll, void *ctx)
     c->cancel_ctx = ctx;
 }
 
-/* Copies the three components of src into dst (n floats each). */
-static void copy3(float *const dst[3], float *const src[3], size_t n)
+/* Slices of each state array a copy task takes (whichever worker is free). */
+#define COPY_PARTS 8
+
+/* The state arrays x, v, a (9 of n floats) copied from src to dst by the pool's workers: a
+ * cancellable step (the daemon's) copies the whole state, 36 bytes a particle, before it starts. */
+typedef struct copy_ctx {
+    float *const *dst, *const *src;
+    size_t n;
+} copy_ctx;
+
+static void copy_task(void *vctx, size_t task, size_t ntasks, int worker)
 {
-    for (int k = 0; k < 3; k++) memcpy(dst[k], src[k], n * sizeof(float));
+    (void)ntasks, (void)worker;
+    const copy_ctx *k = vctx;
+    size_t b, e;
+    sim_pool_range(k->n, (int)(task % COPY_PARTS), COPY_PARTS, 16, &b, &e);
+    memcpy(k->dst[task / COPY_PARTS] + b, k->src[task / COPY_PARTS] + b, (e - b) * sizeof(float));
+}
+
+/* Copies the state (x, v, a) into the saved copies, or back with restore. */
+static void copy_state(sim_cpu *c, bool restore)
+{
+    float *const live[9] = { c->x[0], c->x[1], c->x[2], c->v[0], c->v[1], c->v[2], c->a[0], c->a[1], c->a[2] };
+    float *const saved[9] = { c->saved_x[0], c->saved_x[1], c->saved_x[2], c->saved_v[0], c->saved_v[1],
+                              c->saved_v[2], c->saved_a[0], c->saved_a[1], c->saved_a[2] };
+    copy_ctx k = { restore ? live : saved, restore ? saved : live, c->n };
+    sim_pool_run_tasks(&c->pool, copy_task, &k, 9 * COPY_PARTS);
 }
 
 /* Before the step changes anything: the copies a cancelled step goes back to. false when they
@@ -168,9 +191,7 @@ static bool save_state(sim_cpu *c)
         for (int b = 0; b < 3; b++)
             if (!*bufs[b] && !(*bufs[b] = malloc(c->n * sizeof(float)))) return false;
     }
-    copy3(c->saved_x, c->x, c->n);
-    copy3(c->saved_v, c->v, c->n);
-    copy3(c->saved_a, c->a, c->n);
+    copy_state(c, false);
     c->saved_clock = c->sph_clock;
     memcpy(c->saved_nan, c->nan_per_thread, sizeof c->saved_nan);
     return true;
@@ -181,9 +202,7 @@ static bool save_state(sim_cpu *c)
  * the pass of the step taken again decides from the same positions, so no later step differs. */
 static core_status cancel_step(sim_cpu *c, core_err *err)
 {
-    copy3(c->x, c->saved_x, c->n);
-    copy3(c->v, c->saved_v, c->n);
-    copy3(c->a, c->saved_a, c->n);
+    copy_state(c, true);
     c->sph_clock = c->saved_clock;
     memcpy(c->nan_per_thread, c->saved_nan, sizeof c->saved_nan);
     return core_fail(err, CORE_ECANCELED, "step abandoned on request");
