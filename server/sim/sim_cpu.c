@@ -5,6 +5,7 @@
 
 #include "sim_cpu.h"
 #include "sim_cpu_internal.h"
+#include "sim_mem.h"
 #include "sim_order.h"
 
 static void update_stiffness(sim_cpu *c)
@@ -94,10 +95,10 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
     memcpy(c->colliders, g->colliders, sizeof c->colliders);
     bool ok = true;
     for (int k = 0; k < 3; k++) {
-        c->x[k] = malloc(bytes);
-        c->v[k] = malloc(bytes);
-        c->a[k] = malloc(bytes);
-        c->rest[k] = malloc(bytes);
+        c->x[k] = sim_mem_alloc(bytes, false);
+        c->v[k] = sim_mem_alloc(bytes, false);
+        c->a[k] = sim_mem_alloc(bytes, false);
+        c->rest[k] = sim_mem_alloc(bytes, false);
         ok = ok && c->x[k] && c->v[k] && c->a[k] && c->rest[k];
     }
     c->sw = malloc(c->nv * sizeof *c->sw);
@@ -189,7 +190,7 @@ static bool save_state(sim_cpu *c)
     for (int k = 0; k < 3; k++) {
         float **bufs[3] = { &c->saved_x[k], &c->saved_v[k], &c->saved_a[k] };
         for (int b = 0; b < 3; b++)
-            if (!*bufs[b] && !(*bufs[b] = malloc(c->n * sizeof(float)))) return false;
+            if (!*bufs[b] && !(*bufs[b] = sim_mem_alloc(c->n * sizeof(float), false))) return false;
     }
     copy_state(c, false);
     c->saved_clock = c->sph_clock;
