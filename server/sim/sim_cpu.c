@@ -5,11 +5,18 @@
 
 #include "sim_cpu.h"
 #include "sim_cpu_internal.h"
+#include "sim_mem.h"
 #include "sim_order.h"
 
 static void update_stiffness(sim_cpu *c)
 {
     for (uint32_t l = 0; l < c->nv; l++) sim_step_stiffness(&c->params, l, c->nv, &c->sw[l]);
+}
+
+/* The positions the next SPH evaluation measures the hair's motion from (xe) are the current ones. */
+static void keep_eval_positions(sim_cpu *c)
+{
+    for (int k = 0; k < 3; k++) memcpy(c->xe[k], c->x[k], c->n * sizeof(float));
 }
 
 static void cpu_reset(void *self)
@@ -21,7 +28,7 @@ static void cpu_reset(void *self)
         c->v[0][i] = c->v[1][i] = c->v[2][i] = 0.0f;
         c->a[0][i] = c->a[1][i] = c->a[2][i] = 0.0f;
     }
-    for (int k = 0; k < 3; k++) memcpy(c->xe[k], c->x[k], c->n * sizeof(float));
+    keep_eval_positions(c);
     c->prev_head = c->head;
     c->sph.lists_valid = false;
     c->sph_clock = (sim_sph_clock){ 0 };
@@ -97,11 +104,11 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
     memcpy(c->colliders, g->colliders, sizeof c->colliders);
     bool ok = true;
     for (int k = 0; k < 3; k++) {
-        c->x[k] = malloc(bytes);
-        c->v[k] = malloc(bytes);
-        c->a[k] = malloc(bytes);
-        c->rest[k] = malloc(bytes);
-        c->xe[k] = malloc(bytes);
+        c->x[k] = sim_mem_alloc(bytes, false);
+        c->v[k] = sim_mem_alloc(bytes, false);
+        c->a[k] = sim_mem_alloc(bytes, false);
+        c->rest[k] = sim_mem_alloc(bytes, false);
+        c->xe[k] = sim_mem_alloc(bytes, false);
         ok = ok && c->x[k] && c->v[k] && c->a[k] && c->rest[k] && c->xe[k];
     }
     c->sw = malloc(c->nv * sizeof *c->sw);
@@ -157,10 +164,35 @@ static void cpu_set_cancel(void *self, sim_cancel_fn poll, void *ctx)
     c->cancel_ctx = ctx;
 }
 
-/* Copies the three components of src into dst (n floats each). */
-static void copy3(float *const dst[3], float *const src[3], size_t n)
+/* Slices of each state array a copy task takes (whichever worker is free). */
+#define COPY_PARTS 8
+
+/* The state arrays x, v, a and xe (12 of n floats) copied from src to dst by the pool's workers:
+ * a cancellable step (the daemon's) copies the whole state, 48 bytes a particle, before it
+ * starts. */
+typedef struct copy_ctx {
+    float *const *dst, *const *src;
+    size_t n;
+} copy_ctx;
+
+static void copy_task(void *vctx, size_t task, size_t ntasks, int worker)
 {
-    for (int k = 0; k < 3; k++) memcpy(dst[k], src[k], n * sizeof(float));
+    (void)ntasks, (void)worker;
+    const copy_ctx *k = vctx;
+    size_t b, e;
+    sim_pool_range(k->n, (int)(task % COPY_PARTS), COPY_PARTS, 16, &b, &e);
+    memcpy(k->dst[task / COPY_PARTS] + b, k->src[task / COPY_PARTS] + b, (e - b) * sizeof(float));
+}
+
+/* Copies the state (x, v, a, xe) into the saved copies, or back with restore. */
+static void copy_state(sim_cpu *c, bool restore)
+{
+    float *const live[12] = { c->x[0], c->x[1], c->x[2], c->v[0], c->v[1], c->v[2],
+                              c->a[0], c->a[1], c->a[2], c->xe[0], c->xe[1], c->xe[2] };
+    float *const saved[12] = { c->saved_x[0], c->saved_x[1], c->saved_x[2], c->saved_v[0], c->saved_v[1], c->saved_v[2],
+                               c->saved_a[0], c->saved_a[1], c->saved_a[2], c->saved_xe[0], c->saved_xe[1], c->saved_xe[2] };
+    copy_ctx k = { restore ? live : saved, restore ? saved : live, c->n };
+    sim_pool_run_tasks(&c->pool, copy_task, &k, 12 * COPY_PARTS);
 }
 
 /* Before the step changes anything: the copies a cancelled step goes back to. false when they
@@ -170,12 +202,9 @@ static bool save_state(sim_cpu *c)
     for (int k = 0; k < 3; k++) {
         float **bufs[4] = { &c->saved_x[k], &c->saved_v[k], &c->saved_a[k], &c->saved_xe[k] };
         for (int b = 0; b < 4; b++)
-            if (!*bufs[b] && !(*bufs[b] = malloc(c->n * sizeof(float)))) return false;
+            if (!*bufs[b] && !(*bufs[b] = sim_mem_alloc(c->n * sizeof(float), false))) return false;
     }
-    copy3(c->saved_x, c->x, c->n);
-    copy3(c->saved_v, c->v, c->n);
-    copy3(c->saved_a, c->a, c->n);
-    copy3(c->saved_xe, c->xe, c->n);
+    copy_state(c, false);
     c->saved_clock = c->sph_clock;
     memcpy(c->saved_nan, c->nan_per_thread, sizeof c->saved_nan);
     return true;
@@ -186,10 +215,7 @@ static bool save_state(sim_cpu *c)
  * the pass of the step taken again decides from the same positions, so no later step differs. */
 static core_status cancel_step(sim_cpu *c, core_err *err)
 {
-    copy3(c->x, c->saved_x, c->n);
-    copy3(c->v, c->saved_v, c->n);
-    copy3(c->a, c->saved_a, c->n);
-    copy3(c->xe, c->saved_xe, c->n);
+    copy_state(c, true);
     c->sph_clock = c->saved_clock;
     memcpy(c->nan_per_thread, c->saved_nan, sizeof c->saved_nan);
     return core_fail(err, CORE_ECANCELED, "step abandoned on request");
@@ -213,7 +239,7 @@ static core_status cpu_step(void *self, core_err *err)
         st = sim_cpu_sph_pass(c, c->x, c->xe, c->step.sph_inv_since, dt, c->prev_head, NULL, cancellable, err);
         if (st == CORE_ECANCELED) return cancel_step(c, err);
         if (st != CORE_OK) return st;
-        copy3(c->xe, c->x, c->n);
+        keep_eval_positions(c);
         t1 = core_now_ns();
         if (cancellable && c->cancel(c->cancel_ctx)) return cancel_step(c, err);
     }

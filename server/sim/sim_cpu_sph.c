@@ -8,6 +8,7 @@
 #endif
 
 #include "sim_cpu_internal.h"
+#include "sim_mem.h"
 
 /* Candidates within the skin radius kept per particle before the nearest are selected. */
 #define SPH_MAX_CANDIDATES 1024
@@ -67,17 +68,17 @@ static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, 
         free(s->cell), free(s->order), free(s->strand), free(s->sp), free(s->sv);
         free(s->sx), free(s->sy), free(s->sz);
         free(s->nbr), free(s->nnbr);
-        s->cell = malloc(n * sizeof *s->cell);
-        s->order = malloc(n * sizeof *s->order);
-        s->strand = calloc(n + SPH_PAD, sizeof *s->strand);
-        s->sp = malloc(n * 4 * sizeof *s->sp);
+        s->cell = sim_mem_alloc(n * sizeof *s->cell, false);
+        s->order = sim_mem_alloc(n * sizeof *s->order, false);
+        s->strand = sim_mem_alloc((n + SPH_PAD) * sizeof *s->strand, true);
+        s->sp = sim_mem_alloc(n * 4 * sizeof *s->sp, false);
         /* padded by SPH_PAD so vector loads of a run's last block stay inside */
-        s->sx = calloc(n + SPH_PAD, sizeof *s->sx);
-        s->sy = calloc(n + SPH_PAD, sizeof *s->sy);
-        s->sz = calloc(n + SPH_PAD, sizeof *s->sz);
-        s->sv = malloc(n * 4 * sizeof *s->sv);
-        s->nbr = calloc(n * (size_t)cap + SPH_PAD, sizeof *s->nbr); /* padded for 8-wide row loads */
-        s->nnbr = malloc(n * sizeof *s->nnbr);
+        s->sx = sim_mem_alloc((n + SPH_PAD) * sizeof *s->sx, true);
+        s->sy = sim_mem_alloc((n + SPH_PAD) * sizeof *s->sy, true);
+        s->sz = sim_mem_alloc((n + SPH_PAD) * sizeof *s->sz, true);
+        s->sv = sim_mem_alloc(n * 4 * sizeof *s->sv, false);
+        s->nbr = sim_mem_alloc((n * (size_t)cap + SPH_PAD) * sizeof *s->nbr, true); /* padded for 8-wide row loads */
+        s->nnbr = sim_mem_alloc(n * sizeof *s->nnbr, false);
         s->n = n;
         s->cap = cap;
         if (!s->cell || !s->order || !s->strand || !s->sp || !s->sv || !s->sx || !s->sy || !s->sz || !s->nbr || !s->nnbr) {
@@ -88,8 +89,8 @@ static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, 
     size_t need = cells * (size_t)nthreads;
     if (s->cells_cap < need) {
         free(s->cell_start), free(s->hist);
-        s->cell_start = malloc((need + 1) * sizeof *s->cell_start);
-        s->hist = malloc(need * sizeof *s->hist);
+        s->cell_start = sim_mem_alloc((need + 1) * sizeof *s->cell_start, false);
+        s->hist = sim_mem_alloc(need * sizeof *s->hist, false);
         s->cells_cap = need;
         if (!s->cell_start || !s->hist) {
             sim_cpu_sph_free(s);
