@@ -217,7 +217,7 @@ test('every server message validates against its schema', async () => {
                                              'hm_damping', 'hm_cg_iterations', 'hm_cg_tolerance', 'hm_deform_min']);
     for (const e of hm) assert.deepEqual(e.solvers, ['hairmesh'], e.name);
     assert.equal(hm.find((e) => e.name === 'hm_bend_stiffness').unit, '1/s^2');
-    assert.equal(hm.find((e) => e.name === 'hm_damping').max, 100);
+    assert.equal(hm.find((e) => e.name === 'hm_damping').max, 8);
     assert.deepEqual(hello.grooms.styles, ['straight', 'wavy', 'curly', 'hairmesh:straight', 'hairmesh:wavy', 'hairmesh:curly']);
     check(get('server.hello'), withEntry({ choices: ['a'] }), false); // choices only on an enum
     const enumEntry = (patch) => {
