@@ -103,6 +103,7 @@ typedef struct sim_stats {
     double stage_ms[8];
     const char *stage_names[8];
     int nstages;
+    uint64_t device_bytes;    /* bytes of the GPU buffers the backend holds (0 on the CPU backends) */
 } sim_stats;
 
 /* Asked by a backend between the stages of a step (sim_set_cancel): true abandons the step. */

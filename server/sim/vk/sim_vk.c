@@ -61,10 +61,14 @@ static core_status collect_all(sim_vk *s, core_err *err)
     return CORE_OK;
 }
 
+/* bytes for a buffer only the SPH passes use: a 16-byte placeholder (bound, never touched) on the
+ * PBD solver, which has no SPH. */
+static size_t sph_bytes(const sim_vk *s, size_t bytes) { return s->params.solver == SIM_SOLVER_PBD ? 16 : bytes; }
+
 static core_status make_nbr(sim_vk *s, uint32_t cap, core_err *err)
 {
-    size_t bytes;
-    if (!core_mul_size(s->n, (size_t)cap * sizeof(uint32_t), &bytes))
+    size_t bytes = 16;
+    if (s->params.solver != SIM_SOLVER_PBD && !core_mul_size(s->n, (size_t)cap * sizeof(uint32_t), &bytes))
         return core_fail(err, CORE_ENOMEM, "vulkan: neighbour lists of %zu x %u are too large", s->n, cap);
     sim_vk_buf nb;
     core_status st = sim_vk_buf_create(&s->ctx, &nb, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, SIM_VK_MEM_DEVICE,
@@ -92,23 +96,23 @@ static core_status make_buffers(sim_vk *s, core_err *err)
     const VkBufferUsageFlags xfer = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     const buf_spec specs[] = {
         { &s->x, p3, SIM_VK_B_X, xfer, "positions" },
-        { &s->xe, p3, SIM_VK_B_XE, xfer, "positions at the last sph evaluation" },
+        { &s->xe, sph_bytes(s, p3), SIM_VK_B_XE, xfer, "positions at the last sph evaluation" },
         { &s->v, p3, SIM_VK_B_V, xfer, "velocities" },
-        { &s->a, p3, SIM_VK_B_A, xfer, "sph accelerations" },
+        { &s->a, sph_bytes(s, p3), SIM_VK_B_A, xfer, "sph accelerations" },
         { &s->rest_buf, p3, SIM_VK_B_REST, xfer, "rest positions" },
         { &s->strand, (size_t)s->ns * 20 * sizeof(float), SIM_VK_B_STRAND, 0, "chain state" },
         { &s->grid, 128, SIM_VK_B_GRID, xfer, "sph grid" },
-        { &s->count, cells * sizeof(uint32_t), SIM_VK_B_COUNT, xfer, "sph cell counts" },
-        { &s->start, (cells + 1) * sizeof(uint32_t), SIM_VK_B_START, 0, "sph cell starts" },
-        { &s->block, blocks * sizeof(uint32_t), SIM_VK_B_BLOCK, 0, "sph scan blocks" },
-        { &s->cell_of, n * sizeof(uint32_t), SIM_VK_B_CELL_OF, 0, "sph particle cells" },
-        { &s->order, n * sizeof(uint32_t), SIM_VK_B_ORDER, 0, "sph sorted order" },
-        { &s->sx, n * 4 * sizeof(float), SIM_VK_B_SX, 0, "sph sorted positions" },
-        { &s->sv, n * 4 * sizeof(float), SIM_VK_B_SV, 0, "sph sorted velocities" },
-        { &s->rho, n * sizeof(float), SIM_VK_B_RHO, xfer, "sph density" },
-        { &s->press, n * sizeof(float), SIM_VK_B_PRESS, 0, "sph pressure" },
-        { &s->nnbr, n * sizeof(uint32_t), SIM_VK_B_NNBR, 0, "sph neighbour counts" },
-        { &s->floor_buf, n * sizeof(float), SIM_VK_B_FLOOR, xfer, "contact floors" },
+        { &s->count, sph_bytes(s, cells * sizeof(uint32_t)), SIM_VK_B_COUNT, xfer, "sph cell counts" },
+        { &s->start, sph_bytes(s, (cells + 1) * sizeof(uint32_t)), SIM_VK_B_START, 0, "sph cell starts" },
+        { &s->block, sph_bytes(s, blocks * sizeof(uint32_t)), SIM_VK_B_BLOCK, 0, "sph scan blocks" },
+        { &s->cell_of, sph_bytes(s, n * sizeof(uint32_t)), SIM_VK_B_CELL_OF, 0, "sph particle cells" },
+        { &s->order, sph_bytes(s, n * sizeof(uint32_t)), SIM_VK_B_ORDER, 0, "sph sorted order" },
+        { &s->sx, sph_bytes(s, n * 4 * sizeof(float)), SIM_VK_B_SX, 0, "sph sorted positions" },
+        { &s->sv, sph_bytes(s, n * 4 * sizeof(float)), SIM_VK_B_SV, 0, "sph sorted velocities" },
+        { &s->rho, sph_bytes(s, n * sizeof(float)), SIM_VK_B_RHO, xfer, "sph density" },
+        { &s->press, sph_bytes(s, n * sizeof(float)), SIM_VK_B_PRESS, 0, "sph pressure" },
+        { &s->nnbr, sph_bytes(s, n * sizeof(uint32_t)), SIM_VK_B_NNBR, 0, "sph neighbour counts" },
+        { &s->floor_buf, s->params.solver == SIM_SOLVER_PBD ? n * sizeof(float) : 16, SIM_VK_B_FLOOR, xfer, "contact floors" },
     };
     for (size_t i = 0; i < sizeof specs / sizeof specs[0]; i++) {
         core_status st = sim_vk_buf_create(&s->ctx, specs[i].buf, specs[i].bytes,
@@ -237,7 +241,7 @@ static core_status upload_state(sim_vk *s, const float *x, const float *v, bool 
     if (st != CORE_OK) return fail_sticky(s, st, err);
     VkBufferCopy cx = { 0, 0, p3 }, cv = { p3, 0, p3 };
     vkCmdCopyBuffer(s->once.cmd, s->staging.buf, s->x.buf, 1, &cx);
-    if (fresh) vkCmdCopyBuffer(s->once.cmd, s->staging.buf, s->xe.buf, 1, &cx);
+    if (fresh && s->params.solver != SIM_SOLVER_PBD) vkCmdCopyBuffer(s->once.cmd, s->staging.buf, s->xe.buf, 1, &cx);
     vkCmdCopyBuffer(s->once.cmd, s->staging.buf, s->v.buf, 1, &cv);
     if (fresh) vkCmdFillBuffer(s->once.cmd, s->a.buf, 0, VK_WHOLE_SIZE, 0u);
     st = sim_vk_once_submit_wait(&s->ctx, &s->once, err);
@@ -443,6 +447,7 @@ static void vk_get_stats(void *self, sim_stats *out)
         out->stage_ms[0] = s->stats.stage_ms[SIM_VK_S_CHAIN];
     }
     if (!s->ctx.timestamps) out->nstages = 0;
+    out->device_bytes = s->ctx.buffer_bytes;
 }
 
 /* Copies the distance samples to sdf_buf through a temporary upload buffer. Blocking. */
@@ -536,7 +541,7 @@ static core_status create_impl(const sim_desc *desc, const sim_vk_options *opt, 
             VkBufferCopy c = { 0, 0, s->n * 3 * sizeof(float) };
             vkCmdCopyBuffer(s->once.cmd, s->staging.buf, s->rest_buf.buf, 1, &c);
             VkBufferCopy cf = { s->n * 3 * sizeof(float), 0, s->n * sizeof(float) };
-            vkCmdCopyBuffer(s->once.cmd, s->staging.buf, s->floor_buf.buf, 1, &cf);
+            if (s->params.solver == SIM_SOLVER_PBD) vkCmdCopyBuffer(s->once.cmd, s->staging.buf, s->floor_buf.buf, 1, &cf);
             vkCmdFillBuffer(s->once.cmd, s->count.buf, 0, VK_WHOLE_SIZE, 0u);
             vkCmdFillBuffer(s->once.cmd, s->grid.buf, 0, VK_WHOLE_SIZE, 0u);
             st = sim_vk_once_submit_wait(&s->ctx, &s->once, err);

@@ -37,6 +37,7 @@ typedef struct sim_vk_ctx {
     uint64_t timestamp_mask;  /* valid bits of a timestamp */
     bool validation;          /* VK_LAYER_KHRONOS_validation enabled */
     uint32_t validation_errors; /* error messages seen by the debug messenger */
+    VkDeviceSize buffer_bytes; /* the sizes of the buffers sim_vk_buf_create made, less those destroyed */
 } sim_vk_ctx;
 
 /* Opens an instance (with the validation layer and debug names when want_validation and

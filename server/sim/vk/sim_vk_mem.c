@@ -72,6 +72,7 @@ core_status sim_vk_buf_create(sim_vk_ctx *c, sim_vk_buf *b, VkDeviceSize size, V
         return st;
     }
     b->size = size;
+    c->buffer_bytes += size;
     sim_vk_name(c, VK_OBJECT_TYPE_BUFFER, (uint64_t)b->buf, name);
     sim_vk_name(c, VK_OBJECT_TYPE_DEVICE_MEMORY, (uint64_t)b->mem, name);
     return CORE_OK;
@@ -82,6 +83,7 @@ void sim_vk_buf_destroy(sim_vk_ctx *c, sim_vk_buf *b)
     if (b->map) vkUnmapMemory(c->device, b->mem);
     if (b->buf) vkDestroyBuffer(c->device, b->buf, NULL);
     if (b->mem) vkFreeMemory(c->device, b->mem, NULL);
+    c->buffer_bytes -= b->size;
     memset(b, 0, sizeof *b);
 }
 
