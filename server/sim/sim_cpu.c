@@ -13,11 +13,7 @@ static void update_stiffness(sim_cpu *c)
     for (uint32_t l = 0; l < c->nv; l++) sim_step_stiffness(&c->params, l, c->nv, &c->sw[l]);
 }
 
-/* The positions the next SPH evaluation measures the hair's motion from (xe) are the current ones. */
-static void keep_eval_positions(sim_cpu *c)
-{
-    for (int k = 0; k < 3; k++) memcpy(c->xe[k], c->x[k], c->n * sizeof(float));
-}
+static void keep_eval_positions(sim_cpu *c);
 
 static void cpu_reset(void *self)
 {
@@ -182,6 +178,14 @@ static void copy_task(void *vctx, size_t task, size_t ntasks, int worker)
     size_t b, e;
     sim_pool_range(k->n, (int)(task % COPY_PARTS), COPY_PARTS, 16, &b, &e);
     memcpy(k->dst[task / COPY_PARTS] + b, k->src[task / COPY_PARTS] + b, (e - b) * sizeof(float));
+}
+
+/* The positions the next SPH evaluation measures the hair's motion from (xe) are the current
+ * ones (copied by the pool's workers: 12 bytes a particle at every evaluation). */
+static void keep_eval_positions(sim_cpu *c)
+{
+    copy_ctx k = { c->xe, c->x, c->n };
+    sim_pool_run_tasks(&c->pool, copy_task, &k, 3 * COPY_PARTS);
 }
 
 /* Copies the state (x, v, a, xe) into the saved copies, or back with restore. */

@@ -201,14 +201,13 @@ void sim_groom_contact_floor(const core_groom *g, float *out)
 {
     const size_t n = (size_t)g->nstrands * g->nverts;
     const core_sdf *s = g->sdf;
+    const float skin = (float)SIM_SDF_SKIN;
+    const float lo[3] = { s ? s->origin.x : 0.0f, s ? s->origin.y : 0.0f, s ? s->origin.z : 0.0f };
     for (size_t i = 0; i < n; i++) {
-        const core_vec3 q = core_v3(g->pos[3 * i], g->pos[3 * i + 1], g->pos[3 * i + 2]);
-        float f = (float)SIM_SDF_SKIN;
-        if (s && q.x >= s->origin.x && q.x <= s->origin.x + (float)(s->dims[0] - 1) * s->cell && q.y >= s->origin.y &&
-            q.y <= s->origin.y + (float)(s->dims[1] - 1) * s->cell && q.z >= s->origin.z &&
-            q.z <= s->origin.z + (float)(s->dims[2] - 1) * s->cell)
-            f = fminf(f, core_sdf_sample(s, q, NULL));
-        out[i] = f;
+        const float *q = g->pos + 3 * i;
+        bool in_box = s != NULL; /* the grid's samples span lo .. lo + (dims - 1) cell */
+        for (int a = 0; in_box && a < 3; a++) in_box = q[a] >= lo[a] && q[a] <= lo[a] + (float)(s->dims[a] - 1) * s->cell;
+        out[i] = in_box ? fminf(skin, core_sdf_sample(s, core_v3(q[0], q[1], q[2]), NULL)) : skin;
     }
 }
 
