@@ -952,9 +952,11 @@ static void test_every_style_violent_then_rest(void **state)
 /* hm_damping at its minimum, the middle of its range and its maximum (the table's, one at a time,
  * the rest at the defaults): every style, without colliders, on the head ellipsoid and with the
  * distance grid as well, rests REST_AFTER_VIOLENT s after the violent script (issue 13); and
- * without colliders, where the dampers alone decide the decay, more damping never settles later
- * (one frame's slack). Main's range [0, 100] settled in more than 4 s at both ends: at 0 only the
- * air drag damps the swinging, at 100 the soft modes are over-damped and creep back. */
+ * more damping never settles later (one frame's slack), with the colliders too. Main's range
+ * [0, 100] settled in more than 4 s at both ends: at 0 only the air drag damps the swinging, at
+ * 100 the soft modes are over-damped and creep back. With the colliders, wavy on the head
+ * ellipsoid took 2.83, 2.47 and 2.92 s at 5, 6.5 and 8 while sliding contacts were pushed out
+ * after each solve instead of held along their normals in it (2.78, 2.45, 2.40 s since). */
 static void test_hm_damping_range_rests_monotonic(void **state)
 {
     (void)state;
@@ -977,7 +979,7 @@ static void test_hm_damping_range_rests_monotonic(void **state)
                 print_message("%s, %s, hm_damping %g: last above %.3g mm %.2f s after the stop\n",
                               groom_style_name((groom_style)style), collider_kinds[kind], v[i], REST_P999 * 1e3, settle);
                 assert_true(rest <= REST_P999);
-                if (kind == 0) assert_true(settle <= prev + p.dt);
+                assert_true(settle <= prev + p.dt);
                 prev = settle;
             }
         }

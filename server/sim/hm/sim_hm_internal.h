@@ -77,8 +77,12 @@ typedef struct sim_hm {
     float *r, *c, *q, *s, *w, *xh; /* 3n: CG scratch */
     uint8_t *fixed;             /* n: 0 free, 1 root, 2 in contact (held on the collider during the
                                  * implicit solve, or pushed by the collisions; held while minimizing) */
-    uint8_t *stick;             /* n: 1 = resting on a collider: held to it in the next implicit solve */
+    uint8_t *stick;             /* n: 1 = resting on a collider: held to it in the next implicit solve;
+                                 * 2 = sliding on it: only its velocity along the normal is held
+                                 * (sim_hm_filter_sliding) */
     float *normal;              /* 3n: a resting vertex's contact normal (world, turned with the head) */
+    float *nrow;                /* 3 nnz: for a sliding vertex's row, n^T of each of its blocks before filtering */
+    float *nrhs;                /* n: a sliding vertex's n . rhs before filtering */
     uint8_t *surface;           /* n: 1 = on the outer surface (collided) */
     float *push;                /* 3n: this substep's collision push of each vertex */
     sim_hm_springs sp;
@@ -109,6 +113,15 @@ void sim_hm_build_free(sim_hm *h);
  * head_rot turns the springs' rest directions into the world (the direction of a spring of zero
  * length). */
 void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat head_rot);
+
+/* Baraff and Witkin's partial constraint for the sliding vertices (h->stick 2, normal n = h->normal):
+ * after sim_hm_forces, turns A vn = rhs into S A S vn + (I - S) vn = S (rhs - A P z) + P z with
+ * S = I - n n^T and P = n n^T on those rows (I elsewhere), so the CG (unchanged, preconditioner
+ * included, the system still SPD) keeps their velocity along n at the head's rigid z and leaves
+ * them free along the surface. The rows of fixed vertices (the CG ignores them) keep A's and rhs's
+ * values (release_contacts reads them). Call it after h->fixed is set. Keeps each filtered row's n^T A in h->nrow and n . rhs in h->nrhs
+ * (the contact force along n is n^T A vn - n . rhs) and refreshes their h->pinv. */
+void sim_hm_filter_sliding(sim_hm *h);
 
 /* Builds h->bsr's pattern from the springs and tetrahedra (sim_hm_build calls it). */
 core_status sim_hm_bsr_build(sim_hm *h, core_err *err);
