@@ -985,6 +985,48 @@ static void test_hm_damping_range_rests_monotonic(void **state)
         }
 }
 
+/* The shared parameters the hair-mesh solver reads (friction, air_drag; test_sim_rest takes their
+ * ends under the strand solvers only) at their ends, the others at default: every style on the head ellipsoid and with the distance grid
+ * as well rests REST_AFTER_VIOLENT s after the violent script (issue 13). At the ends that damp
+ * least main missed it: friction 0 (every contact sliding, pushed out after each solve instead
+ * of held along its normal in it) settled 3.3 s to never (more than 4 s) after the stop, air_drag 0
+ * (only the root prisms' dampers took the swing: see SIM_HM_SWING_DAMPING) 3.7-4.0 s. Not yet
+ * met, so not asserted: air_drag at its maximum 20 (over-damped: the mesh creeps back into shape,
+ * 3.4 s on the straight mesh). */
+static void test_hm_shared_params_rest(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *name;
+        size_t offset;
+        float v;
+        bool max;
+    } ends[3] = { { "friction", offsetof(sim_params, friction), 0.0f, false },
+                  { "friction", offsetof(sim_params, friction), 1.0f, true },
+                  { "air_drag", offsetof(sim_params, air_drag), 0.0f, false } };
+    size_t count;
+    const core_param_info *t = sim_param_table(&count);
+    for (int e = 0; e < 3; e++) {
+        bool at_end = false;
+        for (size_t i = 0; i < count; i++)
+            if (strcmp(t[i].name, ends[e].name) == 0) at_end = ends[e].v == (float)(ends[e].max ? t[i].max : t[i].min);
+        assert_true(at_end); /* the table's ends */
+        for (int style = 0; style < 3; style++)
+            for (int kind = 1; kind < 3; kind++) {
+                sim_params p;
+                sim_params_default(&p);
+                *(float *)((char *)&p + ends[e].offset) = ends[e].v;
+                double rest, worst;
+                const double settle = violent_settle((groom_style)style, kind, &p, &rest, &worst);
+                print_message("%s, %s, %s %g: p99.9 at most %.3g mm/frame from %.0f s, last above %.3g mm %.2f s after the stop\n",
+                              groom_style_name((groom_style)style), collider_kinds[kind], ends[e].name, ends[e].v,
+                              rest * 1e3, REST_AFTER_VIOLENT, REST_P999 * 1e3, settle);
+                assert_true(worst <= MOTION_REACH);
+                assert_true(rest <= REST_P999);
+            }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1003,6 +1045,7 @@ int main(void)
         cmocka_unit_test(test_every_style_gentle_motion),
         cmocka_unit_test(test_every_style_violent_then_rest),
         cmocka_unit_test(test_hm_damping_range_rests_monotonic),
+        cmocka_unit_test(test_hm_shared_params_rest),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -130,13 +130,13 @@ static void volumes(sim_hm *h, float dt)
 
 void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat head_rot)
 {
-    const float drag = h->p.air_drag;
-    h->diag = 1.0f + dt * drag;
+    const float drag = h->p.air_drag, swing = drag < SIM_HM_SWING_DAMPING ? SIM_HM_SWING_DAMPING - drag : 0.0f;
+    h->diag = 1.0f + dt * (drag + swing);
     memset(h->bsr.val, 0, SIM_HM_BLOCK * (size_t)h->bsr.nnz * sizeof *h->bsr.val);
     for (uint32_t i = 0; i < h->n; i++) {
         float *r = h->rhs + 3 * (size_t)i, *d = h->bsr.val + SIM_HM_BLOCK * (size_t)h->bsr.diag[i];
-        const float *v = h->v + 3 * (size_t)i;
-        for (int k = 0; k < 3; k++) r[k] = v[k] + dt * accel[k];
+        const float *v = h->v + 3 * (size_t)i, *z = h->z + 3 * (size_t)i;
+        for (int k = 0; k < 3; k++) r[k] = v[k] + dt * (accel[k] + swing * z[k]);
         d[0] = d[5] = d[10] = h->diag;
     }
     springs(h, dt, head_rot);

@@ -38,6 +38,13 @@ typedef struct sim_hm_edges {
     float *inv_degree;   /* per vertex: 1 / degree, 0 for none */
 } sim_hm_edges;
 
+/* The least rate, 1/s, at which the mesh's velocity relative to the head's rigid motion decays:
+ * the springs' dampers act on pairs of vertices whose forces cancel in a rigid swing of the mesh
+ * about its roots, so only the root prisms' dampers and the air drag damp that swing, and at
+ * air_drag 0 the meshes still swung 3.7-4 s after the violent script (bound 3). Air drag (relative
+ * to still air, the same at rest) counts towards it; the rest acts relative to the head. */
+#define SIM_HM_SWING_DAMPING 2.0f
+
 /* Floats per block of the system's matrix: 3 columns of 4 (the 4th is 0), element (r, c) at 4 c + r. */
 #define SIM_HM_BLOCK 12
 
@@ -72,7 +79,7 @@ typedef struct sim_hm {
                                  * velocity at each vertex (the dampers' reference, the free rows' cold
                                  * start, the held contacts' velocity; the roots' prescribed velocity) */
     float *dvp;                 /* 3n: the last solve's velocity change vn - v (the warm start's) */
-    float diag;                 /* the system's diagonal: 1 + dt air_drag (unit masses) */
+    float diag;                 /* the system's diagonal: 1 + dt max(air_drag, SIM_HM_SWING_DAMPING) (unit masses) */
     float *pinv;                /* 6n: inverses of the system's diagonal blocks (xx yy zz xy xz yz), for the sweeps */
     float *r, *c, *q, *s, *w, *xh; /* 3n: CG scratch */
     uint8_t *fixed;             /* n: 0 free, 1 root, 2 in contact (held on the collider during the
@@ -99,7 +106,7 @@ core_status sim_hm_build(sim_hm *h, core_err *err);
 /* Frees what sim_hm_build made. */
 void sim_hm_build_free(sim_hm *h);
 
-/* Forces at h->x, h->v (gravity and wind accel, air drag, springs, volume; each spring's damper
+/* Forces at h->x, h->v (gravity and wind accel, air drag and SIM_HM_SWING_DAMPING, springs, volume; each spring's damper
  * acts on the whole relative velocity of its ends less the head's rigid motion, h->z, which the
  * caller fills) and the implicit system (I - dt df/dv - dt^2 df/dx) vn = v + dt f_e for substep
  * length dt (the new velocity vn; f_e the forces less the dampers' dt df/dv vn, which A carries,
