@@ -153,7 +153,8 @@ void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const floa
 
 /* Solves A vn = rhs by modified CG: rows with fixed[i] keep vn_i = z_i; starts from vn = z (the
  * others: moving with the head) or from h->v plus the last solve's change h->dvp (which it then
- * sets) when that is nearer; stops at cg_tolerance of the residual of vn = 0 on the free rows
+ * sets) when that is nearer, the sliding rows' (stick 2) start keeping z along their normals (the
+ * system sim_hm_filter_sliding made keeps it there); stops at cg_tolerance of the residual of vn = 0 on the free rows
  * (their right-hand side); symmetric block Gauss-Seidel preconditioning (Eisenstat's form).
  * Returns the iterations. */
 int sim_hm_cg(sim_hm *h);
