@@ -2,7 +2,7 @@
  * (Figure 8) and from 10x-speed motion (Figure 7), volume kept by the deformation minimization
  * after a deep collision (Figure 9), stillness, volume and contacts at rest, the same sag at
  * any dt and substep count, the backend interface, and its linear algebra (the assembled system
- * against the matrix-free product, the two preconditioned CG solves). */
+ * against the matrix-free product, the two preconditioned CG solves, the sliding contacts' filter). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -754,6 +754,92 @@ static void test_cg_solves_system(void **state)
     close_run(&r);
 }
 
+/* Sliding contacts (stick 2, normal n): after sim_hm_filter_sliding the same CG solves the
+ * partially constrained system (Baraff and Witkin's filter S = I - n n^T): on those rows the
+ * velocity along n is the prescribed z's, and the residual of the unfiltered system (by the
+ * matrix-free product) is left only along n there (the contact impulse), which the rows' kept
+ * n^T A and n . rhs give back; on the free rows it is tiny. */
+static void test_cg_filters_sliding_rows(void **state)
+{
+    (void)state;
+    hm_run r;
+    sim_hm *h = moved_run(&r, true);
+    const float accel[3] = { 0.0f, -9.81f, 0.0f };
+    sim_hm_forces(h, accel, 1.0f / 60.0f, h->head.rot);
+    const size_t n3 = 3 * (size_t)h->n;
+    float *y = malloc(n3 * sizeof *y), *res = malloc(n3 * sizeof *res), *rhs = malloc(n3 * sizeof *rhs);
+    assert_true(y && res && rhs);
+    uint32_t seed = 11, sliding = 0;
+    memset(h->fixed, 0, h->n);
+    memset(h->stick, 0, h->n);
+    for (uint32_t i = 0; i < h->n; i++) {
+        for (int k = 0; k < 3; k++) h->z[3 * i + k] = 0.01f * lcg(&seed);
+        if (i % h->nlayers == 0) h->fixed[i] = 1;
+        else if (i % 5 == 2) {
+            float *n = h->normal + 3 * (size_t)i;
+            for (int k = 0; k < 3; k++) n[k] = lcg(&seed);
+            const float l = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            for (int k = 0; k < 3; k++) n[k] /= l;
+            h->stick[i] = 2, sliding++;
+        }
+    }
+    assert_true(sliding > 10);
+    memcpy(rhs, h->rhs, n3 * sizeof *rhs);
+    for (uint32_t i = 0; i < h->n; i++) /* the cold start's residual: vn = z on the constrained rows and directions */
+        for (int k = 0; k < 3; k++) y[3 * i + k] = h->fixed[i] ? h->z[3 * i + k] : 0.0f;
+    for (uint32_t i = 0; i < h->n; i++) {
+        if (h->stick[i] != 2) continue;
+        const float *n = h->normal + 3 * (size_t)i, *z = h->z + 3 * (size_t)i;
+        const float zn = n[0] * z[0] + n[1] * z[1] + n[2] * z[2];
+        for (int k = 0; k < 3; k++) y[3 * i + k] = zn * n[k];
+    }
+    memcpy(h->vn, y, n3 * sizeof *y);
+    matrix_free_apply(h, h->vn, y);
+    for (size_t i = 0; i < n3; i++) res[i] = rhs[i] - y[i];
+    double cold = 0.0;
+    for (uint32_t i = 0; i < h->n; i++) {
+        if (h->fixed[i]) continue;
+        float *ri = res + 3 * (size_t)i;
+        if (h->stick[i] == 2) {
+            const float *n = h->normal + 3 * (size_t)i, rn = n[0] * ri[0] + n[1] * ri[1] + n[2] * ri[2];
+            for (int k = 0; k < 3; k++) ri[k] -= rn * n[k];
+        }
+        for (int k = 0; k < 3; k++) cold += (double)ri[k] * ri[k];
+    }
+    sim_hm_filter_sliding(h);
+    const int it = sim_hm_cg(h);
+    matrix_free_apply(h, h->vn, y);
+    double worst_n = 0.0, worst_f = 0.0, free2 = 0.0;
+    for (uint32_t i = 0; i < h->n; i++) {
+        if (h->fixed[i]) continue;
+        const float *vi = h->vn + 3 * (size_t)i, *yi = y + 3 * (size_t)i, *bi = rhs + 3 * (size_t)i;
+        double ri[3];
+        for (int k = 0; k < 3; k++) ri[k] = (double)bi[k] - yi[k];
+        if (h->stick[i] == 2) {
+            const float *n = h->normal + 3 * (size_t)i, *z = h->z + 3 * (size_t)i;
+            worst_n = fmax(worst_n, fabs((vi[0] - z[0]) * n[0] + (vi[1] - z[1]) * n[1] + (vi[2] - z[2]) * n[2]));
+            const double rn = ri[0] * n[0] + ri[1] * n[1] + ri[2] * n[2];
+            double fn = -h->nrhs[i];
+            for (uint32_t k = h->bsr.row[i]; k < h->bsr.row[i + 1]; k++) {
+                const float *nr = h->nrow + 3 * (size_t)k, *x = h->vn + 3 * (size_t)h->bsr.col[k];
+                fn += (double)nr[0] * x[0] + (double)nr[1] * x[1] + (double)nr[2] * x[2];
+            }
+            worst_f = fmax(worst_f, fabs(fn + rn) / (1e-3 + fabs(rn)));
+            for (int k = 0; k < 3; k++) ri[k] -= rn * n[k];
+        }
+        for (int k = 0; k < 3; k++) free2 += ri[k] * ri[k];
+    }
+    const double rel = sqrt(free2 / cold);
+    print_message("filtered CG: %u sliding rows, %d iterations, filtered residual %.2e of the cold start's, "
+                  "normal velocity error %.2e m/s, normal impulse error %.2e\n", sliding, it, rel, worst_n, worst_f);
+    assert_true(it > 0 && it < 1000);
+    assert_true(rel < 1e-3);
+    assert_true(worst_n < 1e-5); /* float rounding over the iterations: 4e-8 m a 1/60 s substep */
+    assert_true(worst_f < 1e-3);
+    free(y), free(res), free(rhs);
+    close_run(&r);
+}
+
 /* The deformation minimization reaches the minimum of sum |(x_i - x_j) - (ref_i - ref_j)|^2 over
  * the mesh edges with the moved vertices held: the gradient on the free rows vanishes. The edges'
  * neighbour lists are symmetric and ascending. */
@@ -952,9 +1038,11 @@ static void test_every_style_violent_then_rest(void **state)
 /* hm_damping at its minimum, the middle of its range and its maximum (the table's, one at a time,
  * the rest at the defaults): every style, without colliders, on the head ellipsoid and with the
  * distance grid as well, rests REST_AFTER_VIOLENT s after the violent script (issue 13); and
- * without colliders, where the dampers alone decide the decay, more damping never settles later
- * (one frame's slack). Main's range [0, 100] settled in more than 4 s at both ends: at 0 only the
- * air drag damps the swinging, at 100 the soft modes are over-damped and creep back. */
+ * more damping never settles later (one frame's slack), with the colliders too. Main's range
+ * [0, 100] settled in more than 4 s at both ends: at 0 only the air drag damps the swinging, at
+ * 100 the soft modes are over-damped and creep back. With the colliders, wavy on the head
+ * ellipsoid took 2.83, 2.47 and 2.92 s at 5, 6.5 and 8 while sliding contacts were pushed out
+ * after each solve instead of held along their normals in it (2.78, 2.45, 2.40 s since). */
 static void test_hm_damping_range_rests_monotonic(void **state)
 {
     (void)state;
@@ -977,10 +1065,52 @@ static void test_hm_damping_range_rests_monotonic(void **state)
                 print_message("%s, %s, hm_damping %g: last above %.3g mm %.2f s after the stop\n",
                               groom_style_name((groom_style)style), collider_kinds[kind], v[i], REST_P999 * 1e3, settle);
                 assert_true(rest <= REST_P999);
-                if (kind == 0) assert_true(settle <= prev + p.dt);
+                assert_true(settle <= prev + p.dt);
                 prev = settle;
             }
         }
+}
+
+/* The shared parameters the hair-mesh solver reads (friction, air_drag; test_sim_rest takes their
+ * ends under the strand solvers only) at their ends, the others at default: every style on the head ellipsoid and with the distance grid
+ * as well rests REST_AFTER_VIOLENT s after the violent script (issue 13). At the ends that damp
+ * least main missed it: friction 0 (every contact sliding, pushed out after each solve instead
+ * of held along its normal in it) settled 3.3 s to never (more than 4 s) after the stop, air_drag 0
+ * (only the root prisms' dampers took the swing: see SIM_HM_SWING_DAMPING) 3.7-4.0 s. Not yet
+ * met, so not asserted: air_drag at its maximum 20 (over-damped: the mesh creeps back into shape,
+ * 3.4 s on the straight mesh). */
+static void test_hm_shared_params_rest(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *name;
+        size_t offset;
+        float v;
+        bool max;
+    } ends[3] = { { "friction", offsetof(sim_params, friction), 0.0f, false },
+                  { "friction", offsetof(sim_params, friction), 1.0f, true },
+                  { "air_drag", offsetof(sim_params, air_drag), 0.0f, false } };
+    size_t count;
+    const core_param_info *t = sim_param_table(&count);
+    for (int e = 0; e < 3; e++) {
+        bool at_end = false;
+        for (size_t i = 0; i < count; i++)
+            if (strcmp(t[i].name, ends[e].name) == 0) at_end = ends[e].v == (float)(ends[e].max ? t[i].max : t[i].min);
+        assert_true(at_end); /* the table's ends */
+        for (int style = 0; style < 3; style++)
+            for (int kind = 1; kind < 3; kind++) {
+                sim_params p;
+                sim_params_default(&p);
+                *(float *)((char *)&p + ends[e].offset) = ends[e].v;
+                double rest, worst;
+                const double settle = violent_settle((groom_style)style, kind, &p, &rest, &worst);
+                print_message("%s, %s, %s %g: p99.9 at most %.3g mm/frame from %.0f s, last above %.3g mm %.2f s after the stop\n",
+                              groom_style_name((groom_style)style), collider_kinds[kind], ends[e].name, ends[e].v,
+                              rest * 1e3, REST_AFTER_VIOLENT, REST_P999 * 1e3, settle);
+                assert_true(worst <= MOTION_REACH);
+                assert_true(rest <= REST_P999);
+            }
+    }
 }
 
 int main(void)
@@ -997,10 +1127,12 @@ int main(void)
         cmocka_unit_test(test_sdf_contact),
         cmocka_unit_test(test_assembly_matches_matrix_free),
         cmocka_unit_test(test_cg_solves_system),
+        cmocka_unit_test(test_cg_filters_sliding_rows),
         cmocka_unit_test(test_deform_min_solves),
         cmocka_unit_test(test_every_style_gentle_motion),
         cmocka_unit_test(test_every_style_violent_then_rest),
         cmocka_unit_test(test_hm_damping_range_rests_monotonic),
+        cmocka_unit_test(test_hm_shared_params_rest),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -117,6 +117,13 @@ int sim_hm_cg(sim_hm *h)
         h->s[j] = h->fixed[j / 3] ? 0.0f : h->v[j] + h->dvp[j] - h->z[j];
         h->vn[j] = h->z[j];
     }
+    for (uint32_t i = 0; i < h->n; i++) { /* a sliding vertex's start keeps z along its normal */
+        if (h->stick[i] != 2) continue;
+        const float *n = h->normal + 3 * (size_t)i;
+        float *si = h->s + 3 * (size_t)i;
+        const float sn = si[0] * n[0] + si[1] * n[1] + si[2] * n[2];
+        for (int c = 0; c < 3; c++) si[c] -= sn * n[c];
+    }
     const double cold = residual_at(h, h->vn, h->r, h->w);
     sim_hm_bsr_apply(&h->bsr, h->s, h->q);
     filter(h, h->q);

@@ -130,19 +130,102 @@ static void volumes(sim_hm *h, float dt)
 
 void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat head_rot)
 {
-    const float drag = h->p.air_drag;
-    h->diag = 1.0f + dt * drag;
+    const float drag = h->p.air_drag, swing = drag < SIM_HM_SWING_DAMPING ? SIM_HM_SWING_DAMPING - drag : 0.0f;
+    h->diag = 1.0f + dt * (drag + swing);
     memset(h->bsr.val, 0, SIM_HM_BLOCK * (size_t)h->bsr.nnz * sizeof *h->bsr.val);
     for (uint32_t i = 0; i < h->n; i++) {
         float *r = h->rhs + 3 * (size_t)i, *d = h->bsr.val + SIM_HM_BLOCK * (size_t)h->bsr.diag[i];
-        const float *v = h->v + 3 * (size_t)i;
-        for (int k = 0; k < 3; k++) r[k] = v[k] + dt * accel[k];
+        const float *v = h->v + 3 * (size_t)i, *z = h->z + 3 * (size_t)i;
+        for (int k = 0; k < 3; k++) r[k] = v[k] + dt * (accel[k] + swing * z[k]);
         d[0] = d[5] = d[10] = h->diag;
     }
     springs(h, dt, head_rot);
     volumes(h, dt);
     for (uint32_t i = 0; i < h->n; i++) {
         const float *d = h->bsr.val + SIM_HM_BLOCK * (size_t)h->bsr.diag[i];
+        float *p = h->pinv + 6 * (size_t)i;
+        p[0] = d[0], p[1] = d[5], p[2] = d[10], p[3] = d[4], p[4] = d[8], p[5] = d[9];
+        invert_block(p);
+    }
+}
+
+/* Block b's column c times a 3-vector: B(:, c) . a is (B^T a)_c. */
+static float col_dot(const float *b, int c, const float n[3]) { return b[4 * c] * n[0] + b[4 * c + 1] * n[1] + b[4 * c + 2] * n[2]; }
+
+/* b = (I - n n^T) b when left, b (I - n n^T) otherwise (SIM_HM_BLOCK layout). */
+static void block_filter(float *b, const float n[3], bool left)
+{
+    if (left) {
+        for (int c = 0; c < 3; c++) {
+            const float t = col_dot(b, c, n);
+            for (int r = 0; r < 3; r++) b[4 * c + r] -= n[r] * t;
+        }
+        return;
+    }
+    float bn[3];
+    for (int r = 0; r < 3; r++) bn[r] = b[r] * n[0] + b[4 + r] * n[1] + b[8 + r] * n[2];
+    for (int c = 0; c < 3; c++)
+        for (int r = 0; r < 3; r++) b[4 * c + r] -= bn[r] * n[c];
+}
+
+/* The block (j, i) of m (the transposed position of (i, j)), found in row j's ascending columns. */
+static uint32_t block_at(const sim_hm_bsr *m, uint32_t j, uint32_t i)
+{
+    uint32_t lo = m->row[j], hi = m->row[j + 1];
+    while (lo + 1 < hi) {
+        const uint32_t mid = (lo + hi) / 2;
+        if (m->col[mid] <= i) lo = mid;
+        else hi = mid;
+    }
+    return lo;
+}
+
+void sim_hm_filter_sliding(sim_hm *h)
+{
+    sim_hm_bsr *m = &h->bsr;
+    float *val = m->val;
+    bool any = false;
+    for (uint32_t i = 0; i < h->n; i++) {
+        if (h->stick[i] != 2) continue;
+        const float *n = h->normal + 3 * (size_t)i, *b = h->rhs + 3 * (size_t)i;
+        h->nrhs[i] = n[0] * b[0] + n[1] * b[1] + n[2] * b[2];
+        any = true;
+    }
+    if (!any) return;
+    for (uint32_t i = 0; i < h->n; i++) { /* rhs -= A P z, the prescribed normal velocities' part */
+        if (h->stick[i] != 2) continue;
+        const float *n = h->normal + 3 * (size_t)i, *zi = h->z + 3 * (size_t)i;
+        const float zn = n[0] * zi[0] + n[1] * zi[1] + n[2] * zi[2];
+        for (uint32_t k = m->row[i]; k < m->row[i + 1]; k++) {
+            float *nr = h->nrow + 3 * (size_t)k, *rj = h->rhs + 3 * (size_t)m->col[k];
+            const bool free_row = !h->fixed[m->col[k]];
+            for (int c = 0; c < 3; c++) {
+                nr[c] = col_dot(val + SIM_HM_BLOCK * (size_t)k, c, n);
+                if (free_row) rj[c] -= zn * nr[c];
+            }
+        }
+    }
+    for (uint32_t i = 0; i < h->n; i++) {
+        if (h->stick[i] != 2) continue;
+        const float *n = h->normal + 3 * (size_t)i, *zi = h->z + 3 * (size_t)i;
+        float *ri = h->rhs + 3 * (size_t)i;
+        const float zn = n[0] * zi[0] + n[1] * zi[1] + n[2] * zi[2], rn = n[0] * ri[0] + n[1] * ri[1] + n[2] * ri[2];
+        for (int c = 0; c < 3; c++) ri[c] += (zn - rn) * n[c];
+        for (uint32_t k = m->row[i]; k < m->row[i + 1]; k++) {
+            const uint32_t j = m->col[k];
+            block_filter(val + SIM_HM_BLOCK * (size_t)k, n, true);
+            if (j == i) {
+                block_filter(val + SIM_HM_BLOCK * (size_t)k, n, false);
+                for (int c = 0; c < 3; c++)
+                    for (int r = 0; r < 3; r++) val[SIM_HM_BLOCK * (size_t)k + 4 * c + r] += n[r] * n[c];
+            } else if (!h->fixed[j]) {
+                block_filter(val + SIM_HM_BLOCK * (size_t)block_at(m, j, i), n, false);
+            }
+        }
+    }
+    for (uint32_t i = 0; i < h->n; i++) {
+        if (h->stick[i] != 2) continue;
+        const float *d = val + SIM_HM_BLOCK * (size_t)m->diag[i];
         float *p = h->pinv + 6 * (size_t)i;
         p[0] = d[0], p[1] = d[5], p[2] = d[10], p[3] = d[4], p[4] = d[8], p[5] = d[9];
         invert_block(p);

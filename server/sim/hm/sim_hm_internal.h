@@ -38,6 +38,13 @@ typedef struct sim_hm_edges {
     float *inv_degree;   /* per vertex: 1 / degree, 0 for none */
 } sim_hm_edges;
 
+/* The least rate, 1/s, at which the mesh's velocity relative to the head's rigid motion decays:
+ * the springs' dampers act on pairs of vertices whose forces cancel in a rigid swing of the mesh
+ * about its roots, so only the root prisms' dampers and the air drag damp that swing, and at
+ * air_drag 0 the meshes still swung 3.7-4 s after the violent script (bound 3). Air drag (relative
+ * to still air, the same at rest) counts towards it; the rest acts relative to the head. */
+#define SIM_HM_SWING_DAMPING 2.0f
+
 /* Floats per block of the system's matrix: 3 columns of 4 (the 4th is 0), element (r, c) at 4 c + r. */
 #define SIM_HM_BLOCK 12
 
@@ -72,13 +79,17 @@ typedef struct sim_hm {
                                  * velocity at each vertex (the dampers' reference, the free rows' cold
                                  * start, the held contacts' velocity; the roots' prescribed velocity) */
     float *dvp;                 /* 3n: the last solve's velocity change vn - v (the warm start's) */
-    float diag;                 /* the system's diagonal: 1 + dt air_drag (unit masses) */
+    float diag;                 /* the system's diagonal: 1 + dt max(air_drag, SIM_HM_SWING_DAMPING) (unit masses) */
     float *pinv;                /* 6n: inverses of the system's diagonal blocks (xx yy zz xy xz yz), for the sweeps */
     float *r, *c, *q, *s, *w, *xh; /* 3n: CG scratch */
     uint8_t *fixed;             /* n: 0 free, 1 root, 2 in contact (held on the collider during the
                                  * implicit solve, or pushed by the collisions; held while minimizing) */
-    uint8_t *stick;             /* n: 1 = resting on a collider: held to it in the next implicit solve */
+    uint8_t *stick;             /* n: 1 = resting on a collider: held to it in the next implicit solve;
+                                 * 2 = sliding on it: only its velocity along the normal is held
+                                 * (sim_hm_filter_sliding) */
     float *normal;              /* 3n: a resting vertex's contact normal (world, turned with the head) */
+    float *nrow;                /* 3 nnz: for a sliding vertex's row, n^T of each of its blocks before filtering */
+    float *nrhs;                /* n: a sliding vertex's n . rhs before filtering */
     uint8_t *surface;           /* n: 1 = on the outer surface (collided) */
     float *push;                /* 3n: this substep's collision push of each vertex */
     sim_hm_springs sp;
@@ -95,7 +106,7 @@ core_status sim_hm_build(sim_hm *h, core_err *err);
 /* Frees what sim_hm_build made. */
 void sim_hm_build_free(sim_hm *h);
 
-/* Forces at h->x, h->v (gravity and wind accel, air drag, springs, volume; each spring's damper
+/* Forces at h->x, h->v (gravity and wind accel, air drag and SIM_HM_SWING_DAMPING, springs, volume; each spring's damper
  * acts on the whole relative velocity of its ends less the head's rigid motion, h->z, which the
  * caller fills) and the implicit system (I - dt df/dv - dt^2 df/dx) vn = v + dt f_e for substep
  * length dt (the new velocity vn; f_e the forces less the dampers' dt df/dv vn, which A carries,
@@ -109,6 +120,15 @@ void sim_hm_build_free(sim_hm *h);
  * head_rot turns the springs' rest directions into the world (the direction of a spring of zero
  * length). */
 void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat head_rot);
+
+/* Baraff and Witkin's partial constraint for the sliding vertices (h->stick 2, normal n = h->normal):
+ * after sim_hm_forces, turns A vn = rhs into S A S vn + (I - S) vn = S (rhs - A P z) + P z with
+ * S = I - n n^T and P = n n^T on those rows (I elsewhere), so the CG (unchanged, preconditioner
+ * included, the system still SPD) keeps their velocity along n at the head's rigid z and leaves
+ * them free along the surface. The rows of fixed vertices (the CG ignores them) keep A's and rhs's
+ * values (release_contacts reads them). Call it after h->fixed is set. Keeps each filtered row's n^T A in h->nrow and n . rhs in h->nrhs
+ * (the contact force along n is n^T A vn - n . rhs) and refreshes their h->pinv. */
+void sim_hm_filter_sliding(sim_hm *h);
 
 /* Builds h->bsr's pattern from the springs and tetrahedra (sim_hm_build calls it). */
 core_status sim_hm_bsr_build(sim_hm *h, core_err *err);
@@ -133,7 +153,8 @@ void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const floa
 
 /* Solves A vn = rhs by modified CG: rows with fixed[i] keep vn_i = z_i; starts from vn = z (the
  * others: moving with the head) or from h->v plus the last solve's change h->dvp (which it then
- * sets) when that is nearer; stops at cg_tolerance of the residual of vn = 0 on the free rows
+ * sets) when that is nearer, the sliding rows' (stick 2) start keeping z along their normals (the
+ * system sim_hm_filter_sliding made keeps it there); stops at cg_tolerance of the residual of vn = 0 on the free rows
  * (their right-hand side); symmetric block Gauss-Seidel preconditioning (Eisenstat's form).
  * Returns the iterations. */
 int sim_hm_cg(sim_hm *h);
