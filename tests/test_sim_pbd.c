@@ -29,10 +29,16 @@ static sim_params pbd_params(void)
     return p;
 }
 
-/* The distance constraints converge: the mean segment-length error under violent motion (shape
- * off, so nothing else holds the lengths) at least halves from 1 to 4 and from 4 to 16
- * pbd_iterations (Gauss-Seidel over even/odd pairs carries a correction about one segment per
- * iteration, so a 24-vertex strand stretches: 45%, 15%, 4%). */
+/* The distance constraints converge: the closing root-to-tip pass makes every segment exact
+ * (its largest error under violent motion with shape and collisions off, so nothing else holds
+ * the lengths, stays below 1e-4), and the stretch the iterations leave it
+ * (sim_stats.pbd_stretch_mean, over every segment and substep of the run) falls from 1 to 4 to
+ * 16 pbd_iterations and at least halves from 1 to 16: 2.7%, 2.0%, 1.2% (largest 50%, 40%, 23%).
+ * Each substep starts from exact lengths, so what is left is the substep's own stretch (the
+ * root's motion and gravity), which Gauss-Seidel over even/odd pairs carries about one segment
+ * down the strand per iteration: it falls more slowly than the 45%, 15%, 4% the iterations
+ * alone left when the stretch piled up from substep to substep. It would not fall if the
+ * iterations stopped working. */
 static void test_stretch_falls_with_iterations(void **state)
 {
     (void)state;
@@ -41,21 +47,29 @@ static void test_stretch_falls_with_iterations(void **state)
     for (int i = 0; i < 3; i++) {
         sim_params p = pbd_params();
         p.shape = false;
+        p.collisions = false;
         p.pbd_iterations = iterations[i];
         simcheck_run r = { 0 };
         simcheck_groom(&r.groom, GROOM_STRAIGHT, 64, 24, 3);
         simcheck_run_open(&r, &p, 2);
-        double sum = 0.0;
+        double exact = 0.0;
         for (int k = 1; k <= 60; k++) {
             simcheck_run_step(&r, simcheck_head_motion(k * (double)p.dt, 1.5));
-            sum += quality_segment_error_mean(&r.groom, r.x);
+            exact = simcheck_worse(exact, quality_segment_error_max(&r.groom, r.x, 0.0));
         }
-        err[i] = sum / 60.0;
-        printf("pbd_iterations %2d: mean segment-length error %.3e\n", iterations[i], err[i]);
+        sim_stats st;
+        sim_get_stats(&r.s, &st);
+        err[i] = st.pbd_stretch_mean;
+        printf("pbd_iterations %2d: stretch left to the closing pass mean %.3e, largest %.3e; after it %.3e\n",
+               iterations[i], err[i], st.pbd_stretch_max, exact);
+        assert_true(exact <= 1e-4);
+        assert_true(st.pbd_stretch_max >= err[i]);
         simcheck_run_close(&r);
     }
-    assert_true(err[1] < 0.5 * err[0]);
-    assert_true(err[2] < 0.5 * err[1]);
+    assert_true(err[0] > 0.0);
+    assert_true(err[1] < err[0]);
+    assert_true(err[2] < err[1]);
+    assert_true(err[2] < 0.5 * err[0]);
 }
 
 /* No vertex ends a step inside a collider by more than 1% of its radius, through violent motion,
