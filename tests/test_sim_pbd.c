@@ -116,13 +116,11 @@ static void test_rest_shape_off(void **state)
 }
 
 /* Ratboy with its body's distance grid, PBD at the defaults: under every animation preset (1 s
- * each) no vertex ends a step more than 0.5 mm deeper inside than it is authored (1.04 mm at
- * rest with collisions off). The segment-length errors are printed, not bounded: at rest, even
- * with collisions and friction off, the even/odd distance constraints leave up to 4.6% on
- * segments of 1 mm or more and 22% on the 0.1-1 mm ones near the roots (3.0% and 14% at 32
- * iterations); with the contacts 34-112% over the presets (94-145% before the contact floors,
- * when 18 strands' first segments, shorter than their roots lie under the skin, were stretched
- * out of it). Skipped without the assets. */
+ * each) every segment of 0.1 mm or more stays within 1% of its length and no vertex ends a step
+ * more than 0.5 mm deeper inside than it is authored (1.04 mm at rest with collisions off).
+ * Before the closing root-to-tip pass the even/odd distance constraints alone left 34-112% over
+ * the presets on the shortest segments (0.1-0.5 mm); pushing each vertex out after the pass
+ * without sliding it back to its length left 1-5.6%. Skipped without the assets. */
 static void test_ratboy_contacts(void **state)
 {
     (void)state;
@@ -135,7 +133,7 @@ static void test_ratboy_contacts(void **state)
         simcheck_preset_errors(&g, &p, (app_preset)a, 1.0, 1e-4, &seg, &pen);
         printf("ratboy pbd %-9s max segment error %.1f%%, deepest penetration %.3f mm\n", app_preset_names[a],
                100.0 * seg, 1e3 * pen);
-        failures += !(pen <= 0.0005);
+        failures += !(pen <= 0.0005) + !(seg <= 0.01);
     }
     core_groom_free(&g);
     assert_int_equal(failures, 0);
