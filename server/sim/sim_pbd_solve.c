@@ -331,15 +331,19 @@ static void close_lengths(const sim_step_desc *sd, int k, const group_view *s, u
         sim_lv3_st(s->x, l, x);
         collide(s, l, sd, k);
         const sim_lv3 after = sim_lv3_ld(s->x, l);
-        sim_lv3_st(s->push, l, sim_lv3_add(sim_lv3_ld(s->push, l), sim_lv3_sub(after, x)));
-        for (int j = 0; j < W; j++) {
+        const sim_lv3 n = sim_lv3_add(sim_lv3_ld(s->push, l), sim_lv3_sub(after, x));
+        sim_lv3_st(s->push, l, n);
+        const sim_lane_mask touched = (n.x != 0.0f) | (n.y != 0.0f) | (n.z != 0.0f);
+        int32_t any = 0;
+        for (int j = 0; j < W; j++) any |= touched[j];
+        for (int j = 0; j < W && any; j++) { /* slide and friction change nothing where n is 0 */
             float y[3] = { s->x[3 * l * W + j], s->x[(3 * l + 1) * W + j], s->x[(3 * l + 2) * W + j] };
-            const core_vec3 n = ldl(s->push, l, j), pj = ldl(s->x, l - 1, j);
+            const core_vec3 nj = ldl(s->push, l, j), pj = ldl(s->x, l - 1, j);
             const float L = s->len[(size_t)l * W + j];
-            slide(y, pj, L, n);
+            slide(y, pj, L, nj);
             if (sd->friction > 0.0f) {
-                friction(y, n, ldl(s->gc, l, j), sd->friction);
-                slide(y, pj, L, n);
+                friction(y, nj, ldl(s->gc, l, j), sd->friction);
+                slide(y, pj, L, nj);
             }
             stl(s->x, l, j, ld(y));
         }
