@@ -1,10 +1,12 @@
-/* tests: the PBD guide-strand solver (C backend): the segment-length error falls as the
- * iterations rise, no vertex ends inside a collider (nor inside Ratboy's body under the
- * animation presets, deeper than it is authored), a groom authored in contact with its mesh
- * keeps its authored pose and segment lengths there, hair held by the contacts alone comes to rest after motion within the
- * DFTL solver's bound, stiffness and damping mean the same at any dt and substep count, the
- * run-time solver switch keeps the hair where it is, and its results do not depend on the
- * thread count nor on the strands solved beside each one. */
+/* tests: the PBD guide-strand solver (C backend): the closing root-to-tip pass keeps every
+ * segment's length and the stretch the iterations leave it falls as they rise, no vertex ends
+ * inside a collider (nor inside Ratboy's body under the animation presets, deeper than it is
+ * authored, with every segment within 1% there), a groom authored in contact with its mesh keeps
+ * its authored pose and segment lengths there, hair held by the contacts alone comes to rest
+ * after motion within the DFTL solver's bound (and with the closing pass's velocity correction
+ * at its ends), stiffness and damping mean the same at any dt and substep count, the run-time
+ * solver switch keeps the hair where it is, and its results do not depend on the thread count
+ * nor on the strands solved beside each one. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -113,6 +115,28 @@ static void test_rest_shape_off(void **state)
     printf("pbd shape off: rest p99.9 %.2e mm/frame, settled after %.2f s\n", rest * 1e3, settle);
     assert_true(rest <= SIMCHECK_REST_P999);
     simcheck_run_close(&r);
+}
+
+/* dftl_correction is the closing pass's velocity correction: at its ends (0: none, 1: the whole
+ * correction the next vertex got) the hair, shape on, comes to rest within 3 s of violent motion
+ * (test_sim_rest takes the other parameters to their ends under pbd only where they are PBD's). */
+static void test_rest_at_correction_ends(void **state)
+{
+    (void)state;
+    const float ends[] = { 0.0f, 1.0f };
+    for (int i = 0; i < 2; i++) {
+        sim_params p = pbd_params();
+        p.dftl_correction = ends[i];
+        simcheck_run r = { 0 };
+        simcheck_groom(&r.groom, GROOM_WAVY, 96, 16, 11);
+        simcheck_run_open(&r, &p, 2);
+        double settle;
+        const double rest = simcheck_motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+        printf("pbd dftl_correction %g: rest p99.9 %.2e mm/frame, settled after %.2f s\n", (double)ends[i], rest * 1e3,
+               settle);
+        assert_true(rest <= SIMCHECK_REST_P999);
+        simcheck_run_close(&r);
+    }
 }
 
 /* Ratboy with its body's distance grid, PBD at the defaults: under every animation preset (1 s
@@ -399,6 +423,7 @@ int main(void)
         cmocka_unit_test(test_stretch_falls_with_iterations),
         cmocka_unit_test(test_no_penetration),
         cmocka_unit_test(test_rest_shape_off),
+        cmocka_unit_test(test_rest_at_correction_ends),
         cmocka_unit_test(test_ratboy_contacts),
         cmocka_unit_test(test_ratboy_authored_contacts),
         cmocka_unit_test(test_authored_inside_holds),
