@@ -155,7 +155,7 @@ static void test_ratboy_contacts(void **state)
     for (int a = 0; a < APP_PRESET_COUNT; a++) {
         double seg, pen;
         simcheck_preset_errors(&g, &p, (app_preset)a, 1.0, 1e-4, &seg, &pen);
-        printf("ratboy pbd %-9s max segment error %.1f%%, deepest penetration %.3f mm\n", app_preset_names[a],
+        printf("ratboy pbd %-9s max segment error %.3f%%, deepest penetration %.3f mm\n", app_preset_names[a],
                100.0 * seg, 1e3 * pen);
         failures += !(pen <= 0.0005) + !(seg <= 0.01);
     }
