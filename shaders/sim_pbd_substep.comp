@@ -1,8 +1,9 @@
 // shaders: one PBD substep (port of strand_substep in server/sim/sim_pbd_solve.c, operation for
 // operation), one thread per strand: Verlet prediction, pbd_iterations rounds of the angular
 // constraints (three phases), the global pull, the distance constraints (even, then odd
-// segments) and the collisions, then friction, velocities with internal damping, and the reset
-// of a strand that went non-finite. F.stiff[l] holds (kg, kl, b, 0) for this solver.
+// segments) and the collisions, then friction, the exact root-to-tip distance pass with the
+// contacts and the velocities (DFTL correction, internal damping), and the reset of a strand
+// that went non-finite. F.stiff[l] holds (kg, kl, b, 0) for this solver.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "sim_common.glsl"

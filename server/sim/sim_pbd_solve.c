@@ -1,6 +1,7 @@
 /* sim: one PBD substep (thesis 3.2): Verlet prediction, then iterations of the angular and
  * global shape constraints (XPBD, compliance 1 / stiffness), the distance constraints in even
- * then odd segments and the collision constraints; velocities from the positions. */
+ * then odd segments and the collision constraints; friction; one exact root-to-tip distance
+ * pass with the contacts; velocities from the positions with the DFTL correction. */
 #include <math.h>
 #include <string.h>
 
