@@ -84,7 +84,8 @@ layout(std430, set = 0, binding = 5) restrict buffer StrandBuf { vec4 d[]; } STR
 
 layout(std430, set = 0, binding = 18) restrict buffer StatsBuf {
     uint nan_resets;
-    uint pad[3];
+    uint pbd_stretch; // the PBD solver's largest relative stretch left to its closing pass (float bits)
+    uint stretch_lo, stretch_hi; // the PBD solver's stretch sum in SIM_PBD_STRETCH_UNIT, 64 bits
 } STATS;
 
 // The groom's distance grid (core_sdf.d: x fastest, then y, then z), or one unused word.

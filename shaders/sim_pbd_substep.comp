@@ -1,8 +1,9 @@
 // shaders: one PBD substep (port of strand_substep in server/sim/sim_pbd_solve.c, operation for
 // operation), one thread per strand: Verlet prediction, pbd_iterations rounds of the angular
 // constraints (three phases), the global pull, the distance constraints (even, then odd
-// segments) and the collisions, then friction, velocities with internal damping, and the reset
-// of a strand that went non-finite. F.stiff[l] holds (kg, kl, b, 0) for this solver.
+// segments) and the collisions, then friction, the exact root-to-tip distance pass with the
+// contacts and the velocities (DFTL correction, internal damping), and the reset of a strand
+// that went non-finite. F.stiff[l] holds (kg, kl, b, 0) for this solver.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "sim_common.glsl"
@@ -151,6 +152,72 @@ vec3 friction(vec3 x, vec3 n, vec3 oc, float mu)
     return x - t * (tl <= lim ? 1.0 : lim / tl);
 }
 
+// slide of sim_pbd_solve.c: x at distance L from its parent p, keeping its offset along the
+// contact normal n, moved on the tangent plane.
+vec3 slide(vec3 x, vec3 p, float L, vec3 n)
+{
+    float nl = len3(n);
+    if (!(nl > 0.0)) return x;
+    vec3 u = n * (1.0 / nl), d = x - p;
+    float dn = dot3(d, u);
+    vec3 t = d - u * dn;
+    float tl = len3(t);
+    if (dn * dn < L * L && tl > 1e-12) return p + (u * dn + t * (sqrt(L * L - dn * dn) / tl));
+    float dl = len3(d);
+    return dl > 1e-12 ? p + d * (L / dl) : x;
+}
+
+// Vertex l's pushes out of the colliders, then out of the grid to its contact floor.
+vec3 collide(uint k, uint l, uint s, vec3 x)
+{
+    for (uint c = 0u; c < F.ncolliders; c++) x = push_collider(k * MAX_COLLIDERS + c, x);
+    if (F.sdf_dims.w != 0u) x = push_grid(k, x, FLOOR.d[l * NS + s]);
+    return x;
+}
+
+// lane_velocity of sim_pbd_solve.c: vertex l's velocity, its start moved by s_d times its
+// successor's correction c, then internal damping toward its parent's final velocity.
+void velocity(uint l, uint s, vec3 c, float inv_h)
+{
+    vec3 o = ldP(P_O, l, s) + c * F.dftl;
+    vec3 vn = (ldx(l, s) - o) * inv_h;
+    vec3 pv = ldV((l - 1u) * NS + s);
+    stV(l * NS + s, pv + (vn - pv) * F.accel.w);
+}
+
+// close_lengths of sim_pbd_solve.c: the exact root-to-tip distance pass, each vertex then
+// pushed out, slid back to its length on the contact plane, friction and slid again; the
+// velocities one level behind. Returns the largest relative stretch the iterations left and
+// (sum) their sum.
+float close_lengths(uint k, uint s, float inv_h, out float sum)
+{
+    float worst = 0.0;
+    sum = 0.0;
+    vec3 old = ldx(0u, s);
+    for (uint l = 1u; l < NV; l++) {
+        vec3 pa = ldx(l - 1u, s), pb = ldx(l, s);
+        float L = len3(ldRest(l * NS + s) - ldRest((l - 1u) * NS + s));
+        vec3 e = pb - old;
+        float el = len3(e) - L;
+        float r = abs(el) / (L > 0.0 ? L : 1.0);
+        if (L > 0.0 && r > worst) worst = r;
+        sum = sum + (L > 0.0 ? r : 0.0);
+        old = pb;
+        vec3 d = pb - pa;
+        float dl = len3(d);
+        vec3 x = dl > 1e-12 ? pa + d * (L / dl) : pb;
+        vec3 y = collide(k, l, s, x);
+        vec3 n = ldP(P_PUSH, l, s) + (y - x);
+        stP(P_PUSH, l, s, n);
+        y = slide(y, pa, L, n);
+        if (F.friction > 0.0) y = slide(friction(y, n, ldP(P_GC, l, s), F.friction), pa, L, n);
+        stx(l, s, y);
+        if (l > 1u) velocity(l - 1u, s, x - pb, inv_h);
+    }
+    velocity(NV - 1u, s, vec3(0.0), inv_h);
+    return worst;
+}
+
 // The per-substep fields from the starts and the rest pose (substep_frames).
 void substep_frames(uint s, uint k)
 {
@@ -191,7 +258,6 @@ void main()
         stP(P_LL, l, s, vec3(0.0));
         stP(P_PUSH, l, s, vec3(0.0));
     }
-    bool grid = F.sdf_dims.w != 0u;
     for (uint it = 0u; it < iterations; it++) {
         for (uint phase = 0u; phase < 3u; phase++)
             for (uint l = 1u + phase; l < NV; l += 3u) angular(l, s, h, b);
@@ -203,25 +269,23 @@ void main()
         for (uint l = 1u; l < NV; l += 2u) distance(l, s); // even segments (from vertex 0, 2, ...)
         for (uint l = 2u; l < NV; l += 2u) distance(l, s); // odd segments
         for (uint l = 1u; l < NV; l++) {
-            vec3 before = ldx(l, s), x = before;
-            for (uint c = 0u; c < F.ncolliders; c++) x = push_collider(k * MAX_COLLIDERS + c, x);
-            if (grid) x = push_grid(k, x, FLOOR.d[l * NS + s]);
+            vec3 before = ldx(l, s), x = collide(k, l, s, before);
             stx(l, s, x);
             stP(P_PUSH, l, s, ldP(P_PUSH, l, s) + (x - before));
         }
     }
     if (F.friction > 0.0)
         for (uint l = 1u; l < NV; l++) stx(l, s, friction(ldx(l, s), ldP(P_PUSH, l, s), ldP(P_GC, l, s), F.friction));
-    // velocities from the positions; internal damping keeps a share of each vertex's velocity
-    // relative to its parent's final one
-    bool ok = finite3(ldx(0u, s));
-    for (uint l = 1u; l < NV; l++) {
-        vec3 vn = (ldx(l, s) - ldP(P_O, l, s)) * inv_h;
-        vec3 pv = ldV((l - 1u) * NS + s);
-        vec3 v = pv + (vn - pv) * F.accel.w;
-        stV(l * NS + s, v);
-        ok = ok && finite3(v) && finite3(ldx(l, s));
+    float sum;
+    float worst = close_lengths(k, s, inv_h, sum);
+    if (worst > 0.0) atomicMax(STATS.pbd_stretch, floatBitsToUint(worst));
+    uint q = uint((sum < float(SIM_PBD_STRETCH_CAP) ? sum : float(SIM_PBD_STRETCH_CAP)) * float(SIM_PBD_STRETCH_UNIT));
+    if (q != 0u) {
+        uint was = atomicAdd(STATS.stretch_lo, q);
+        if (was + q < was) atomicAdd(STATS.stretch_hi, 1u);
     }
+    bool ok = finite3(ldx(0u, s));
+    for (uint l = 1u; l < NV; l++) ok = ok && finite3(ldV(l * NS + s)) && finite3(ldx(l, s));
     if (!ok) { // NaN or inf somewhere along the strand: back to its rest pose
         for (uint l = 0u; l < NV; l++) {
             stx(l, s, xf_point3(head, ldRest(l * NS + s)));

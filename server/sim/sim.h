@@ -104,6 +104,11 @@ typedef struct sim_stats {
     const char *stage_names[8];
     int nstages;
     uint64_t device_bytes;    /* bytes of the GPU buffers the backend holds (0 on the CPU backends) */
+    double pbd_stretch_max;   /* PBD: the largest relative segment-length error |(|x_l - x_l-1|) -
+                                 len| / len the pbd_iterations left to the closing root-to-tip pass,
+                                 over every substep since create or reset (0 on the other solvers) */
+    double pbd_stretch_mean;  /* PBD: its mean over every segment and substep since create or reset
+                                 (each strand's sum over a substep capped at SIM_PBD_STRETCH_CAP) */
 } sim_stats;
 
 /* Asked by a backend between the stages of a step (sim_set_cancel): true abandons the step. */

@@ -23,6 +23,12 @@
 #define SIM_COLLISION_ITERATIONS 3
 /* Distance a vertex is kept above a mesh's distance grid (metres), so hair sits on the surface. */
 #define SIM_SDF_SKIN 0.00025
+/* The PBD solver's stretch sum (sim_stats.pbd_stretch_mean): each strand's sum over its
+ * segments of the relative stretch the iterations left, capped at SIM_PBD_STRETCH_CAP, is added
+ * per substep as an integer of SIM_PBD_STRETCH_UNIT per unit, so that the C and Vulkan sums are
+ * the same whatever order the strands come in. */
+#define SIM_PBD_STRETCH_UNIT 1048576.0
+#define SIM_PBD_STRETCH_CAP 4000.0
 /* Most samples of a groom's distance grid the solvers accept (64 MiB of floats). */
 #define SIM_SDF_MAX_SAMPLES 16777216
 /* SPH accelerations use dimensionless kernels. The pressure term becomes an acceleration

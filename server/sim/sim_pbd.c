@@ -36,6 +36,11 @@ static void pbd_reset(void *self)
     for (uint32_t s = 0; s < p->ns; s++) sim_pbd_restore_strand(p, s, p->head);
     p->prev_head = p->head;
     memset(p->nan_per_worker, 0, sizeof p->nan_per_worker);
+    memset(p->stretch_per_worker, 0, sizeof p->stretch_per_worker);
+    memset(p->stretch_sum_per_worker, 0, sizeof p->stretch_sum_per_worker);
+    p->stretch_segments = 0;
+    p->stats.pbd_stretch_mean = 0.0;
+    p->stats.pbd_stretch_max = 0.0;
     p->stats.steps = 0;
     p->stats.sim_time = 0.0;
     p->stats.nan_resets = 0;
@@ -139,8 +144,14 @@ static core_status pbd_step(void *self, core_err *err)
     sim_step_plan(&p->params, &gi, p->prev_head, p->head, &p->step);
     for (int k = 0; k < p->step.substeps; k++) sim_pbd_substep(p, k);
     p->prev_head = p->head;
-    uint64_t nan = 0;
-    for (int t = 0; t < p->pool.nthreads; t++) nan += p->nan_per_worker[t];
+    p->stretch_segments += (uint64_t)p->step.substeps * p->ns * (p->nv - 1);
+    uint64_t nan = 0, sum = 0;
+    for (int t = 0; t < p->pool.nthreads; t++) {
+        nan += p->nan_per_worker[t];
+        sum += p->stretch_sum_per_worker[t];
+        p->stats.pbd_stretch_max = fmax(p->stats.pbd_stretch_max, p->stretch_per_worker[t]);
+    }
+    p->stats.pbd_stretch_mean = (double)sum / SIM_PBD_STRETCH_UNIT / (double)p->stretch_segments;
     p->stats.nan_resets = nan;
     p->stats.steps++;
     p->stats.sim_time += p->params.dt;

@@ -36,11 +36,16 @@ typedef struct sim_pbd {
     core_xform head, prev_head;
     sim_step_desc step;      /* the step being taken (sim_step_plan) */
     uint64_t nan_per_worker[256];
+    float stretch_per_worker[256]; /* per worker: the largest relative stretch the iterations left
+                                      (sim_stats.pbd_stretch_max) since create or reset */
+    uint64_t stretch_sum_per_worker[256]; /* per worker: the stretch sums in SIM_PBD_STRETCH_UNIT */
+    uint64_t stretch_segments;            /* segments x substeps solved since create or reset */
     sim_stats stats;
 } sim_pbd;
 
 /* Substep k of p->step for every strand: Verlet prediction, pbd_iterations rounds of the
- * constraints (sim_pbd_solve.c), then velocities with internal damping. Sim thread; uses the
+ * constraints (sim_pbd_solve.c), the closing root-to-tip distance pass, then velocities with
+ * the DFTL correction and internal damping. Sim thread; uses the
  * pool. */
 void sim_pbd_substep(sim_pbd *p, int k);
 

@@ -1,6 +1,7 @@
 /* sim: one PBD substep (thesis 3.2): Verlet prediction, then iterations of the angular and
  * global shape constraints (XPBD, compliance 1 / stiffness), the distance constraints in even
- * then odd segments and the collision constraints; velocities from the positions. */
+ * then odd segments and the collision constraints; friction; one exact root-to-tip distance
+ * pass with the contacts; velocities from the positions with the DFTL correction. */
 #include <math.h>
 #include <string.h>
 
@@ -84,6 +85,25 @@ static void friction(float *x, core_vec3 n, core_vec3 oc, float mu)
     const core_vec3 t = core_v3_sub(d, core_v3_scale(u, core_v3_dot(d, u)));
     const float tl = core_v3_len(t), lim = mu * nl;
     st(x, core_v3_sub(ld(x), core_v3_scale(t, tl <= lim ? 1.0f : lim / tl)));
+}
+
+/* Puts x at distance len from its parent p, keeping its offset along the contact normal n
+ * (where it is shorter than len) and moving it on the tangent plane (the DFTL solver's
+ * contact_slide); along p -> x where n is 0 or the offset is too long. */
+static void slide(float *x, core_vec3 p, float len, core_vec3 n)
+{
+    const float nl = core_v3_len(n);
+    if (!(nl > 0.0f)) return;
+    const core_vec3 u = core_v3_scale(n, 1.0f / nl), d = core_v3_sub(ld(x), p);
+    const float dn = core_v3_dot(d, u);
+    const core_vec3 t = core_v3_sub(d, core_v3_scale(u, dn));
+    const float tl = core_v3_len(t);
+    if (dn * dn < len * len && tl > 1e-12f) {
+        st(x, core_v3_add(p, core_v3_add(core_v3_scale(u, dn), core_v3_scale(t, sqrtf(len * len - dn * dn) / tl))));
+        return;
+    }
+    const float dl = core_v3_len(d);
+    if (dl > 1e-12f) st(x, core_v3_add(p, core_v3_scale(d, len / dl)));
 }
 
 /* A group of SIM_PBD_LANES strands in the worker's scratch, lane-minor: component d of vertex l
@@ -257,6 +277,84 @@ static void push_lane(const group_view *s, uint32_t l, int j, const sim_wcollide
     stl(s->x, l, j, ld(x));
 }
 
+/* Pushes vertex l of every lane out of the colliders, then out of the distance grid to its
+ * contact floor (the box tests skip the far ones). */
+static void collide(const group_view *s, uint32_t l, const sim_step_desc *sd, int k)
+{
+    const sim_wcollider *wc = sd->col[k];
+    for (uint32_t c = 0; c < sd->ncolliders; c++)
+        if (any_in_box(s, l, wc[c].lo, wc[c].hi))
+            for (int j = 0; j < W; j++) push_lane(s, l, j, &wc[c], NULL, NULL);
+    if (sd->sdf && any_in_box(s, l, sd->wsdf[k].lo, sd->wsdf[k].hi))
+        for (int j = 0; j < W; j++) push_lane(s, l, j, NULL, sd->sdf, &sd->wsdf[k]);
+}
+
+/* Vertex l's velocity from its start and final position, its start first moved by the share
+ * sd->dftl of the correction c its successor got in the closing pass (the DFTL velocity
+ * correction, eq. 9, in Verlet form); internal damping then keeps a share of it relative to
+ * its parent's final velocity. */
+static void lane_velocity(const sim_step_desc *sd, const group_view *s, uint32_t l, sim_lv3 c)
+{
+    const sim_lv3 o = sim_lv3_add(sim_lv3_ld(s->o, l), sim_lv3_scale(c, sim_lane_splat(sd->dftl)));
+    const sim_lv3 vn = sim_lv3_scale(sim_lv3_sub(sim_lv3_ld(s->x, l), o), sim_lane_splat(sd->inv_h));
+    const sim_lv3 pv = sim_lv3_ld(s->v, l - 1);
+    sim_lv3_st(s->v, l, sim_lv3_add(pv, sim_lv3_scale(sim_lv3_sub(vn, pv), sim_lane_splat(sd->keep))));
+}
+
+/* The closing pass of a substep: one exact root-to-tip sweep of the distance constraints
+ * (follow the leader: each vertex moved along its segment to the rest length from its final
+ * parent), each vertex then pushed out of the colliders, slid back to its length on the
+ * contact's tangent plane, friction and slid again (as the DFTL solver's contacts), and the
+ * velocities (lane_velocity, one level behind the sweep; the tip's without correction). Sets
+ * per lane the largest relative segment-length error |(|x_l - x_l-1|) - len| / len the
+ * iterations left (before the pass moved anything; segments of length 0 count 0) and their
+ * sum. */
+static void close_lengths(const sim_step_desc *sd, int k, const group_view *s, uint32_t nv, sim_lane *worst_out,
+                          sim_lane *sum_out)
+{
+    sim_lane worst = sim_lane_splat(0.0f), sum = worst;
+    sim_lv3 old = sim_lv3_ld(s->x, 0); /* the parent as the iterations left it */
+    for (uint32_t l = 1; l < nv; l++) {
+        const sim_lv3 pa = sim_lv3_ld(s->x, l - 1), pb = sim_lv3_ld(s->x, l);
+        const sim_lane len = sim_lane_ld(s->len + (size_t)l * W), zero = len - len;
+        const sim_lv3 e = sim_lv3_sub(pb, old);
+        const sim_lane el = sim_lane_sqrt(sim_lv3_dot(e, e)) - len;
+        const sim_lane_mask pos = len > 0.0f;
+        const sim_lane r = sim_lane_sel(el < 0.0f, -el, el) / sim_lane_sel(pos, len, zero + 1.0f);
+        worst = sim_lane_sel(pos & (r > worst), r, worst);
+        sum = sum + sim_lane_sel(pos, r, zero);
+        old = pb;
+        const sim_lv3 d = sim_lv3_sub(pb, pa);
+        const sim_lane dl = sim_lane_sqrt(sim_lv3_dot(d, d));
+        const sim_lane_mask ok = dl > 1e-12f;
+        const sim_lv3 nb = sim_lv3_add(pa, sim_lv3_scale(d, len / sim_lane_sel(ok, dl, zero + 1.0f)));
+        const sim_lv3 x = { sim_lane_sel(ok, nb.x, pb.x), sim_lane_sel(ok, nb.y, pb.y), sim_lane_sel(ok, nb.z, pb.z) };
+        sim_lv3_st(s->x, l, x);
+        collide(s, l, sd, k);
+        const sim_lv3 after = sim_lv3_ld(s->x, l);
+        const sim_lv3 n = sim_lv3_add(sim_lv3_ld(s->push, l), sim_lv3_sub(after, x));
+        sim_lv3_st(s->push, l, n);
+        const sim_lane_mask touched = (n.x != 0.0f) | (n.y != 0.0f) | (n.z != 0.0f);
+        int32_t any = 0;
+        for (int j = 0; j < W; j++) any |= touched[j];
+        for (int j = 0; j < W && any; j++) { /* slide and friction change nothing where n is 0 */
+            float y[3] = { s->x[3 * l * W + j], s->x[(3 * l + 1) * W + j], s->x[(3 * l + 2) * W + j] };
+            const core_vec3 nj = ldl(s->push, l, j), pj = ldl(s->x, l - 1, j);
+            const float L = s->len[(size_t)l * W + j];
+            slide(y, pj, L, nj);
+            if (sd->friction > 0.0f) {
+                friction(y, nj, ldl(s->gc, l, j), sd->friction);
+                slide(y, pj, L, nj);
+            }
+            stl(s->x, l, j, ld(y));
+        }
+        if (l > 1) lane_velocity(sd, s, l - 1, sim_lv3_sub(x, pb));
+    }
+    lane_velocity(sd, s, nv - 1, sim_lv3_splat(core_v3(0.0f, 0.0f, 0.0f)));
+    *worst_out = worst;
+    *sum_out = sum;
+}
+
 /* Copies strands s0 .. s0 + W - 1 (the last one repeated past ns) of x, v, rest, the rest
  * lengths and the contact floors into the group's lanes. */
 static void group_load(const sim_pbd *p, uint32_t s0, const group_view *s)
@@ -287,14 +385,14 @@ static void group_substep(sim_pbd *p, int k, uint32_t s0, int worker)
                            w + 4 * m,         w + 4 * m + q,     w + 4 * m + 2 * q, w + 5 * m + 2 * q,
                            w + 6 * m + 2 * q, w + 7 * m + 2 * q, w + 8 * m + 2 * q, w + 9 * m + 2 * q,
                            w + 10 * m + 2 * q, w + 11 * m + 2 * q, w + 12 * m + 2 * q };
-    const float h = sd->h, inv_h = sd->inv_h, b = 0.5f * fmaxf((float)SIM_SHAPE_DAMPING_STEP - h, 0.0f);
+    const float h = sd->h, b = 0.5f * fmaxf((float)SIM_SHAPE_DAMPING_STEP - h, 0.0f);
     const core_xform head = sd->head[k];
     const core_vec3 acc = ld(sd->accel);
     group_load(p, s0, &s);
     /* the root follows the head; the others: Verlet with air drag */
     memcpy(s.o, s.x, m * sizeof(float));
     const sim_lv3 root = lane_xform_point(head, sim_lv3_ld(s.r, 0));
-    sim_lv3_st(s.v, 0, sim_lv3_scale(sim_lv3_sub(root, sim_lv3_ld(s.x, 0)), sim_lane_splat(inv_h)));
+    sim_lv3_st(s.v, 0, sim_lv3_scale(sim_lv3_sub(root, sim_lv3_ld(s.x, 0)), sim_lane_splat(sd->inv_h)));
     sim_lv3_st(s.x, 0, root);
     const sim_lv3 ah = sim_lv3_splat(core_v3_scale(acc, h * h));
     for (uint32_t l = 1; l < nv; l++) {
@@ -305,8 +403,6 @@ static void group_substep(sim_pbd *p, int k, uint32_t s0, int worker)
     memset(s.lg, 0, m * sizeof(float));
     memset(s.ll, 0, m * sizeof(float));
     memset(s.push, 0, m * sizeof(float));
-    const sim_wcollider *wc = sd->col[k];
-    const bool sdf = sd->sdf != NULL;
     for (int it = 0; it < p->params.pbd_iterations; it++) {
         for (uint32_t phase = 0; phase < 3; phase++)
             for (uint32_t l = 1 + phase; l < nv; l += 3) angular(p, &s, l, b);
@@ -315,11 +411,7 @@ static void group_substep(sim_pbd *p, int k, uint32_t s0, int worker)
         for (uint32_t l = 2; l < nv; l += 2) distance(&s, l); /* odd segments */
         for (uint32_t l = 1; l < nv; l++) {
             const sim_lv3 before = sim_lv3_ld(s.x, l);
-            for (uint32_t c = 0; c < sd->ncolliders; c++)
-                if (any_in_box(&s, l, wc[c].lo, wc[c].hi))
-                    for (int j = 0; j < W; j++) push_lane(&s, l, j, &wc[c], NULL, NULL);
-            if (sdf && any_in_box(&s, l, sd->wsdf[k].lo, sd->wsdf[k].hi))
-                for (int j = 0; j < W; j++) push_lane(&s, l, j, NULL, sd->sdf, &sd->wsdf[k]);
+            collide(&s, l, sd, k);
             sim_lv3_st(s.push, l, sim_lv3_add(sim_lv3_ld(s.push, l), sim_lv3_sub(sim_lv3_ld(s.x, l), before)));
         }
     }
@@ -330,12 +422,12 @@ static void group_substep(sim_pbd *p, int k, uint32_t s0, int worker)
                 friction(x, ldl(s.push, l, j), ldl(s.gc, l, j), sd->friction);
                 stl(s.x, l, j, ld(x));
             }
-    /* velocities from the positions; internal damping keeps a share of each vertex's velocity
-     * relative to its parent's final one */
-    for (uint32_t l = 1; l < nv; l++) {
-        const sim_lv3 vn = sim_lv3_scale(sim_lv3_sub(sim_lv3_ld(s.x, l), sim_lv3_ld(s.o, l)), sim_lane_splat(inv_h));
-        const sim_lv3 pv = sim_lv3_ld(s.v, l - 1);
-        sim_lv3_st(s.v, l, sim_lv3_add(pv, sim_lv3_scale(sim_lv3_sub(vn, pv), sim_lane_splat(sd->keep))));
+    sim_lane worst, sum;
+    close_lengths(sd, k, &s, nv, &worst, &sum);
+    for (int j = 0; j < W && s0 + (uint32_t)j < p->ns; j++) {
+        if (worst[j] > p->stretch_per_worker[worker]) p->stretch_per_worker[worker] = worst[j];
+        const float c = sum[j] < (float)SIM_PBD_STRETCH_CAP ? sum[j] : (float)SIM_PBD_STRETCH_CAP;
+        p->stretch_sum_per_worker[worker] += (uint32_t)(c * (float)SIM_PBD_STRETCH_UNIT);
     }
     for (int j = 0; j < W && s0 + (uint32_t)j < p->ns; j++) {
         const uint32_t si = s0 + (uint32_t)j;

@@ -339,18 +339,18 @@ async function main() {
   const solverRows = () => page.evaluate(() => {
     // drawn, not only flagged hidden: a stylesheet's display may override the hidden attribute
     const shown = (n) => { const r = document.querySelector(`[data-param="${n}"]`)?.closest('.row'); return !!r && getComputedStyle(r).display !== 'none'; };
-    return { pbd: shown('pbd_iterations'), dftl: shown('dftl_correction') };
+    return { pbd: shown('pbd_iterations'), dftl: shown('repulsion') };
   });
   const onDftl = await solverRows();
-  check(onDftl.dftl && !onDftl.pbd, `on dftl the panel shows dftl_correction, not pbd_iterations (${JSON.stringify(onDftl)})`);
+  check(onDftl.dftl && !onDftl.pbd, `on dftl the panel shows repulsion, not pbd_iterations (${JSON.stringify(onDftl)})`);
   await page.selectOption('select[data-param="solver"]', 'pbd');
   const sw = await waitMessage(other, (m) => m.type === 'params' && Array.isArray(m.changed) && m.changed.includes('solver') && m.values.solver === 'pbd', 60000, 'solver pbd broadcast');
   check(sw.by === pageClient, `the solver drop-down switched the server to pbd (by client ${sw.by})`);
   await page.waitForFunction(() => {
     const shown = (n) => { const r = document.querySelector(`[data-param="${n}"]`)?.closest('.row'); return !!r && getComputedStyle(r).display !== 'none'; };
-    return shown('pbd_iterations') && !shown('dftl_correction');
+    return shown('pbd_iterations') && !shown('repulsion');
   }, null, { timeout: 60000, polling: 100 });
-  check(true, 'on pbd the panel shows pbd_iterations and hides dftl_correction');
+  check(true, 'on pbd the panel shows pbd_iterations and hides repulsion');
   other.ws.send(JSON.stringify({ type: 'set_params', id: 'e2e-s', values: { solver: 'dftl' } }));
   await waitMessage(other, (m) => m.id === 'e2e-s', 20000, 'reply to set_params');
   await page.waitForFunction(() => document.querySelector('select[data-param="solver"]').value === 'dftl', null, { timeout: 60000, polling: 100 });

@@ -209,7 +209,8 @@ test('every server message validates against its schema', async () => {
     assert.equal(solver.default, 'dftl');
     assert.equal(hello.params.values.solver, 'dftl');
     assert.deepEqual(hello.params.schema.find((e) => e.name === 'pbd_iterations').solvers, ['pbd']);
-    assert.deepEqual(hello.params.schema.find((e) => e.name === 'dftl_correction').solvers, ['dftl']);
+    assert.deepEqual(hello.params.schema.find((e) => e.name === 'dftl_correction').solvers, ['dftl', 'pbd']);
+    assert.deepEqual(hello.params.schema.find((e) => e.name === 'repulsion').solvers, ['dftl']);
     assert.equal(hello.params.schema.find((e) => e.name === 'gravity').solvers, undefined);
     // the hair-mesh solver's own parameters: hm_ names, for hairmesh only, with ranges and units
     const hm = hello.params.schema.filter((e) => e.name.startsWith('hm_'));

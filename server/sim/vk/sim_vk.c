@@ -49,6 +49,11 @@ static core_status collect(sim_vk *s, int i, core_err *err)
     }
     const uint32_t *counters = s->stats_buf.map;
     s->stats.nan_resets = counters[0];
+    float stretch;
+    memcpy(&stretch, &counters[1], sizeof stretch);
+    s->stats.pbd_stretch_max = stretch;
+    const uint64_t sum = (uint64_t)counters[3] << 32 | counters[2];
+    s->stats.pbd_stretch_mean = s->pbd_segments ? (double)sum / SIM_PBD_STRETCH_UNIT / (double)s->pbd_segments : 0.0;
     return CORE_OK;
 }
 
@@ -264,6 +269,7 @@ static core_status reset_state(sim_vk *s, core_err *err)
     sim_stats zero;
     memset(&zero, 0, sizeof zero);
     s->stats = zero;
+    s->pbd_segments = 0;
     return CORE_OK;
 }
 
@@ -350,6 +356,7 @@ static core_status vk_step(void *self, core_err *err)
     s->prev_head = s->head;
     s->stats.steps++;
     s->stats.sim_time += s->params.dt;
+    if (pbd) s->pbd_segments += (uint64_t)s->step.substeps * s->ns * (s->nv - 1);
     return CORE_OK;
 }
 

@@ -284,6 +284,8 @@ typedef struct sim_vk {
     sim_vk_once once;
     sim_vk_slot slots[SIM_VK_FRAMES];
     uint64_t submitted;   /* steps submitted since create */
+    uint64_t pbd_segments; /* PBD segments x substeps submitted since the last reset (the
+                              denominator of sim_stats.pbd_stretch_mean) */
     sim_stats stats;
     core_status broken;   /* sticky: a failed submit/wait leaves the device unusable */
     core_err broken_err;
