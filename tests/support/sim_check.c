@@ -213,6 +213,84 @@ double simcheck_motion_then_rest(simcheck_run *r, float dt, double moving, doubl
     return last / (dt * 60.0);
 }
 
+void simcheck_cantilever(core_groom *g)
+{
+    core_err err;
+    const uint32_t ns = 64, nv = 16;
+    assert_int_equal(core_groom_alloc(g, ns, nv, &err), CORE_OK);
+    for (uint32_t s = 0; s < ns; s++)
+        for (uint32_t v = 0; v < nv; v++) {
+            float *o = g->pos + 3 * ((size_t)s * nv + v);
+            o[0] = 0.1f * (float)v / (float)(nv - 1);
+            o[1] = 0.002f * (float)v * (float)v / (float)((nv - 1) * (nv - 1));
+            o[2] = 0.004f * (float)s;
+        }
+}
+
+/* Mean height of r's tips (y of each strand's last vertex in r->x). */
+static double mean_tip_height(const simcheck_run *r)
+{
+    double y = 0.0;
+    for (uint32_t s = 0; s < r->groom.nstrands; s++) y += r->x[3 * (((size_t)s + 1) * r->groom.nverts - 1) + 1];
+    return y / r->groom.nstrands;
+}
+
+void simcheck_sag_and_decay(const sim_params *p, double *sag, double *decay)
+{
+    simcheck_run r = { 0 };
+    simcheck_cantilever(&r.groom);
+    simcheck_run_open(&r, p, 2);
+    const int steps = (int)lround(3.0 / p->dt);
+    double *y = malloc(((size_t)steps + 1) * sizeof *y);
+    assert_non_null(y);
+    memcpy(r.x, r.groom.pos, 12 * r.n);
+    y[0] = mean_tip_height(&r);
+    double rest = 0.0;
+    for (int k = 1; k <= steps; k++) {
+        rest = simcheck_run_step(&r, core_xform_identity()) / (p->dt * 60.0);
+        y[k] = mean_tip_height(&r);
+    }
+    if (!(rest <= SIMCHECK_REST_P999)) fail_msg("not at rest 3 s after the release: %.3e mm/frame", rest * 1e3);
+    const double end = y[steps], level = 1e-3 * fabs(y[0] - end);
+    double t_above = 0.0, e_above = fabs(y[0] - end);
+    *decay = NAN;
+    for (int k = 1; k < steps; k++) {
+        const double e = fabs(y[k] - end);
+        if (!(e >= fabs(y[k - 1] - end) && e >= fabs(y[k + 1] - end))) continue; /* not a turning point */
+        if (e > level) {
+            t_above = k * (double)p->dt, e_above = e;
+            continue;
+        }
+        const double t = k * (double)p->dt;
+        *decay = e > 0.0 ? t_above + (t - t_above) * log(e_above / level) / log(e_above / e) : t;
+        break;
+    }
+    if (isnan(*decay)) fail_msg("the swing did not decay to 1/1000 of the drop within 3 s");
+    *sag = r.groom.pos[3 * (r.groom.nverts - 1) + 1] - end; /* every strand starts alike */
+    free(y);
+    simcheck_run_close(&r);
+}
+
+void simcheck_dt_independence(const sim_params *p, double decay_tol)
+{
+    const struct { float dt; int k; } cases[] = { { 1.0f / 60.0f, 4 }, { 1.0f / 60.0f, 8 }, { 1.0f / 30.0f, 8 } };
+    double sag[3], decay[3];
+    for (int i = 0; i < 3; i++) {
+        sim_params q = *p;
+        q.dt = cases[i].dt;
+        q.substeps = cases[i].k;
+        simcheck_sag_and_decay(&q, &sag[i], &decay[i]);
+        printf("%s dt %.4f s, %d substeps: tip sag %.3f mm, swing down to 1/1000 after %.3f s\n",
+               sim_solver_name(p->solver), (double)q.dt, q.substeps, sag[i] * 1e3, decay[i]);
+    }
+    assert_true(sag[0] > 1e-3); /* the cantilever does bend */
+    for (int i = 1; i < 3; i++) {
+        if (!(fabs(sag[i] / sag[0] - 1.0) <= 0.10)) fail_msg("sag %d is %.3f mm, %.3f at the first", i, sag[i] * 1e3, sag[0] * 1e3);
+        if (!(fabs(decay[i] - decay[0]) <= decay_tol * decay[0]))
+            fail_msg("decay %d takes %.3f s, %.3f at the first", i, decay[i], decay[0]);
+    }
+}
+
 void simcheck_preset_errors(const core_groom *g, const sim_params *prm, app_preset p, double secs, double min_rest,
                             double *seg, double *pen)
 {

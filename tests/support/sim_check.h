@@ -76,6 +76,25 @@ void simcheck_run_open(simcheck_run *r, const sim_params *p, int threads);
 void simcheck_run_close(simcheck_run *r);
 /* One step under head h; returns the 99.9th percentile of the non-root vertices' displacement (m). */
 double simcheck_run_step(simcheck_run *r, core_xform h);
+/* Makes 64 strands of 16 vertices sticking out sideways (+x, 0.1 m, a slight upward curve) from a
+ * row of roots along z into g (the caller owns it: core_groom_free): a cantilever gravity bends. */
+void simcheck_cantilever(core_groom *g);
+
+/* Releases simcheck_cantilever from its rest pose under p (CPU, 2 threads), head still, for 3 s.
+ * *sag: the mean drop of the tips at the end (m). *decay: the time (s) the swing takes to decay to
+ * 1/1000 of the initial drop: the mean tip height's distance from where it ends, taken at its
+ * peaks (the swing's turning points) and interpolated log-linearly between the last peak above
+ * that level and the first below, so the figure does not jump by half a period of the swing when
+ * the damping changes a little (the last frame above a threshold does). Fails the running test
+ * when the hair is not at rest (SIMCHECK_REST_P999) at the end. */
+void simcheck_sag_and_decay(const sim_params *p, double *sag, double *decay);
+
+/* Stiffness and damping are per unit of time: under p (its dt and substeps replaced),
+ * simcheck_sag_and_decay's sag at (1/60 s, 4 substeps), (1/60 s, 8) and (1/30 s, 8) agrees
+ * within 10% of the first's and its decay time within decay_tol (a fraction) of the first's
+ * (printed; fails the running test otherwise). */
+void simcheck_dt_independence(const sim_params *p, double decay_tol);
+
 /* The head: the violent test script (simcheck_head_motion) for `moving` s, then a 0.25 s blend
  * back to the identity. */
 core_xform simcheck_rest_head(double t, double moving);
