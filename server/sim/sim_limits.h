@@ -51,6 +51,13 @@
  * shape off nothing stiff holds the hair and the acceleration is not smoothed: there the lag
  * let hair lying on the colliders slide to and fro (0.31 mm per frame, 0.048 unsmoothed). */
 #define SIM_SPH_SMOOTH_TIME 0.09
+/* Share of a vertex's motion relative to its SPH neighbours (per evaluation, as a velocity) that
+ * the hair-hair friction adds to its held acceleration each SPH evaluation (an integral hold: it
+ * builds up until the motion stops, capped by hair_friction x the pressure's push). The slide it
+ * stops is over-damped (internal damping, viscosity and drag near 47 /s), so the motion answers
+ * the hold within a step or two; at 0.5 the hold overshot (0.1-0.25 mm per frame 3 s after the
+ * test motion, 96 x 16 shape off), at 0.05-0.2 it held (0.0002-0.01). */
+#define SIM_HAIR_FRICTION_GAIN 0.1
 /* How often (per simulated second) the SPH pressure and viscosity are evaluated with shape on:
  * on the first step at least 1 / SIM_SPH_RATE after the last evaluation, counted in whole steps
  * (every second step at 1/60 s, every fourth at 0.008 s, every step from 1/30 s); the steps
