@@ -44,7 +44,8 @@ void main()
         hold = vec3(af.x - g * (vi.x - vbar.x), af.y - g * (vi.y - vbar.y), af.z - g * (vi.z - vbar.z));
         float lim = F.hair_friction * F.kp / RHO.d[i] * Pi * W;
         float l = sqrt((hold.x * hold.x + hold.y * hold.y) + hold.z * hold.z);
-        hold *= l > lim ? lim / l : 1.0;
+        bool held = l <= lim, slips = l > lim; // both false when either is NaN (dropped)
+        hold = held || slips ? hold * (slips ? lim / l : 1.0) : vec3(0.0);
         float kr = F.kp / RHO.d[i];
         acc = ap * kr;
         // viscosity: mu (W / rho_i) (vbar - v_i), integrated exactly over the step (sim_cpu_sph.c)

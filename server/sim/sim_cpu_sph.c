@@ -548,7 +548,8 @@ static inline float smooth_accel(float a, float prev, float keep) { return a + k
  * neighbours' weighted mean motion vb: the held acceleration af grows by
  * SIM_HAIR_FRICTION_GAIN (sim_limits.h) of i's motion relative to vb per step, against it, and is
  * capped at hold x the pressure's push kp / rho_i x P_i x W (Coulomb: static below, slipping at
- * the cap). Stored in c->af; out = the new af, which the caller adds to the acceleration. */
+ * the cap; a non-finite one is dropped, so a NaN does not stay held). out = the new af, which
+ * force_store keeps and adds to the acceleration. */
 static void hold_accel(sim_cpu *c, const force_consts *fc, size_t i, uint32_t o, float W, float vbx, float vby,
                        float vbz, float out[3])
 {
@@ -558,9 +559,11 @@ static void hold_accel(sim_cpu *c, const force_consts *fc, size_t i, uint32_t o,
     float hx = c->af[0][o] - g * (vi[0] - vbx), hy = c->af[1][o] - g * (vi[1] - vby), hz = c->af[2][o] - g * (vi[2] - vbz);
     const float lim = fc->hold * fc->kp / s->sp[4 * i + 3] * vi[3] * W;
     const float l = sqrtf((hx * hx + hy * hy) + hz * hz);
-    const float k = l > lim ? lim / l : 1.0f;
-    hx *= k, hy *= k, hz *= k;
-    out[0] = hx, out[1] = hy, out[2] = hz;
+    const bool held = l <= lim, slips = l > lim; /* both false when either is NaN */
+    const float k = slips ? lim / l : 1.0f;
+    out[0] = held || slips ? hx * k : 0.0f;
+    out[1] = held || slips ? hy * k : 0.0f;
+    out[2] = held || slips ? hz * k : 0.0f;
 }
 
 /* Stores particle i's acceleration acc (pressure and viscosity) at its unsorted index o: smoothed
