@@ -26,6 +26,7 @@ layout(std430, set = 0, binding = 15) restrict buffer PressBuf { float d[]; } PR
 layout(std430, set = 0, binding = 16) restrict buffer NbrBuf { uint d[]; } NBR;       // per sorted slot: cap slots
 layout(std430, set = 0, binding = 17) restrict buffer NnbrBuf { uint d[]; } NNBR;     // per sorted slot
 layout(std430, set = 0, binding = 22) restrict readonly buffer XeBuf { float d[]; } XE; // positions at the last evaluation
+layout(std430, set = 0, binding = 23) restrict buffer AfBuf { float d[]; } AF;         // held hair-hair friction, per particle
 
 // PC.arg0 == 1: the rest-density pass (positions from REST, zero velocities). Otherwise the
 // viscosity's velocity is the motion since the last evaluation (sim_step_desc.sph_inv_since).

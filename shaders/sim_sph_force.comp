@@ -1,6 +1,7 @@
 // shaders: per sorted slot, the pressure and viscosity accelerations over its neighbour list
 // (as sim_cpu_sph.c force_job), smoothed with the previous step's in A at the particle's unsorted
-// index and written there.
+// index (less the held hair-hair friction it included) and written there with the new held
+// friction (sim_cpu_sph.c hold_accel), which AF keeps.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "sim_common.glsl"
@@ -32,8 +33,19 @@ void main()
         W += w;
         vb += w * vj;
     }
-    vec3 acc = vec3(0.0);
+    vec3 acc = vec3(0.0), hold = vec3(0.0);
+    uint o = ORDER.d[i];
+    vec3 af = vec3(AF.d[3u * o], AF.d[3u * o + 1u], AF.d[3u * o + 2u]);
     if (W > 0.0) {
+        // hair-hair static friction: the held acceleration grows against the motion relative to
+        // the neighbours' weighted mean, capped at hair_friction x the pressure's push
+        float g = float(SIM_HAIR_FRICTION_GAIN) * F.inv_step_dt;
+        vec3 vbar = vb / W;
+        hold = vec3(af.x - g * (vi.x - vbar.x), af.y - g * (vi.y - vbar.y), af.z - g * (vi.z - vbar.z));
+        float lim = F.hair_friction * F.kp / RHO.d[i] * Pi * W;
+        float l = sqrt((hold.x * hold.x + hold.y * hold.y) + hold.z * hold.z);
+        bool held = l <= lim, slips = l > lim; // both false when either is NaN (dropped)
+        hold = held || slips ? hold * (slips ? lim / l : 1.0) : vec3(0.0);
         float kr = F.kp / RHO.d[i];
         acc = ap * kr;
         // viscosity: mu (W / rho_i) (vbar - v_i), integrated exactly over the step (sim_cpu_sph.c)
@@ -41,8 +53,10 @@ void main()
         acc += blend * (vb / W - vi);
     }
     // the low-pass (sim_limits.h SIM_SPH_SMOOTH_TIME), per component as sim_cpu_sph.c smooth_accel
-    uint o = ORDER.d[i];
-    vec3 prev = ldA(o);
+    vec3 prev = ldA(o) - af;
     stA(o, vec3(acc.x + F.sph_keep * (prev.x - acc.x), acc.y + F.sph_keep * (prev.y - acc.y),
-                acc.z + F.sph_keep * (prev.z - acc.z)));
+                acc.z + F.sph_keep * (prev.z - acc.z)) + hold);
+    AF.d[3u * o] = hold.x;
+    AF.d[3u * o + 1u] = hold.y;
+    AF.d[3u * o + 2u] = hold.z;
 }

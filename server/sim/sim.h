@@ -52,6 +52,9 @@ typedef struct sim_params {
     float friction;           /* contact friction, [0,1]: a vertex in contact keeps still while its
                                  tangential displacement over a substep is at most friction times
                                  the push out; past that it is reduced by that much (Coulomb) */
+    float hair_friction;      /* hair-hair static friction, dimensionless: a vertex's motion relative
+                                 to its SPH neighbours is held by an accumulated acceleration of at
+                                 most this times its pressure's push (sim_cpu_sph.c hold_accel) */
     int32_t pbd_iterations;   /* PBD: constraint iterations per substep */
     sim_hm_params hm;         /* the hair-mesh solver's own (gravity, wind, air drag, dt, substeps,
                                  collisions and friction above apply to it too) */

@@ -507,7 +507,7 @@ __attribute__((always_inline)) static inline void prefetch_unsorted(const sim_cp
 
 /* The per-particle constants of the force pass. */
 typedef struct force_consts {
-    float inv_h, kp, mu_dt, inv_dt, keep;
+    float inv_h, kp, mu_dt, inv_dt, keep, hold;
     int cap;
 } force_consts;
 
@@ -544,15 +544,51 @@ static inline float sph_exp(float x)
  * toward by 1 - keep from the previous step's prev. */
 static inline float smooth_accel(float a, float prev, float keep) { return a + keep * (prev - a); }
 
+/* Hair-hair static friction of particle i (unsorted index o), neighbour weight W and
+ * neighbours' weighted mean motion vb: the held acceleration af grows by
+ * SIM_HAIR_FRICTION_GAIN (sim_limits.h) of i's motion relative to vb per step, against it, and is
+ * capped at hold x the pressure's push kp / rho_i x P_i x W (Coulomb: static below, slipping at
+ * the cap; a non-finite one is dropped, so a NaN does not stay held). out = the new af, which
+ * force_store keeps and adds to the acceleration. */
+static void hold_accel(sim_cpu *c, const force_consts *fc, size_t i, uint32_t o, float W, float vbx, float vby,
+                       float vbz, float out[3])
+{
+    const sim_cpu_sph *s = &c->sph;
+    const float *vi = s->sv + 4 * i;
+    const float g = (float)SIM_HAIR_FRICTION_GAIN * fc->inv_dt;
+    float hx = c->af[0][o] - g * (vi[0] - vbx), hy = c->af[1][o] - g * (vi[1] - vby), hz = c->af[2][o] - g * (vi[2] - vbz);
+    const float lim = fc->hold * fc->kp / s->sp[4 * i + 3] * vi[3] * W;
+    const float l = sqrtf((hx * hx + hy * hy) + hz * hz);
+    const bool held = l <= lim, slips = l > lim; /* both false when either is NaN */
+    const float k = slips ? lim / l : 1.0f;
+    out[0] = held || slips ? hx * k : 0.0f;
+    out[1] = held || slips ? hy * k : 0.0f;
+    out[2] = held || slips ? hz * k : 0.0f;
+}
+
+/* Stores particle i's acceleration acc (pressure and viscosity) at its unsorted index o: smoothed
+ * with the one stored there less the held friction it included, then the new held friction
+ * hold[3] (stored in c->af) added. */
+static void force_store(sim_cpu *c, const force_consts *fc, uint32_t o, const float acc[3], const float hold[3])
+{
+    for (int k = 0; k < 3; k++) {
+        c->a[k][o] = smooth_accel(acc[k], c->a[k][o] - c->af[k][o], fc->keep) + hold[k];
+        c->af[k][o] = hold[k];
+    }
+}
+
 /* Turns the sums over particle i's neighbours into its acceleration, smoothed with the one at
- * its unsorted index, where it is stored. */
+ * its unsorted index, where it is stored, with the hair-hair friction (hold_accel). */
 static void force_finish(sim_cpu *c, const force_consts *fc, size_t i, const float sum[FORCE_TERMS])
 {
     const sim_cpu_sph *s = &c->sph;
     const float *vi = s->sv + 4 * i;
     const float W = sum[3];
     float ax = 0.0f, ay = 0.0f, az = 0.0f;
+    float hold[3] = { 0.0f, 0.0f, 0.0f };
+    const uint32_t o = s->order[i];
     if (W > 0.0f) {
+        hold_accel(c, fc, i, o, W, sum[4] / W, sum[5] / W, sum[6] / W, hold);
         float kr = fc->kp / s->sp[4 * i + 3];
         ax = sum[0] * kr, ay = sum[1] * kr, az = sum[2] * kr;
         /* viscosity (Mueller et al. 2003) as an acceleration: mu / rho_i sum_j w_ij (v_j - v_i) =
@@ -562,10 +598,8 @@ static void force_finish(sim_cpu *c, const force_consts *fc, size_t i, const flo
         ay += blend * (sum[5] / W - vi[1]);
         az += blend * (sum[6] / W - vi[2]);
     }
-    const uint32_t o = s->order[i];
-    c->a[0][o] = smooth_accel(ax, c->a[0][o], fc->keep);
-    c->a[1][o] = smooth_accel(ay, c->a[1][o], fc->keep);
-    c->a[2][o] = smooth_accel(az, c->a[2][o], fc->keep);
+    const float acc[3] = { ax, ay, az };
+    force_store(c, fc, o, acc, hold);
 }
 
 /* Pressure and viscosity of particle i from its neighbour list (scalar path). */
@@ -721,15 +755,18 @@ static void force_finish8(sim_cpu *c, const force_consts *fc, size_t i0, const _
     const __m256 ay = _mm256_add_ps(_mm256_mul_ps(col[1], kr), _mm256_mul_ps(blend, _mm256_sub_ps(_mm256_div_ps(col[5], W), vy)));
     const __m256 az = _mm256_add_ps(_mm256_mul_ps(col[2], kr), _mm256_mul_ps(blend, _mm256_sub_ps(_mm256_div_ps(col[6], W), vz)));
     const __m256 has = _mm256_cmp_ps(W, _mm256_setzero_ps(), _CMP_GT_OQ); /* no neighbour weight: no acceleration */
-    float out[3][8];
+    float out[3][8], w[8], vb[3][8];
     _mm256_storeu_ps(out[0], _mm256_and_ps(ax, has));
     _mm256_storeu_ps(out[1], _mm256_and_ps(ay, has));
     _mm256_storeu_ps(out[2], _mm256_and_ps(az, has));
+    _mm256_storeu_ps(w, W);
+    for (int k = 0; k < 3; k++) _mm256_storeu_ps(vb[k], col[4 + k]);
     for (int l = 0; l < 8; l++) {
         const uint32_t o = s->order[i0 + (size_t)l];
-        c->a[0][o] = smooth_accel(out[0][l], c->a[0][o], fc->keep);
-        c->a[1][o] = smooth_accel(out[1][l], c->a[1][o], fc->keep);
-        c->a[2][o] = smooth_accel(out[2][l], c->a[2][o], fc->keep);
+        float hold[3] = { 0.0f, 0.0f, 0.0f };
+        if (w[l] > 0.0f) hold_accel(c, fc, i0 + (size_t)l, o, w[l], vb[0][l] / w[l], vb[1][l] / w[l], vb[2][l] / w[l], hold);
+        const float acc[3] = { out[0][l], out[1][l], out[2][l] };
+        force_store(c, fc, o, acc, hold);
     }
 }
 #endif
@@ -740,7 +777,7 @@ static void force_job(void *vctx, int tid, int nt)
     sim_cpu *c = ctx->c;
     const float h = c->step.sph_h;
     const force_consts fc = { 1.0f / h, c->step.kp, c->step.mu_dt, 1.0f / ctx->dt, c->step.sph_keep,
-                              c->params.neighbor_cap };
+                              c->step.hair_friction, c->params.neighbor_cap };
     size_t b, e, i;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     i = b;

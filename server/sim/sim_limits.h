@@ -57,6 +57,17 @@
  * shape off nothing stiff holds the hair and the acceleration is not smoothed: there the lag
  * let hair lying on the colliders slide to and fro (0.31 mm per frame, 0.048 unsmoothed). */
 #define SIM_SPH_SMOOTH_TIME 0.09
+/* Share of a vertex's motion relative to its SPH neighbours (per evaluation, as a velocity) that
+ * the hair-hair friction adds to its held acceleration each SPH evaluation (an integral hold: it
+ * builds up until the motion stops, capped by hair_friction x the pressure's push). The slide it
+ * stops is over-damped (internal damping, viscosity and drag near 47 /s), so the motion answers
+ * the hold within a step or two. p99.9 3 s after the test motion, shape off, 96 x 16 over three
+ * styles x seeds 11-13 (main 0.026-0.117 mm per frame): 0.5 overshot (0.11-0.25, in a first
+ * form capped by the pair pushes); 0.05, 0.1 and 0.2 all held (<= 0.0033). 0.2 is kept: curly at 512 x 16 0.0003-0.0009 (0.1: up to 0.0087,
+ * 0.05: up to 0.0044), the three styles at 512 x 16 after headbang at rest by 1.65-2.27 s (0.1:
+ * curly not, 0.059), and Ratboy with its body mesh at repulsion 0.5 after shake at rest
+ * (0.0090; 0.1: 0.0144, none: 0.0111). */
+#define SIM_HAIR_FRICTION_GAIN 0.2
 /* How often (per simulated second) the SPH pressure and viscosity are evaluated with shape on:
  * on the first step at least 1 / SIM_SPH_RATE after the last evaluation, counted in whole steps
  * (every second step at 1/60 s, every fourth at 0.008 s, every step from 1/30 s); the steps

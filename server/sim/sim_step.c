@@ -124,6 +124,7 @@ void sim_step_plan(const sim_params *p, const sim_groom_info *g, core_xform prev
     out->inv_rho0 = 1.0f / (p->rest_density * g->rho_rest);
     out->ncolliders = p->collisions ? g->ncolliders : 0;
     out->friction = p->friction;
+    out->hair_friction = p->hair_friction;
     out->sdf = p->collisions ? g->sdf : NULL;
     for (int k = 0; k < K; k++) {
         out->head[k] = core_xform_lerp(prev_head, head, (float)(k + 1) / (float)K);

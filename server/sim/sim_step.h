@@ -69,6 +69,7 @@ typedef struct sim_step_desc {
     float inv_rho0;           /* 1 / (rest_density * rest-pose mean density) */
     uint32_t ncolliders;      /* 0 when collisions are off */
     float friction;           /* contact friction (sim_params.friction) */
+    float hair_friction;      /* hair-hair static friction (sim_params.hair_friction) */
     const core_sdf *sdf;      /* the groom's distance grid when collisions are on, else NULL */
     float carry[SIM_MAX_SUBSTEPS][12]; /* rows (m0 m1 m2 t) of the colliders' rigid motion over
                                           substep k: p at its start -> M p + t at its end */

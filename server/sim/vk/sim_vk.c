@@ -104,6 +104,7 @@ static core_status make_buffers(sim_vk *s, core_err *err)
         { &s->xe, sph_bytes(s, p3), SIM_VK_B_XE, xfer, "positions at the last sph evaluation" },
         { &s->v, p3, SIM_VK_B_V, xfer, "velocities" },
         { &s->a, sph_bytes(s, p3), SIM_VK_B_A, xfer, "sph accelerations" },
+        { &s->af, sph_bytes(s, p3), SIM_VK_B_AF, xfer, "held hair-hair friction" },
         { &s->rest_buf, p3, SIM_VK_B_REST, xfer, "rest positions" },
         { &s->strand, (size_t)s->ns * 20 * sizeof(float), SIM_VK_B_STRAND, 0, "chain state" },
         { &s->grid, 128, SIM_VK_B_GRID, xfer, "sph grid" },
@@ -196,7 +197,7 @@ static void vk_destroy(void *self)
             if (sl->cmd) vkFreeCommandBuffers(s->ctx.device, s->ctx.pool, 1, &sl->cmd);
         }
         sim_vk_once_destroy(&s->ctx, &s->once);
-        sim_vk_buf *bufs[] = { &s->x, &s->xe, &s->v, &s->a, &s->rest_buf, &s->strand, &s->grid, &s->count, &s->start,
+        sim_vk_buf *bufs[] = { &s->x, &s->xe, &s->v, &s->a, &s->af, &s->rest_buf, &s->strand, &s->grid, &s->count, &s->start,
                                &s->block, &s->cell_of, &s->order, &s->sx, &s->sv, &s->rho, &s->press, &s->nbr,
                                &s->nnbr, &s->stats_buf, &s->staging, &s->sdf_buf, &s->pbd, &s->floor_buf };
         for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++) sim_vk_buf_destroy(&s->ctx, bufs[i]);
@@ -249,6 +250,7 @@ static core_status upload_state(sim_vk *s, const float *x, const float *v, bool 
     if (fresh && s->params.solver != SIM_SOLVER_PBD) vkCmdCopyBuffer(s->once.cmd, s->staging.buf, s->xe.buf, 1, &cx);
     vkCmdCopyBuffer(s->once.cmd, s->staging.buf, s->v.buf, 1, &cv);
     if (fresh) vkCmdFillBuffer(s->once.cmd, s->a.buf, 0, VK_WHOLE_SIZE, 0u);
+    if (fresh) vkCmdFillBuffer(s->once.cmd, s->af.buf, 0, VK_WHOLE_SIZE, 0u);
     st = sim_vk_once_submit_wait(&s->ctx, &s->once, err);
     if (st != CORE_OK) return fail_sticky(s, st, err);
     return CORE_OK;

@@ -7,11 +7,11 @@
 #include "../sim_pbd.h"
 
 _Static_assert(offsetof(sim_vk_frame, substeps) == 64, "frame layout must match sim_common.glsl");
-_Static_assert(offsetof(sim_vk_frame, head) == 96, "frame layout must match sim_common.glsl");
-_Static_assert(offsetof(sim_vk_frame, col) == 96 + 32 * SIM_MAX_SUBSTEPS, "frame layout must match sim_common.glsl");
+_Static_assert(offsetof(sim_vk_frame, head) == 112, "frame layout must match sim_common.glsl");
+_Static_assert(offsetof(sim_vk_frame, col) == 112 + 32 * SIM_MAX_SUBSTEPS, "frame layout must match sim_common.glsl");
 _Static_assert(sizeof(sim_vk_gcollider) == 160, "collider layout must match sim_common.glsl");
 _Static_assert(sizeof(sim_vk_gsub) == 192, "substep layout must match sim_common.glsl");
-_Static_assert(offsetof(sim_vk_frame, sdf_dims) == 96 + 32 * SIM_MAX_SUBSTEPS + 160 * SIM_MAX_SUBSTEPS * SIM_MAX_COLLIDERS,
+_Static_assert(offsetof(sim_vk_frame, sdf_dims) == 112 + 32 * SIM_MAX_SUBSTEPS + 160 * SIM_MAX_SUBSTEPS * SIM_MAX_COLLIDERS,
                "frame layout must match sim_common.glsl");
 _Static_assert(sizeof(sim_vk_frame) % 16 == 0, "the shape weights (vec4 per level) follow the frame");
 _Static_assert(sizeof(sim_shape_weights) == 4 * sizeof(float), "one vec4 of shape weights per level");
@@ -64,6 +64,7 @@ void sim_vk_frame_fill(const sim_vk_frame_in *in, void *out)
     f->friction = d->friction;
     f->sph_keep = d->sph_keep;
     f->sph_inv_since = d->sph_inv_since;
+    f->hair_friction = d->hair_friction;
     if (d->sdf) {
         f->sdf_dims[0] = d->sdf->dims[0], f->sdf_dims[1] = d->sdf->dims[1], f->sdf_dims[2] = d->sdf->dims[2];
         f->sdf_dims[3] = 1u;

@@ -116,7 +116,7 @@ typedef enum sim_vk_binding {
     SIM_VK_B_FRAME = 0, SIM_VK_B_X, SIM_VK_B_V, SIM_VK_B_A, SIM_VK_B_REST, SIM_VK_B_STRAND,
     SIM_VK_B_GRID, SIM_VK_B_COUNT, SIM_VK_B_START, SIM_VK_B_BLOCK, SIM_VK_B_CELL_OF,
     SIM_VK_B_ORDER, SIM_VK_B_SX, SIM_VK_B_SV, SIM_VK_B_RHO, SIM_VK_B_PRESS, SIM_VK_B_NBR,
-    SIM_VK_B_NNBR, SIM_VK_B_STATS, SIM_VK_B_SDF, SIM_VK_B_PBD, SIM_VK_B_FLOOR, SIM_VK_B_XE,
+    SIM_VK_B_NNBR, SIM_VK_B_STATS, SIM_VK_B_SDF, SIM_VK_B_PBD, SIM_VK_B_FLOOR, SIM_VK_B_XE, SIM_VK_B_AF,
     SIM_VK_NBINDINGS
 } sim_vk_binding;
 
@@ -203,6 +203,7 @@ typedef struct sim_vk_frame {
     float mu_dt, inv_step_dt, inv_rho0, grow;
     uint32_t substeps, ncolliders, flags, cap;
     float drag_keep, friction, sph_keep, sph_inv_since;
+    float hair_friction, pad[3];
     sim_vk_gxf head[SIM_MAX_SUBSTEPS];
     sim_vk_gcollider col[SIM_MAX_SUBSTEPS * SIM_MAX_COLLIDERS];
     uint32_t sdf_dims[4];  /* w: 1 when the grid collides this step */
@@ -275,6 +276,7 @@ typedef struct sim_vk {
     float sph_auto_h;     /* the groom's automatic SPH smoothing length (sim_sph_auto_radius) */
     sim_vk_buf x, v, a, rest_buf, strand, grid, count, start, block, cell_of, order, sx, sv, rho, press, nbr, nnbr;
     sim_vk_buf xe;        /* DEVICE: positions at the last SPH evaluation (the viscosity's motion) */
+    sim_vk_buf af;        /* DEVICE: the hair-hair friction's held acceleration (included in a) */
     sim_vk_buf stats_buf; /* READBACK: nan counter */
     sim_vk_buf sdf_buf;   /* DEVICE: the distance samples (16 unused bytes without a grid) */
     sim_vk_buf pbd;       /* DEVICE: the PBD substep's scratch, 30 floats per vertex (16 unused
