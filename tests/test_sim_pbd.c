@@ -107,14 +107,10 @@ static void test_rest_shape_off(void **state)
     (void)state;
     sim_params p = pbd_params();
     p.shape = false;
-    simcheck_run r = { 0 };
-    simcheck_groom(&r.groom, GROOM_WAVY, 96, 16, 11);
-    simcheck_run_open(&r, &p, 2);
     double settle;
-    const double rest = simcheck_motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+    const double rest = simcheck_wavy_rest(&p, &settle);
     printf("pbd shape off: rest p99.9 %.2e mm/frame, settled after %.2f s\n", rest * 1e3, settle);
     assert_true(rest <= SIMCHECK_REST_P999);
-    simcheck_run_close(&r);
 }
 
 /* dftl_correction is the closing pass's velocity correction: at its ends (0: none, 1: the whole
@@ -127,15 +123,11 @@ static void test_rest_at_correction_ends(void **state)
     for (int i = 0; i < 2; i++) {
         sim_params p = pbd_params();
         p.dftl_correction = ends[i];
-        simcheck_run r = { 0 };
-        simcheck_groom(&r.groom, GROOM_WAVY, 96, 16, 11);
-        simcheck_run_open(&r, &p, 2);
         double settle;
-        const double rest = simcheck_motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+        const double rest = simcheck_wavy_rest(&p, &settle);
         printf("pbd dftl_correction %g: rest p99.9 %.2e mm/frame, settled after %.2f s\n", (double)ends[i], rest * 1e3,
                settle);
         assert_true(rest <= SIMCHECK_REST_P999);
-        simcheck_run_close(&r);
     }
 }
 

@@ -46,14 +46,10 @@ static void test_rest_at_extremes(void **state)
             /* a parameter of another solver than the default is tested under the first it applies to */
             if (t[i].solvers && strcmp(t[i].solvers[0], sim_solver_name(p.solver)) != 0)
                 p.solver = core_param_choice(&t[solver], t[i].solvers[0]);
-            simcheck_run r = { 0 };
-            simcheck_groom(&r.groom, GROOM_WAVY, 96, 16, 11);
-            simcheck_run_open(&r, &p, 2);
             double settle;
-            const double rest = simcheck_motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+            const double rest = simcheck_wavy_rest(&p, &settle);
             printf("%-18s = %-10g rest p99.9 %.2e mm/frame, settled after %.2f s\n", t[i].name, v, rest * 1e3, settle);
             if (!(rest <= SIMCHECK_REST_P999)) failures++;
-            simcheck_run_close(&r);
         }
     }
     assert_int_equal(failures, 0);
@@ -71,15 +67,11 @@ static void test_shape_off_rest(void **state)
         p.shape = false;
         p.repulsion = 0.0f;
         p.friction = friction[i];
-        simcheck_run r = { 0 };
-        simcheck_groom(&r.groom, GROOM_WAVY, 96, 16, 11);
-        simcheck_run_open(&r, &p, 2);
         double settle;
-        const double rest = simcheck_motion_then_rest(&r, p.dt, 1.0, 3.0, &settle);
+        const double rest = simcheck_wavy_rest(&p, &settle);
         printf("shape off, repulsion 0, friction %.2f: rest p99.9 %.2e mm/frame, settled after %.2f s\n",
                (double)friction[i], rest * 1e3, settle);
         assert_true(rest <= SIMCHECK_REST_P999);
-        simcheck_run_close(&r);
     }
 }
 

@@ -213,6 +213,16 @@ double simcheck_motion_then_rest(simcheck_run *r, float dt, double moving, doubl
     return last / (dt * 60.0);
 }
 
+double simcheck_wavy_rest(const sim_params *p, double *settle)
+{
+    simcheck_run r = { 0 };
+    simcheck_groom(&r.groom, GROOM_WAVY, 96, 16, 11);
+    simcheck_run_open(&r, p, 2);
+    const double rest = simcheck_motion_then_rest(&r, p->dt, 1.0, 3.0, settle);
+    simcheck_run_close(&r);
+    return rest;
+}
+
 void simcheck_cantilever(core_groom *g)
 {
     core_err err;

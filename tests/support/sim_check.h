@@ -76,6 +76,11 @@ void simcheck_run_open(simcheck_run *r, const sim_params *p, int threads);
 void simcheck_run_close(simcheck_run *r);
 /* One step under head h; returns the 99.9th percentile of the non-root vertices' displacement (m). */
 double simcheck_run_step(simcheck_run *r, core_xform h);
+/* The rest check the parameter tests share: the wavy style, 96 x 16 (seed 11) with its colliders,
+ * under p (CPU, 2 threads), 1 s of the violent script then 3 s with the head still. Returns
+ * simcheck_motion_then_rest's figure (m per 1/60 s) and sets *settle. */
+double simcheck_wavy_rest(const sim_params *p, double *settle);
+
 /* Makes 64 strands of 16 vertices sticking out sideways (+x, 0.1 m, a slight upward curve) from a
  * row of roots along z into g (the caller owns it: core_groom_free): a cantilever gravity bends. */
 void simcheck_cantilever(core_groom *g);
