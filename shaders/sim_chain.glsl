@@ -122,6 +122,7 @@ struct Chain {
     vec3 pr;   // previous level's rest position
     vec4 q;    // previous level's frame
     vec3 pv;   // final velocity of the last finalised level (the root's, then level l - 2's)
+    float f;   // previous level's share taken by the length projection's damping (ftl_damp)
     bool bad;  // a non-finite value was seen
 };
 
@@ -133,6 +134,7 @@ Chain chain_root(bool live, uint s, uint k)
     ch.pr = live ? ldRest(s) : vec3(0.0);
     ch.p = xf_point(hd, ch.pr);
     ch.pv = vec3(0.0);
+    ch.f = 0.0;
     ch.o = ch.p;
     if (live) {
         ch.o = ldX(s);
@@ -204,7 +206,9 @@ void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred
     float L = v3len(r);
     vec3 dd = ch.p - xs;
     float len = v3len(dd);
-    xs = len > 1e-12 ? ch.p - dd * (L / max(len, 1e-12)) : tgt;
+    float kl = L / max(len, 1e-12);
+    xs = len > 1e-12 ? ch.p - dd * kl : tgt;
+    float cf = min(max(1.0 - kl, 0.0) * F.ftl_damp, 1.0);
     vec3 delta = xs - xg;
     if (contacts_on()) { // collide_level of sim_cpu_chain.c
         uint hit[MAX_COLLIDERS];
@@ -234,7 +238,8 @@ void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred
     if (live && l > 1u) {
         uint j = i - NS;
         vec3 v = (ch.p - ch.o) * F.inv_dt_k - F.dftl * delta * F.inv_dt_k;
-        ch.pv = ch.pv + F.accel.w * (v - ch.pv); // internal damping toward the parent's velocity
+        float kf = F.accel.w * (1.0 - ch.f);
+        ch.pv = ch.pv + kf * (v - ch.pv); // internal damping toward the parent's velocity
         stV(j, ch.pv);
         stX(j, ch.p);
     }
@@ -253,6 +258,7 @@ void chain_solve(bool live, uint s, uint l, uint k, uint b, uint next, vec3 pred
     ch.p = xs;
     ch.o = xo;
     ch.pr = rl;
+    ch.f = cf;
 }
 
 // Finalises the last level of strand s; a strand that saw a non-finite value goes back to
@@ -261,7 +267,8 @@ void chain_finish(uint s, uint k, Chain ch)
 {
     uint i = (NV - 1u) * NS + s;
     vec3 v = (ch.p - ch.o) * F.inv_dt_k;
-    stV(i, ch.pv + F.accel.w * (v - ch.pv));
+    float kf = F.accel.w * (1.0 - ch.f);
+    stV(i, ch.pv + kf * (v - ch.pv));
     stX(i, ch.p);
     if (!ch.bad) return;
     Xf hd = F.head[k];

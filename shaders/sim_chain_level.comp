@@ -1,6 +1,6 @@
 // shaders: the chain pass with particle-level parallelism: one dispatch per level l >= 1, one
 // thread per strand; the chain state (position, frame, NaN flag, velocity, the level before's
-// positions) is carried in STRAND, 5 vec4 per strand.
+// positions, the length projection's damping share) is carried in STRAND, 5 vec4 per strand.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "sim_common.glsl"
@@ -25,6 +25,7 @@ void main()
         ch.q = STRAND.d[5u * s + 1u];
         ch.pv = STRAND.d[5u * s + 2u].xyz;
         ch.gp = STRAND.d[5u * s + 3u].xyz;
+        ch.f = STRAND.d[5u * s + 3u].w;
         ch.go = STRAND.d[5u * s + 4u].xyz;
         ch.o = ldX(j);
         ch.pr = ldRest(j);
@@ -43,7 +44,7 @@ void main()
         STRAND.d[5u * s] = vec4(ch.p, ch.bad ? 1.0 : 0.0);
         STRAND.d[5u * s + 1u] = ch.q;
         STRAND.d[5u * s + 2u] = vec4(ch.pv, 0.0);
-        STRAND.d[5u * s + 3u] = vec4(ch.gp, 0.0);
+        STRAND.d[5u * s + 3u] = vec4(ch.gp, ch.f);
         STRAND.d[5u * s + 4u] = vec4(ch.go, 0.0);
     }
 }

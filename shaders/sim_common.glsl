@@ -66,7 +66,8 @@ layout(std430, set = 0, binding = 0) restrict readonly buffer FrameBuf {
     float sph_keep;    // share of the previous step's SPH acceleration kept (sim_step.h)
     float sph_inv_since; // 1 / time since the last SPH evaluation, 0 without one (sim_step.h)
     float hair_friction; // hair-hair static friction (sim_step.h)
-    float pad0, pad1, pad2;
+    float ftl_damp;    // the length projection's extra damping (sim_step.h)
+    float pad1, pad2;
     Xf head[MAX_SUBSTEPS];
     Collider col[MAX_SUBSTEPS * MAX_COLLIDERS];
     uvec4 sdf_dims;    // xyz: samples per axis of the distance grid; w: 1 when it collides

@@ -94,12 +94,13 @@ static double max_distance(const float *a, const float *b, size_t n)
 }
 
 /* One step from the same non-trivial state (positions and velocities of 20 steps of head
- * motion on the C backend, written into both): the positions agree within 1e-5 of the
- * strand length, with every feature on. */
-static void one_step_matches_cpu(bool sdf)
+ * motion on the C backend, written into both) in `substeps` substeps: the positions agree within
+ * 1e-5 of the strand length and the velocities within 1e-4 of the fastest, with every feature on. */
+static void one_step_matches_cpu(bool sdf, int substeps)
 {
     sim_params p;
     sim_params_default(&p);
+    p.substeps = substeps;
     pair t;
     make_pair_sdf(&t, GROOM_WAVY, 384, 16, &p, sdf);
     core_err err;
@@ -126,6 +127,14 @@ static void one_step_matches_cpu(bool sdf)
     step_both(&t, h1);
     double moved = simcheck_mean_distance(t.xc, back, t.n);
     double worst = max_distance(t.xc, t.xv, t.n);
+    assert_int_equal(sim_read_state(&t.cpu, t.xc, vel, &err), CORE_OK);
+    assert_int_equal(sim_read_state(&t.vk, t.xv, vback, &err), CORE_OK);
+    double fastest = 0.0;
+    const float zero[3] = { 0.0f, 0.0f, 0.0f };
+    for (size_t i = 0; i < t.n; i++) fastest = simcheck_worse(fastest, simcheck_dist3(vel + 3 * i, zero));
+    const double vworst = max_distance(vel, vback, t.n);
+    printf("%d substeps: max |vulkan - cpu| velocity %.3g m/s, fastest %.3g m/s\n", substeps, vworst, fastest);
+    assert_true(vworst <= 1e-4 * fastest);
     printf("one step (%zu particles, SPH + shape + collisions%s): vertices moved %.3g m on average; "
            "max |vulkan - cpu| = %.3g m = %.3g of the strand length\n",
            t.n, sdf ? " + distance grid" : "", moved, worst, worst / t.strand_len);
@@ -145,14 +154,22 @@ static void one_step_matches_cpu(bool sdf)
 static void test_one_step_matches_cpu(void **state)
 {
     (void)state;
-    one_step_matches_cpu(false);
+    one_step_matches_cpu(false, 4);
+}
+
+/* The same at 8 substeps, where the length projection takes its extra damping
+ * (sim_step_desc.ftl_damp). */
+static void test_one_step_matches_cpu_8_substeps(void **state)
+{
+    (void)state;
+    one_step_matches_cpu(false, 8);
 }
 
 /* The same with a distance grid collider (a sphere's) on the groom. */
 static void test_one_step_matches_cpu_sdf(void **state)
 {
     (void)state;
-    one_step_matches_cpu(true);
+    one_step_matches_cpu(true, 4);
 }
 
 /* 300 steps of scripted head motion, the first half without colliders (segment lengths hold
@@ -430,6 +447,7 @@ int main(void)
     vkpin_driver_libraries();
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_one_step_matches_cpu), cmocka_unit_test(test_one_step_matches_cpu_sdf),
+        cmocka_unit_test(test_one_step_matches_cpu_8_substeps),
         cmocka_unit_test(test_300_steps_track_cpu), cmocka_unit_test(test_shape_off_hold_tracks_cpu),
         cmocka_unit_test(test_params_take_effect),
         cmocka_unit_test(test_nan_guard),            cmocka_unit_test(test_stage_timestamps),

@@ -106,6 +106,9 @@ typedef struct chunk_tmp {
     float prx[CHUNK], pry[CHUNK], prz[CHUNK], qx[CHUNK], qy[CHUNK], qz[CHUNK], qw[CHUNK];
     float cx[CHUNK], cy[CHUNK], cz[CHUNK], cox[CHUNK], coy[CHUNK], coz[CHUNK];
     float dx[CHUNK], dy[CHUNK], dz[CHUNK], bad[CHUNK];
+    /* share of the velocity relative to the parent the length projection's damping takes
+     * (sim_step_desc.ftl_damp): this level's, the previous level's */
+    float cf[CHUNK], pf[CHUNK];
     /* contacts: positions before a round's pushes, the sum of the pushes (the contact normal),
      * segment midpoints */
     float bx[CHUNK], by[CHUNK], bz[CHUNK], nx[CHUNK], ny[CHUNK], nz[CHUNK], mx[CHUNK], my[CHUNK], mz[CHUNK];
@@ -144,7 +147,7 @@ static inline __attribute__((always_inline)) void level_constraints(const chain_
                                                                     const bool use_a)
 {
     const sim_cpu *c = ctx->c;
-    const float dt = ctx->dt, dt2 = dt * dt, dk = c->step.drag_keep;
+    const float dt = ctx->dt, dt2 = dt * dt, dk = c->step.drag_keep, fd = c->step.ftl_damp;
     const float gx = c->step.accel[0], gy = c->step.accel[1], gz = c->step.accel[2];
     const float hqx = ctx->head.rot.x, hqy = ctx->head.rot.y, hqz = ctx->head.rot.z, hqw = ctx->head.rot.w;
     const float htx = ctx->head.pos.x, hty = ctx->head.pos.y, htz = ctx->head.pos.z;
@@ -194,6 +197,7 @@ static inline __attribute__((always_inline)) void level_constraints(const chain_
         sx = ok ? t->px[s] - ddx * k : tx;
         sy = ok ? t->py[s] - ddy * k : ty;
         sz = ok ? t->pz[s] - ddz * k : tz;
+        t->cf[s] = MINF(MAXF(1.0f - k, 0.0f) * fd, 1.0f);
         t->cx[s] = sx, t->cy[s] = sy, t->cz[s] = sz;
         t->dx[s] = sx - gx0, t->dy[s] = sy - gy0, t->dz[s] = sz - gz0;
         t->cox[s] = xo, t->coy[s] = yo, t->coz[s] = zo;
@@ -201,12 +205,14 @@ static inline __attribute__((always_inline)) void level_constraints(const chain_
 }
 
 /* Writes a level: its velocity with the DFTL correction (eq. 14: sd times the correction d of
- * the level after it; sd = 0 for the tip), then internal damping: the share keep of its velocity
- * relative to its parent's final velocity PV is kept. restrict parameters (not locals) so the
- * compiler can vectorize without alias checks. */
-static void finalize_kernel(size_t n, float inv_dt, float sd, float keep, const float *restrict PVX,
-                            const float *restrict PVY, const float *restrict PVZ, float *restrict X, float *restrict Y,
-                            float *restrict Z, float *restrict VX, float *restrict VY, float *restrict VZ,
+ * the level after it; sd = 0 for the tip), then internal damping: the share keep (1 - f) of its
+ * velocity relative to its parent's final velocity PV is kept, f the length projection's damping
+ * (chunk_tmp.pf). restrict parameters (not locals) so the compiler can vectorize without alias
+ * checks. */
+static void finalize_kernel(size_t n, float inv_dt, float sd, float keep, const float *restrict f,
+                            const float *restrict PVX, const float *restrict PVY, const float *restrict PVZ,
+                            float *restrict X, float *restrict Y, float *restrict Z, float *restrict VX,
+                            float *restrict VY, float *restrict VZ,
                             const float *restrict px, const float *restrict py, const float *restrict pz,
                             const float *restrict ox, const float *restrict oy, const float *restrict oz,
                             const float *restrict dx, const float *restrict dy, const float *restrict dz)
@@ -215,9 +221,10 @@ static void finalize_kernel(size_t n, float inv_dt, float sd, float keep, const 
         const float vx = (px[s] - ox[s]) * inv_dt - sd * dx[s] * inv_dt;
         const float vy = (py[s] - oy[s]) * inv_dt - sd * dy[s] * inv_dt;
         const float vz = (pz[s] - oz[s]) * inv_dt - sd * dz[s] * inv_dt;
-        VX[s] = PVX[s] + keep * (vx - PVX[s]);
-        VY[s] = PVY[s] + keep * (vy - PVY[s]);
-        VZ[s] = PVZ[s] + keep * (vz - PVZ[s]);
+        const float kf = keep * (1.0f - f[s]);
+        VX[s] = PVX[s] + kf * (vx - PVX[s]);
+        VY[s] = PVY[s] + kf * (vy - PVY[s]);
+        VZ[s] = PVZ[s] + kf * (vz - PVZ[s]);
         X[s] = px[s], Y[s] = py[s], Z[s] = pz[s];
     }
 }
@@ -227,8 +234,8 @@ static void level_finalize_prev(const chain_ctx *ctx, const chunk_tmp *t, size_t
 {
     sim_cpu *c = ctx->c;
     const size_t i = s0 + op, pi = i - c->ns;
-    finalize_kernel(cnt, 1.0f / ctx->dt, sd, c->step.keep, c->v[0] + pi, c->v[1] + pi, c->v[2] + pi, c->x[0] + i,
-                    c->x[1] + i, c->x[2] + i, c->v[0] + i, c->v[1] + i, c->v[2] + i, t->px, t->py, t->pz, t->ox,
+    finalize_kernel(cnt, 1.0f / ctx->dt, sd, c->step.keep, t->pf, c->v[0] + pi, c->v[1] + pi, c->v[2] + pi,
+                    c->x[0] + i, c->x[1] + i, c->x[2] + i, c->v[0] + i, c->v[1] + i, c->v[2] + i, t->px, t->py, t->pz, t->ox,
                     t->oy, t->oz, t->dx, t->dy, t->dz);
 }
 
@@ -266,6 +273,7 @@ static void level_advance(const chain_ctx *ctx, chunk_tmp *restrict t, size_t o,
         t->gox[s] = t->ox[s], t->goy[s] = t->oy[s], t->goz[s] = t->oz[s];
         t->px[s] = t->cx[s], t->py[s] = t->cy[s], t->pz[s] = t->cz[s];
         t->ox[s] = t->cox[s], t->oy[s] = t->coy[s], t->oz[s] = t->coz[s];
+        t->pf[s] = t->cf[s];
         t->prx[s] = RX[s], t->pry[s] = RY[s], t->prz[s] = RZ[s];
     }
 }
@@ -620,9 +628,10 @@ static void chain_chunk(const chain_ctx *ctx, chunk_tmp *restrict t, size_t s0, 
     const float kp = c->step.keep;
     for (size_t s = 0; s < cnt; s++) { /* the tip: no level after it, so no DFTL correction */
         const size_t i = ol + s, pi = i - ns;
-        VX[i] = VX[pi] + kp * ((t->px[s] - t->ox[s]) * inv_dt - VX[pi]);
-        VY[i] = VY[pi] + kp * ((t->py[s] - t->oy[s]) * inv_dt - VY[pi]);
-        VZ[i] = VZ[pi] + kp * ((t->pz[s] - t->oz[s]) * inv_dt - VZ[pi]);
+        const float kf = kp * (1.0f - t->pf[s]);
+        VX[i] = VX[pi] + kf * ((t->px[s] - t->ox[s]) * inv_dt - VX[pi]);
+        VY[i] = VY[pi] + kf * ((t->py[s] - t->oy[s]) * inv_dt - VY[pi]);
+        VZ[i] = VZ[pi] + kf * ((t->pz[s] - t->oz[s]) * inv_dt - VZ[pi]);
         X[i] = t->px[s], Y[i] = t->py[s], Z[i] = t->pz[s];
     }
     for (size_t s = 0; s < cnt; s++) {

@@ -18,6 +18,15 @@
  * decayed more slowly. The damper adds what a substep shorter than this lacks, so the damping
  * is the same for any dt and substep count up to this substep (1/120 s). */
 #define SIM_SHAPE_DAMPING_STEP 0.00833333333333333333
+/* The length projection's damping, as a substep length: putting a vertex back onto its segment
+ * length scales the displacement across the segment by L / len, so its velocity loses the share
+ * delta / len (delta = len - L) per substep, a damping that falls with the substep (delta grows
+ * as its square). A vertex's velocity relative to its parent loses that share times
+ * (this / h - 1) more, so the projection damps the same per unit of time at any substep up to
+ * this one. The default frame's substep (1/60 s in 4, 1/240 s), not SIM_SHAPE_DAMPING_STEP:
+ * the defaults the rest and shape tests are tuned at keep their damping, and the shorter
+ * substeps of more substeps per frame get what they lack. */
+#define SIM_FTL_DAMPING_STEP 0.00416666666666666667
 /* Contact rounds per vertex and level: push out of the colliders (vertex, then the segment's
  * midpoint), then the rest-length projection sliding along the contact's tangent plane. */
 #define SIM_COLLISION_ITERATIONS 3

@@ -110,6 +110,7 @@ void sim_step_plan(const sim_params *p, const sim_groom_info *g, core_xform prev
     out->dftl = p->dftl_correction;
     out->keep = expf(-p->damping * out->h);
     out->drag_keep = expf(-p->air_drag * out->h);
+    out->ftl_damp = MAXF((float)SIM_FTL_DAMPING_STEP * out->inv_h - 1.0f, 0.0f);
     out->shape = p->shape;
     out->sph = sim_step_sph_on(p);
     out->collisions = p->collisions;

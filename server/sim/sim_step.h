@@ -49,6 +49,9 @@ typedef struct sim_step_desc {
     float keep;               /* exp(-damping h): share of a vertex's velocity relative to its parent
                                  kept per substep */
     float drag_keep;          /* exp(-air_drag h): share of a vertex's velocity kept per substep */
+    float ftl_damp;           /* max(SIM_FTL_DAMPING_STEP / h - 1, 0): the length projection's share
+                                 delta / len of a vertex is taken this many times more off its
+                                 velocity relative to its parent (at most all of it) */
     bool shape, sph, collisions;
     float sph_h;              /* smoothing length (sim_sph_radius) */
     float kp;                 /* repulsion * rest_density * h * hold, hold = SIM_SPH_ACCEL_SCALE

@@ -65,6 +65,7 @@ void sim_vk_frame_fill(const sim_vk_frame_in *in, void *out)
     f->sph_keep = d->sph_keep;
     f->sph_inv_since = d->sph_inv_since;
     f->hair_friction = d->hair_friction;
+    f->ftl_damp = d->ftl_damp;
     if (d->sdf) {
         f->sdf_dims[0] = d->sdf->dims[0], f->sdf_dims[1] = d->sdf->dims[1], f->sdf_dims[2] = d->sdf->dims[2];
         f->sdf_dims[3] = 1u;

@@ -203,7 +203,7 @@ typedef struct sim_vk_frame {
     float mu_dt, inv_step_dt, inv_rho0, grow;
     uint32_t substeps, ncolliders, flags, cap;
     float drag_keep, friction, sph_keep, sph_inv_since;
-    float hair_friction, pad[3];
+    float hair_friction, ftl_damp, pad[2];
     sim_vk_gxf head[SIM_MAX_SUBSTEPS];
     sim_vk_gcollider col[SIM_MAX_SUBSTEPS * SIM_MAX_COLLIDERS];
     uint32_t sdf_dims[4];  /* w: 1 when the grid collides this step */
