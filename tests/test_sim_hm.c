@@ -712,6 +712,15 @@ static void test_assembly_matches_matrix_free(void **state)
     close_run(&r);
 }
 
+/* moved_run(r, true) with the implicit system of a 1/60 s step under gravity assembled. */
+static sim_hm *gravity_system(hm_run *r)
+{
+    sim_hm *h = moved_run(r, true);
+    const float accel[3] = { 0.0f, -9.81f, 0.0f };
+    sim_hm_forces(h, accel, 1.0f / 60.0f, h->head.rot);
+    return h;
+}
+
 /* The implicit step's CG (symmetric Gauss-Seidel in Eisenstat's form, warm start) solves the
  * system: at a tight tolerance the residual on the free rows (by the matrix-free product) is
  * tiny against the cold start's, the fixed rows keep their prescribed values, and a second solve
@@ -720,9 +729,7 @@ static void test_cg_solves_system(void **state)
 {
     (void)state;
     hm_run r;
-    sim_hm *h = moved_run(&r, true);
-    const float accel[3] = { 0.0f, -9.81f, 0.0f };
-    sim_hm_forces(h, accel, 1.0f / 60.0f, h->head.rot);
+    sim_hm *h = gravity_system(&r);
     const size_t n3 = 3 * (size_t)h->n;
     float *y = malloc(n3 * sizeof *y), *res = malloc(n3 * sizeof *res);
     assert_true(y && res);
@@ -754,7 +761,7 @@ static void test_cg_solves_system(void **state)
     close_run(&r);
 }
 
-/* Sliding contacts (stick 2, normal n): after sim_hm_filter_sliding the same CG solves the
+/* Sliding contacts (SIM_HM_SLIDING, normal n): after sim_hm_filter_sliding the same CG solves the
  * partially constrained system (Baraff and Witkin's filter S = I - n n^T): on those rows the
  * velocity along n is the prescribed z's, and the residual of the unfiltered system (by the
  * matrix-free product) is left only along n there (the contact impulse), which the rows' kept
@@ -763,9 +770,7 @@ static void test_cg_filters_sliding_rows(void **state)
 {
     (void)state;
     hm_run r;
-    sim_hm *h = moved_run(&r, true);
-    const float accel[3] = { 0.0f, -9.81f, 0.0f };
-    sim_hm_forces(h, accel, 1.0f / 60.0f, h->head.rot);
+    sim_hm *h = gravity_system(&r);
     const size_t n3 = 3 * (size_t)h->n;
     float *y = malloc(n3 * sizeof *y), *res = malloc(n3 * sizeof *res), *rhs = malloc(n3 * sizeof *rhs);
     assert_true(y && res && rhs);
@@ -780,7 +785,7 @@ static void test_cg_filters_sliding_rows(void **state)
             for (int k = 0; k < 3; k++) n[k] = lcg(&seed);
             const float l = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
             for (int k = 0; k < 3; k++) n[k] /= l;
-            h->stick[i] = 2, sliding++;
+            h->stick[i] = SIM_HM_SLIDING, sliding++;
         }
     }
     assert_true(sliding > 10);
@@ -788,7 +793,7 @@ static void test_cg_filters_sliding_rows(void **state)
     for (uint32_t i = 0; i < h->n; i++) /* the cold start's residual: vn = z on the constrained rows and directions */
         for (int k = 0; k < 3; k++) y[3 * i + k] = h->fixed[i] ? h->z[3 * i + k] : 0.0f;
     for (uint32_t i = 0; i < h->n; i++) {
-        if (h->stick[i] != 2) continue;
+        if (h->stick[i] != SIM_HM_SLIDING) continue;
         const float *n = h->normal + 3 * (size_t)i, *z = h->z + 3 * (size_t)i;
         const float zn = n[0] * z[0] + n[1] * z[1] + n[2] * z[2];
         for (int k = 0; k < 3; k++) y[3 * i + k] = zn * n[k];
@@ -800,7 +805,7 @@ static void test_cg_filters_sliding_rows(void **state)
     for (uint32_t i = 0; i < h->n; i++) {
         if (h->fixed[i]) continue;
         float *ri = res + 3 * (size_t)i;
-        if (h->stick[i] == 2) {
+        if (h->stick[i] == SIM_HM_SLIDING) {
             const float *n = h->normal + 3 * (size_t)i, rn = n[0] * ri[0] + n[1] * ri[1] + n[2] * ri[2];
             for (int k = 0; k < 3; k++) ri[k] -= rn * n[k];
         }
@@ -815,7 +820,7 @@ static void test_cg_filters_sliding_rows(void **state)
         const float *vi = h->vn + 3 * (size_t)i, *yi = y + 3 * (size_t)i, *bi = rhs + 3 * (size_t)i;
         double ri[3];
         for (int k = 0; k < 3; k++) ri[k] = (double)bi[k] - yi[k];
-        if (h->stick[i] == 2) {
+        if (h->stick[i] == SIM_HM_SLIDING) {
             const float *n = h->normal + 3 * (size_t)i, *z = h->z + 3 * (size_t)i;
             worst_n = fmax(worst_n, fabs((vi[0] - z[0]) * n[0] + (vi[1] - z[1]) * n[1] + (vi[2] - z[2]) * n[2]));
             const double rn = ri[0] * n[0] + ri[1] * n[1] + ri[2] * n[2];

@@ -143,7 +143,7 @@ static void contact_velocity(sim_hm *h, uint32_t i, const float carry[12], float
     const float cut = h->p.friction * ul * inv_h;
     const float keep = tl > cut ? (tl - cut) / tl : 0.0f;
     for (int r = 0; r < 3; r++) v[r] = vc[r] + vn * n[r] + t[r] * keep;
-    h->stick[i] = keep == 0.0f ? 1 : 2;
+    h->stick[i] = keep == 0.0f ? SIM_HM_RESTING : SIM_HM_SLIDING;
 }
 
 /* The contacts of substep k (h->stick) turned with the head (carry's rotation): the resting ones
@@ -152,11 +152,11 @@ static void contact_velocity(sim_hm *h, uint32_t i, const float carry[12], float
 static void hold_contacts(sim_hm *h, const float carry[12])
 {
     for (uint32_t i = 0; i < h->n; i++) {
-        if (!h->stick[i]) continue;
+        if (h->stick[i] == SIM_HM_FREE) continue;
         float *n = h->normal + 3 * (size_t)i;
         const float m[3] = { n[0], n[1], n[2] };
         for (int r = 0; r < 3; r++) n[r] = carry[4 * r] * m[0] + carry[4 * r + 1] * m[1] + carry[4 * r + 2] * m[2];
-        if (h->stick[i] == 1) h->fixed[i] = 2;
+        if (h->stick[i] == SIM_HM_RESTING) h->fixed[i] = 2;
     }
 }
 
@@ -174,13 +174,13 @@ static void hold_contacts(sim_hm *h, const float carry[12])
 static void release_contacts(sim_hm *h)
 {
     for (uint32_t i = 0; i < h->n; i++) {
-        if (!h->stick[i]) continue;
+        if (h->stick[i] == SIM_HM_FREE) continue;
         const float *n = h->normal + 3 * (size_t)i;
-        if (h->stick[i] == 1) {
+        if (h->stick[i] == SIM_HM_RESTING) {
             float f[3];
             sim_hm_bsr_row_apply(&h->bsr, i, h->vn, f);
             const float *b = h->rhs + 3 * (size_t)i;
-            h->stick[i] = (f[0] - b[0]) * n[0] + (f[1] - b[1]) * n[1] + (f[2] - b[2]) * n[2] > 0.0f;
+            h->stick[i] = (f[0] - b[0]) * n[0] + (f[1] - b[1]) * n[1] + (f[2] - b[2]) * n[2] > 0.0f ? SIM_HM_RESTING : SIM_HM_FREE;
             continue;
         }
         float fn = -h->nrhs[i];
@@ -189,7 +189,7 @@ static void release_contacts(sim_hm *h)
             fn += nr[0] * x[0] + nr[1] * x[1] + nr[2] * x[2];
         }
         if (!(fn > 0.0f)) {
-            h->stick[i] = 0;
+            h->stick[i] = SIM_HM_FREE;
             continue;
         }
         float *vn = h->vn + 3 * (size_t)i;
@@ -200,7 +200,7 @@ static void release_contacts(sim_hm *h)
         const float tl = sqrtf(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]), cut = h->p.friction * fn;
         const float lose = tl > cut ? cut / tl : 1.0f;
         for (int r = 0; r < 3; r++) vn[r] -= lose * t[r];
-        if (lose == 1.0f) h->stick[i] = 1;
+        if (lose == 1.0f) h->stick[i] = SIM_HM_RESTING;
     }
 }
 

@@ -118,7 +118,7 @@ int sim_hm_cg(sim_hm *h)
         h->vn[j] = h->z[j];
     }
     for (uint32_t i = 0; i < h->n; i++) { /* a sliding vertex's start keeps z along its normal */
-        if (h->stick[i] != 2) continue;
+        if (h->stick[i] != SIM_HM_SLIDING) continue;
         const float *n = h->normal + 3 * (size_t)i;
         float *si = h->s + 3 * (size_t)i;
         const float sn = si[0] * n[0] + si[1] * n[1] + si[2] * n[2];

@@ -186,14 +186,14 @@ void sim_hm_filter_sliding(sim_hm *h)
     float *val = m->val;
     bool any = false;
     for (uint32_t i = 0; i < h->n; i++) {
-        if (h->stick[i] != 2) continue;
+        if (h->stick[i] != SIM_HM_SLIDING) continue;
         const float *n = h->normal + 3 * (size_t)i, *b = h->rhs + 3 * (size_t)i;
         h->nrhs[i] = n[0] * b[0] + n[1] * b[1] + n[2] * b[2];
         any = true;
     }
     if (!any) return;
     for (uint32_t i = 0; i < h->n; i++) { /* rhs -= A P z, the prescribed normal velocities' part */
-        if (h->stick[i] != 2) continue;
+        if (h->stick[i] != SIM_HM_SLIDING) continue;
         const float *n = h->normal + 3 * (size_t)i, *zi = h->z + 3 * (size_t)i;
         const float zn = n[0] * zi[0] + n[1] * zi[1] + n[2] * zi[2];
         for (uint32_t k = m->row[i]; k < m->row[i + 1]; k++) {
@@ -206,7 +206,7 @@ void sim_hm_filter_sliding(sim_hm *h)
         }
     }
     for (uint32_t i = 0; i < h->n; i++) {
-        if (h->stick[i] != 2) continue;
+        if (h->stick[i] != SIM_HM_SLIDING) continue;
         const float *n = h->normal + 3 * (size_t)i, *zi = h->z + 3 * (size_t)i;
         float *ri = h->rhs + 3 * (size_t)i;
         const float zn = n[0] * zi[0] + n[1] * zi[1] + n[2] * zi[2], rn = n[0] * ri[0] + n[1] * ri[1] + n[2] * ri[2];
@@ -224,7 +224,7 @@ void sim_hm_filter_sliding(sim_hm *h)
         }
     }
     for (uint32_t i = 0; i < h->n; i++) {
-        if (h->stick[i] != 2) continue;
+        if (h->stick[i] != SIM_HM_SLIDING) continue;
         const float *d = val + SIM_HM_BLOCK * (size_t)m->diag[i];
         float *p = h->pinv + 6 * (size_t)i;
         p[0] = d[0], p[1] = d[5], p[2] = d[10], p[3] = d[4], p[4] = d[8], p[5] = d[9];

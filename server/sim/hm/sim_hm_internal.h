@@ -45,6 +45,13 @@ typedef struct sim_hm_edges {
  * to still air, the same at rest) counts towards it; the rest acts relative to the head. */
 #define SIM_HM_SWING_DAMPING 2.0f
 
+/* A vertex's contact with a collider for the next implicit solve (sim_hm.stick). */
+typedef enum sim_hm_contact {
+    SIM_HM_FREE = 0,    /* none */
+    SIM_HM_RESTING = 1, /* friction stopped it: held to the collider */
+    SIM_HM_SLIDING = 2  /* only its velocity along the normal is held (sim_hm_filter_sliding) */
+} sim_hm_contact;
+
 /* Floats per block of the system's matrix: 3 columns of 4 (the 4th is 0), element (r, c) at 4 c + r. */
 #define SIM_HM_BLOCK 12
 
@@ -84,9 +91,7 @@ typedef struct sim_hm {
     float *r, *c, *q, *s, *w, *xh; /* 3n: CG scratch */
     uint8_t *fixed;             /* n: 0 free, 1 root, 2 in contact (held on the collider during the
                                  * implicit solve, or pushed by the collisions; held while minimizing) */
-    uint8_t *stick;             /* n: 1 = resting on a collider: held to it in the next implicit solve;
-                                 * 2 = sliding on it: only its velocity along the normal is held
-                                 * (sim_hm_filter_sliding) */
+    uint8_t *stick;             /* n: a vertex's contact for the next implicit solve (sim_hm_contact) */
     float *normal;              /* 3n: a resting vertex's contact normal (world, turned with the head) */
     float *nrow;                /* 3 nnz: for a sliding vertex's row, n^T of each of its blocks before filtering */
     float *nrhs;                /* n: a sliding vertex's n . rhs before filtering */
@@ -121,7 +126,7 @@ void sim_hm_build_free(sim_hm *h);
  * length). */
 void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat head_rot);
 
-/* Baraff and Witkin's partial constraint for the sliding vertices (h->stick 2, normal n = h->normal):
+/* Baraff and Witkin's partial constraint for the sliding vertices (h->stick SIM_HM_SLIDING, normal n = h->normal):
  * after sim_hm_forces, turns A vn = rhs into S A S vn + (I - S) vn = S (rhs - A P z) + P z with
  * S = I - n n^T and P = n n^T on those rows (I elsewhere), so the CG (unchanged, preconditioner
  * included, the system still SPD) keeps their velocity along n at the head's rigid z and leaves
@@ -153,7 +158,7 @@ void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const floa
 
 /* Solves A vn = rhs by modified CG: rows with fixed[i] keep vn_i = z_i; starts from vn = z (the
  * others: moving with the head) or from h->v plus the last solve's change h->dvp (which it then
- * sets) when that is nearer, the sliding rows' (stick 2) start keeping z along their normals (the
+ * sets) when that is nearer, the sliding rows' (SIM_HM_SLIDING) start keeping z along their normals (the
  * system sim_hm_filter_sliding made keeps it there); stops at cg_tolerance of the residual of vn = 0 on the free rows
  * (their right-hand side); symmetric block Gauss-Seidel preconditioning (Eisenstat's form).
  * Returns the iterations. */
