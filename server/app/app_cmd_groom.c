@@ -48,8 +48,8 @@ static bool make_job(app_world *w, uint32_t client, const proto_msg *m, app_load
     j->verts = verts;
     j->sim = (sim_desc){ .backend = w->backend, .threads = w->d->threads, .device = w->d->device };
     j->params = w->params;
-    if (w->particles_per_s > 0.0) {
-        j->particles_per_s = w->particles_per_s;
+    if (w->budget.dftl > 0.0) {
+        j->particles_per_s = app_budget_rate(&w->budget, w->params.solver);
         j->min_rate = w->d->min_step_rate;
     }
     if (m->u.set_groom.is_file) {

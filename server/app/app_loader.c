@@ -44,8 +44,8 @@ static void *loader_main(void *arg)
     l->code = PROTO_ERR_FAILED;
     l->field = j->groom_path[0] ? "file" : "style";
     if (st == CORE_OK && ((st = app_groom_check_size(&l->g, &l->err)) != CORE_OK ||
-                          (st = app_budget_check(j->particles_per_s, j->min_rate, l->g.g.nstrands, l->g.g.nverts, &l->err)) !=
-                              CORE_OK)) {
+                          (st = app_budget_check(j->particles_per_s, j->min_rate, j->params.solver, l->g.g.nstrands,
+                                                 l->g.g.nverts, &l->err)) != CORE_OK)) {
         l->code = PROTO_ERR_TOO_LARGE;
         app_groom_free(&l->g);
     }

@@ -96,13 +96,15 @@ static core_status check_budget(const app *a, app_world *w, core_err *err)
     if (a->d.min_step_rate < 0.0) return CORE_OK;
     sim_desc sd = { .backend = w->backend, .threads = a->d.threads, .device = a->d.device };
     unsigned long long t0 = core_now_ns();
-    core_status st = app_budget_measure(&sd, &w->particles_per_s, err);
+    core_status st = app_budget_measure(&sd, &w->budget, err);
     if (st != CORE_OK) return st;
-    core_log(CORE_LOG_INFO, "app", "groom budget: %.3g particles/s here (%.0f ms to measure); grooms of up to %.0f particles "
-             "step at %.0f steps/s", w->particles_per_s, (double)(core_now_ns() - t0) / 1e6,
-             w->particles_per_s / a->d.min_step_rate, a->d.min_step_rate);
+    core_log(CORE_LOG_INFO, "app", "groom budget: dftl %.3g, pbd %.3g particles/s here (%.0f ms to measure); grooms of up to "
+             "%.0f (dftl) and %.0f (pbd) particles step at %.0f steps/s", w->budget.dftl, w->budget.pbd,
+             (double)(core_now_ns() - t0) / 1e6, w->budget.dftl / a->d.min_step_rate, w->budget.pbd / a->d.min_step_rate,
+             a->d.min_step_rate);
     core_err why;
-    if ((st = app_budget_check(w->particles_per_s, a->d.min_step_rate, w->groom.g.nstrands, w->groom.g.nverts, &why)) != CORE_OK)
+    if ((st = app_budget_check(app_budget_rate(&w->budget, w->params.solver), a->d.min_step_rate, w->params.solver,
+                               w->groom.g.nstrands, w->groom.g.nverts, &why)) != CORE_OK)
         return core_fail(err, st, "--groom %s: %s (or lower --min-step-rate)", w->groom.source, why.msg);
     return CORE_OK;
 }

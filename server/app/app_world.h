@@ -11,6 +11,7 @@
 #include "app.h"
 #include "app_anim.h"
 #include "app_assets.h"
+#include "app_budget.h"
 #include "app_clients.h"
 #include "app_groom.h"
 #include "app_loader.h"
@@ -44,7 +45,7 @@ typedef struct app_world {
     /* the simulation */
     sim sim;
     sim_backend_kind backend; /* the backend the first simulation resolved to: later ones use it */
-    double particles_per_s;   /* what that backend steps (app_budget); 0 = no groom budget */
+    app_budget budget;        /* what that backend steps per solver (app_budget); 0 = no groom budget */
     sim_params params;
     app_groom groom;
     float *xyz;               /* positions of the current groom, strand-major */

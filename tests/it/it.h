@@ -128,7 +128,7 @@ float *fetch_groom_data(fixture *fx, const cJSON *g);
 int setup_ratboy(void **state);
 /* The common fixture with --max-clients 2 (it_lifecycle.c). */
 int setup_two_clients(void **state);
-/* The common fixture with a groom budget of 100 steps/s (it_lifecycle.c). */
+/* The common fixture with a groom budget of 400 steps/s (it_lifecycle.c). */
 int setup_budget(void **state);
 /* The hair-mesh solver on a groom traced through a procedural hair mesh (it_streams.c). */
 int setup_hairmesh(void **state);

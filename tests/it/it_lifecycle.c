@@ -258,6 +258,71 @@ void test_groom_budget_refuses(void **state)
     cJSON_Delete(ok);
 }
 
+/* The largest groom (particles) the refusal of a too large set_groom names for solver, after
+ * checking that it is refused too_large with that solver's name (id is the request's). */
+static double refused_capacity(fixture *fx, wsc_conn *c, const char *solver, int id)
+{
+    char req[160];
+    snprintf(req, sizeof req, "{\"type\":\"set_groom\",\"style\":\"wavy\",\"strands\":4096,\"verts\":32,\"id\":%d}", id);
+    wsc_send_text(c, req);
+    cJSON *e = expect_msg_within(fx, c, "error", 4 * WAIT_MS);
+    assert_true(num(e, "id") == id);
+    assert_string_equal(str(e, "code"), "too_large");
+    char named[32];
+    snprintf(named, sizeof named, "with the %s solver", solver);
+    const char *msg = str(e, "message"), *about = strstr(msg, "it steps about ");
+    assert_non_null(strstr(msg, named));
+    assert_non_null(about);
+    double cap = atof(about + strlen("it steps about "));
+    cJSON_Delete(e);
+    assert_true(cap > 0.0);
+    return cap;
+}
+
+/* Sends set_params solver=name with id and returns its reply, of type reply ("ok" or "error"). */
+static cJSON *set_solver(fixture *fx, wsc_conn *c, const char *name, int id, const char *reply)
+{
+    char req[128];
+    snprintf(req, sizeof req, "{\"type\":\"set_params\",\"values\":{\"solver\":\"%s\"},\"id\":%d}", name, id);
+    wsc_send_text(c, req);
+    cJSON *r = expect_msg_within(fx, c, reply, 4 * WAIT_MS);
+    assert_true(num(r, "id") == id);
+    return r;
+}
+
+/* The budget is the active solver's: PBD steps this machine's standard groom slower than DFTL,
+ * so a groom DFTL takes can be too large for PBD, and switching to PBD then is refused
+ * too_large (field solver) with the numbers while the groom keeps running under DFTL. */
+void test_groom_budget_per_solver(void **state)
+{
+    fixture *fx = *state;
+    wsc_conn *c = connect_view(fx, NULL);
+    cJSON_Delete(expect_msg(fx, c, "hello"));
+    wsc_send_text(c, "{\"type\":\"set_groom\",\"style\":\"wavy\",\"strands\":16,\"verts\":8,\"id\":1}");
+    cJSON *ok = expect_msg_within(fx, c, "ok", 4 * WAIT_MS);
+    cJSON_Delete(ok);
+    double dftl = refused_capacity(fx, c, "dftl", 2);
+    cJSON_Delete(set_solver(fx, c, "pbd", 3, "ok"));
+    double pbd = refused_capacity(fx, c, "pbd", 4);
+    /* measured 3-5x apart (PBD with its shape constraints and 4 iterations) */
+    assert_true(pbd < 0.7 * dftl);
+    cJSON_Delete(set_solver(fx, c, "dftl", 5, "ok"));
+    /* halfway (geometrically) between the two capacities, in strands of 16 vertices */
+    int strands = (int)(sqrt(pbd * dftl) / 16.0);
+    char req[160];
+    snprintf(req, sizeof req, "{\"type\":\"set_groom\",\"style\":\"wavy\",\"strands\":%d,\"verts\":16,\"id\":6}", strands);
+    wsc_send_text(c, req);
+    ok = expect_msg_within(fx, c, "ok", 8 * WAIT_MS);
+    assert_true(num(ok, "id") == 6);
+    cJSON_Delete(ok);
+    cJSON *r = set_solver(fx, c, "pbd", 7, "error");
+    assert_string_equal(str(r, "code"), "too_large");
+    assert_string_equal(str(r, "field"), "solver");
+    assert_non_null(strstr(str(r, "message"), "with the pbd solver"));
+    cJSON_Delete(r);
+    cJSON_Delete(set_solver(fx, c, "dftl", 8, "ok")); /* still dftl: the same value is taken */
+}
+
 int setup_large_groom(void **state)
 {
     static const char *const extra[] = { "--strands", "65536", "--verts", "4", NULL };

@@ -123,6 +123,11 @@ void test_flags(void **state)
     if (rc != 1 || !strstr(out, "open.obj")) fail_msg("an open --collider mesh: exit %d, said: %s", rc, out);
     const char *empty_mesh[] = { "--collider=", NULL };
     assert_int_equal(run_capture(cfg->exe, empty_mesh, out, sizeof out), 2);
+    /* a start-up groom over the active solver's budget: exit 1 naming the solver */
+    const char *slow[] = { "--no-net", "--backend", "cpu", "--solver", "pbd", "--strands", "4096", "--verts", "32",
+                           "--min-step-rate", "400", NULL };
+    rc = run_capture(cfg->exe, slow, out, sizeof out);
+    if (rc != 1 || !strstr(out, "with the pbd solver")) fail_msg("4,096 x 32 under pbd at 400 steps/s: exit %d, said: %s", rc, out);
     const char *run[] = { "--no-net", "--steps", "5", "--backend", "cpu", "--strands", "16", "--verts", "4",
                           "--threads", "1", NULL };
     assert_int_equal(run_capture(cfg->exe, run, out, sizeof out), 0);
