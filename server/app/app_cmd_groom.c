@@ -137,6 +137,14 @@ void app_cmd_groom_poll(app_world *w)
     if (!app_loader_collect(l)) return;
     uint32_t client = l->client;
     const proto_msg *m = &l->msg;
+    /* the solver may have changed while it loaded: the groom must fit the one it will run under */
+    if (l->st == CORE_OK &&
+        app_budget_check(app_budget_rate(&w->budget, w->params.solver), l->job.min_rate, w->params.solver, l->g.g.nstrands,
+                         l->g.g.nverts, &l->err) != CORE_OK) {
+        l->st = CORE_EINVAL;
+        l->code = PROTO_ERR_TOO_LARGE;
+        l->field = l->job.groom_path[0] ? "file" : "style";
+    }
     if (l->st != CORE_OK) {
         refuse(w, client, m, l->code, l->field, l->err.msg);
     } else {
