@@ -234,8 +234,10 @@ void test_max_clients_refused(void **state)
 int setup_budget(void **state)
 {
     /* 400 steps/s: 4,096 x 32 would need 5.2e7 particle-steps/s, out of reach of a 2-core machine
-     * even with SPH at 30 Hz (the budget measured 1.4e7 there, where 100 steps/s let it in) */
-    static const char *const extra[] = { "--min-step-rate", "400", NULL };
+     * even with SPH at 30 Hz (the budget measured 1.4e7 there, where 100 steps/s let it in); a
+     * start-up groom of 16 x 8, which the sanitizer tree on a busy host (3.5e5 measured) still
+     * takes */
+    static const char *const extra[] = { "--min-step-rate", "400", "--strands", "16", NULL };
     return setup_with(state, extra);
 }
 
@@ -304,11 +306,13 @@ void test_groom_budget_per_solver(void **state)
     double dftl = refused_capacity(fx, c, "dftl", 2);
     cJSON_Delete(set_solver(fx, c, "pbd", 3, "ok"));
     double pbd = refused_capacity(fx, c, "pbd", 4);
-    /* measured 3-5x apart (PBD with its shape constraints and 4 iterations) */
-    assert_true(pbd < 0.7 * dftl);
+    /* measured 3-5x apart in the release tree (PBD with its shape constraints and 4 iterations),
+     * 1.4x in the sanitizer tree */
+    assert_true(pbd < 0.9 * dftl);
     cJSON_Delete(set_solver(fx, c, "dftl", 5, "ok"));
     /* halfway (geometrically) between the two capacities, in strands of 16 vertices */
     int strands = (int)(sqrt(pbd * dftl) / 16.0);
+    assert_true(strands * 16.0 > pbd && strands * 16.0 < dftl);
     char req[160];
     snprintf(req, sizeof req, "{\"type\":\"set_groom\",\"style\":\"wavy\",\"strands\":%d,\"verts\":16,\"id\":6}", strands);
     wsc_send_text(c, req);
