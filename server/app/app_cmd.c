@@ -107,7 +107,7 @@ static void set_params(app_world *w, uint32_t client, const proto_msg *m)
     if (p.solver != w->params.solver &&
         app_budget_check(app_budget_rate(&w->budget, p.solver), w->d->min_step_rate, p.solver, w->groom.g.nstrands,
                          w->groom.g.nverts, &err) != CORE_OK) {
-        app_reply_fail(w->out, client, &m->id, PROTO_ERR_TOO_LARGE, "solver", err.msg);
+        app_reply_fail(w->out, client, &m->id, PROTO_ERR_TOO_LARGE, "values.solver", err.msg);
         return;
     }
     /* a new solver takes the hair over where it is (sim_change) */

@@ -313,7 +313,7 @@ void test_groom_budget_per_solver(void **state)
     cJSON_Delete(ok);
     cJSON *r = set_solver(fx, c, "pbd", 7, "error");
     assert_string_equal(str(r, "code"), "too_large");
-    assert_string_equal(str(r, "field"), "solver");
+    assert_string_equal(str(r, "field"), "values.solver");
     assert_non_null(strstr(str(r, "message"), "with the pbd solver"));
     cJSON_Delete(r);
     cJSON_Delete(set_solver(fx, c, "dftl", 8, "ok")); /* still dftl: the same value is taken */
