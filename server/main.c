@@ -9,6 +9,7 @@
 
 #include "app/app.h"
 #include "app/app_budget.h"
+#include "bus/bus.h"
 #include "core/cli.h"
 #include "codec/codec.h"
 #include "groom/groom.h"
@@ -246,10 +247,12 @@ static int apply(int opt, const char *flag, const char *v, app_desc *d, extra_ar
             return bad(flag, v, "expected nats://[user:password@|token@]HOST:PORT");
         d->nats = v;
         break;
-    case OPT_NATS_CREDS:
-        if (access(v, R_OK) != 0) return bad(flag, v, strerror(errno));
+    case OPT_NATS_CREDS: {
+        core_err err;
+        if (bus_creds_check(v, &err) != CORE_OK) return bad(flag, v, err.msg);
         d->nats_creds = v;
         break;
+    }
     case OPT_RELAY: d->relay = true; break;
     case OPT_LISTEN:
         if (!*v) return bad(flag, v, "expected an address");
