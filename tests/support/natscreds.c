@@ -109,7 +109,7 @@ static char *sign(const natscreds_key *k, const char *msg)
     return ok ? base64url(sig, nsig) : NULL;
 }
 
-/* The claims of subject by issuer with jti (the whole claims text, or "" to hash it). */
+/* The claims JSON of subject signed by issuer, with jti ("": the text whose hash is the jti). */
 static int claims(char *out, size_t cap, const char *jti, long iat, const natscreds_key *issuer,
                   const natscreds_key *subject, const char *name)
 {
