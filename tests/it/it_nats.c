@@ -678,9 +678,49 @@ static void expect_refused(nats_fx *fx, bool relay, const char *creds, const cha
     print_message("%s with %s: exit 1 after %.2f s\n", relay ? "an edge" : "a node", creds ? creds : "no creds", now_s() - t0);
 }
 
+/* A server that comes up after the connection began (in the background) and refuses creds:
+ * libnats gives up after two refusals instead of retrying forever, and the bus logs the reason
+ * as an error (read back from this process's stderr). */
+static void refused_later(nats_fx *fx, const char *creds)
+{
+    int port = fx->nats.port;
+    natsd_stop(&fx->nats);
+    char log[] = "/tmp/strandcast-nats-log-XXXXXX";
+    int fd = mkstemp(log);
+    assert_true(fd >= 0);
+    fflush(stderr);
+    int saved = dup(2);
+    dup2(fd, 2);
+    natsConnection *nc = NULL;
+    bus_desc bd = { .url = fx->nats.url, .creds = creds, .name = "it refused later" };
+    core_err err;
+    core_status st = bus_connect(&nc, &bd, &err);
+    char conf[96];
+    snprintf(conf, sizeof conf, "%s/server.conf", fx->dir);
+    int up = natsd_start_conf(&fx->nats, port, conf);
+    double t0 = now_s();
+    while (nc && natsConnection_Status(nc) != NATS_CONN_STATUS_CLOSED && now_s() - t0 < 10) nats_Sleep(20);
+    bool closed = nc && natsConnection_Status(nc) == NATS_CONN_STATUS_CLOSED;
+    bus_close(nc, NULL, 0); /* the closed callback has run once libnats' threads are gone */
+    fflush(stderr);
+    dup2(saved, 2);
+    close(saved);
+    char text[4096];
+    ssize_t n = pread(fd, text, sizeof text - 1, 0);
+    close(fd);
+    unlink(log);
+    text[n > 0 ? n : 0] = '\0';
+    assert_int_equal(st, CORE_OK);
+    assert_int_equal(up, 0);
+    if (!closed) fail_msg("libnats still retries %.1f s after the server refused the credentials", now_s() - t0);
+    if (!strstr(text, "closed for good") || !strstr(text, "Authorization Violation")) fail_msg("logged: %s", text);
+    print_message("refused after start-up: connection closed and logged within %.2f s\n", now_s() - t0);
+}
+
 /* Credentials the server refuses (a user of an account it does not know; a user's JWT with
  * another user's seed; none at all) stop a node or an edge at start-up with exit status 1 and
- * the server's reason, instead of a daemon retrying forever in silence. */
+ * the server's reason, instead of a daemon retrying forever in silence; refused once the server
+ * comes up later, the connection ends with the reason logged (refused_later). */
 void test_nats_creds_refused(void **state)
 {
     nats_fx *fx = *state;
@@ -706,6 +746,7 @@ void test_nats_creds_refused(void **state)
     const char *const by_url[] = { "refused this client", "Authorization Violation", "token@", NULL };
     expect_refused(fx, false, NULL, by_url);
     expect_refused(fx, true, NULL, by_url);
+    refused_later(fx, other);
     /* the good credentials are accepted by the same server */
     natsConnection *nc = NULL;
     bus_desc bd = { .url = fx->nats.url, .creds = fx->creds, .name = "it credentials" };
