@@ -9,6 +9,7 @@
 
 #include "app/app.h"
 #include "app/app_budget.h"
+#include "bus/bus.h"
 #include "core/cli.h"
 #include "codec/codec.h"
 #include "groom/groom.h"
@@ -46,7 +47,10 @@ static void usage(FILE *f)
             "                         simulation node (edge relays' clients of that room are served too)\n"
             "  --relay                an edge relay (needs --nats): no simulation; the page, /metrics and\n"
             "                         WebSockets of any room (/rooms/NAME), relayed to the room's node\n"
-            "  --nats-creds FILE      NATS credentials file (JWT + NKey seed) for nodes and edges\n"
+            "  --nats-creds FILE      NATS credentials file (user JWT + NKey seed) for nodes and edges, for a\n"
+            "                         nats-server in operator mode; make one with nsc (the NATS project's tool, not\n"
+            "                         in Debian): nsc generate creds --account A --name U -o FILE. A server that\n"
+            "                         refuses it (or refuses the URL's token) stops start-up with its reason\n"
             "  --listen ADDR          IP address to bind (default 127.0.0.1; localhost; ::1; 0.0.0.0 = every interface)\n"
             "  --port N               TCP port (default 7681; 0 = a free port, printed at start-up)\n"
             "  --web DIR              folder served at / (default %s/web)\n"
@@ -247,10 +251,12 @@ static int apply(int opt, const char *flag, const char *v, app_desc *d, extra_ar
             return bad(flag, v, "expected nats://[user:password@|token@]HOST:PORT");
         d->nats = v;
         break;
-    case OPT_NATS_CREDS:
-        if (access(v, R_OK) != 0) return bad(flag, v, strerror(errno));
+    case OPT_NATS_CREDS: {
+        core_err err;
+        if (bus_creds_check(v, &err) != CORE_OK) return bad(flag, v, err.msg);
         d->nats_creds = v;
         break;
+    }
     case OPT_RELAY: d->relay = true; break;
     case OPT_LISTEN:
         if (!*v) return bad(flag, v, "expected an address");

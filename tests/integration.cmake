@@ -2,9 +2,9 @@
 # (tests/it/, with the lws client server/wsc/). One ctest test per scenario.
 file(GLOB IT_SOURCES CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/it/*.c)
 add_executable(it_net ${IT_SOURCES} ${CMAKE_CURRENT_SOURCE_DIR}/support/daemon.c ${CMAKE_CURRENT_SOURCE_DIR}/support/rawws.c
-                      ${CMAKE_CURRENT_SOURCE_DIR}/support/natsd.c)
+                      ${CMAKE_CURRENT_SOURCE_DIR}/support/natsd.c ${CMAKE_CURRENT_SOURCE_DIR}/support/natscreds.c)
 target_include_directories(it_net PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
-target_link_libraries(it_net PRIVATE strandcast PkgConfig::CMOCKA)
+target_link_libraries(it_net PRIVATE strandcast PkgConfig::CMOCKA PkgConfig::CRYPTO)
 add_dependencies(it_net strandcastd strandcastc)
 # one test per line of tests/it/scenarios.h (the same list it_main.c runs); the collider
 # scenario reads the Ratboy groom and body from the shared assets (skipped without them)

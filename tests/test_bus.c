@@ -1,10 +1,14 @@
 /* Tests server/bus: room subjects, messages with headers read back, connecting without a URL and
- * to a server that is not up yet (no nats-server needed: the integration tests run one). */
+ * to a server that is not up yet, the shape of credentials files (no nats-server needed: the
+ * integration tests run one). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include <cmocka.h>
 
 #include "bus/bus.h"
@@ -58,12 +62,56 @@ static void test_connect(void **state)
     bus_close(nc, NULL, 0);
 }
 
+/* path holds text (fails the test otherwise). */
+static void put(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fputs(text, f) >= 0, 1);
+    assert_int_equal(fclose(f), 0);
+}
+
+/* A credentials file in nsc's layout passes; one without the JWT or the seed, a seed of another
+ * kind (an account's), a folder or a missing file fail with the reason. */
+static void test_creds_check(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/strandcast-bus-creds-XXXXXX", path[64];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/u.creds", dir);
+    static const char jwt[] = "-----BEGIN NATS USER JWT-----\neyJ0eXAiOiJKV1QifQ.eyJzdWIiOiJVIn0.c2lnbmF0dXJl\n"
+                              "------END NATS USER JWT------\n\n";
+    static const char seed[] = "-----BEGIN USER NKEY SEED-----\nSUAMLK2ZNL35WSMW37E7UD4VZ7ELPKW7DHC3BWBSD2GCZ7IUQQXZIORRBU\n"
+                               "------END USER NKEY SEED------\n";
+    char text[512];
+    core_err err;
+    snprintf(text, sizeof text, "%s%s", jwt, seed);
+    put(path, text);
+    assert_int_equal(bus_creds_check(path, &err), CORE_OK);
+    put(path, seed);
+    assert_int_equal(bus_creds_check(path, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "no user JWT"));
+    put(path, jwt);
+    assert_int_equal(bus_creds_check(path, &err), CORE_EINVAL);
+    assert_non_null(strstr(err.msg, "no NKey user seed"));
+    snprintf(text, sizeof text, "%sSAAMLK2ZNL35WSMW37E7UD4VZ7ELPKW7DHC3BWBSD2GCZ7IUQQXZIORRBU\n", jwt);
+    put(path, text);
+    assert_int_equal(bus_creds_check(path, &err), CORE_EINVAL);
+    assert_int_equal(bus_creds_check(dir, &err), CORE_EIO);
+    assert_non_null(strstr(err.msg, "directory"));
+    unlink(path);
+    assert_int_equal(bus_creds_check(path, &err), CORE_EIO);
+    assert_non_null(strstr(err.msg, "No such file"));
+    rmdir(dir);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_subjects),
         cmocka_unit_test(test_headers),
         cmocka_unit_test(test_connect),
+        cmocka_unit_test(test_creds_check),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

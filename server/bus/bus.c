@@ -29,8 +29,23 @@ static void on_up(natsConnection *nc, void *closure)
 
 static void on_closed(natsConnection *nc, void *closure)
 {
-    (void)nc;
+    const char *text = NULL;
+    natsStatus s = natsConnection_GetLastError(nc, &text);
+    /* reconnecting forever, libnats gives up only when the server refuses this client twice (its
+     * authorization); other errors are those of the last attempt before bus_close */
+    if (s == NATS_CONNECTION_AUTH_FAILED || s == NATS_NOT_PERMITTED)
+        core_log(CORE_LOG_ERROR, "bus", "NATS connection closed for good (no more reconnects): %s%s%s", natsStatus_GetText(s),
+                 text && *text ? ": " : "", text ? text : "");
     free(closure); /* the last callback of a connection */
+}
+
+/* libnats' last error of this thread without its "(file.c:line): " prefix ("" when none). */
+static const char *last_error(void)
+{
+    const char *t = nats_GetLastError(NULL);
+    if (!t) return "";
+    const char *p = t[0] == '(' ? strstr(t, "): ") : NULL;
+    return p ? p + 3 : t;
 }
 
 core_status bus_connect(natsConnection **out, const bus_desc *d, core_err *err)
@@ -54,7 +69,6 @@ core_status bus_connect(natsConnection **out, const bus_desc *d, core_err *err)
     if (s == NATS_OK) s = natsOptions_SetReconnectBufSize(o, 8 * 1024 * 1024);
     if (s == NATS_OK) s = natsOptions_SetPingInterval(o, 1000);
     if (s == NATS_OK) s = natsOptions_SetMaxPingsOut(o, 2);
-    if (s == NATS_OK) s = natsOptions_SetRetryOnFailedConnect(o, true, on_up, l);
     if (s == NATS_OK) s = natsOptions_SetDisconnectedCB(o, on_down, l);
     if (s == NATS_OK) s = natsOptions_SetReconnectedCB(o, on_up, l);
     if (s == NATS_OK) s = natsOptions_SetClosedCB(o, on_closed, l);
@@ -64,7 +78,14 @@ core_status bus_connect(natsConnection **out, const bus_desc *d, core_err *err)
         free(l);
         return core_fail(err, CORE_EINVAL, "bus: NATS options for %s: %s", d->url, natsStatus_GetText(s));
     }
+    /* a first attempt without retries: a server that is up but refuses this client (its
+     * authorization, a bad credentials file, TLS) is an error now, not a silent retry; only a
+     * server that is not up yet is waited for, in the background */
     s = natsConnection_Connect(out, o);
+    if (s == NATS_NO_SERVER || s == NATS_TIMEOUT) {
+        s = natsOptions_SetRetryOnFailedConnect(o, true, on_up, l);
+        if (s == NATS_OK) s = natsConnection_Connect(out, o);
+    }
     natsOptions_Destroy(o);
     if (s == NATS_NOT_YET_CONNECTED) {
         core_log(CORE_LOG_WARN, "bus", "NATS at %s is not up yet; connecting in the background", d->url);
@@ -74,9 +95,14 @@ core_status bus_connect(natsConnection **out, const bus_desc *d, core_err *err)
         if (*out) natsConnection_Destroy(*out);
         else free(l);
         *out = NULL;
-        const char *last = nats_GetLastError(NULL);
+        const char *last = last_error();
+        if (s == NATS_CONNECTION_AUTH_FAILED)
+            return core_fail(err, CORE_EIO, "bus: NATS at %s refused this client (%s%s%s): check %s%s", d->url,
+                             natsStatus_GetText(s), *last ? ": " : "", last,
+                             d->creds ? "the credentials file " : "the user:password@ or token@ of the URL",
+                             d->creds ? d->creds : "");
         return core_fail(err, CORE_EIO, "bus: cannot connect to NATS at %s: %s%s%s", d->url, natsStatus_GetText(s),
-                         last ? ": " : "", last ? last : "");
+                         *last ? ": " : "", last);
     }
     return CORE_OK;
 }

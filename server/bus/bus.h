@@ -34,6 +34,12 @@ typedef struct bus_desc {
  * *out (bus_close). Any thread. */
 core_status bus_connect(natsConnection **out, const bus_desc *d, core_err *err);
 
+/* Checks that path reads as a NATS credentials file (a user JWT and an NKey user seed, as nsc
+ * writes them: what libnats reads at each connect) without connecting: CORE_EIO when it cannot be
+ * read, CORE_EINVAL when it holds no JWT or no seed, with the reason (no path) in err. Signatures
+ * and the seed's checksum are the server's and libnats' to check. Any thread. */
+core_status bus_creds_check(const char *path, core_err *err);
+
 /* Flushes and closes the connection (which ends its subscriptions), waits (up to 2 s) until the
  * delivery thread has finished with each of the n subscriptions in subs (NULL entries skipped),
  * destroys them and the connection, then releases libnats' threads (once per process, for its

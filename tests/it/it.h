@@ -77,6 +77,9 @@ uint64_t gcd(uint64_t a, uint64_t b);
 void on_frame(wsc_conn *c, const uint8_t *data, size_t len, void *user);
 /* Writes a whole file (fails the test on error). */
 void write_file(const char *path, const void *data, size_t len);
+/* Runs exe with args (NULL-terminated, without argv[0]) to its end, its stdout and stderr into
+ * out (NUL-terminated, at most cap - 1 bytes); returns its exit status (128 + signal if killed). */
+int run_capture(const char *exe, const char *const *args, char *out, size_t cap);
 /* A Cem Yuksel .hair file of hairs x pts points (straight strands, tips up by `up`). */
 void write_hair(const char *path, uint32_t hairs, uint32_t pts, float up);
 /* Starts the daemon with the common flags plus extra (NULL-terminated, may be NULL) into a new
@@ -146,6 +149,10 @@ int setup_room(void **state);
 int setup_nats(void **state);
 int setup_nats_token(void **state);
 int setup_nats_client_token(void **state); /* the node of r1 with --token-file (IT_TOKEN) */
+/* nats-server in operator mode (credentials made by tests/support/natscreds.c), with nodes and
+ * edges using the user's --nats-creds as setup_nats starts them, or (_server) none. */
+int setup_nats_creds(void **state);
+int setup_nats_creds_server(void **state);
 int teardown_nats(void **state);
 #define IT_TOKEN "k3Jq9-Vx2Lm7Tz8Wb4Np6Rs1Yd5Hf0Gc"
 int teardown_ratboy(void **state);

@@ -11,6 +11,7 @@
 
 #include "bus/bus.h"
 #include "it.h"
+#include "support/natscreds.h"
 #include "support/natsd.h"
 
 #define NATS_TOKEN "it-nats-token-5c1e"
@@ -27,6 +28,9 @@ typedef struct seen {
 typedef struct nats_fx {
     const config *cfg;
     natsd nats;
+    char dir[64];            /* setup_nats_creds*: the operator-mode files (natscreds_setup), or "" */
+    char creds[96];          /* the nodes' and edges' --nats-creds, or "" */
+    natscreds_key account;   /* the account of dir/user.creds */
     daemon_proc nodes[2], edges[2];
     wsc *w;
     seen seen[4];
@@ -53,38 +57,72 @@ static void on_raw(wsc_conn *c, const uint8_t *data, size_t len, void *user)
     s->strands = info.nstrands_sent;
 }
 
+/* The common flags of nodes and edges into argv from n on, with --nats-creds when the fixture
+ * has credentials; returns the new count. */
+static int nats_args(nats_fx *fx, char **argv, int n)
+{
+    argv[n++] = "--port";
+    argv[n++] = "0";
+    argv[n++] = "--nats";
+    argv[n++] = fx->nats.url;
+    if (fx->creds[0]) {
+        argv[n++] = "--nats-creds";
+        argv[n++] = fx->creds;
+    }
+    return n;
+}
+
 /* A node of room; with token_file, clients need that token to change anything. */
 static void start_node(nats_fx *fx, int i, const char *room, const char *token_file)
 {
-    char *argv[] = { (char *)fx->cfg->exe, "--port", "0", "--backend", "cpu", "--strands", "64", "--verts", "8", "--threads", "1",
-                     "--min-step-rate", "0", "--nats", fx->nats.url, "--room", (char *)room,
-                     token_file ? "--token-file" : NULL, (char *)token_file, NULL };
+    char *argv[32] = { (char *)fx->cfg->exe, "--backend", "cpu", "--strands", "64", "--verts", "8", "--threads", "1",
+                       "--min-step-rate", "0", "--room", (char *)room };
+    int n = nats_args(fx, argv, 13);
+    if (token_file) {
+        argv[n++] = "--token-file";
+        argv[n++] = (char *)token_file;
+    }
     assert_int_equal(daemon_start(&fx->nodes[i], fx->cfg->exe, argv, 20000), 0);
 }
 
 static void start_edge(nats_fx *fx, int i)
 {
-    char *argv[] = { (char *)fx->cfg->exe, "--relay", "--port", "0", "--nats", fx->nats.url, NULL };
+    char *argv[16] = { (char *)fx->cfg->exe, "--relay" };
+    nats_args(fx, argv, 2);
     assert_int_equal(daemon_start(&fx->edges[i], fx->cfg->exe, argv, 20000), 0);
 }
 
-/* nats-server, nodes of rooms r1 and r2, two edges (token: nats-server requires it; token_file:
- * the node of r1 requires its token from clients). */
-static int setup_nodes(void **state, const char *token, const char *token_file)
+/* A new fixture (*state) for nats-server, or NULL (the scenario skipped) when it is not installed. */
+static nats_fx *new_fx(void **state)
 {
     if (!natsd_exe()) {
         print_message("nats-server is not installed (.ci/deps installs it): skipped\n");
-        return -1;
+        return NULL;
     }
     nats_fx *fx = calloc(1, sizeof *fx);
     fx->cfg = *state;
-    assert_int_equal(natsd_start(&fx->nats, 0, token), 0);
+    fx->w = wsc_new();
+    *state = fx;
+    return fx;
+}
+
+/* Nodes of rooms r1 and r2 and two edges (token_file: the node of r1 requires its token from
+ * clients). */
+static void start_all(nats_fx *fx, const char *token_file)
+{
     start_node(fx, 0, "r1", token_file);
     start_node(fx, 1, "r2", NULL);
     start_edge(fx, 0);
     start_edge(fx, 1);
-    fx->w = wsc_new();
-    *state = fx;
+}
+
+/* nats-server (token: it requires it), nodes and edges (start_all). */
+static int setup_nodes(void **state, const char *token, const char *token_file)
+{
+    nats_fx *fx = new_fx(state);
+    if (!fx) return -1;
+    assert_int_equal(natsd_start(&fx->nats, 0, token), 0);
+    start_all(fx, token_file);
     return 0;
 }
 
@@ -103,6 +141,29 @@ int setup_nats_client_token(void **state)
     return rc;
 }
 
+/* The files setup_nats_creds* and the scenarios write in fx->dir. */
+static const char *const creds_files[] = { "op.jwt", "server.conf", "user.creds", "other.creds", "seed.creds" };
+
+/* nats-server in operator mode (natscreds_setup in a new folder: it knows one account, whose
+ * user's credentials are fx->creds); with daemons, nodes and edges using them (start_all). */
+static int setup_creds(void **state, bool daemons)
+{
+    nats_fx *fx = new_fx(state);
+    if (!fx) return -1;
+    snprintf(fx->dir, sizeof fx->dir, "/tmp/strandcast-nats-creds-XXXXXX");
+    assert_non_null(mkdtemp(fx->dir));
+    assert_int_equal(natscreds_setup(fx->dir, &fx->account), 0);
+    char conf[96];
+    snprintf(conf, sizeof conf, "%s/server.conf", fx->dir);
+    snprintf(fx->creds, sizeof fx->creds, "%s/user.creds", fx->dir);
+    assert_int_equal(natsd_start_conf(&fx->nats, 0, conf), 0);
+    if (daemons) start_all(fx, NULL);
+    return 0;
+}
+
+int setup_nats_creds(void **state) { return setup_creds(state, true); }
+int setup_nats_creds_server(void **state) { return setup_creds(state, false); }
+
 int teardown_nats(void **state)
 {
     nats_fx *fx = *state;
@@ -113,6 +174,14 @@ int teardown_nats(void **state)
         if (fx->nodes[i].pid > 0 && daemon_stop(&fx->nodes[i], SIGTERM, 15000) != 0) bad++;
     }
     natsd_stop(&fx->nats);
+    if (fx->dir[0]) {
+        char path[128];
+        for (size_t i = 0; i < sizeof creds_files / sizeof creds_files[0]; i++) {
+            snprintf(path, sizeof path, "%s/%s", fx->dir, creds_files[i]);
+            unlink(path);
+        }
+        rmdir(fx->dir);
+    }
     free(fx);
     if (bad) fprintf(stderr, "%d strandcastd processes did not exit with 0 after SIGTERM\n", bad);
     return bad ? -1 : 0;
@@ -551,4 +620,139 @@ void test_nats_request_reply(void **state)
     assert_true(metric(r.body, "strandcast_nats_texts_in_total") == 1);
     http_reply_free(&r);
     bus_close(nc, &sub, 1);
+}
+
+/* Nodes and edges authenticate to a nats-server in operator mode with --nats-creds (a user JWT
+ * signed by an account the server trusts, and the user's NKey seed): clients of a room on two
+ * edges get its frames, a change through one edge is acknowledged and announced on the other,
+ * and the server does require credentials (a connection without them is refused). */
+void test_nats_creds(void **state)
+{
+    nats_fx *fx = *state;
+    double ida;
+    wsc_conn *a = join(fx, 0, "r1", &fx->seen[0], &ida);
+    wsc_conn *b = join(fx, 1, "r1", &fx->seen[1], NULL);
+    join(fx, 1, "r2", &fx->seen[2], NULL);
+    wait_seen(fx, &fx->seen[0], 30, 15000);
+    wait_seen(fx, &fx->seen[1], 30, 15000);
+    wait_seen(fx, &fx->seen[2], 10, 15000);
+    wsc_send_text(a, "{\"type\":\"set_params\",\"id\":\"creds-1\",\"values\":{\"gravity\":2.5}}");
+    const char *t = wsc_next_of_type(fx->w, a, "ok", 5000);
+    assert_non_null(t);
+    assert_non_null(strstr(t, "\"id\":\"creds-1\""));
+    cJSON *p = expect_params_by(fx, b, ida);
+    assert_true(num(get(p, "values"), "gravity") == 2.5);
+    cJSON_Delete(p);
+    natsConnection *nc = NULL;
+    bus_desc bare = { .url = fx->nats.url, .name = "it no credentials" };
+    core_err err;
+    assert_int_equal(bus_connect(&nc, &bare, &err), CORE_EIO);
+    assert_null(nc);
+    assert_non_null(strstr(err.msg, "refused this client"));
+    bus_close(NULL, NULL, 0);
+}
+
+/* Runs a node (or with relay, an edge) with --nats-creds creds (NULL: none) against the
+ * fixture's server and checks that it exits at start-up with status 1 and a message holding
+ * each of the NULL-terminated needles. */
+static void expect_refused(nats_fx *fx, bool relay, const char *creds, const char *const *needles)
+{
+    const char *args[24] = { "--port", "0", "--nats", fx->nats.url };
+    int n = 4;
+    if (relay) args[n++] = "--relay";
+    else {
+        static const char *const node[] = { "--backend", "cpu", "--strands", "16", "--verts", "4", "--threads", "1",
+                                            "--min-step-rate", "0" };
+        for (size_t i = 0; i < sizeof node / sizeof node[0]; i++) args[n++] = node[i];
+    }
+    if (creds) {
+        args[n++] = "--nats-creds";
+        args[n++] = creds;
+    }
+    static char out[16384];
+    double t0 = now_s();
+    int rc = run_capture(fx->cfg->exe, args, out, sizeof out);
+    if (rc != 1) fail_msg("%s with %s: exit %d, want 1; said: %s", relay ? "an edge" : "a node", creds ? creds : "no creds", rc, out);
+    for (const char *const *s = needles; *s; s++)
+        if (!strstr(out, *s)) fail_msg("%s with %s: no \"%s\" in: %s", relay ? "an edge" : "a node", creds ? creds : "no creds", *s, out);
+    print_message("%s with %s: exit 1 after %.2f s\n", relay ? "an edge" : "a node", creds ? creds : "no creds", now_s() - t0);
+}
+
+/* A server that comes up after the connection began (in the background) and refuses creds:
+ * libnats gives up after two refusals instead of retrying forever, and the bus logs the reason
+ * as an error (read back from this process's stderr). */
+static void refused_later(nats_fx *fx, const char *creds)
+{
+    int port = fx->nats.port;
+    natsd_stop(&fx->nats);
+    char log[] = "/tmp/strandcast-nats-log-XXXXXX";
+    int fd = mkstemp(log);
+    assert_true(fd >= 0);
+    fflush(stderr);
+    int saved = dup(2);
+    dup2(fd, 2);
+    natsConnection *nc = NULL;
+    bus_desc bd = { .url = fx->nats.url, .creds = creds, .name = "it refused later" };
+    core_err err;
+    core_status st = bus_connect(&nc, &bd, &err);
+    char conf[96];
+    snprintf(conf, sizeof conf, "%s/server.conf", fx->dir);
+    int up = natsd_start_conf(&fx->nats, port, conf);
+    double t0 = now_s();
+    while (nc && natsConnection_Status(nc) != NATS_CONN_STATUS_CLOSED && now_s() - t0 < 10) nats_Sleep(20);
+    bool closed = nc && natsConnection_Status(nc) == NATS_CONN_STATUS_CLOSED;
+    bus_close(nc, NULL, 0); /* the closed callback has run once libnats' threads are gone */
+    fflush(stderr);
+    dup2(saved, 2);
+    close(saved);
+    char text[4096];
+    ssize_t n = pread(fd, text, sizeof text - 1, 0);
+    close(fd);
+    unlink(log);
+    text[n > 0 ? n : 0] = '\0';
+    assert_int_equal(st, CORE_OK);
+    assert_int_equal(up, 0);
+    if (!closed) fail_msg("libnats still retries %.1f s after the server refused the credentials", now_s() - t0);
+    if (!strstr(text, "closed for good") || !strstr(text, "Authorization Violation")) fail_msg("logged: %s", text);
+    print_message("refused after start-up: connection closed and logged within %.2f s\n", now_s() - t0);
+}
+
+/* Credentials the server refuses (a user of an account it does not know; a user's JWT with
+ * another user's seed; none at all) stop a node or an edge at start-up with exit status 1 and
+ * the server's reason, instead of a daemon retrying forever in silence; refused once the server
+ * comes up later, the connection ends with the reason logged (refused_later). */
+void test_nats_creds_refused(void **state)
+{
+    nats_fx *fx = *state;
+    natscreds_key stranger, user, other_user;
+    assert_int_equal(natscreds_key_new(&stranger, 'A'), 0);
+    assert_int_equal(natscreds_key_new(&user, 'U'), 0);
+    assert_int_equal(natscreds_key_new(&other_user, 'U'), 0);
+    char other[128], seed[128];
+    snprintf(other, sizeof other, "%s/other.creds", fx->dir);
+    snprintf(seed, sizeof seed, "%s/seed.creds", fx->dir);
+    char *jwt = natscreds_jwt(&stranger, &user, "stranger");
+    assert_non_null(jwt);
+    assert_int_equal(natscreds_write(other, jwt, user.seed), 0);
+    free(jwt);
+    jwt = natscreds_jwt(&fx->account, &user, "wrong-seed");
+    assert_non_null(jwt);
+    assert_int_equal(natscreds_write(seed, jwt, other_user.seed), 0);
+    free(jwt);
+    const char *const by_creds[] = { "refused this client", "Authorization Violation", "check the credentials file", NULL };
+    expect_refused(fx, false, other, by_creds);
+    expect_refused(fx, true, other, by_creds);
+    expect_refused(fx, false, seed, by_creds);
+    const char *const by_url[] = { "refused this client", "Authorization Violation", "token@", NULL };
+    expect_refused(fx, false, NULL, by_url);
+    expect_refused(fx, true, NULL, by_url);
+    refused_later(fx, other);
+    /* the good credentials are accepted by the same server */
+    natsConnection *nc = NULL;
+    bus_desc bd = { .url = fx->nats.url, .creds = fx->creds, .name = "it credentials" };
+    core_err err;
+    assert_int_equal(bus_connect(&nc, &bd, &err), CORE_OK);
+    assert_non_null(nc);
+    assert_int_equal(natsConnection_Status(nc), NATS_CONN_STATUS_CONNECTED);
+    bus_close(nc, NULL, 0);
 }

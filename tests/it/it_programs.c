@@ -9,34 +9,6 @@
 
 #include "it.h"
 
-static int run_capture(const char *exe, const char *const *args, char *out, size_t cap)
-{
-    int fds[2];
-    assert_int_equal(pipe(fds), 0);
-    pid_t pid = fork();
-    if (pid == 0) {
-        dup2(fds[1], 1);
-        dup2(fds[1], 2);
-        close(fds[0]);
-        char *argv[32];
-        int n = 0;
-        argv[n++] = (char *)exe;
-        for (; args[n - 1] && n < 31; n++) argv[n] = (char *)args[n - 1];
-        argv[n] = NULL;
-        execv(exe, argv);
-        _exit(127);
-    }
-    close(fds[1]);
-    size_t len = 0;
-    ssize_t r;
-    while ((r = read(fds[0], out + len, cap - 1 - len)) > 0) len += (size_t)r;
-    out[len] = '\0';
-    close(fds[0]);
-    int status;
-    waitpid(pid, &status, 0);
-    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
-
 void test_flags(void **state)
 {
     const config *cfg = *state;
@@ -93,6 +65,27 @@ void test_flags(void **state)
     }
     unlink(tfile);
     rmdir(tdir);
+    /* a NATS credentials file that is missing, a folder, or not one (no JWT, no seed): refused at
+     * start-up with the reason, before any connection */
+    char cdir[64], garbage[96], jwt_only[96];
+    snprintf(cdir, sizeof cdir, "/tmp/strandcast-creds-XXXXXX");
+    assert_non_null(mkdtemp(cdir));
+    snprintf(garbage, sizeof garbage, "%s/garbage.creds", cdir);
+    snprintf(jwt_only, sizeof jwt_only, "%s/jwt-only.creds", cdir);
+    write_file(garbage, "not a credentials file\n", 23);
+    static const char jwt[] = "-----BEGIN NATS USER JWT-----\neyJ0eXAiOiJKV1QifQ.e30.c2ln\n------END NATS USER JWT------\n";
+    write_file(jwt_only, jwt, strlen(jwt));
+    const char *const creds_bad[][2] = { { "/nonexistent/c.creds", "No such file" }, { cdir, "Is a directory" },
+                                         { garbage, "no user JWT" }, { jwt_only, "no NKey user seed" } };
+    for (size_t i = 0; i < sizeof creds_bad / sizeof creds_bad[0]; i++) {
+        const char *args[] = { "--nats", "nats://127.0.0.1:1", "--nats-creds", creds_bad[i][0], NULL };
+        int rcc = run_capture(cfg->exe, args, out, sizeof out);
+        if (rcc != 2 || !strstr(out, "--nats-creds") || !strstr(out, creds_bad[i][1]))
+            fail_msg("--nats-creds %s: exit %d, said: %s", creds_bad[i][0], rcc, out);
+    }
+    unlink(garbage);
+    unlink(jwt_only);
+    rmdir(cdir);
     const char *missing[] = { "--no-net", "--groom", "/nonexistent/x.tfx", NULL };
     assert_int_equal(run_capture(cfg->exe, missing, out, sizeof out), 1);
     assert_non_null(strstr(out, "x.tfx"));

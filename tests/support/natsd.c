@@ -45,7 +45,8 @@ static bool accepts(int port)
     return ok;
 }
 
-int natsd_start(natsd *n, int port, const char *token)
+/* Starts exe with the listen flags, then token's (NULL: none) or conf's (NULL: none). */
+static int start(natsd *n, int port, const char *token, const char *conf)
 {
     const char *exe = natsd_exe();
     memset(n, 0, sizeof *n);
@@ -64,8 +65,8 @@ int natsd_start(natsd *n, int port, const char *token)
             dup2(devnull, 1);
             dup2(devnull, 2);
         }
-        if (token) execl(exe, exe, "-a", "127.0.0.1", "-p", ps, "--auth", token, (char *)NULL);
-        else execl(exe, exe, "-a", "127.0.0.1", "-p", ps, (char *)NULL);
+        const char *more = token ? "--auth" : conf ? "-c" : NULL;
+        execl(exe, exe, "-a", "127.0.0.1", "-p", ps, more, token ? token : conf, (char *)NULL);
         _exit(127);
     }
     n->pid = pid;
@@ -77,6 +78,10 @@ int natsd_start(natsd *n, int port, const char *token)
     natsd_stop(n);
     return -1;
 }
+
+int natsd_start(natsd *n, int port, const char *token) { return start(n, port, token, NULL); }
+
+int natsd_start_conf(natsd *n, int port, const char *conf) { return start(n, port, NULL, conf); }
 
 void natsd_stop(natsd *n)
 {

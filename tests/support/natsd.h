@@ -19,6 +19,8 @@ int natsd_free_port(void);
 /* Starts nats-server on 127.0.0.1:port (0 = a free one) requiring token (NULL = none) and waits up
  * to 5 s until it accepts connections. 0 on success. */
 int natsd_start(natsd *n, int port, const char *token);
+/* As natsd_start, with nats-server's configuration file conf (-c) and no token. */
+int natsd_start_conf(natsd *n, int port, const char *conf);
 /* Stops it (SIGTERM, then SIGKILL after 2 s) and reaps it. */
 void natsd_stop(natsd *n);
 
