@@ -128,9 +128,13 @@ static void volumes(sim_hm *h, float dt)
     }
 }
 
+/* The air drag acts on the velocity relative to still air, up to SIM_HM_DRAG_CAP (past it, it only
+ * over-damps the mesh's return to its rest shape); SIM_HM_SWING_DAMPING's missing part relative
+ * to the head. */
 void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat head_rot)
 {
-    const float drag = h->p.air_drag, swing = drag < SIM_HM_SWING_DAMPING ? SIM_HM_SWING_DAMPING - drag : 0.0f;
+    const float drag = h->p.air_drag < SIM_HM_DRAG_CAP ? h->p.air_drag : SIM_HM_DRAG_CAP;
+    const float swing = drag < SIM_HM_SWING_DAMPING ? SIM_HM_SWING_DAMPING - drag : 0.0f;
     h->diag = 1.0f + dt * (drag + swing);
     memset(h->bsr.val, 0, SIM_HM_BLOCK * (size_t)h->bsr.nnz * sizeof *h->bsr.val);
     for (uint32_t i = 0; i < h->n; i++) {

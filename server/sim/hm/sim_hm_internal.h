@@ -45,6 +45,14 @@ typedef struct sim_hm_edges {
  * to still air, the same at rest) counts towards it; the rest acts relative to the head. */
 #define SIM_HM_SWING_DAMPING 2.0f
 
+/* The most air drag, 1/s, the mesh feels: about the critical damping of its swing about the roots
+ * under gravity (2 sqrt(g / L) is 12 for a pendulum 0.27 m long at 9.81 m/s^2), past which more drag only over-damps its elastic
+ * return to the rest shape, which then creeps back: air_drag 20 rested 3.10-3.43 s after the
+ * violent script (bound 3), 16 up to 3.40 s, 12 at most 2.72 s. Taking only the drag on the
+ * mesh's motion relative to the head down to it (the hair carried by the head feeling all of
+ * air_drag) left the mesh on the distance grid chattering 0.02-0.04 mm a frame at 16 and 20. */
+#define SIM_HM_DRAG_CAP 12.0f
+
 /* A vertex's contact with a collider for the next implicit solve (sim_hm.stick). */
 typedef enum sim_hm_contact {
     SIM_HM_FREE = 0,    /* none */
@@ -86,7 +94,7 @@ typedef struct sim_hm {
                                  * velocity at each vertex (the dampers' reference, the free rows' cold
                                  * start, the held contacts' velocity; the roots' prescribed velocity) */
     float *dvp;                 /* 3n: the last solve's velocity change vn - v (the warm start's) */
-    float diag;                 /* the system's diagonal: 1 + dt max(air_drag, SIM_HM_SWING_DAMPING) (unit masses) */
+    float diag;                 /* the system's diagonal: 1 + dt max(min(air_drag, SIM_HM_DRAG_CAP), SIM_HM_SWING_DAMPING) (unit masses) */
     float *pinv;                /* 6n: inverses of the system's diagonal blocks (xx yy zz xy xz yz), for the sweeps */
     float *r, *c, *q, *s, *w, *xh; /* 3n: CG scratch */
     uint8_t *fixed;             /* n: 0 free, 1 root, 2 in contact (held on the collider during the
