@@ -11,12 +11,15 @@
 #define SIM_MAX_NEIGHBOR_CAP 64
 /* Strands solved together: a CPU task and a Vulkan workgroup; collider culling is per chunk. */
 #define SIM_CHUNK 64
-/* The shape springs' own damping, as a substep length: a spring of stiffness k carries a damper
- * of k times half this (stiffness-proportional damping; toward the motion of its target's frame).
- * The implicit step of a spring damps like that damper at half its substep, and that damping
- * used to fall with the substep: shorter substeps left the stiff tips of a groom fluttering and
- * decayed more slowly. The damper adds what a substep shorter than this lacks, so the damping
- * is the same for any dt and substep count up to this substep (1/120 s). */
+/* The shape springs' own damping, as a substep length: a spring of stiffness k carries a
+ * stiffness-proportional damper k b (toward the motion of its target's frame), with
+ * b = (max(this - h, 0) + max(SIM_FTL_DAMPING_STEP - h, 0)) / 2 at substep h
+ * (sim_step_shape_damping). The implicit step of a spring damps like a damper k h, a damping
+ * that falls with the substep: shorter substeps left the stiff tips of a groom fluttering and
+ * decayed more slowly. The first half of b (this, 1/120 s) makes up half of what a shorter
+ * substep lacks; below SIM_FTL_DAMPING_STEP the second makes up the rest, so h + b and with it
+ * the springs' damping per unit of time are the same at any substep up to the defaults' 1/240 s
+ * (whose damping is unchanged). */
 #define SIM_SHAPE_DAMPING_STEP 0.00833333333333333333
 /* The length projection's damping, as a substep length: putting a vertex back onto its segment
  * length scales the displacement across the segment by L / len, so its velocity loses the share

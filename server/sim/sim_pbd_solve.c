@@ -385,7 +385,7 @@ static void group_substep(sim_pbd *p, int k, uint32_t s0, int worker)
                            w + 4 * m,         w + 4 * m + q,     w + 4 * m + 2 * q, w + 5 * m + 2 * q,
                            w + 6 * m + 2 * q, w + 7 * m + 2 * q, w + 8 * m + 2 * q, w + 9 * m + 2 * q,
                            w + 10 * m + 2 * q, w + 11 * m + 2 * q, w + 12 * m + 2 * q };
-    const float h = sd->h, b = 0.5f * fmaxf((float)SIM_SHAPE_DAMPING_STEP - h, 0.0f);
+    const float h = sd->h, b = sim_step_shape_damping(h);
     const core_xform head = sd->head[k];
     const core_vec3 acc = ld(sd->accel);
     group_load(p, s0, &s);

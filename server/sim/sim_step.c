@@ -84,12 +84,17 @@ static void world_sdf(const core_sdf *s, core_xform head, sim_wsdf *out)
     for (int a = 0; a < 3; a++) out->lo[a] -= s->cell, out->hi[a] += s->cell; /* rounding of the rotation */
 }
 
+float sim_step_shape_damping(float h)
+{
+    return 0.5f * (MAXF((float)SIM_SHAPE_DAMPING_STEP - h, 0.0f) + MAXF((float)SIM_FTL_DAMPING_STEP - h, 0.0f));
+}
+
 void sim_step_stiffness(const sim_params *p, uint32_t l, uint32_t nv, sim_shape_weights *out)
 {
     const float h = p->dt / (float)p->substeps, h2 = h * h;
     const float t = nv > 1 ? (float)l / (float)(nv - 1) : 0.0f;
     const float fade = 1.0f + (p->stiffness_tip - 1.0f) * t;
-    const float b = 0.5f * MAXF((float)SIM_SHAPE_DAMPING_STEP - h, 0.0f);
+    const float b = sim_step_shape_damping(h);
     const float kg = p->global_stiffness * fade, kl = p->local_stiffness * fade;
     const float wg = kg * h2, cg = kg * h * b, wl = kl * h2, cl = kl * h * b;
     memset(out, 0, sizeof *out);

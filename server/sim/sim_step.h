@@ -118,12 +118,23 @@ typedef struct sim_shape_weights {
     float g, gd, l, ld;
 } sim_shape_weights;
 
+/* The shape springs' damper at substep h as a time b (s): a spring of stiffness k carries the
+ * damper k b, (max(SIM_SHAPE_DAMPING_STEP - h, 0) + max(SIM_FTL_DAMPING_STEP - h, 0)) / 2. The
+ * implicit step of spring and damper, (1 + k h^2 + k h b) x' = x + v h + k h b x for the offset x
+ * from the target, keeps 1 / sqrt(1 + k h^2 + k h b) of a swing per substep: per unit of time a
+ * decay rate ln(1 + k h^2 + k h b) / (2 h) = k (h + b) / 2 to first order in k h^2, as if the step
+ * carried a damper k h. h + b is the same for every substep up to SIM_FTL_DAMPING_STEP (the
+ * defaults' 1/240 s, whose b it keeps), so the springs damp the same per unit of time at any
+ * shorter one (sim_limits.h). The DFTL solver's shape weights (sim_step_stiffness) and the PBD
+ * solver's springs alike. Pure. */
+float sim_step_shape_damping(float h);
+
 /* The shape weights of level l of nv, from the stiffnesses k (1/s^2) faded linearly to
  * stiffness_tip at the tip: with w = k h^2 for the spring and c = k h b for its damper
- * (b = max(SIM_SHAPE_DAMPING_STEP - h, 0) / 2), the spring's weight is w / (1 + w + c) and the
- * damper's c / (1 + w + c) (the implicit step of both). A vertex held against an acceleration g
- * settles g / k from its target whatever dt and substeps are, and the springs damp the same up
- * to SIM_SHAPE_DAMPING_STEP (all 0 with shape off). Pure. */
+ * (b = sim_step_shape_damping(h)), the spring's weight is w / (1 + w + c) and the damper's
+ * c / (1 + w + c) (the implicit step of both). A vertex held against an acceleration g settles
+ * g / k from its target whatever dt and substeps are, and the springs damp the same per unit of
+ * time at any substep up to SIM_FTL_DAMPING_STEP (all 0 with shape off). Pure. */
 void sim_step_stiffness(const sim_params *p, uint32_t l, uint32_t nv, sim_shape_weights *out);
 
 /* One collider moved by head into world space. Pure. */

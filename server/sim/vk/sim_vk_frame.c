@@ -88,7 +88,7 @@ void sim_vk_frame_fill(const sim_vk_frame_in *in, void *out)
     }
     sim_shape_weights *sw = (sim_shape_weights *)((char *)out + sizeof *f);
     if (in->pbd) {
-        const float b = 0.5f * fmaxf((float)SIM_SHAPE_DAMPING_STEP - d->h, 0.0f);
+        const float b = sim_step_shape_damping(d->h);
         for (uint32_t l = 0; l < in->nv; l++) {
             sim_pbd_stiffness(p, l, in->nv, &sw[l].g, &sw[l].gd);
             sw[l].l = b;

@@ -227,7 +227,7 @@ typedef struct sim_vk_frame_in {
 /* Fills out (sim_vk_frame_size(in->nv) bytes) with the step description in the layout of
  * sim_common.glsl, plus the per-level stiffness: the DFTL solver's shape weights, or with pbd
  * the PBD solver's stiffnesses (sim_pbd_stiffness) and its spring damping
- * b = max(SIM_SHAPE_DAMPING_STEP - h, 0) / 2. Pure. */
+ * b = sim_step_shape_damping(h). Pure. */
 void sim_vk_frame_fill(const sim_vk_frame_in *in, void *out);
 
 /* ---- the backend instance (sim_vk.c) and its command recording (sim_vk_record.c) ---- */
