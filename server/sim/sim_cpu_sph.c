@@ -722,6 +722,30 @@ static inline __m256 sph_exp8(__m256 x)
     return _mm256_mul_ps(p, _mm256_castsi256_ps(bits));
 }
 
+/* hold_accel for the particles i0..i0+7, one per lane (unsorted indices o[8]): velocity v,
+ * neighbours' weighted mean motion vb, density rho; lanes outside has (no neighbour weight W)
+ * hold none. The same operations in the same order as hold_accel, so the same bits. out = the
+ * new af of each lane. */
+static void hold_accel8(const sim_cpu *c, const force_consts *fc, size_t i0, const uint32_t o[8], __m256 W,
+                        const __m256 v[3], const __m256 vb[3], __m256 rho, __m256 has, float out[3][8])
+{
+    float prev[3][8];
+    for (int k = 0; k < 3; k++)
+        for (int l = 0; l < 8; l++) prev[k][l] = c->af[k][o[l]];
+    const __m256 P = _mm256_i32gather_ps(c->sph.sv + 4 * i0 + 3, _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28), 4);
+    const __m256 g = _mm256_set1_ps((float)SIM_HAIR_FRICTION_GAIN * fc->inv_dt);
+    __m256 h[3];
+    for (int k = 0; k < 3; k++)
+        h[k] = _mm256_sub_ps(_mm256_loadu_ps(prev[k]), _mm256_mul_ps(g, _mm256_sub_ps(v[k], vb[k])));
+    const __m256 lim = _mm256_mul_ps(_mm256_mul_ps(_mm256_div_ps(_mm256_set1_ps(fc->hold * fc->kp), rho), P), W);
+    const __m256 l = _mm256_sqrt_ps(
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(h[0], h[0]), _mm256_mul_ps(h[1], h[1])), _mm256_mul_ps(h[2], h[2])));
+    const __m256 held = _mm256_cmp_ps(l, lim, _CMP_LE_OQ), slips = _mm256_cmp_ps(l, lim, _CMP_GT_OQ);
+    const __m256 scale = _mm256_blendv_ps(_mm256_set1_ps(1.0f), _mm256_div_ps(lim, l), slips);
+    const __m256 keep = _mm256_and_ps(_mm256_or_ps(held, slips), has);
+    for (int k = 0; k < 3; k++) _mm256_storeu_ps(out[k], _mm256_and_ps(_mm256_mul_ps(h[k], scale), keep));
+}
+
 /* force_finish for particles i0..i0+7, one per lane; rows[l] = the sums of particle i0 + l. The
  * smoothing is scalar, as in force_finish, so both paths give the same bits. */
 static void force_finish8(sim_cpu *c, const force_consts *fc, size_t i0, const __m256 rows[8])
@@ -755,18 +779,16 @@ static void force_finish8(sim_cpu *c, const force_consts *fc, size_t i0, const _
     const __m256 ay = _mm256_add_ps(_mm256_mul_ps(col[1], kr), _mm256_mul_ps(blend, _mm256_sub_ps(_mm256_div_ps(col[5], W), vy)));
     const __m256 az = _mm256_add_ps(_mm256_mul_ps(col[2], kr), _mm256_mul_ps(blend, _mm256_sub_ps(_mm256_div_ps(col[6], W), vz)));
     const __m256 has = _mm256_cmp_ps(W, _mm256_setzero_ps(), _CMP_GT_OQ); /* no neighbour weight: no acceleration */
-    float out[3][8], w[8], vb[3][8];
+    const uint32_t *o = s->order + i0;
+    const __m256 v[3] = { vx, vy, vz }, vb[3] = { _mm256_div_ps(col[4], W), _mm256_div_ps(col[5], W), _mm256_div_ps(col[6], W) };
+    float out[3][8], hold[3][8];
     _mm256_storeu_ps(out[0], _mm256_and_ps(ax, has));
     _mm256_storeu_ps(out[1], _mm256_and_ps(ay, has));
     _mm256_storeu_ps(out[2], _mm256_and_ps(az, has));
-    _mm256_storeu_ps(w, W);
-    for (int k = 0; k < 3; k++) _mm256_storeu_ps(vb[k], col[4 + k]);
+    hold_accel8(c, fc, i0, o, W, v, vb, rho, has, hold);
     for (int l = 0; l < 8; l++) {
-        const uint32_t o = s->order[i0 + (size_t)l];
-        float hold[3] = { 0.0f, 0.0f, 0.0f };
-        if (w[l] > 0.0f) hold_accel(c, fc, i0 + (size_t)l, o, w[l], vb[0][l] / w[l], vb[1][l] / w[l], vb[2][l] / w[l], hold);
-        const float acc[3] = { out[0][l], out[1][l], out[2][l] };
-        force_store(c, fc, o, acc, hold);
+        const float acc[3] = { out[0][l], out[1][l], out[2][l] }, held[3] = { hold[0][l], hold[1][l], hold[2][l] };
+        force_store(c, fc, o[l], acc, held);
     }
 }
 #endif
@@ -788,6 +810,7 @@ static void force_job(void *vctx, int tid, int nt)
             for (int l = 0; l < 8; l++) {
                 prefetch_ahead(&c->sph, i + (size_t)l, e, (size_t)fc.cap, true);
                 prefetch_unsorted(&c->sph, i + (size_t)l, e, c->a, 3, 1);
+                prefetch_unsorted(&c->sph, i + (size_t)l, e, c->af, 3, 1);
                 rows[l] = force_sums_vec(c, &fc, i + (size_t)l);
             }
             force_finish8(c, &fc, i, rows);
@@ -796,6 +819,7 @@ static void force_job(void *vctx, int tid, int nt)
     for (; i < e; i++) {
         prefetch_ahead(&c->sph, i, e, (size_t)fc.cap, true);
         prefetch_unsorted(&c->sph, i, e, c->a, 3, 1);
+        prefetch_unsorted(&c->sph, i, e, c->af, 3, 1);
         force_one(c, &fc, i);
     }
 }
