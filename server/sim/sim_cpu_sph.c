@@ -424,15 +424,26 @@ static size_t keep_nearest(float *r2s, uint32_t *idx, size_t m, size_t k, uint64
     return k;
 }
 
+/* Particle i's density rho (1 + its kernel sum) and, with ctx->pressure, its pressure. */
+static inline void store_density(const sph_ctx *ctx, size_t i, float rho)
+{
+    sim_cpu_sph *s = &ctx->c->sph;
+    s->sp[4 * i + 3] = rho;
+    if (ctx->pressure) s->sv[4 * i + 3] = MAX0(rho * ctx->c->step.inv_rho0 - 1.0f);
+}
+
 /* Neighbour search for every particle of the cells in this worker's range: its list, the
  * neighbour_cap nearest particles of other strands within the skin radius (1 + SPH_SKIN) h,
- * in slot order while they fit. */
+ * in slot order while they fit, and its density (store_density) from the kept candidates'
+ * distances, which are those density_job measures, in the list's order: the same bits, without
+ * a density pass over the lists just built. */
 static void search_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     sim_cpu_sph *s = &c->sph;
     const float hs = c->step.sph_h * (1.0f + SPH_SKIN), hs2 = hs * hs;
+    const float inv_h2 = 1.0f / (c->step.sph_h * c->step.sph_h);
     const size_t cap = (size_t)c->params.neighbor_cap;
     size_t b, e;
     sim_pool_range(s->ncells, tid, nt, 1, &b, &e);
@@ -461,6 +472,7 @@ static void search_job(void *vctx, int tid, int nt)
             m = keep_nearest(r2s, idx, m, cap, keys);
             memcpy(s->nbr + (size_t)i * cap, idx, m * sizeof *idx);
             s->nnbr[i] = (uint8_t)m;
+            store_density(ctx, i, density_sum(s, r2s, m, inv_h2));
         }
     }
 }
@@ -892,7 +904,7 @@ static void density_job(void *vctx, int tid, int nt)
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     sim_cpu_sph *s = &c->sph;
-    const float inv_h2 = 1.0f / (c->step.sph_h * c->step.sph_h), inv_rho0 = c->step.inv_rho0;
+    const float inv_h2 = 1.0f / (c->step.sph_h * c->step.sph_h);
     const int cap = c->params.neighbor_cap;
     size_t b, e;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
@@ -922,9 +934,7 @@ static void density_job(void *vctx, int tid, int nt)
             float dx = pj[0] - pi[0], dy = pj[1] - pi[1], dz = pj[2] - pi[2];
             r2[k] = (dx * dx + dy * dy) + dz * dz;
         }
-        const float rho = density_sum(s, r2, (size_t)n, inv_h2);
-        s->sp[4 * i + 3] = rho;
-        if (ctx->pressure) s->sv[4 * i + 3] = MAX0(rho * inv_rho0 - 1.0f);
+        store_density(ctx, i, density_sum(s, r2, (size_t)n, inv_h2));
     }
 }
 
@@ -957,7 +967,7 @@ static bool lists_hold(sph_ctx *ctx, core_xform frame)
 }
 
 /* Sorts the particles into the hash grid of cells of twice the skin radius and builds the
- * skin lists (the sorted copies are gathered on the way). */
+ * skin lists (the sorted copies are gathered on the way) and the densities (search_job). */
 static core_status rebuild_lists(sph_ctx *ctx, core_err *err)
 {
     sim_cpu *c = ctx->c;
@@ -1004,14 +1014,15 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const prev[
 {
     sph_ctx ctx = { .c = c, .pos = pos, .prev = prev, .inv_since = inv_since, .dt = dt, .pressure = out_mean_rho == NULL };
     sim_cpu_sph *s = &c->sph;
-    if (!(s->lists_valid && prev && lists_hold(&ctx, frame))) {
+    const bool rebuild = !(s->lists_valid && prev && lists_hold(&ctx, frame));
+    if (rebuild) {
         core_status st = rebuild_lists(&ctx, err);
         if (st != CORE_OK) return st;
         s->build_head = frame;
         s->lists_valid = out_mean_rho == NULL; /* lists of the rest pose are not reused */
     }
     if (sph_cancelled(c, cancellable)) return core_fail(err, CORE_ECANCELED, "step abandoned on request");
-    sim_pool_run_parts(&c->pool, density_job, &ctx, SPH_PARTS);
+    if (!rebuild) sim_pool_run_parts(&c->pool, density_job, &ctx, SPH_PARTS); /* a rebuild's search set them */
     if (out_mean_rho) {
         double sum = 0.0; /* serial, in sorted order: the same bits for any thread count */
         for (size_t i = 0; i < c->n; i++) sum += s->sp[4 * i + 3];
