@@ -517,6 +517,12 @@ __attribute__((always_inline)) static inline void prefetch_unsorted(const sim_cp
     }
 }
 
+/* prefetch_unsorted of the held friction's record (c->af, one line a particle). */
+__attribute__((always_inline)) static inline void prefetch_held(const sim_cpu *c, size_t slot, size_t e)
+{
+    if (slot + SPH_SCATTER_AHEAD < e) __builtin_prefetch(c->af + 4 * (size_t)c->sph.order[slot + SPH_SCATTER_AHEAD], 1);
+}
+
 /* The per-particle constants of the force pass. */
 typedef struct force_consts {
     float inv_h, kp, mu_dt, inv_dt, keep, hold;
@@ -568,7 +574,8 @@ static void hold_accel(sim_cpu *c, const force_consts *fc, size_t i, uint32_t o,
     const sim_cpu_sph *s = &c->sph;
     const float *vi = s->sv + 4 * i;
     const float g = (float)SIM_HAIR_FRICTION_GAIN * fc->inv_dt;
-    float hx = c->af[0][o] - g * (vi[0] - vbx), hy = c->af[1][o] - g * (vi[1] - vby), hz = c->af[2][o] - g * (vi[2] - vbz);
+    const float *af = c->af + 4 * (size_t)o;
+    float hx = af[0] - g * (vi[0] - vbx), hy = af[1] - g * (vi[1] - vby), hz = af[2] - g * (vi[2] - vbz);
     const float lim = fc->hold * fc->kp / s->sp[4 * i + 3] * vi[3] * W;
     const float l = sqrtf((hx * hx + hy * hy) + hz * hz);
     const bool held = l <= lim, slips = l > lim; /* both false when either is NaN */
@@ -583,9 +590,10 @@ static void hold_accel(sim_cpu *c, const force_consts *fc, size_t i, uint32_t o,
  * hold[3] (stored in c->af) added. */
 static void force_store(sim_cpu *c, const force_consts *fc, uint32_t o, const float acc[3], const float hold[3])
 {
+    float *af = c->af + 4 * (size_t)o;
     for (int k = 0; k < 3; k++) {
-        c->a[k][o] = smooth_accel(acc[k], c->a[k][o] - c->af[k][o], fc->keep) + hold[k];
-        c->af[k][o] = hold[k];
+        c->a[k][o] = smooth_accel(acc[k], c->a[k][o] - af[k], fc->keep) + hold[k];
+        af[k] = hold[k];
     }
 }
 
@@ -743,7 +751,7 @@ static void hold_accel8(const sim_cpu *c, const force_consts *fc, size_t i0, con
 {
     float prev[3][8];
     for (int k = 0; k < 3; k++)
-        for (int l = 0; l < 8; l++) prev[k][l] = c->af[k][o[l]];
+        for (int l = 0; l < 8; l++) prev[k][l] = c->af[4 * (size_t)o[l] + (size_t)k];
     const __m256 P = _mm256_i32gather_ps(c->sph.sv + 4 * i0 + 3, _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28), 4);
     const __m256 g = _mm256_set1_ps((float)SIM_HAIR_FRICTION_GAIN * fc->inv_dt);
     __m256 h[3];
@@ -822,7 +830,7 @@ static void force_job(void *vctx, int tid, int nt)
             for (int l = 0; l < 8; l++) {
                 prefetch_ahead(&c->sph, i + (size_t)l, e, (size_t)fc.cap, true);
                 prefetch_unsorted(&c->sph, i + (size_t)l, e, c->a, 3, 1);
-                prefetch_unsorted(&c->sph, i + (size_t)l, e, c->af, 3, 1);
+                prefetch_held(c, i + (size_t)l, e);
                 rows[l] = force_sums_vec(c, &fc, i + (size_t)l);
             }
             force_finish8(c, &fc, i, rows);
@@ -831,7 +839,7 @@ static void force_job(void *vctx, int tid, int nt)
     for (; i < e; i++) {
         prefetch_ahead(&c->sph, i, e, (size_t)fc.cap, true);
         prefetch_unsorted(&c->sph, i, e, c->a, 3, 1);
-        prefetch_unsorted(&c->sph, i, e, c->af, 3, 1);
+        prefetch_held(c, i, e);
         force_one(c, &fc, i);
     }
 }
