@@ -23,8 +23,8 @@ static void cpu_reset(void *self)
         c->x[0][i] = p.x, c->x[1][i] = p.y, c->x[2][i] = p.z;
         c->v[0][i] = c->v[1][i] = c->v[2][i] = 0.0f;
         c->a[0][i] = c->a[1][i] = c->a[2][i] = 0.0f;
-        c->af[0][i] = c->af[1][i] = c->af[2][i] = 0.0f;
     }
+    memset(c->af, 0, 4 * c->n * sizeof *c->af);
     keep_eval_positions(c);
     c->prev_head = c->head;
     c->sph.lists_valid = false;
@@ -47,13 +47,13 @@ static void cpu_destroy(void *self)
         free(c->a[k]);
         free(c->rest[k]);
         free(c->xe[k]);
-        free(c->af[k]);
         free(c->saved_xe[k]);
-        free(c->saved_af[k]);
         free(c->saved_x[k]);
         free(c->saved_v[k]);
         free(c->saved_a[k]);
     }
+    free(c->af);
+    free(c->saved_af);
     free(c->sw);
     free(c->perm);
     core_sdf_free(&c->sdf);
@@ -108,9 +108,10 @@ static core_status cpu_create(const sim_desc *desc, const core_groom *g, const s
         c->a[k] = sim_mem_alloc(bytes, false);
         c->rest[k] = sim_mem_alloc(bytes, false);
         c->xe[k] = sim_mem_alloc(bytes, false);
-        c->af[k] = sim_mem_alloc(bytes, true);
-        ok = ok && c->x[k] && c->v[k] && c->a[k] && c->rest[k] && c->xe[k] && c->af[k];
+        ok = ok && c->x[k] && c->v[k] && c->a[k] && c->rest[k] && c->xe[k];
     }
+    c->af = sim_mem_alloc(4 * bytes, true);
+    ok = ok && c->af;
     c->sw = malloc(c->nv * sizeof *c->sw);
     if (!ok || !c->sw || sim_strand_order(g, &c->perm, err) != CORE_OK) {
         cpu_destroy(c);
@@ -167,9 +168,9 @@ static void cpu_set_cancel(void *self, sim_cancel_fn poll, void *ctx)
 /* Slices of each state array a copy task takes (whichever worker is free). */
 #define COPY_PARTS 8
 
-/* The state arrays x, v, a, xe and af (15 of n floats) copied from src to dst by the pool's
- * workers: a cancellable step (the daemon's) copies the whole state, 60 bytes a particle, before
- * it starts. */
+/* The state arrays x, v, a, xe and af (16 of n floats, af's 4 n as four) copied from src to dst
+ * by the pool's workers: a cancellable step (the daemon's) copies the whole state, 64 bytes a
+ * particle, before it starts. */
 typedef struct copy_ctx {
     float *const *dst, *const *src;
     size_t n;
@@ -195,13 +196,14 @@ static void keep_eval_positions(sim_cpu *c)
 /* Copies the state (x, v, a, xe, af) into the saved copies, or back with restore. */
 static void copy_state(sim_cpu *c, bool restore)
 {
-    float *const live[15] = { c->x[0], c->x[1], c->x[2], c->v[0], c->v[1], c->v[2], c->a[0], c->a[1],
-                              c->a[2], c->xe[0], c->xe[1], c->xe[2], c->af[0], c->af[1], c->af[2] };
-    float *const saved[15] = { c->saved_x[0], c->saved_x[1], c->saved_x[2], c->saved_v[0], c->saved_v[1],
-                               c->saved_v[2], c->saved_a[0], c->saved_a[1], c->saved_a[2], c->saved_xe[0],
-                               c->saved_xe[1], c->saved_xe[2], c->saved_af[0], c->saved_af[1], c->saved_af[2] };
-    copy_ctx k = { restore ? live : saved, restore ? saved : live, c->n };
-    sim_pool_run_tasks(&c->pool, copy_task, &k, 15 * COPY_PARTS);
+    const size_t n = c->n;
+    float *const live[16] = { c->x[0], c->x[1], c->x[2], c->v[0], c->v[1], c->v[2], c->a[0], c->a[1],
+                              c->a[2], c->xe[0], c->xe[1], c->xe[2], c->af, c->af + n, c->af + 2 * n, c->af + 3 * n };
+    float *const saved[16] = { c->saved_x[0], c->saved_x[1], c->saved_x[2], c->saved_v[0], c->saved_v[1], c->saved_v[2],
+                               c->saved_a[0], c->saved_a[1], c->saved_a[2], c->saved_xe[0], c->saved_xe[1], c->saved_xe[2],
+                               c->saved_af, c->saved_af + n, c->saved_af + 2 * n, c->saved_af + 3 * n };
+    copy_ctx k = { restore ? live : saved, restore ? saved : live, n };
+    sim_pool_run_tasks(&c->pool, copy_task, &k, 16 * COPY_PARTS);
 }
 
 /* Before the step changes anything: the copies a cancelled step goes back to. false when they
@@ -209,10 +211,11 @@ static void copy_state(sim_cpu *c, bool restore)
 static bool save_state(sim_cpu *c)
 {
     for (int k = 0; k < 3; k++) {
-        float **bufs[5] = { &c->saved_x[k], &c->saved_v[k], &c->saved_a[k], &c->saved_xe[k], &c->saved_af[k] };
-        for (int b = 0; b < 5; b++)
+        float **bufs[4] = { &c->saved_x[k], &c->saved_v[k], &c->saved_a[k], &c->saved_xe[k] };
+        for (int b = 0; b < 4; b++)
             if (!*bufs[b] && !(*bufs[b] = sim_mem_alloc(c->n * sizeof(float), false))) return false;
     }
+    if (!c->saved_af && !(c->saved_af = sim_mem_alloc(4 * c->n * sizeof(float), false))) return false;
     copy_state(c, false);
     c->saved_clock = c->sph_clock;
     memcpy(c->saved_nan, c->nan_per_thread, sizeof c->saved_nan);

@@ -44,7 +44,9 @@ typedef struct sim_cpu {
     /* level-major SoA: index = level * ns + strand */
     float *x[3], *v[3], *a[3], *rest[3];
     float *xe[3];            /* positions at the last SPH evaluation (the viscosity's motion) */
-    float *af[3];            /* the hair-hair friction's held acceleration (included in a) */
+    float *af;               /* the hair-hair friction's held acceleration (included in a): x, y, z
+                                and 0 at 4 index, so the force pass's scattered access to a
+                                particle's is one cache line */
     sim_shape_weights *sw;   /* per-level shape weights (sim_step_stiffness) */
     float max_segment;       /* longest rest segment */
     uint32_t *perm;          /* internal strand -> groom strand (roots in Morton order, so
@@ -64,7 +66,7 @@ typedef struct sim_cpu {
     /* sim_set_cancel: the poll, and the state before the step in progress to go back to */
     sim_cancel_fn cancel;
     void *cancel_ctx;
-    float *saved_x[3], *saved_v[3], *saved_a[3], *saved_xe[3], *saved_af[3]; /* allocated on the first cancellable step */
+    float *saved_x[3], *saved_v[3], *saved_a[3], *saved_xe[3], *saved_af; /* allocated on the first cancellable step */
     sim_sph_clock saved_clock;
     uint64_t saved_nan[256];
 } sim_cpu;

@@ -424,15 +424,26 @@ static size_t keep_nearest(float *r2s, uint32_t *idx, size_t m, size_t k, uint64
     return k;
 }
 
+/* Particle i's density rho (1 + its kernel sum) and, with ctx->pressure, its pressure. */
+static inline void store_density(const sph_ctx *ctx, size_t i, float rho)
+{
+    sim_cpu_sph *s = &ctx->c->sph;
+    s->sp[4 * i + 3] = rho;
+    if (ctx->pressure) s->sv[4 * i + 3] = MAX0(rho * ctx->c->step.inv_rho0 - 1.0f);
+}
+
 /* Neighbour search for every particle of the cells in this worker's range: its list, the
  * neighbour_cap nearest particles of other strands within the skin radius (1 + SPH_SKIN) h,
- * in slot order while they fit. */
+ * in slot order while they fit, and its density (store_density) from the kept candidates'
+ * distances, which are those density_job measures, in the list's order: the same bits, without
+ * a density pass over the lists just built. */
 static void search_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     sim_cpu_sph *s = &c->sph;
     const float hs = c->step.sph_h * (1.0f + SPH_SKIN), hs2 = hs * hs;
+    const float inv_h2 = 1.0f / (c->step.sph_h * c->step.sph_h);
     const size_t cap = (size_t)c->params.neighbor_cap;
     size_t b, e;
     sim_pool_range(s->ncells, tid, nt, 1, &b, &e);
@@ -461,6 +472,7 @@ static void search_job(void *vctx, int tid, int nt)
             m = keep_nearest(r2s, idx, m, cap, keys);
             memcpy(s->nbr + (size_t)i * cap, idx, m * sizeof *idx);
             s->nnbr[i] = (uint8_t)m;
+            store_density(ctx, i, density_sum(s, r2s, m, inv_h2));
         }
     }
 }
@@ -503,6 +515,12 @@ __attribute__((always_inline)) static inline void prefetch_unsorted(const sim_cp
         const uint32_t o = s->order[slot + SPH_SCATTER_AHEAD];
         for (int k = 0; k < narrays; k++) __builtin_prefetch(arrays[k] + o, write);
     }
+}
+
+/* prefetch_unsorted of the held friction's record (c->af, one line a particle). */
+__attribute__((always_inline)) static inline void prefetch_held(const sim_cpu *c, size_t slot, size_t e)
+{
+    if (slot + SPH_SCATTER_AHEAD < e) __builtin_prefetch(c->af + 4 * (size_t)c->sph.order[slot + SPH_SCATTER_AHEAD], 1);
 }
 
 /* The per-particle constants of the force pass. */
@@ -556,7 +574,8 @@ static void hold_accel(sim_cpu *c, const force_consts *fc, size_t i, uint32_t o,
     const sim_cpu_sph *s = &c->sph;
     const float *vi = s->sv + 4 * i;
     const float g = (float)SIM_HAIR_FRICTION_GAIN * fc->inv_dt;
-    float hx = c->af[0][o] - g * (vi[0] - vbx), hy = c->af[1][o] - g * (vi[1] - vby), hz = c->af[2][o] - g * (vi[2] - vbz);
+    const float *af = c->af + 4 * (size_t)o;
+    float hx = af[0] - g * (vi[0] - vbx), hy = af[1] - g * (vi[1] - vby), hz = af[2] - g * (vi[2] - vbz);
     const float lim = fc->hold * fc->kp / s->sp[4 * i + 3] * vi[3] * W;
     const float l = sqrtf((hx * hx + hy * hy) + hz * hz);
     const bool held = l <= lim, slips = l > lim; /* both false when either is NaN */
@@ -571,9 +590,10 @@ static void hold_accel(sim_cpu *c, const force_consts *fc, size_t i, uint32_t o,
  * hold[3] (stored in c->af) added. */
 static void force_store(sim_cpu *c, const force_consts *fc, uint32_t o, const float acc[3], const float hold[3])
 {
+    float *af = c->af + 4 * (size_t)o;
     for (int k = 0; k < 3; k++) {
-        c->a[k][o] = smooth_accel(acc[k], c->a[k][o] - c->af[k][o], fc->keep) + hold[k];
-        c->af[k][o] = hold[k];
+        c->a[k][o] = smooth_accel(acc[k], c->a[k][o] - af[k], fc->keep) + hold[k];
+        af[k] = hold[k];
     }
 }
 
@@ -722,6 +742,30 @@ static inline __m256 sph_exp8(__m256 x)
     return _mm256_mul_ps(p, _mm256_castsi256_ps(bits));
 }
 
+/* hold_accel for the particles i0..i0+7, one per lane (unsorted indices o[8]): velocity v,
+ * neighbours' weighted mean motion vb, density rho; lanes outside has (no neighbour weight W)
+ * hold none. The same operations in the same order as hold_accel, so the same bits. out = the
+ * new af of each lane. */
+static void hold_accel8(const sim_cpu *c, const force_consts *fc, size_t i0, const uint32_t o[8], __m256 W,
+                        const __m256 v[3], const __m256 vb[3], __m256 rho, __m256 has, float out[3][8])
+{
+    float prev[3][8];
+    for (int k = 0; k < 3; k++)
+        for (int l = 0; l < 8; l++) prev[k][l] = c->af[4 * (size_t)o[l] + (size_t)k];
+    const __m256 P = _mm256_i32gather_ps(c->sph.sv + 4 * i0 + 3, _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28), 4);
+    const __m256 g = _mm256_set1_ps((float)SIM_HAIR_FRICTION_GAIN * fc->inv_dt);
+    __m256 h[3];
+    for (int k = 0; k < 3; k++)
+        h[k] = _mm256_sub_ps(_mm256_loadu_ps(prev[k]), _mm256_mul_ps(g, _mm256_sub_ps(v[k], vb[k])));
+    const __m256 lim = _mm256_mul_ps(_mm256_mul_ps(_mm256_div_ps(_mm256_set1_ps(fc->hold * fc->kp), rho), P), W);
+    const __m256 l = _mm256_sqrt_ps(
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(h[0], h[0]), _mm256_mul_ps(h[1], h[1])), _mm256_mul_ps(h[2], h[2])));
+    const __m256 held = _mm256_cmp_ps(l, lim, _CMP_LE_OQ), slips = _mm256_cmp_ps(l, lim, _CMP_GT_OQ);
+    const __m256 scale = _mm256_blendv_ps(_mm256_set1_ps(1.0f), _mm256_div_ps(lim, l), slips);
+    const __m256 keep = _mm256_and_ps(_mm256_or_ps(held, slips), has);
+    for (int k = 0; k < 3; k++) _mm256_storeu_ps(out[k], _mm256_and_ps(_mm256_mul_ps(h[k], scale), keep));
+}
+
 /* force_finish for particles i0..i0+7, one per lane; rows[l] = the sums of particle i0 + l. The
  * smoothing is scalar, as in force_finish, so both paths give the same bits. */
 static void force_finish8(sim_cpu *c, const force_consts *fc, size_t i0, const __m256 rows[8])
@@ -755,18 +799,16 @@ static void force_finish8(sim_cpu *c, const force_consts *fc, size_t i0, const _
     const __m256 ay = _mm256_add_ps(_mm256_mul_ps(col[1], kr), _mm256_mul_ps(blend, _mm256_sub_ps(_mm256_div_ps(col[5], W), vy)));
     const __m256 az = _mm256_add_ps(_mm256_mul_ps(col[2], kr), _mm256_mul_ps(blend, _mm256_sub_ps(_mm256_div_ps(col[6], W), vz)));
     const __m256 has = _mm256_cmp_ps(W, _mm256_setzero_ps(), _CMP_GT_OQ); /* no neighbour weight: no acceleration */
-    float out[3][8], w[8], vb[3][8];
+    const uint32_t *o = s->order + i0;
+    const __m256 v[3] = { vx, vy, vz }, vb[3] = { _mm256_div_ps(col[4], W), _mm256_div_ps(col[5], W), _mm256_div_ps(col[6], W) };
+    float out[3][8], hold[3][8];
     _mm256_storeu_ps(out[0], _mm256_and_ps(ax, has));
     _mm256_storeu_ps(out[1], _mm256_and_ps(ay, has));
     _mm256_storeu_ps(out[2], _mm256_and_ps(az, has));
-    _mm256_storeu_ps(w, W);
-    for (int k = 0; k < 3; k++) _mm256_storeu_ps(vb[k], col[4 + k]);
+    hold_accel8(c, fc, i0, o, W, v, vb, rho, has, hold);
     for (int l = 0; l < 8; l++) {
-        const uint32_t o = s->order[i0 + (size_t)l];
-        float hold[3] = { 0.0f, 0.0f, 0.0f };
-        if (w[l] > 0.0f) hold_accel(c, fc, i0 + (size_t)l, o, w[l], vb[0][l] / w[l], vb[1][l] / w[l], vb[2][l] / w[l], hold);
-        const float acc[3] = { out[0][l], out[1][l], out[2][l] };
-        force_store(c, fc, o, acc, hold);
+        const float acc[3] = { out[0][l], out[1][l], out[2][l] }, held[3] = { hold[0][l], hold[1][l], hold[2][l] };
+        force_store(c, fc, o[l], acc, held);
     }
 }
 #endif
@@ -788,6 +830,7 @@ static void force_job(void *vctx, int tid, int nt)
             for (int l = 0; l < 8; l++) {
                 prefetch_ahead(&c->sph, i + (size_t)l, e, (size_t)fc.cap, true);
                 prefetch_unsorted(&c->sph, i + (size_t)l, e, c->a, 3, 1);
+                prefetch_held(c, i + (size_t)l, e);
                 rows[l] = force_sums_vec(c, &fc, i + (size_t)l);
             }
             force_finish8(c, &fc, i, rows);
@@ -796,6 +839,7 @@ static void force_job(void *vctx, int tid, int nt)
     for (; i < e; i++) {
         prefetch_ahead(&c->sph, i, e, (size_t)fc.cap, true);
         prefetch_unsorted(&c->sph, i, e, c->a, 3, 1);
+        prefetch_held(c, i, e);
         force_one(c, &fc, i);
     }
 }
@@ -868,7 +912,7 @@ static void density_job(void *vctx, int tid, int nt)
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     sim_cpu_sph *s = &c->sph;
-    const float inv_h2 = 1.0f / (c->step.sph_h * c->step.sph_h), inv_rho0 = c->step.inv_rho0;
+    const float inv_h2 = 1.0f / (c->step.sph_h * c->step.sph_h);
     const int cap = c->params.neighbor_cap;
     size_t b, e;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
@@ -898,9 +942,7 @@ static void density_job(void *vctx, int tid, int nt)
             float dx = pj[0] - pi[0], dy = pj[1] - pi[1], dz = pj[2] - pi[2];
             r2[k] = (dx * dx + dy * dy) + dz * dz;
         }
-        const float rho = density_sum(s, r2, (size_t)n, inv_h2);
-        s->sp[4 * i + 3] = rho;
-        if (ctx->pressure) s->sv[4 * i + 3] = MAX0(rho * inv_rho0 - 1.0f);
+        store_density(ctx, i, density_sum(s, r2, (size_t)n, inv_h2));
     }
 }
 
@@ -933,7 +975,7 @@ static bool lists_hold(sph_ctx *ctx, core_xform frame)
 }
 
 /* Sorts the particles into the hash grid of cells of twice the skin radius and builds the
- * skin lists (the sorted copies are gathered on the way). */
+ * skin lists (the sorted copies are gathered on the way) and the densities (search_job). */
 static core_status rebuild_lists(sph_ctx *ctx, core_err *err)
 {
     sim_cpu *c = ctx->c;
@@ -980,14 +1022,15 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const prev[
 {
     sph_ctx ctx = { .c = c, .pos = pos, .prev = prev, .inv_since = inv_since, .dt = dt, .pressure = out_mean_rho == NULL };
     sim_cpu_sph *s = &c->sph;
-    if (!(s->lists_valid && prev && lists_hold(&ctx, frame))) {
+    const bool rebuild = !(s->lists_valid && prev && lists_hold(&ctx, frame));
+    if (rebuild) {
         core_status st = rebuild_lists(&ctx, err);
         if (st != CORE_OK) return st;
         s->build_head = frame;
         s->lists_valid = out_mean_rho == NULL; /* lists of the rest pose are not reused */
     }
     if (sph_cancelled(c, cancellable)) return core_fail(err, CORE_ECANCELED, "step abandoned on request");
-    sim_pool_run_parts(&c->pool, density_job, &ctx, SPH_PARTS);
+    if (!rebuild) sim_pool_run_parts(&c->pool, density_job, &ctx, SPH_PARTS); /* a rebuild's search set them */
     if (out_mean_rho) {
         double sum = 0.0; /* serial, in sorted order: the same bits for any thread count */
         for (size_t i = 0; i < c->n; i++) sum += s->sp[4 * i + 3];
