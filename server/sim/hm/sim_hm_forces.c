@@ -81,7 +81,8 @@ static void cloth(sim_hm *h, float dt)
             rw->w[r] = 0.0f;
             continue;
         }
-        const float d = theta - cl->bend_theta0[b], C = atan2f(sinf(d), cosf(d)); /* in (-pi, pi] */
+        const float pi = 3.14159265f, d = theta - cl->bend_theta0[b];
+        const float C = d > pi ? d - 2.0f * pi : d < -pi ? d + 2.0f * pi : d; /* in [-pi, pi] */
         condition(h, r, C, kb * cl->bend_scale[b], kd * cl->bend_scale[b], dt);
     }
 }
@@ -138,28 +139,34 @@ static void assemble(sim_hm *h)
 {
     const sim_hm_rows *rw = &h->rows;
     const sim_hm_cloth *cl = &h->cloth;
-    for (uint32_t t = 0; t < cl->ntri; t++) {
+    for (uint32_t t = 0; t < cl->ntri; t++) { /* a triangle's 3 rows and its tension term in one pass */
         const float bu = cl->tri_b[2 * t], bv = cl->tri_b[2 * t + 1];
-        if (bu == 0.0f && bv == 0.0f) continue;
         float cu[3], cv[3];
         sim_hm_bw_coefficients(cl->tri_c + 4 * (size_t)t, cu, cv);
-        const uint32_t *at = rw->at + 16 * (size_t)(3 * t);
-        for (int j = 0; j < 3; j++)
-            for (int k = 0; k < 3; k++) {
-                float *b = h->bsr.val + SIM_HM_BLOCK * (size_t)at[4 * j + k];
+        const uint32_t r = 3 * t, *at = rw->at + 16 * (size_t)r;
+        const float *g = rw->g + 12 * (size_t)r, *w = rw->w + r;
+        sim_hm_v4 gv[3][3];
+        for (int q = 0; q < 3; q++)
+            for (int j = 0; j < 3; j++) gv[q][j] = (sim_hm_v4){ g[12 * q + 3 * j], g[12 * q + 3 * j + 1], g[12 * q + 3 * j + 2], 0.0f };
+        for (int k = 0; k < 3; k++)
+            for (int j = 0; j < 3; j++) {
+                sim_hm_v4 *col = (sim_hm_v4 *)(h->bsr.val + SIM_HM_BLOCK * (size_t)at[4 * j + k]);
                 const float d = bu * cu[j] * cu[k] + bv * cv[j] * cv[k];
-                b[0] += d, b[5] += d, b[10] += d;
+                for (int c = 0; c < 3; c++) {
+                    sim_hm_v4 e = { 0.0f, 0.0f, 0.0f, 0.0f };
+                    e[c] = d;
+                    col[c] += e + (w[0] * gv[0][k][c]) * gv[0][j] + (w[1] * gv[1][k][c]) * gv[1][j] + (w[2] * gv[2][k][c]) * gv[2][j];
+                }
             }
     }
-    for (uint32_t r = 0; r < rw->n; r++) {
+    for (uint32_t r = rw->bend0; r < rw->n; r++) {
         const float *g = rw->g + 12 * (size_t)r, w = rw->w[r];
         const uint32_t *at = rw->at + 16 * (size_t)r;
-        const int nv = rw->nv[r];
         sim_hm_v4 gv4[4];
-        for (int j = 0; j < nv; j++) gv4[j] = (sim_hm_v4){ g[3 * j], g[3 * j + 1], g[3 * j + 2], 0.0f };
-        for (int k = 0; k < nv; k++) {
+        for (int j = 0; j < 4; j++) gv4[j] = (sim_hm_v4){ g[3 * j], g[3 * j + 1], g[3 * j + 2], 0.0f };
+        for (int k = 0; k < 4; k++) {
             const float w0 = w * g[3 * k], w1 = w * g[3 * k + 1], w2 = w * g[3 * k + 2];
-            for (int j = 0; j < nv; j++) {
+            for (int j = 0; j < 4; j++) {
                 sim_hm_v4 *col = (sim_hm_v4 *)(h->bsr.val + SIM_HM_BLOCK * (size_t)at[4 * j + k]);
                 col[0] += w0 * gv4[j], col[1] += w1 * gv4[j], col[2] += w2 * gv4[j];
             }
