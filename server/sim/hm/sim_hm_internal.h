@@ -144,8 +144,9 @@ core_status sim_hm_build(sim_hm *h, core_err *err);
 void sim_hm_build_free(sim_hm *h);
 
 /* Forces at h->x, h->v (gravity and wind accel, air drag and SIM_HM_SWING_DAMPING, Baraff and
- * Witkin's stretch, shear and bend conditions with their dampers -kd' dC/dx dC/dt, dC/dt taken on
- * the velocity less the head's rigid motion, h->z, which the caller fills; volume) and the implicit system (I - dt df/dv - dt^2 df/dx) vn = v + dt f_e for substep
+ * Witkin's stretch, shear and bend conditions with their dampers -kd' dC/dx dC/dt, the pair
+ * dampers, both on the velocity less the head's rigid motion, h->z, which the caller fills;
+ * volume) and the implicit system (I - dt df/dv - dt^2 df/dx) vn = v + dt f_e for substep
  * length dt (the new velocity vn; f_e the forces less the dampers' dt df/dv vn, which A carries,
  * so f_e keeps the dampers' head term): the same step as solving for the velocity
  * change dv = vn - v with right-hand side dt (f + dt df/dx v), but without that side's dt^2 df/dx v,
@@ -153,7 +154,7 @@ void sim_hm_build_free(sim_hm *h);
  * tolerance left errors of that size (the wavy and curly meshes exploded); and a CG stopped early
  * from the head's rigid velocity (sim_hm_cg) errs towards moving with the head instead of keeping
  * the old velocity's stiff part. Fills h->rhs, h->diag, h->pinv, h->bsr's blocks, the rows'
- * gradients and weights. */
+ * gradients and weights, the triangles' tension terms and the dampers' weight. */
 void sim_hm_forces(sim_hm *h, const float accel[3], float dt);
 
 /* The rest (u, v) frame of the triangle p0 p1 p2 (u: along projected onto its plane, v = n x u) as
