@@ -545,7 +545,7 @@ static void test_deform_min_keeps_volume(void **state)
         loss[on] = tet_volume(m, r.x, m->pos) / v0;
         close_run(&r);
     }
-    print_message("deep collision: volume lost %.1f%% without, %.1f%% with deformation minimization\n",
+    print_message("deep collision: volume lost %.3f%% without, %.3f%% with deformation minimization\n",
                   loss[0] * 100.0, loss[1] * 100.0);
     assert_true(loss[1] < loss[0]);
 }
@@ -615,7 +615,7 @@ static float lcg(uint32_t *x)
 }
 
 /* A run on the smaller paper mesh at the default parameters after 20 frames of a turning head:
- * springs stretched and compressed, tetrahedra deformed. With tight, its solves then stop at a
+ * triangles stretched, sheared and bent, tetrahedra deformed. With tight, its solves then stop at a
  * 1e-6 tolerance (up to 1000 iterations). */
 static sim_hm *moved_run(hm_run *r, bool tight)
 {
@@ -633,36 +633,45 @@ static sim_hm *moved_run(hm_run *r, bool tight)
     return h;
 }
 
-/* y = A x for the implicit step's system from the springs' and tetrahedra's terms, matrix-free:
- * the reference the assembled block-sparse system (sim_hm_bsr) is pinned against. */
+/* y = A x for the implicit step's system from its condition rows' terms w g (g . x), the pair
+ * dampers' and the stretched triangles' second derivative, matrix-free: the reference the
+ * assembled block-sparse system (sim_hm_bsr) is pinned against. */
 static void matrix_free_apply(const sim_hm *h, const float *x, float *y)
 {
     const float d = h->diag;
     for (size_t i = 0; i < 3 * (size_t)h->n; i++) y[i] = d * x[i];
-    const sim_hm_springs *s = &h->sp;
-    for (uint32_t i = 0; i < s->n; i++) {
-        const uint32_t a = s->a[i], b = s->b[i];
-        const float *u = s->u + 3 * (size_t)i;
-        const float w0 = x[3 * a] - x[3 * b], w1 = x[3 * a + 1] - x[3 * b + 1], w2 = x[3 * a + 2] - x[3 * b + 2];
-        const float al = s->alpha[i] * (u[0] * w0 + u[1] * w1 + u[2] * w2), be = s->beta[i];
-        const float y0 = al * u[0] + be * w0, y1 = al * u[1] + be * w1, y2 = al * u[2] + be * w2;
-        y[3 * a] += y0, y[3 * a + 1] += y1, y[3 * a + 2] += y2;
-        y[3 * b] -= y0, y[3 * b + 1] -= y1, y[3 * b + 2] -= y2;
-    }
-    const sim_hm_tets *t = &h->tets;
-    for (uint32_t i = 0; i < t->n; i++) {
-        const uint32_t *id = t->v + 4 * (size_t)i;
-        const float *g = t->g + 12 * (size_t)i;
+    const sim_hm_rows *rw = &h->rows;
+    for (uint32_t r = 0; r < rw->n; r++) {
+        const uint32_t *id = rw->v + 4 * (size_t)r;
+        const float *g = rw->g + 12 * (size_t)r;
         float gx = 0.0f;
-        for (int j = 0; j < 4; j++) {
+        for (int j = 0; j < rw->nv[r]; j++) {
             const float *xj = x + 3 * (size_t)id[j];
             gx += g[3 * j] * xj[0] + g[3 * j + 1] * xj[1] + g[3 * j + 2] * xj[2];
         }
-        gx *= t->w[i];
-        for (int j = 0; j < 4; j++) {
+        gx *= rw->w[r];
+        for (int j = 0; j < rw->nv[r]; j++) {
             float *yj = y + 3 * (size_t)id[j];
             yj[0] += gx * g[3 * j], yj[1] += gx * g[3 * j + 1], yj[2] += gx * g[3 * j + 2];
         }
+    }
+    const float c = h->damp.c; /* the dampers' dt kd on each pair */
+    for (uint32_t i = 0; i < h->damp.n; i++) {
+        const uint32_t a = h->damp.a[i], b = h->damp.b[i];
+        for (int k = 0; k < 3; k++) {
+            const float t = c * (x[3 * a + k] - x[3 * b + k]);
+            y[3 * a + k] += t, y[3 * b + k] -= t;
+        }
+    }
+    const sim_hm_cloth *cl = &h->cloth; /* the stretched triangles' (b_u cu cu^T + b_v cv cv^T) I */
+    for (uint32_t t = 0; t < cl->ntri; t++) {
+        const uint32_t *id = rw->v + 4 * (size_t)(3 * t);
+        float cu[3], cv[3], su[3] = { 0 }, sv[3] = { 0 };
+        sim_hm_bw_coefficients(cl->tri_c + 4 * (size_t)t, cu, cv);
+        for (int j = 0; j < 3; j++)
+            for (int k = 0; k < 3; k++) su[k] += cu[j] * x[3 * id[j] + k], sv[k] += cv[j] * x[3 * id[j] + k];
+        for (int j = 0; j < 3; j++)
+            for (int k = 0; k < 3; k++) y[3 * id[j] + k] += cl->tri_b[2 * t] * cu[j] * su[k] + cl->tri_b[2 * t + 1] * cv[j] * sv[k];
     }
 }
 
@@ -685,18 +694,95 @@ static double residual_norm(sim_hm *h, const float *x, float *y, float *res)
     return free_norm(h, res);
 }
 
-/* The block-sparse system the CG iterates on is the one the springs' and tetrahedra's terms
- * give: its product equals the matrix-free one on a random vector. */
+/* E = 1/2 sum of the squared conditions of the triangle (rest frame c, area a) at x (9 floats) or,
+ * with c NULL, of the bend (theta - theta0) at x (12 floats), in double; f gets -dE/dx from the
+ * analytic gradients when not NULL. */
+static double bw_energy(const float *x, const float *c, float a, float theta0, float *f)
+{
+    if (c) {
+        float C[3], g[3][9];
+        sim_hm_bw_stretch_shear(x, x + 3, x + 6, c, a, C, g);
+        if (f)
+            for (int i = 0; i < 9; i++) f[i] = -(C[0] * g[0][i] + C[1] * g[1][i] + C[2] * g[2][i]);
+        return 0.5 * ((double)C[0] * C[0] + (double)C[1] * C[1] + (double)C[2] * C[2]);
+    }
+    float theta, g[12];
+    assert_true(sim_hm_bw_bend(x, x + 3, x + 6, x + 9, &theta, g));
+    const double C = (double)theta - theta0;
+    if (f)
+        for (int i = 0; i < 12; i++) f[i] = (float)(-C * g[i]);
+    return 0.5 * C * C;
+}
+
+/* The largest difference between f and minus the central differences of bw_energy over the n
+ * coordinates of x, relative to f's largest. */
+static double bw_gradient_error(float *x, int n, const float *c, float a, float theta0)
+{
+    float f[12];
+    bw_energy(x, c, a, theta0, f);
+    double diff = 0.0, ref = 0.0;
+    for (int i = 0; i < n; i++) {
+        const float x0 = x[i], e = 2e-5f;
+        x[i] = x0 + e;
+        const double ep = bw_energy(x, c, a, theta0, NULL);
+        x[i] = x0 - e;
+        const double em = bw_energy(x, c, a, theta0, NULL);
+        x[i] = x0;
+        diff = fmax(diff, fabs(f[i] + (ep - em) / (2.0 * e))), ref = fmax(ref, fabs(f[i]));
+    }
+    return diff / ref;
+}
+
+/* Baraff and Witkin's stretch and shear of a stretched and sheared triangle and the bend of a
+ * folded pair: their forces -C dC/dx are minus the numerical gradient of the energy C^2 / 2, the
+ * rest frame gives C = 0 at rest, and the bend's angle is 0 flat. */
+static void test_bw_forces_are_energy_gradients(void **state)
+{
+    (void)state;
+    const float p[9] = { 0.0f, 0.0f, 0.0f, 0.012f, 0.001f, 0.0f, 0.002f, 0.009f, 0.003f };
+    const float along[3] = { 1.0f, 0.2f, 0.0f };
+    float c[4], a, C[3], g[3][9];
+    assert_true(sim_hm_bw_rest_triangle(p, p + 3, p + 6, along, c, &a));
+    sim_hm_bw_stretch_shear(p, p + 3, p + 6, c, a, C, g);
+    for (int k = 0; k < 3; k++) assert_true(fabsf(C[k]) < 1e-4f * a);
+    float x[9];
+    for (int i = 0; i < 3; i++) { /* stretched 20 % along x, sheared in y by z, moved */
+        x[3 * i] = 1.2f * p[3 * i] + 0.3f * p[3 * i + 1] + 0.1f;
+        x[3 * i + 1] = 0.7f * p[3 * i + 1] + 0.4f * p[3 * i + 2];
+        x[3 * i + 2] = p[3 * i + 2] + 0.2f * p[3 * i];
+    }
+    sim_hm_bw_stretch_shear(x, x + 3, x + 6, c, a, C, g);
+    print_message("deformed triangle: C = %.3g %.3g %.3g of area %.3g\n", (double)C[0], (double)C[1], (double)C[2], (double)a);
+    assert_true(fabsf(C[0]) > 0.05f * a && fabsf(C[1]) > 0.05f * a && fabsf(C[2]) > 0.05f * a);
+    const double tri = bw_gradient_error(x, 9, c, a, 0.0f);
+    float flat[12] = { 0.0f, 0.01f, 0.0f, 0.0f, -0.01f, 0.0f, 0.0f, 0.0f, -0.005f, 0.0f, 0.0f, 0.005f };
+    float theta, gb[12];
+    assert_true(sim_hm_bw_bend(flat, flat + 3, flat + 6, flat + 9, &theta, gb));
+    assert_true(fabsf(theta) < 1e-6f);
+    float bent[12] = { 0.004f, 0.009f, 0.001f, 0.006f, -0.008f, 0.002f, 0.0f, 0.0f, -0.005f, 0.001f, 0.0f, 0.005f };
+    const double bend = bw_gradient_error(bent, 12, NULL, 0.0f, 0.1f);
+    assert_true(sim_hm_bw_bend(bent, bent + 3, bent + 6, bent + 9, &theta, gb));
+    print_message("BW forces against the energy's numerical gradient: stretch and shear %.2e, bend %.2e (angle %.3f)\n", tri,
+                  bend, (double)theta);
+    assert_true(fabsf(theta) > 0.5f);
+    assert_true(tri < 2e-3 && bend < 2e-3);
+}
+
+/* The block-sparse system the CG iterates on is the one the condition rows', the stretched
+ * triangles' and the pair dampers' terms give: its product equals the matrix-free one on a
+ * random vector. */
 static void test_assembly_matches_matrix_free(void **state)
 {
     (void)state;
     hm_run r;
     sim_hm *h = moved_run(&r, false);
-    /* every block's beta holds the damper's dt kd; a spring under tension adds its geometric term */
-    const float damper = h->p.hm.damping * h->p.dt / (float)h->p.substeps;
-    uint32_t tense = 0, slack = 0;
-    for (uint32_t i = 0; i < h->sp.n; i++) h->sp.beta[i] > 1.001f * damper ? tense++ : slack++;
-    assert_true(tense > 0 && slack > 0); /* both branches of the springs' blocks */
+    /* every kind of row carries a weight: triangles (3 vertices), bends and tetrahedra (4) */
+    const sim_hm_rows *rw = &h->rows;
+    assert_true(rw->bend0 > 0 && rw->tet0 > rw->bend0 && rw->n > rw->tet0);
+    assert_true(rw->w[2] > 0.0f && rw->w[rw->bend0] > 0.0f && rw->w[rw->tet0] > 0.0f);
+    uint32_t tense = 0; /* and the stretched triangles' second derivative */
+    for (uint32_t t = 0; t < h->cloth.ntri; t++) tense += h->cloth.tri_b[2 * t] > 0.0f;
+    assert_true(tense > 0 && tense < h->cloth.ntri);
     const size_t n3 = 3 * (size_t)h->n;
     float *x = malloc(n3 * sizeof *x), *a = malloc(n3 * sizeof *a), *b = malloc(n3 * sizeof *b);
     assert_true(x && a && b);
@@ -717,7 +803,7 @@ static sim_hm *gravity_system(hm_run *r)
 {
     sim_hm *h = moved_run(r, true);
     const float accel[3] = { 0.0f, -9.81f, 0.0f };
-    sim_hm_forces(h, accel, 1.0f / 60.0f, h->head.rot);
+    sim_hm_forces(h, accel, 1.0f / 60.0f);
     return h;
 }
 
@@ -1132,6 +1218,7 @@ int main(void)
         cmocka_unit_test(test_fast_motion_recovers),
         cmocka_unit_test(test_deform_min_keeps_volume),
         cmocka_unit_test(test_sdf_contact),
+        cmocka_unit_test(test_bw_forces_are_energy_gradients),
         cmocka_unit_test(test_assembly_matches_matrix_free),
         cmocka_unit_test(test_cg_solves_system),
         cmocka_unit_test(test_cg_filters_sliding_rows),

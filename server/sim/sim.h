@@ -17,11 +17,11 @@ typedef enum sim_solver { SIM_SOLVER_DFTL = 0, SIM_SOLVER_HAIRMESH = 1, SIM_SOLV
  * are per unit mass (every mesh vertex has unit mass) and per unit of time, so they mean the same
  * at any dt and substep count. */
 typedef struct sim_hm_params {
-    float stretch_stiffness; /* springs along the columns and the layers' edges, 1/s^2 */
-    float shear_stiffness;   /* springs along the diagonals of the prisms' sides and quads, 1/s^2 */
-    float bend_stiffness;    /* springs between layers l and l + 2 of a column, 1/s^2 */
+    float stretch_stiffness; /* Baraff-Witkin stretch of the side and layer faces' triangles, 1/s^2 */
+    float shear_stiffness;   /* Baraff-Witkin shear of the same triangles, 1/s^2 */
+    float bend_stiffness;    /* Baraff-Witkin bend between side triangles sharing an edge, 1/s^2 */
     float volume_stiffness;  /* the corner tetrahedra's volume force, 1/s^2 (see hm/sim_hm_forces.c) */
-    float damping;           /* each spring's damper: relative velocity along it decays at this rate, 1/s */
+    float damping;           /* the pair dampers' and the conditions' damping rate, 1/s */
     int32_t cg_iterations;   /* most modified-CG iterations per solve */
     float cg_tolerance;      /* CG stops when the preconditioned residual falls below this share of its start */
     bool deform_min;         /* deformation minimization after collisions (the paper's eq. 3-4) */

@@ -244,7 +244,7 @@ static void substep(sim_hm *h, const sim_step_desc *d, int k)
             h->z[3 * i + a] = (m[4 * a] * x[0] + m[4 * a + 1] * x[1] + m[4 * a + 2] * x[2] + m[4 * a + 3] - x[a]) * d->inv_h;
     }
     unsigned long long t0 = core_now_ns();
-    sim_hm_forces(h, d->accel, dt, d->head[k].rot);
+    sim_hm_forces(h, d->accel, dt);
     h->stage_ms[0] += ms_since(t0);
     memset(h->fixed, 0, h->n);
     if (collide) hold_contacts(h, m);

@@ -1,5 +1,5 @@
 /* sim_hm: the implicit system as a block-sparse matrix (3x3 blocks over the mesh's fixed vertex
- * adjacency): its pattern from the springs and tetrahedra, and its product. */
+ * adjacency): its pattern from the condition rows, and its product. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -35,26 +35,24 @@ static uint32_t find(const sim_hm_bsr *m, uint32_t r, uint32_t c)
 core_status sim_hm_bsr_build(sim_hm *h, core_err *err)
 {
     sim_hm_bsr *m = &h->bsr;
-    const sim_hm_springs *s = &h->sp;
-    const sim_hm_tets *t = &h->tets;
+    sim_hm_rows *rw = &h->rows;
     memset(m, 0, sizeof *m);
-    const size_t nk = (size_t)h->n + 2 * (size_t)s->n + 12 * (size_t)t->n;
+    sim_hm_dampers *d = &h->damp;
+    const size_t nk = (size_t)h->n + 12 * (size_t)rw->n + 2 * (size_t)d->n;
     uint64_t *k = malloc(nk * sizeof *k);
     m->row = malloc(((size_t)h->n + 1) * sizeof *m->row);
     m->diag = malloc((size_t)h->n * sizeof *m->diag);
-    m->sp_at = malloc(2 * (size_t)s->n * sizeof *m->sp_at);
-    m->tet_at = malloc(16 * (size_t)t->n * sizeof *m->tet_at);
-    if (!k || !m->row || !m->diag || !m->sp_at || !m->tet_at) {
+    if (!k || !m->row || !m->diag) {
         free(k);
         return core_fail(err, CORE_ENOMEM, "out of memory for the hair-mesh system's pattern");
     }
     size_t n = 0;
     for (uint32_t i = 0; i < h->n; i++) k[n++] = key(i, i);
-    for (uint32_t i = 0; i < s->n; i++) k[n++] = key(s->a[i], s->b[i]), k[n++] = key(s->b[i], s->a[i]);
-    for (uint32_t i = 0; i < t->n; i++)
-        for (int a = 0; a < 4; a++)
-            for (int b = 0; b < 4; b++)
-                if (a != b) k[n++] = key(t->v[4 * (size_t)i + a], t->v[4 * (size_t)i + b]);
+    for (uint32_t i = 0; i < d->n; i++) k[n++] = key(d->a[i], d->b[i]), k[n++] = key(d->b[i], d->a[i]);
+    for (uint32_t i = 0; i < rw->n; i++)
+        for (int a = 0; a < rw->nv[i]; a++)
+            for (int b = 0; b < rw->nv[i]; b++)
+                if (a != b) k[n++] = key(rw->v[4 * (size_t)i + a], rw->v[4 * (size_t)i + b]);
     qsort(k, n, sizeof *k, cmp_u64);
     size_t u = 0;
     for (size_t i = 0; i < n; i++)
@@ -74,18 +72,17 @@ core_status sim_hm_bsr_build(sim_hm *h, core_err *err)
     free(k);
     for (uint32_t i = 0; i < h->n; i++) m->row[i + 1] += m->row[i];
     for (uint32_t i = 0; i < h->n; i++) m->diag[i] = find(m, i, i);
-    for (uint32_t i = 0; i < s->n; i++)
-        m->sp_at[2 * i] = find(m, s->a[i], s->b[i]), m->sp_at[2 * i + 1] = find(m, s->b[i], s->a[i]);
-    for (uint32_t i = 0; i < t->n; i++)
+    for (uint32_t i = 0; i < d->n; i++) d->at[2 * i] = find(m, d->a[i], d->b[i]), d->at[2 * i + 1] = find(m, d->b[i], d->a[i]);
+    for (uint32_t i = 0; i < rw->n; i++)
         for (int a = 0; a < 4; a++)
             for (int b = 0; b < 4; b++)
-                m->tet_at[16 * (size_t)i + 4 * a + b] = find(m, t->v[4 * (size_t)i + a], t->v[4 * (size_t)i + b]);
+                rw->at[16 * (size_t)i + 4 * a + b] = find(m, rw->v[4 * (size_t)i + a], rw->v[4 * (size_t)i + b]);
     return CORE_OK;
 }
 
 void sim_hm_bsr_free(sim_hm_bsr *m)
 {
-    free(m->row), free(m->col), free(m->diag), free(m->val), free(m->sp_at), free(m->tet_at);
+    free(m->row), free(m->col), free(m->diag), free(m->val);
     memset(m, 0, sizeof *m);
 }
 

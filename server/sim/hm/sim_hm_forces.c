@@ -1,25 +1,9 @@
-/* sim_hm: forces (Baraff-Witkin stretch, shear and bend conditions; the corner tetrahedra's volume
- * force, paper eq. 1-2) and the implicit Euler system they give. */
+/* sim_hm: forces (Baraff-Witkin stretch, shear and bend conditions, the pair dampers, the corner
+ * tetrahedra's volume force, paper eq. 1-2) and the implicit Euler system they give. */
 #include <math.h>
 #include <string.h>
 
 #include "sim_hm_internal.h"
-
-/* The 3x3 block a u u^T + b I as its columns (SIM_HM_BLOCK layout). */
-static void spring_block(sim_hm_v4 col[3], const float u[3], float a, float b)
-{
-    const sim_hm_v4 uv = { u[0], u[1], u[2], 0.0f };
-    col[0] = (a * u[0]) * uv + (sim_hm_v4){ b, 0.0f, 0.0f, 0.0f };
-    col[1] = (a * u[1]) * uv + (sim_hm_v4){ 0.0f, b, 0.0f, 0.0f };
-    col[2] = (a * u[2]) * uv + (sim_hm_v4){ 0.0f, 0.0f, b, 0.0f };
-}
-
-/* Adds sign x the block's columns col to the block p of the system's matrix (16-byte aligned). */
-static void add_block(float *p, const sim_hm_v4 col[3], float sign)
-{
-    sim_hm_v4 *pc = (sim_hm_v4 *)p;
-    pc[0] += sign * col[0], pc[1] += sign * col[1], pc[2] += sign * col[2];
-}
 
 /* Inverts the symmetric block p in place (the identity's multiple when it is singular). */
 static void invert_block(float *p)
@@ -38,61 +22,81 @@ static void invert_block(float *p)
     p[3] = (float)(B * k), p[4] = (float)(C * k), p[5] = (float)((d * e - a * f) * k);
 }
 
-/* The springs' elastic forces along them (the geometric term only under tension) and their
- * dampers: -kd ((v_a - v_b) - (z_a - z_b)), the ends' whole relative velocity less the head's
- * rigid motion (z), so that the swinging and bending of the mesh, which hardly changes any
- * spring's length, is damped as well as its stretch, while the hair turning with the head is not;
- * the block S = alpha u u^T + beta I gets dt kd on beta, the head's part goes to the right side. */
-static void springs(sim_hm *h, float dt, core_quat rot)
+/* Row r's condition C with gradient g (its vertices', sim_hm_rows), stiffness k and damping kd
+ * (per unit mass, already scaled to the condition): the elastic force -k C g and the damper
+ * -kd g (g . (v - z)) on the velocity less the head's rigid motion go to the right side as
+ * dt (-k C + kd g . z) g (the damper's g . v part is A's: w = dt kd + dt^2 k). */
+static void condition(sim_hm *h, uint32_t r, float C, float k, float kd, float dt)
 {
-    sim_hm_springs *s = &h->sp;
-    const float kind_k[3] = { h->p.hm.stretch_stiffness, h->p.hm.shear_stiffness, h->p.hm.bend_stiffness };
-    const float kd = h->p.hm.damping, dt2 = dt * dt;
+    sim_hm_rows *rw = &h->rows;
+    const uint32_t *id = rw->v + 4 * (size_t)r;
+    const float *g = rw->g + 12 * (size_t)r;
+    float gz = 0.0f;
+    for (int j = 0; j < rw->nv[r]; j++) {
+        const float *z = h->z + 3 * (size_t)id[j];
+        gz += g[3 * j] * z[0] + g[3 * j + 1] * z[1] + g[3 * j + 2] * z[2];
+    }
+    const float s = dt * (kd * gz - k * C);
+    for (int j = 0; j < rw->nv[r]; j++) {
+        float *rj = h->rhs + 3 * (size_t)id[j];
+        rj[0] += s * g[3 * j], rj[1] += s * g[3 * j + 1], rj[2] += s * g[3 * j + 2];
+    }
+    rw->w[r] = dt * kd + dt * dt * k;
+}
+
+/* The triangles' stretch and shear (BW98 eq. 10-11) and the bends (eq. 12, C = theta - theta0).
+ * Each condition's k and kd are the parameters' rates per unit mass scaled so that k' C^2 is k
+ * times a squared length: 1 / a for the triangles (k' C^2 = k a e^2 for a strain e, as a spring
+ * of length sqrt(a) stretched by e), h1 h2 for a bend (its opposite vertices' heights over the
+ * edge: k' theta^2 = k (h theta)^2, a spring on the tip's displacement). */
+static void cloth(sim_hm *h, float dt)
+{
+    sim_hm_cloth *cl = &h->cloth;
+    sim_hm_rows *rw = &h->rows;
+    const float ks = h->p.hm.stretch_stiffness, kh = h->p.hm.shear_stiffness, kb = h->p.hm.bend_stiffness;
+    const float kd = h->p.hm.damping;
     const float *x = h->x;
-    float *rhs = h->rhs;
-    for (uint32_t i = 0; i < s->n; i++) {
-        const uint32_t a = s->a[i], b = s->b[i];
-        float d[3] = { x[3 * a] - x[3 * b], x[3 * a + 1] - x[3 * b + 1], x[3 * a + 2] - x[3 * b + 2] };
-        float len = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        float u[3];
-        if (len > 1e-7f) {
-            u[0] = d[0] / len, u[1] = d[1] / len, u[2] = d[2] / len;
-        } else {
-            core_vec3 r = core_q_rotate(rot, core_v3(s->dir[3 * i], s->dir[3 * i + 1], s->dir[3 * i + 2]));
-            u[0] = r.x, u[1] = r.y, u[2] = r.z;
+    for (uint32_t t = 0; t < cl->ntri; t++) {
+        const uint32_t r = 3 * t, *id = rw->v + 4 * (size_t)r;
+        float C[3], g[3][9];
+        sim_hm_bw_stretch_shear(x + 3 * (size_t)id[0], x + 3 * (size_t)id[1], x + 3 * (size_t)id[2], cl->tri_c + 4 * (size_t)t,
+                                cl->tri_a[t], C, g);
+        const float a = cl->tri_a[t], inv_a = 1.0f / a, k[3] = { ks, ks, kh };
+        const float *sc = cl->tri_s + 3 * (size_t)t;
+        for (int c = 0; c < 3; c++) {
+            memcpy(rw->g + 12 * (size_t)(r + c), g[c], sizeof g[c]);
+            condition(h, r + c, C[c], k[c] * sc[c], kd * sc[c], dt);
         }
-        const float k = kind_k[s->kind[i]];
-        const float C = len - s->len[i];
-        const float g = C > 0.0f ? C / len : 0.0f; /* the geometric term, kept only under tension */
-        const float fe = -k * C;
-        const float *za = h->z + 3 * (size_t)a, *zb = h->z + 3 * (size_t)b;
-        const float r0 = dt * (fe * u[0] + kd * (za[0] - zb[0])), r1 = dt * (fe * u[1] + kd * (za[1] - zb[1])),
-                    r2 = dt * (fe * u[2] + kd * (za[2] - zb[2]));
-        rhs[3 * a] += r0, rhs[3 * a + 1] += r1, rhs[3 * a + 2] += r2;
-        rhs[3 * b] -= r0, rhs[3 * b + 1] -= r1, rhs[3 * b + 2] -= r2;
-        const float al = dt2 * k * (1.0f - g), be = dt2 * k * g + dt * kd;
-        memcpy(s->u + 3 * i, u, sizeof u);
-        s->alpha[i] = al, s->beta[i] = be;
-        float *val = h->bsr.val;
-        sim_hm_v4 S[3];
-        spring_block(S, u, al, be);
-        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.diag[a], S, 1.0f);
-        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.diag[b], S, 1.0f);
-        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.sp_at[2 * i], S, -1.0f);
-        add_block(val + SIM_HM_BLOCK * (size_t)h->bsr.sp_at[2 * i + 1], S, -1.0f);
+        for (int c = 0; c < 2; c++) { /* a stretched side's d2C/dx2 = a cu_i cu_j (I - w w^T) / |w| (SPD under tension) */
+            const float len = C[c] * inv_a + 1.0f, s = C[c] > 0.0f ? dt * dt * ks * sc[c] * C[c] * a / len : 0.0f;
+            cl->tri_b[2 * t + c] = s;
+            rw->w[r + c] -= s * inv_a * inv_a;
+        }
+    }
+    for (uint32_t b = 0; b < cl->nbend; b++) {
+        const uint32_t r = rw->bend0 + b, *id = rw->v + 4 * (size_t)r;
+        float *g = rw->g + 12 * (size_t)r, theta;
+        if (!sim_hm_bw_bend(x + 3 * (size_t)id[0], x + 3 * (size_t)id[1], x + 3 * (size_t)id[2], x + 3 * (size_t)id[3], &theta, g)) {
+            memset(g, 0, 12 * sizeof *g);
+            rw->w[r] = 0.0f;
+            continue;
+        }
+        const float pi = 3.14159265f, d = theta - cl->bend_theta0[b];
+        const float C = d > pi ? d - 2.0f * pi : d < -pi ? d + 2.0f * pi : d; /* in [-pi, pi] */
+        condition(h, r, C, kb * cl->bend_scale[b], kd * cl->bend_scale[b], dt);
     }
 }
 
 /* The volume force f_i = -k' C dC/dx_i with C = e1 . (e2 x e3) / 6 - V0 and k' = k |V0|^(2/3) / V0^2
- * (so that k is a rate per unit mass whatever the tetrahedron's size), and its Gauss-Newton
- * Jacobian -k' G G^T (G = the four gradients). */
+ * (so that k is a rate per unit mass whatever the tetrahedron's size). */
 static void volumes(sim_hm *h, float dt)
 {
-    sim_hm_tets *t = &h->tets;
-    const float kv = h->p.hm.volume_stiffness, dt2 = dt * dt;
+    const sim_hm_tets *t = &h->tets;
+    sim_hm_rows *rw = &h->rows;
+    const float kv = h->p.hm.volume_stiffness;
     const float *x = h->x;
     for (uint32_t i = 0; i < t->n; i++) {
-        const uint32_t *id = t->v + 4 * (size_t)i;
+        const uint32_t r = rw->tet0 + i, *id = rw->v + 4 * (size_t)r;
         const float *p0 = x + 3 * (size_t)id[0];
         core_vec3 e1 = core_v3(x[3 * id[1]] - p0[0], x[3 * id[1] + 1] - p0[1], x[3 * id[1] + 2] - p0[2]);
         core_vec3 e2 = core_v3(x[3 * id[2]] - p0[0], x[3 * id[2] + 1] - p0[1], x[3 * id[2] + 2] - p0[2]);
@@ -101,25 +105,67 @@ static void volumes(sim_hm *h, float dt)
         core_vec3 g2 = core_v3_scale(core_v3_cross(e3, e1), 1.0f / 6.0f);
         core_vec3 g3 = core_v3_scale(core_v3_cross(e1, e2), 1.0f / 6.0f);
         core_vec3 g0 = core_v3_scale(core_v3_add(core_v3_add(g1, g2), g3), -1.0f);
-        const float C = core_v3_dot(e1, g1) - t->v0[i];
-        const float kk = kv * t->scale[i];
-        float *g = t->g + 12 * (size_t)i;
+        float *g = rw->g + 12 * (size_t)r;
         const core_vec3 gs[4] = { g0, g1, g2, g3 };
         for (int j = 0; j < 4; j++) g[3 * j] = gs[j].x, g[3 * j + 1] = gs[j].y, g[3 * j + 2] = gs[j].z;
-        t->w[i] = dt2 * kk;
-        for (int j = 0; j < 4; j++) {
-            float *rj = h->rhs + 3 * (size_t)id[j];
-            const float fc = -kk * C;
-            rj[0] += dt * fc * g[3 * j];
-            rj[1] += dt * fc * g[3 * j + 1];
-            rj[2] += dt * fc * g[3 * j + 2];
+        condition(h, r, core_v3_dot(e1, g1) - t->v0[i], kv * t->scale[i], 0.0f, dt);
+    }
+}
+
+/* The dampers -kd ((v_a - v_b) - (z_a - z_b)) on each pair (sim_hm_dampers): dt kd I on the
+ * blocks, the head's part on the right side. */
+static void dampers(sim_hm *h, float dt)
+{
+    sim_hm_dampers *d = &h->damp;
+    const float c = d->c = dt * h->p.hm.damping;
+    float *val = h->bsr.val;
+    for (uint32_t i = 0; i < d->n; i++) {
+        const uint32_t a = d->a[i], b = d->b[i];
+        float *ra = h->rhs + 3 * (size_t)a, *rb = h->rhs + 3 * (size_t)b;
+        const float *za = h->z + 3 * (size_t)a, *zb = h->z + 3 * (size_t)b;
+        for (int k = 0; k < 3; k++) {
+            const float r = c * (za[k] - zb[k]);
+            ra[k] += r, rb[k] -= r;
         }
-        /* the blocks w g_j g_k^T, column c of (j, k) = (w g_k[c]) g_j */
-        const uint32_t *at = h->bsr.tet_at + 16 * (size_t)i;
+        float *da = val + SIM_HM_BLOCK * (size_t)h->bsr.diag[a], *db = val + SIM_HM_BLOCK * (size_t)h->bsr.diag[b];
+        float *ab = val + SIM_HM_BLOCK * (size_t)d->at[2 * i], *ba = val + SIM_HM_BLOCK * (size_t)d->at[2 * i + 1];
+        for (int k = 0; k < 3; k++) da[5 * k] += c, db[5 * k] += c, ab[5 * k] -= c, ba[5 * k] -= c;
+    }
+}
+
+/* Every row's blocks w g_j g_k^T (column c of (j, k) = (w g_k[c]) g_j) and the triangles'
+ * (b_u cu_j cu_k + b_v cv_j cv_k) I. */
+static void assemble(sim_hm *h)
+{
+    const sim_hm_rows *rw = &h->rows;
+    const sim_hm_cloth *cl = &h->cloth;
+    for (uint32_t t = 0; t < cl->ntri; t++) { /* a triangle's 3 rows and its tension term in one pass */
+        const float bu = cl->tri_b[2 * t], bv = cl->tri_b[2 * t + 1];
+        float cu[3], cv[3];
+        sim_hm_bw_coefficients(cl->tri_c + 4 * (size_t)t, cu, cv);
+        const uint32_t r = 3 * t, *at = rw->at + 16 * (size_t)r;
+        const float *g = rw->g + 12 * (size_t)r, *w = rw->w + r;
+        sim_hm_v4 gv[3][3];
+        for (int q = 0; q < 3; q++)
+            for (int j = 0; j < 3; j++) gv[q][j] = (sim_hm_v4){ g[12 * q + 3 * j], g[12 * q + 3 * j + 1], g[12 * q + 3 * j + 2], 0.0f };
+        for (int k = 0; k < 3; k++)
+            for (int j = 0; j < 3; j++) {
+                sim_hm_v4 *col = (sim_hm_v4 *)(h->bsr.val + SIM_HM_BLOCK * (size_t)at[4 * j + k]);
+                const float d = bu * cu[j] * cu[k] + bv * cv[j] * cv[k];
+                for (int c = 0; c < 3; c++) {
+                    sim_hm_v4 e = { 0.0f, 0.0f, 0.0f, 0.0f };
+                    e[c] = d;
+                    col[c] += e + (w[0] * gv[0][k][c]) * gv[0][j] + (w[1] * gv[1][k][c]) * gv[1][j] + (w[2] * gv[2][k][c]) * gv[2][j];
+                }
+            }
+    }
+    for (uint32_t r = rw->bend0; r < rw->n; r++) {
+        const float *g = rw->g + 12 * (size_t)r, w = rw->w[r];
+        const uint32_t *at = rw->at + 16 * (size_t)r;
         sim_hm_v4 gv4[4];
         for (int j = 0; j < 4; j++) gv4[j] = (sim_hm_v4){ g[3 * j], g[3 * j + 1], g[3 * j + 2], 0.0f };
         for (int k = 0; k < 4; k++) {
-            const float w0 = t->w[i] * g[3 * k], w1 = t->w[i] * g[3 * k + 1], w2 = t->w[i] * g[3 * k + 2];
+            const float w0 = w * g[3 * k], w1 = w * g[3 * k + 1], w2 = w * g[3 * k + 2];
             for (int j = 0; j < 4; j++) {
                 sim_hm_v4 *col = (sim_hm_v4 *)(h->bsr.val + SIM_HM_BLOCK * (size_t)at[4 * j + k]);
                 col[0] += w0 * gv4[j], col[1] += w1 * gv4[j], col[2] += w2 * gv4[j];
@@ -131,7 +177,7 @@ static void volumes(sim_hm *h, float dt)
 /* The air drag acts on the velocity relative to still air, up to SIM_HM_DRAG_CAP (past it, it only
  * over-damps the mesh's return to its rest shape); SIM_HM_SWING_DAMPING's missing part relative
  * to the head. */
-void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat head_rot)
+void sim_hm_forces(sim_hm *h, const float accel[3], float dt)
 {
     const float drag = h->p.air_drag < SIM_HM_DRAG_CAP ? h->p.air_drag : SIM_HM_DRAG_CAP;
     const float swing = drag < SIM_HM_SWING_DAMPING ? SIM_HM_SWING_DAMPING - drag : 0.0f;
@@ -143,8 +189,10 @@ void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat he
         for (int k = 0; k < 3; k++) r[k] = v[k] + dt * (accel[k] + swing * z[k]);
         d[0] = d[5] = d[10] = h->diag;
     }
-    springs(h, dt, head_rot);
+    cloth(h, dt);
     volumes(h, dt);
+    assemble(h);
+    dampers(h, dt);
     for (uint32_t i = 0; i < h->n; i++) {
         const float *d = h->bsr.val + SIM_HM_BLOCK * (size_t)h->bsr.diag[i];
         float *p = h->pinv + 6 * (size_t)i;

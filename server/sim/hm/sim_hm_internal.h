@@ -7,28 +7,51 @@
 #include "../sim_step.h"
 #include "sim_hm.h"
 
-typedef enum sim_hm_spring_kind { SIM_HM_STRETCH = 0, SIM_HM_SHEAR, SIM_HM_BEND } sim_hm_spring_kind;
+/* Baraff and Witkin's cloth elements on the hair mesh (create time): the triangles of every side
+ * quad of a prism (between two layers, along the hair) and of every layer face, each with its rest
+ * (u, v) frame (u along the hair on the side faces, along the face's first edge on the layer
+ * faces), and the bends between side triangles sharing an edge. Their vertices are in the rows'. */
+typedef struct sim_hm_cloth {
+    uint32_t ntri, nbend;
+    float *tri_c;       /* 4 per triangle: w_u = c0 (x1 - x0) + c1 (x2 - x0), w_v = c2 (x1 - x0) + c3 (x2 - x0) */
+    float *tri_a;       /* rest area, m^2 */
+    float *tri_s;       /* 3 per triangle: each condition's stiffness scale, 1 / |dC/dx|^2 at rest of its most moved vertex */
+    float *bend_theta0; /* rest dihedral angle */
+    float *bend_scale;  /* h1 h2 / 2: h the rest triangles' heights over the shared edge, m^2 */
+    /* per step: each triangle's stretch terms' second derivative, kept under tension (it adds
+     * (b_u cu_i cu_j + b_v cv_i cv_j) I to the block (i, j), cu and cv the coefficients of x_i in
+     * w_u and w_v; the rest of it, -b g g^T / a^2, is in the rows' weights) */
+    float *tri_b;       /* 2 per triangle: b_u, b_v */
+} sim_hm_cloth;
 
-/* Springs (create time): ends a, b, rest length, kind, rest direction (head frame, a - b unit). */
-typedef struct sim_hm_springs {
+/* The dampers (create time): pairs of vertices whose velocity relative to each other, less the
+ * head's rigid motion, decays at hm_damping, along the pair and across it: every column segment,
+ * layer edge, diagonal of a prism's side face and of a quad, and the columns' l, l + 2 pairs. */
+typedef struct sim_hm_dampers {
     uint32_t n;
     uint32_t *a, *b;
-    float *len;
-    uint8_t *kind;
-    float *dir;   /* 3 per spring */
-    /* per step: the system's block S = alpha u u^T + beta I along u (unit, 3 per spring) */
-    float *u, *alpha, *beta;
-} sim_hm_springs;
+    uint32_t *at; /* 2 per pair: the blocks (a, b) and (b, a) */
+    float c;      /* per step: dt hm_damping, the pairs' weight in the system */
+} sim_hm_dampers;
 
-/* Corner tetrahedra (create time): 4 vertices and the rest volume's force scale. */
+/* Corner tetrahedra (create time): rest volume and the force scale; vertices in the rows'. */
 typedef struct sim_hm_tets {
     uint32_t n;
-    uint32_t *v;   /* 4 per tetrahedron */
     float *v0;     /* rest volume, m^3 */
     float *scale;  /* |v0|^(2/3) / v0^2 */
-    /* per step: the volume gradients (12 per tetrahedron) and the system's weight dt^2 k' */
-    float *g, *w;
 } sim_hm_tets;
+
+/* The conditions C of the implicit system, each a row of up to 4 vertices: 3 per triangle
+ * (stretch along u, along v, shear), then 1 per bend, then 1 per tetrahedron (volume). Each
+ * adds w g_j g_k^T to the system's block (v[j], v[k]) (Gauss-Newton: the second derivatives of
+ * C dropped, the system SPD). */
+typedef struct sim_hm_rows {
+    uint32_t n, bend0, tet0; /* rows; the first bend's and tetrahedron's */
+    uint32_t *v;             /* 4 per row; a triangle's 4th repeats its 3rd */
+    uint8_t *nv;             /* vertices used: 3 or 4 */
+    uint32_t *at;            /* 16 per row: the block (v[j], v[k]) at 4 j + k */
+    float *g, *w;            /* per step: dC/dx (12 per row) and dt kd' + dt^2 k' */
+} sim_hm_rows;
 
 /* The mesh edges of the deformation minimization (A's rows) as each vertex's neighbours, and the
  * vertices' inverse degrees. */
@@ -39,7 +62,7 @@ typedef struct sim_hm_edges {
 } sim_hm_edges;
 
 /* The least rate, 1/s, at which the mesh's velocity relative to the head's rigid motion decays:
- * the springs' dampers act on pairs of vertices whose forces cancel in a rigid swing of the mesh
+ * the pair dampers act on pairs of vertices whose forces cancel in a rigid swing of the mesh
  * about its roots, so only the root prisms' dampers and the air drag damp that swing, and at
  * air_drag 0 the meshes still swung 3.7-4 s after the violent script (bound 3). Air drag (relative
  * to still air, the same at rest) counts towards it; the rest acts relative to the head. */
@@ -67,16 +90,14 @@ typedef enum sim_hm_contact {
 typedef float sim_hm_v4 __attribute__((vector_size(16), may_alias));
 
 /* The implicit system A as a block-sparse matrix: 3x3 blocks (SIM_HM_BLOCK floats) in rows of
- * ascending columns over the vertex pairs that a spring or a tetrahedron joins (pattern fixed at
- * create, values assembled every substep). */
+ * ascending columns over the vertex pairs that a condition row joins (pattern fixed at create,
+ * values assembled every substep). */
 typedef struct sim_hm_bsr {
     uint32_t n, nnz;   /* block rows (vertices), blocks */
     uint32_t *row;     /* n + 1: each row's first block */
     uint32_t *col;     /* nnz: the blocks' columns */
     uint32_t *diag;    /* n: each row's diagonal block */
     float *val;        /* SIM_HM_BLOCK nnz, 16-byte aligned */
-    uint32_t *sp_at;   /* 2 per spring: the blocks (a, b) and (b, a) */
-    uint32_t *tet_at;  /* 16 per tetrahedron: the block (v[j], v[k]) at 4 j + k */
 } sim_hm_bsr;
 
 typedef struct sim_hm {
@@ -105,8 +126,10 @@ typedef struct sim_hm {
     float *nrhs;                /* n: a sliding vertex's n . rhs before filtering */
     uint8_t *surface;           /* n: 1 = on the outer surface (collided) */
     float *push;                /* 3n: this substep's collision push of each vertex */
-    sim_hm_springs sp;
+    sim_hm_cloth cloth;
+    sim_hm_dampers damp;
     sim_hm_tets tets;
+    sim_hm_rows rows;
     sim_hm_edges edges;
     sim_hm_bsr bsr;
     double stage_ms[4];
@@ -114,25 +137,43 @@ typedef struct sim_hm {
     double sim_time, last_step_ms;
 } sim_hm;
 
-/* Builds springs, tetrahedra, edges and surface flags from h->mesh (rest positions). */
+/* Builds the cloth elements, tetrahedra, condition rows, edges and surface flags from h->mesh
+ * (rest positions). */
 core_status sim_hm_build(sim_hm *h, core_err *err);
 /* Frees what sim_hm_build made. */
 void sim_hm_build_free(sim_hm *h);
 
-/* Forces at h->x, h->v (gravity and wind accel, air drag and SIM_HM_SWING_DAMPING, springs, volume; each spring's damper
- * acts on the whole relative velocity of its ends less the head's rigid motion, h->z, which the
- * caller fills) and the implicit system (I - dt df/dv - dt^2 df/dx) vn = v + dt f_e for substep
+/* Forces at h->x, h->v (gravity and wind accel, air drag and SIM_HM_SWING_DAMPING, Baraff and
+ * Witkin's stretch, shear and bend conditions with their dampers -kd' dC/dx dC/dt, the pair
+ * dampers, both on the velocity less the head's rigid motion, h->z, which the caller fills;
+ * volume) and the implicit system (I - dt df/dv - dt^2 df/dx) vn = v + dt f_e for substep
  * length dt (the new velocity vn; f_e the forces less the dampers' dt df/dv vn, which A carries,
  * so f_e keeps the dampers' head term): the same step as solving for the velocity
  * change dv = vn - v with right-hand side dt (f + dt df/dx v), but without that side's dt^2 df/dx v,
  * which for stiff elements is huge and almost cancelled by A dv, so that CG stopped at a relative
  * tolerance left errors of that size (the wavy and curly meshes exploded); and a CG stopped early
  * from the head's rigid velocity (sim_hm_cg) errs towards moving with the head instead of keeping
- * the old velocity's stiff part. Fills h->rhs, h->diag, h->pinv, h->bsr's blocks, the springs'
- * blocks and the tetrahedra's gradients.
- * head_rot turns the springs' rest directions into the world (the direction of a spring of zero
- * length). */
-void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat head_rot);
+ * the old velocity's stiff part. Fills h->rhs, h->diag, h->pinv, h->bsr's blocks, the rows'
+ * gradients and weights, the triangles' tension terms and the dampers' weight. */
+void sim_hm_forces(sim_hm *h, const float accel[3], float dt);
+
+/* The rest (u, v) frame of the triangle p0 p1 p2 (u: along projected onto its plane, v = n x u) as
+ * the coefficients c of w_u and w_v (sim_hm_cloth.tri_c) and its area; false when degenerate. */
+bool sim_hm_bw_rest_triangle(const float *p0, const float *p1, const float *p2, const float along[3], float c[4],
+                             float *area);
+
+/* The coefficients of x0, x1 and x2 in w_u (cu) and w_v (cv) of the triangle's rest frame c. */
+void sim_hm_bw_coefficients(const float c[4], float cu[3], float cv[3]);
+
+/* At x0 x1 x2: stretch C[0] = a (|w_u| - 1), C[1] = a (|w_v| - 1) and shear C[2] = a w_u . w_v
+ * (BW98 eq. 10-11) and their gradients g[r] (3 per vertex). */
+void sim_hm_bw_stretch_shear(const float *x0, const float *x1, const float *x2, const float c[4], float a, float C[3],
+                             float g[3][9]);
+
+/* The dihedral angle theta between the triangles (x1, x3, x4) and (x2, x4, x3) sharing the edge
+ * x3 x4 (BW98 eq. 12: sin theta = (n2 x n1) . e, cos theta = n1 . n2; 0 when flat) and its
+ * gradient (3 per vertex, x1 x2 x3 x4); false when a triangle or the edge is degenerate. */
+bool sim_hm_bw_bend(const float *x1, const float *x2, const float *x3, const float *x4, float *theta, float g[12]);
 
 /* Baraff and Witkin's partial constraint for the sliding vertices (h->stick SIM_HM_SLIDING, normal n = h->normal):
  * after sim_hm_forces, turns A vn = rhs into S A S vn + (I - S) vn = S (rhs - A P z) + P z with
@@ -143,7 +184,7 @@ void sim_hm_forces(sim_hm *h, const float accel[3], float dt, const core_quat he
  * (the contact force along n is n^T A vn - n . rhs) and refreshes their h->pinv. */
 void sim_hm_filter_sliding(sim_hm *h);
 
-/* Builds h->bsr's pattern from the springs and tetrahedra (sim_hm_build calls it). */
+/* Builds h->bsr's pattern from the condition rows and the dampers (sim_hm_build calls it). */
 core_status sim_hm_bsr_build(sim_hm *h, core_err *err);
 /* Frees what sim_hm_bsr_build made. */
 void sim_hm_bsr_free(sim_hm_bsr *m);
