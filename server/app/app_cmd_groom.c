@@ -131,10 +131,10 @@ static void announce_solver(app_world *w)
              APP_ANNOUNCE_PARAMS);
 }
 
-void app_cmd_groom_poll(app_world *w)
+bool app_cmd_groom_poll(app_world *w)
 {
     app_loader *l = &w->loader;
-    if (!app_loader_collect(l)) return;
+    if (!app_loader_collect(l)) return false;
     uint32_t client = l->client;
     const proto_msg *m = &l->msg;
     /* the solver may have changed while it loaded: the groom must fit the one it will run under */
@@ -145,7 +145,8 @@ void app_cmd_groom_poll(app_world *w)
         l->code = PROTO_ERR_TOO_LARGE;
         l->field = l->job.groom_path[0] ? "file" : "style";
     }
-    if (l->st != CORE_OK) {
+    const bool swapped = l->st == CORE_OK;
+    if (!swapped) {
         refuse(w, client, m, l->code, l->field, l->err.msg);
     } else {
         done(w); /* before the replies: a client may send the next set_groom on seeing them */
@@ -165,4 +166,5 @@ void app_cmd_groom_poll(app_world *w)
         app_cmd_hairmesh_fallback(w); /* after the groom message, before any frame of the new groom */
     }
     app_loader_clear(l);
+    return swapped;
 }

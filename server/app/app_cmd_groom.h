@@ -9,8 +9,9 @@
  * swap, the replies and the groom broadcast follow in app_cmd_groom_poll. Drops grooms_pending
  * when the request ends, before its replies. Sim thread. */
 void app_cmd_set_groom(app_world *w, uint32_t client, const proto_msg *m);
-/* Collects a finished groom load: swaps the groom in and replies, or replies the error. Sim
+/* Collects a finished groom load: swaps the groom in and replies, or replies the error. True
+ * when a new groom was swapped in (its rest pose is then due to be shown: w->dirty). Sim
  * thread, at a step boundary. */
-void app_cmd_groom_poll(app_world *w);
+bool app_cmd_groom_poll(app_world *w);
 
 #endif

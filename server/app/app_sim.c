@@ -41,20 +41,6 @@ void app_sim_arm(app_world *w)
     if (!w->replay) sim_set_cancel(&w->sim, abandon_for_change, w);
 }
 
-/* Applies every queued command; true when there was one. */
-static bool take_commands(app_world *w)
-{
-    app_play_inputs(w); /* a replay's inputs of this step boundary, before any client's */
-    app_cmd c;
-    bool took = false;
-    while (app_mailbox_take(w->mb, &c)) {
-        app_cmd_handle(w, &c);
-        took = true;
-    }
-    app_cmd_groom_poll(w); /* a set_groom whose loads finished */
-    return took;
-}
-
 /* One step; CORE_ECANCELED when it was abandoned for a change (abandon_for_change): the head
  * motion is then as before it, and the caller takes the commands and steps again. */
 static core_status step_once(app_world *w)
@@ -152,6 +138,22 @@ static void maybe_publish(app_world *w, bool stepped)
     }
     w->dirty = false;
     publish(w);
+}
+
+/* Applies every queued command; true when there was one. */
+static bool take_commands(app_world *w)
+{
+    app_play_inputs(w); /* a replay's inputs of this step boundary, before any client's */
+    app_cmd c;
+    bool took = false;
+    while (app_mailbox_take(w->mb, &c)) {
+        app_cmd_handle(w, &c);
+        took = true;
+    }
+    /* a set_groom whose loads finished: its rest pose is shown at once, not after its first
+     * step (which rebuilds every neighbour list: the longest step of a groom's life) */
+    if (app_cmd_groom_poll(w)) maybe_publish(w, false);
+    return took;
 }
 
 /* Once a second: stats for clients and /metrics; every APP_LOG_INTERVAL_S a log line. */
