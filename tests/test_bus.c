@@ -46,7 +46,8 @@ static void test_headers(void **state)
 }
 
 /* No URL: refused. A server that is not up: the connection is made in the background (a node or
- * an edge may start before nats-server), and closing it before it came up is clean. */
+ * an edge may start before nats-server), publishing before it is up says so, and closing it
+ * before it came up is clean. */
 static void test_connect(void **state)
 {
     (void)state;
@@ -59,6 +60,10 @@ static void test_connect(void **state)
     assert_int_equal(bus_connect(&nc, &d, &err), CORE_OK);
     assert_non_null(nc);
     assert_false(natsConnection_Status(nc) == NATS_CONN_STATUS_CONNECTED);
+    /* until it is up, a message with headers is refused as "not yet", not as a failure */
+    const char *h[] = { "Sc-Op", "blob", NULL };
+    assert_int_equal(bus_publish(nc, "strandcast.room.r.blob", h, "x", 1, &err), CORE_ESTATE);
+    assert_non_null(strstr(err.msg, "not connected to NATS yet"));
     bus_close(nc, NULL, 0);
 }
 

@@ -66,10 +66,11 @@ static void send_blob(app_nats *b, const char *subj, const app_nats_binary *x)
     const void *data = x->body ? net_buf_data(x->body) : NULL;
     size_t len = x->body ? net_buf_len(x->body) : 0;
     core_err err;
-    if (bus_publish(b->nc, subj, h, data, len, &err) != CORE_OK) {
-        atomic_fetch_add(&b->publish_errors, 1);
+    core_status st = bus_publish(b->nc, subj, h, data, len, &err);
+    if (st != CORE_OK) atomic_fetch_add(&b->publish_errors, 1);
+    /* before NATS is up no edge knows the room: each gets the blobs when it joins (blobs_to_edge) */
+    if (st != CORE_OK && st != CORE_ESTATE)
         core_log(CORE_LOG_WARN, "nats", "%s (%zu bytes; over the NATS server's max_payload?): edges cannot serve it", err.msg, len);
-    }
 }
 
 /* The edge of r gets the current blobs unless it has them (tab_lock held). */

@@ -13,9 +13,9 @@ typedef struct link_cb {
 
 static void on_down(natsConnection *nc, void *closure)
 {
-    (void)nc;
     link_cb *l = closure;
-    core_log(CORE_LOG_WARN, "bus", "NATS connection lost; reconnecting");
+    if (!natsConnection_IsClosed(nc)) /* closed: bus_close, or on_closed says why */
+        core_log(CORE_LOG_WARN, "bus", "NATS connection lost; reconnecting");
     if (l->fn) l->fn(l->user, false);
 }
 
@@ -149,6 +149,8 @@ core_status bus_request(natsConnection *nc, const char *subj, const char *reply,
     for (const char *const *h = headers; s == NATS_OK && h && h[0]; h += 2) s = natsMsgHeader_Set(m, h[0], h[1]);
     if (s == NATS_OK) s = natsConnection_PublishMsg(nc, m);
     natsMsg_Destroy(m);
+    if (s == NATS_NO_SERVER_SUPPORT && natsConnection_Status(nc) != NATS_CONN_STATUS_CONNECTED)
+        return core_fail(err, CORE_ESTATE, "bus: publish on %s: not connected to NATS yet", subj);
     if (s != NATS_OK) return core_fail(err, CORE_EIO, "bus: publish on %s: %s", subj, natsStatus_GetText(s));
     return CORE_OK;
 }

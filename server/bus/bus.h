@@ -50,8 +50,9 @@ void bus_close(natsConnection *nc, natsSubscription **subs, int n);
 bool bus_room_subject(char *out, size_t cap, const char *room, const char *leaf);
 
 /* A message to subj with headers (NULL-terminated key, value pairs; NULL = none) and data,
- * published on nc. CORE_EIO (err may be NULL) when libnats refuses it (the connection is closed;
- * while it reconnects libnats buffers). Any thread. */
+ * published on nc. CORE_ESTATE (err may be NULL) before the first connection is up (a message
+ * with headers needs the server's word that it takes them), CORE_EIO when libnats refuses it
+ * otherwise (the connection is closed; while it reconnects libnats buffers). Any thread. */
 core_status bus_publish(natsConnection *nc, const char *subj, const char *const *headers, const void *data, size_t len,
                         core_err *err);
 /* As bus_publish, as a NATS request: the message carries reply, the subject its receiver answers

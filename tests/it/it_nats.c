@@ -678,6 +678,34 @@ static void expect_refused(nats_fx *fx, bool relay, const char *creds, const cha
     print_message("%s with %s: exit 1 after %.2f s\n", relay ? "an edge" : "a node", creds ? creds : "no creds", now_s() - t0);
 }
 
+/* This process's stderr into a new temporary file until stderr_end, which returns what was
+ * written there (at most cap - 1 bytes, NUL-terminated). */
+typedef struct stderr_capture {
+    int fd, saved;
+} stderr_capture;
+
+static stderr_capture stderr_begin(void)
+{
+    char log[] = "/tmp/strandcast-nats-log-XXXXXX";
+    stderr_capture c = { mkstemp(log), -1 };
+    assert_true(c.fd >= 0);
+    unlink(log);
+    fflush(stderr);
+    c.saved = dup(2);
+    dup2(c.fd, 2);
+    return c;
+}
+
+static void stderr_end(stderr_capture c, char *text, size_t cap)
+{
+    fflush(stderr);
+    dup2(c.saved, 2);
+    close(c.saved);
+    ssize_t n = pread(c.fd, text, cap - 1, 0);
+    close(c.fd);
+    text[n > 0 ? n : 0] = '\0';
+}
+
 /* A server that comes up after the connection began (in the background) and refuses creds:
  * libnats gives up after two refusals instead of retrying forever, and the bus logs the reason
  * as an error (read back from this process's stderr). */
@@ -685,12 +713,7 @@ static void refused_later(nats_fx *fx, const char *creds)
 {
     int port = fx->nats.port;
     natsd_stop(&fx->nats);
-    char log[] = "/tmp/strandcast-nats-log-XXXXXX";
-    int fd = mkstemp(log);
-    assert_true(fd >= 0);
-    fflush(stderr);
-    int saved = dup(2);
-    dup2(fd, 2);
+    stderr_capture cap = stderr_begin();
     natsConnection *nc = NULL;
     bus_desc bd = { .url = fx->nats.url, .creds = creds, .name = "it refused later" };
     core_err err;
@@ -702,14 +725,8 @@ static void refused_later(nats_fx *fx, const char *creds)
     while (nc && natsConnection_Status(nc) != NATS_CONN_STATUS_CLOSED && now_s() - t0 < 10) nats_Sleep(20);
     bool closed = nc && natsConnection_Status(nc) == NATS_CONN_STATUS_CLOSED;
     bus_close(nc, NULL, 0); /* the closed callback has run once libnats' threads are gone */
-    fflush(stderr);
-    dup2(saved, 2);
-    close(saved);
     char text[4096];
-    ssize_t n = pread(fd, text, sizeof text - 1, 0);
-    close(fd);
-    unlink(log);
-    text[n > 0 ? n : 0] = '\0';
+    stderr_end(cap, text, sizeof text);
     assert_int_equal(st, CORE_OK);
     assert_int_equal(up, 0);
     if (!closed) fail_msg("libnats still retries %.1f s after the server refused the credentials", now_s() - t0);
@@ -720,7 +737,8 @@ static void refused_later(nats_fx *fx, const char *creds)
 /* Credentials the server refuses (a user of an account it does not know; a user's JWT with
  * another user's seed; none at all) stop a node or an edge at start-up with exit status 1 and
  * the server's reason, instead of a daemon retrying forever in silence; refused once the server
- * comes up later, the connection ends with the reason logged (refused_later). */
+ * comes up later, the connection ends with the reason logged (refused_later). The good
+ * credentials are accepted, and closing that connection logs no "lost". */
 void test_nats_creds_refused(void **state)
 {
     nats_fx *fx = *state;
@@ -754,5 +772,10 @@ void test_nats_creds_refused(void **state)
     assert_int_equal(bus_connect(&nc, &bd, &err), CORE_OK);
     assert_non_null(nc);
     assert_int_equal(natsConnection_Status(nc), NATS_CONN_STATUS_CONNECTED);
+    /* closing it on purpose is not reported as a lost connection */
+    stderr_capture cap = stderr_begin();
     bus_close(nc, NULL, 0);
+    char text[1024];
+    stderr_end(cap, text, sizeof text);
+    if (strstr(text, "lost")) fail_msg("a deliberate close logged: %s", text);
 }
