@@ -251,10 +251,32 @@ static size_t scan_run(const sim_cpu_sph *s, uint32_t rb, uint32_t re, float x, 
         const __m256i vsi = _mm256_set1_epi32((int)si);
         const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
         const __m256i nibbles = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
+        uint32_t j = rb;
+#ifdef __AVX512VL__
+        /* Blocks of 16 slots (two of 8 at once) while both halves would be taken: below
+         * SPH_MAX_CANDIDATES - 8 the first half cannot reach the limit, so the 8-slot blocks
+         * below take the rest from j and the list is the same. Compressed in registers (a
+         * compressing store to memory is microcoded). */
+        const __m512 wx = _mm512_set1_ps(x), wy = _mm512_set1_ps(y), wz = _mm512_set1_ps(z), wh2 = _mm512_set1_ps(h2);
+        const __m512i wsi = _mm512_set1_epi32((int)si);
+        const __m512i lanes16 = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+        for (; (j == rb || j < re) && m < SPH_MAX_CANDIDATES - 8; j += 16) {
+            __m512 dx = _mm512_sub_ps(_mm512_loadu_ps(s->sx + j), wx);
+            __m512 dy = _mm512_sub_ps(_mm512_loadu_ps(s->sy + j), wy);
+            __m512 dz = _mm512_sub_ps(_mm512_loadu_ps(s->sz + j), wz);
+            __m512 r2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
+            __mmask16 ok = _mm512_cmpgt_epi32_mask(_mm512_set1_epi32((int)re - (int)j), lanes16);
+            ok = _mm512_mask_cmpneq_epi32_mask(ok, _mm512_loadu_si512(s->strand + j), wsi);
+            ok = _mm512_mask_cmp_ps_mask(ok, r2, wh2, _CMP_LT_OQ);
+            _mm512_storeu_ps(r2s + m, _mm512_maskz_compress_ps(ok, r2));
+            _mm512_storeu_si512(idx + m, _mm512_maskz_compress_epi32(ok, _mm512_add_epi32(_mm512_set1_epi32((int)j), lanes16)));
+            m += (size_t)__builtin_popcount((unsigned)ok);
+        }
+#endif
         /* The first two blocks come without a loop (most runs hold at most 16 slots; a loop
          * whose trip count changes from run to run costs a branch miss per run). A block may
          * start past re (its lanes are all masked); the arrays are padded by SPH_PAD. */
-        for (uint32_t j = rb; (j < rb + 16 || j < re) && m < SPH_MAX_CANDIDATES; j += 8) {
+        for (; (j < rb + 16 || j < re) && m < SPH_MAX_CANDIDATES; j += 8) {
             __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(s->sx + j), vx);
             __m256 dy = _mm256_sub_ps(_mm256_loadu_ps(s->sy + j), vy);
             __m256 dz = _mm256_sub_ps(_mm256_loadu_ps(s->sz + j), vz);
@@ -450,9 +472,11 @@ static void search_job(void *vctx, int tid, int nt)
     uint64_t keys[SPH_MAX_CANDIDATES + SPH_PAD];
     float r2s[SPH_MAX_CANDIDATES + SPH_PAD];
     uint32_t idx[SPH_MAX_CANDIDATES + SPH_PAD];
-    uint32_t ccx = UINT32_MAX, ccy = 0, ccz = 0; /* corner whose neighbour ranges are in rlo/rhi */
-    uint32_t rlo[8], rhi[8];
-    int nr = 0;
+    /* The neighbour ranges of the last corner seen with each parity of (cx, cy, cz): the particles
+     * of a cell take one of its 8 corners (the halves they lie in), in no order. */
+    uint32_t ccorner[8][3], rlo[8][8], rhi[8][8];
+    int nr[8];
+    for (int k = 0; k < 8; k++) ccorner[k][0] = UINT32_MAX;
     for (size_t bucket = b; bucket < e; bucket++) {
         uint32_t first = s->cell_start[bucket], last = s->cell_start[bucket + 1];
         for (uint32_t i = first; i < last; i++) {
@@ -460,13 +484,14 @@ static void search_job(void *vctx, int tid, int nt)
             const uint32_t si = s->strand[i];
             uint32_t cx = lower_cell(xi, s->origin[0], s->inv_cell), cy = lower_cell(yi, s->origin[1], s->inv_cell),
                      cz = lower_cell(zi, s->origin[2], s->inv_cell);
-            if (cx != ccx || cy != ccy || cz != ccz) {
-                ccx = cx, ccy = cy, ccz = cz;
-                nr = neighbour_ranges(s, cx, cy, cz, rlo, rhi);
+            const int k = (int)((cx & 1) | (cy & 1) << 1 | (cz & 1) << 2);
+            if (cx != ccorner[k][0] || cy != ccorner[k][1] || cz != ccorner[k][2]) {
+                ccorner[k][0] = cx, ccorner[k][1] = cy, ccorner[k][2] = cz;
+                nr[k] = neighbour_ranges(s, cx, cy, cz, rlo[k], rhi[k]);
             }
             size_t m = 0;
-            for (int r = 0; r < nr; r++) {
-                const uint32_t rb = s->cell_start[rlo[r]], re = s->cell_start[rhi[r] + 1];
+            for (int r = 0; r < nr[k]; r++) {
+                const uint32_t rb = s->cell_start[rlo[k][r]], re = s->cell_start[rhi[k][r] + 1];
                 m = scan_run(s, rb, re, xi, yi, zi, hs2, si, r2s, idx, m);
             }
             m = keep_nearest(r2s, idx, m, cap, keys);
