@@ -47,6 +47,7 @@ void sim_cpu_sph_free(sim_cpu_sph *s)
 {
     free(s->cell);
     free(s->order);
+    free(s->slot_of);
     free(s->strand);
     free(s->sp);
     free(s->sx);
@@ -65,11 +66,12 @@ void sim_cpu_sph_free(sim_cpu_sph *s)
 static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, int nthreads, core_err *err)
 {
     if (s->n < n || s->cap < cap) {
-        free(s->cell), free(s->order), free(s->strand), free(s->sp), free(s->sv);
+        free(s->cell), free(s->order), free(s->slot_of), free(s->strand), free(s->sp), free(s->sv);
         free(s->sx), free(s->sy), free(s->sz);
         free(s->nbr), free(s->nnbr);
         s->cell = sim_mem_alloc(n * sizeof *s->cell, false);
         s->order = sim_mem_alloc(n * sizeof *s->order, false);
+        s->slot_of = sim_mem_alloc(n * sizeof *s->slot_of, false);
         s->strand = sim_mem_alloc((n + SPH_PAD) * sizeof *s->strand, true);
         s->sp = sim_mem_alloc(n * 4 * sizeof *s->sp, false);
         /* padded by SPH_PAD so vector loads of a run's last block stay inside */
@@ -81,7 +83,7 @@ static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, 
         s->nnbr = sim_mem_alloc(n * sizeof *s->nnbr, false);
         s->n = n;
         s->cap = cap;
-        if (!s->cell || !s->order || !s->strand || !s->sp || !s->sv || !s->sx || !s->sy || !s->sz || !s->nbr || !s->nnbr) {
+        if (!s->cell || !s->order || !s->slot_of || !s->strand || !s->sp || !s->sv || !s->sx || !s->sy || !s->sz || !s->nbr || !s->nnbr) {
             sim_cpu_sph_free(s);
             return core_fail(err, CORE_ENOMEM, "out of memory for SPH buffers of %zu particles", n);
         }
@@ -194,6 +196,7 @@ static void scatter_job(void *vctx, int tid, int nt)
     for (size_t i = b; i < e; i++) {
         uint32_t slot = cursor[s->cell[i]]++;
         s->order[slot] = (uint32_t)i;
+        s->slot_of[i] = slot;
         s->strand[slot] = (uint32_t)(i % c->ns);
     }
 }
@@ -897,6 +900,32 @@ static void gather_job(void *vctx, int tid, int nt)
     }
 }
 
+/* True when the particle at (x, y, z) is farther than the skin allows from its build position
+ * (bx, by, bz) carried by the head's motion m since the build, or not finite. */
+static inline bool strayed_from(const sph_ctx *ctx, float x, float y, float z, float bx, float by, float bz)
+{
+    const float *m = ctx->carry;
+    const float dx = x - (m[0] * bx + m[1] * by + m[2] * bz + m[3]);
+    const float dy = y - (m[4] * bx + m[5] * by + m[6] * bz + m[7]);
+    const float dz = z - (m[8] * bx + m[9] * by + m[10] * bz + m[11]);
+    return !((dx * dx + dy * dy) + dz * dz <= ctx->stray2);
+}
+
+/* True when a strand's tip (the last level, which the head's motion swings the farthest) has
+ * strayed (strayed_from): a look at ns particles that spares the regather pass a rebuild's
+ * lists would throw away. Its verdict implies regather_job's, so the lists are the same. */
+static bool tips_strayed(const sph_ctx *ctx)
+{
+    const sim_cpu *c = ctx->c;
+    const sim_cpu_sph *s = &c->sph;
+    for (size_t i = c->n - c->ns; i < c->n; i++) {
+        const uint32_t slot = s->slot_of[i];
+        if (strayed_from(ctx, ctx->pos[0][i], ctx->pos[1][i], ctx->pos[2][i], s->sx[slot], s->sy[slot], s->sz[slot]))
+            return true;
+    }
+    return false;
+}
+
 /* Kept lists: refreshes the sorted copies from the current state (same slot order) and sets
  * ctx->strayed when a particle is farther than the skin allows from its build position carried
  * by the head's motion (or not finite). Once one has strayed the lists are rebuilt and gathered
@@ -906,7 +935,6 @@ static void regather_job(void *vctx, int tid, int nt)
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     sim_cpu_sph *s = &c->sph;
-    const float *m = ctx->carry;
     size_t b, e;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     bool strayed = false;
@@ -921,11 +949,7 @@ static void regather_job(void *vctx, int tid, int nt)
         const float x = ctx->pos[0][i], y = ctx->pos[1][i], z = ctx->pos[2][i];
         s->sp[4 * slot] = x, s->sp[4 * slot + 1] = y, s->sp[4 * slot + 2] = z;
         s->sv[4 * slot] = motion(ctx, 0, i), s->sv[4 * slot + 1] = motion(ctx, 1, i), s->sv[4 * slot + 2] = motion(ctx, 2, i);
-        const float bx = s->sx[slot], by = s->sy[slot], bz = s->sz[slot];
-        const float dx = x - (m[0] * bx + m[1] * by + m[2] * bz + m[3]);
-        const float dy = y - (m[4] * bx + m[5] * by + m[6] * bz + m[7]);
-        const float dz = z - (m[8] * bx + m[9] * by + m[10] * bz + m[11]);
-        strayed |= !((dx * dx + dy * dy) + dz * dz <= ctx->stray2);
+        strayed |= strayed_from(ctx, x, y, z, s->sx[slot], s->sy[slot], s->sz[slot]);
     }
     if (strayed) atomic_store_explicit(&ctx->strayed, true, memory_order_relaxed);
 }
@@ -994,6 +1018,7 @@ static bool lists_hold(sph_ctx *ctx, core_xform frame)
     const float half_skin = 0.5f * SPH_SKIN * c->step.sph_h;
     head_motion(c->sph.build_head, frame, ctx->carry);
     ctx->stray2 = half_skin * half_skin;
+    if (tips_strayed(ctx)) return false;
     atomic_init(&ctx->strayed, false);
     sim_pool_run_parts(&c->pool, regather_job, ctx, SPH_PARTS);
     return !atomic_load_explicit(&ctx->strayed, memory_order_relaxed);
