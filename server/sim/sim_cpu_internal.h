@@ -21,6 +21,7 @@ typedef struct sim_cpu_sph {
     core_xform build_head;   /* the head the particles moved with when the lists were built */
     uint32_t *cell;          /* hash bucket of each particle, original order */
     uint32_t *order;         /* sorted slot -> original particle index */
+    uint32_t *slot_of;       /* original particle index -> sorted slot (order's inverse) */
     uint32_t *strand;        /* sorted slot -> strand index */
     float *sp, *sv;          /* sorted (x, y, z, density) and (vx, vy, vz, pressure) */
     float *sx, *sy, *sz;     /* sorted positions as SoA at the last build (the scan's input) */

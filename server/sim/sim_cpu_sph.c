@@ -47,6 +47,7 @@ void sim_cpu_sph_free(sim_cpu_sph *s)
 {
     free(s->cell);
     free(s->order);
+    free(s->slot_of);
     free(s->strand);
     free(s->sp);
     free(s->sx);
@@ -65,11 +66,12 @@ void sim_cpu_sph_free(sim_cpu_sph *s)
 static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, int nthreads, core_err *err)
 {
     if (s->n < n || s->cap < cap) {
-        free(s->cell), free(s->order), free(s->strand), free(s->sp), free(s->sv);
+        free(s->cell), free(s->order), free(s->slot_of), free(s->strand), free(s->sp), free(s->sv);
         free(s->sx), free(s->sy), free(s->sz);
         free(s->nbr), free(s->nnbr);
         s->cell = sim_mem_alloc(n * sizeof *s->cell, false);
         s->order = sim_mem_alloc(n * sizeof *s->order, false);
+        s->slot_of = sim_mem_alloc(n * sizeof *s->slot_of, false);
         s->strand = sim_mem_alloc((n + SPH_PAD) * sizeof *s->strand, true);
         s->sp = sim_mem_alloc(n * 4 * sizeof *s->sp, false);
         /* padded by SPH_PAD so vector loads of a run's last block stay inside */
@@ -81,7 +83,7 @@ static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, 
         s->nnbr = sim_mem_alloc(n * sizeof *s->nnbr, false);
         s->n = n;
         s->cap = cap;
-        if (!s->cell || !s->order || !s->strand || !s->sp || !s->sv || !s->sx || !s->sy || !s->sz || !s->nbr || !s->nnbr) {
+        if (!s->cell || !s->order || !s->slot_of || !s->strand || !s->sp || !s->sv || !s->sx || !s->sy || !s->sz || !s->nbr || !s->nnbr) {
             sim_cpu_sph_free(s);
             return core_fail(err, CORE_ENOMEM, "out of memory for SPH buffers of %zu particles", n);
         }
@@ -194,6 +196,7 @@ static void scatter_job(void *vctx, int tid, int nt)
     for (size_t i = b; i < e; i++) {
         uint32_t slot = cursor[s->cell[i]]++;
         s->order[slot] = (uint32_t)i;
+        s->slot_of[i] = slot;
         s->strand[slot] = (uint32_t)(i % c->ns);
     }
 }
@@ -251,10 +254,32 @@ static size_t scan_run(const sim_cpu_sph *s, uint32_t rb, uint32_t re, float x, 
         const __m256i vsi = _mm256_set1_epi32((int)si);
         const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
         const __m256i nibbles = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
+        uint32_t j = rb;
+#ifdef __AVX512VL__
+        /* Blocks of 16 slots (two of 8 at once) while both halves would be taken: below
+         * SPH_MAX_CANDIDATES - 8 the first half cannot reach the limit, so the 8-slot blocks
+         * below take the rest from j and the list is the same. Compressed in registers (a
+         * compressing store to memory is microcoded). */
+        const __m512 wx = _mm512_set1_ps(x), wy = _mm512_set1_ps(y), wz = _mm512_set1_ps(z), wh2 = _mm512_set1_ps(h2);
+        const __m512i wsi = _mm512_set1_epi32((int)si);
+        const __m512i lanes16 = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+        for (; (j == rb || j < re) && m < SPH_MAX_CANDIDATES - 8; j += 16) {
+            __m512 dx = _mm512_sub_ps(_mm512_loadu_ps(s->sx + j), wx);
+            __m512 dy = _mm512_sub_ps(_mm512_loadu_ps(s->sy + j), wy);
+            __m512 dz = _mm512_sub_ps(_mm512_loadu_ps(s->sz + j), wz);
+            __m512 r2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
+            __mmask16 ok = _mm512_cmpgt_epi32_mask(_mm512_set1_epi32((int)re - (int)j), lanes16);
+            ok = _mm512_mask_cmpneq_epi32_mask(ok, _mm512_loadu_si512(s->strand + j), wsi);
+            ok = _mm512_mask_cmp_ps_mask(ok, r2, wh2, _CMP_LT_OQ);
+            _mm512_storeu_ps(r2s + m, _mm512_maskz_compress_ps(ok, r2));
+            _mm512_storeu_si512(idx + m, _mm512_maskz_compress_epi32(ok, _mm512_add_epi32(_mm512_set1_epi32((int)j), lanes16)));
+            m += (size_t)__builtin_popcount((unsigned)ok);
+        }
+#endif
         /* The first two blocks come without a loop (most runs hold at most 16 slots; a loop
          * whose trip count changes from run to run costs a branch miss per run). A block may
          * start past re (its lanes are all masked); the arrays are padded by SPH_PAD. */
-        for (uint32_t j = rb; (j < rb + 16 || j < re) && m < SPH_MAX_CANDIDATES; j += 8) {
+        for (; (j < rb + 16 || j < re) && m < SPH_MAX_CANDIDATES; j += 8) {
             __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(s->sx + j), vx);
             __m256 dy = _mm256_sub_ps(_mm256_loadu_ps(s->sy + j), vy);
             __m256 dz = _mm256_sub_ps(_mm256_loadu_ps(s->sz + j), vz);
@@ -450,9 +475,11 @@ static void search_job(void *vctx, int tid, int nt)
     uint64_t keys[SPH_MAX_CANDIDATES + SPH_PAD];
     float r2s[SPH_MAX_CANDIDATES + SPH_PAD];
     uint32_t idx[SPH_MAX_CANDIDATES + SPH_PAD];
-    uint32_t ccx = UINT32_MAX, ccy = 0, ccz = 0; /* corner whose neighbour ranges are in rlo/rhi */
-    uint32_t rlo[8], rhi[8];
-    int nr = 0;
+    /* The neighbour ranges of the last corner seen with each parity of (cx, cy, cz): the particles
+     * of a cell take one of its 8 corners (the halves they lie in), in no order. */
+    uint32_t ccorner[8][3], rlo[8][8], rhi[8][8];
+    int nr[8];
+    for (int k = 0; k < 8; k++) ccorner[k][0] = UINT32_MAX;
     for (size_t bucket = b; bucket < e; bucket++) {
         uint32_t first = s->cell_start[bucket], last = s->cell_start[bucket + 1];
         for (uint32_t i = first; i < last; i++) {
@@ -460,13 +487,14 @@ static void search_job(void *vctx, int tid, int nt)
             const uint32_t si = s->strand[i];
             uint32_t cx = lower_cell(xi, s->origin[0], s->inv_cell), cy = lower_cell(yi, s->origin[1], s->inv_cell),
                      cz = lower_cell(zi, s->origin[2], s->inv_cell);
-            if (cx != ccx || cy != ccy || cz != ccz) {
-                ccx = cx, ccy = cy, ccz = cz;
-                nr = neighbour_ranges(s, cx, cy, cz, rlo, rhi);
+            const int k = (int)((cx & 1) | (cy & 1) << 1 | (cz & 1) << 2);
+            if (cx != ccorner[k][0] || cy != ccorner[k][1] || cz != ccorner[k][2]) {
+                ccorner[k][0] = cx, ccorner[k][1] = cy, ccorner[k][2] = cz;
+                nr[k] = neighbour_ranges(s, cx, cy, cz, rlo[k], rhi[k]);
             }
             size_t m = 0;
-            for (int r = 0; r < nr; r++) {
-                const uint32_t rb = s->cell_start[rlo[r]], re = s->cell_start[rhi[r] + 1];
+            for (int r = 0; r < nr[k]; r++) {
+                const uint32_t rb = s->cell_start[rlo[k][r]], re = s->cell_start[rhi[k][r] + 1];
                 m = scan_run(s, rb, re, xi, yi, zi, hs2, si, r2s, idx, m);
             }
             m = keep_nearest(r2s, idx, m, cap, keys);
@@ -872,6 +900,32 @@ static void gather_job(void *vctx, int tid, int nt)
     }
 }
 
+/* True when the particle at (x, y, z) is farther than the skin allows from its build position
+ * (bx, by, bz) carried by the head's motion m since the build, or not finite. */
+static inline bool strayed_from(const sph_ctx *ctx, float x, float y, float z, float bx, float by, float bz)
+{
+    const float *m = ctx->carry;
+    const float dx = x - (m[0] * bx + m[1] * by + m[2] * bz + m[3]);
+    const float dy = y - (m[4] * bx + m[5] * by + m[6] * bz + m[7]);
+    const float dz = z - (m[8] * bx + m[9] * by + m[10] * bz + m[11]);
+    return !((dx * dx + dy * dy) + dz * dz <= ctx->stray2);
+}
+
+/* True when a strand's tip (the last level, which the head's motion swings the farthest) has
+ * strayed (strayed_from): a look at ns particles that spares the regather pass a rebuild's
+ * lists would throw away. Its verdict implies regather_job's, so the lists are the same. */
+static bool tips_strayed(const sph_ctx *ctx)
+{
+    const sim_cpu *c = ctx->c;
+    const sim_cpu_sph *s = &c->sph;
+    for (size_t i = c->n - c->ns; i < c->n; i++) {
+        const uint32_t slot = s->slot_of[i];
+        if (strayed_from(ctx, ctx->pos[0][i], ctx->pos[1][i], ctx->pos[2][i], s->sx[slot], s->sy[slot], s->sz[slot]))
+            return true;
+    }
+    return false;
+}
+
 /* Kept lists: refreshes the sorted copies from the current state (same slot order) and sets
  * ctx->strayed when a particle is farther than the skin allows from its build position carried
  * by the head's motion (or not finite). Once one has strayed the lists are rebuilt and gathered
@@ -881,7 +935,6 @@ static void regather_job(void *vctx, int tid, int nt)
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     sim_cpu_sph *s = &c->sph;
-    const float *m = ctx->carry;
     size_t b, e;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
     bool strayed = false;
@@ -896,11 +949,7 @@ static void regather_job(void *vctx, int tid, int nt)
         const float x = ctx->pos[0][i], y = ctx->pos[1][i], z = ctx->pos[2][i];
         s->sp[4 * slot] = x, s->sp[4 * slot + 1] = y, s->sp[4 * slot + 2] = z;
         s->sv[4 * slot] = motion(ctx, 0, i), s->sv[4 * slot + 1] = motion(ctx, 1, i), s->sv[4 * slot + 2] = motion(ctx, 2, i);
-        const float bx = s->sx[slot], by = s->sy[slot], bz = s->sz[slot];
-        const float dx = x - (m[0] * bx + m[1] * by + m[2] * bz + m[3]);
-        const float dy = y - (m[4] * bx + m[5] * by + m[6] * bz + m[7]);
-        const float dz = z - (m[8] * bx + m[9] * by + m[10] * bz + m[11]);
-        strayed |= !((dx * dx + dy * dy) + dz * dz <= ctx->stray2);
+        strayed |= strayed_from(ctx, x, y, z, s->sx[slot], s->sy[slot], s->sz[slot]);
     }
     if (strayed) atomic_store_explicit(&ctx->strayed, true, memory_order_relaxed);
 }
@@ -969,6 +1018,7 @@ static bool lists_hold(sph_ctx *ctx, core_xform frame)
     const float half_skin = 0.5f * SPH_SKIN * c->step.sph_h;
     head_motion(c->sph.build_head, frame, ctx->carry);
     ctx->stray2 = half_skin * half_skin;
+    if (tips_strayed(ctx)) return false;
     atomic_init(&ctx->strayed, false);
     sim_pool_run_parts(&c->pool, regather_job, ctx, SPH_PARTS);
     return !atomic_load_explicit(&ctx->strayed, memory_order_relaxed);
