@@ -11,11 +11,14 @@ static int cmp_u64(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
-/* The block at v (column-major, SIM_HM_BLOCK floats, 16-byte aligned) times the 3-vector at x. */
+/* The packed block at v (column-major, 9 floats) times the 3-vector at x; the result's 4th lane
+ * is meaningless (each column is read as 4 floats, the next one's first with it: pk's padding
+ * covers the last block's). */
 static inline sim_hm_v4 block_mul(const float *restrict v, const float *restrict x)
 {
-    const sim_hm_v4 *c = (const sim_hm_v4 *)v;
-    return (c[0] * x[0] + c[1] * x[1]) + c[2] * x[2];
+    sim_hm_v4 c0, c1, c2;
+    memcpy(&c0, v, sizeof c0), memcpy(&c1, v + 3, sizeof c1), memcpy(&c2, v + 6, sizeof c2);
+    return (c0 * x[0] + c1 * x[1]) + c2 * x[2];
 }
 
 static uint64_t key(uint32_t r, uint32_t c) { return ((uint64_t)r << 32) | c; }
@@ -60,7 +63,8 @@ core_status sim_hm_bsr_build(sim_hm *h, core_err *err)
     m->n = h->n, m->nnz = (uint32_t)u;
     m->col = malloc(u * sizeof *m->col);
     m->val = aligned_alloc(16, SIM_HM_BLOCK * u * sizeof *m->val);
-    if (!m->col || !m->val) {
+    m->pk = calloc(9 * u + 3, sizeof *m->pk);
+    if (!m->col || !m->val || !m->pk) {
         free(k);
         return core_fail(err, CORE_ENOMEM, "out of memory for the hair-mesh system's blocks");
     }
@@ -82,8 +86,17 @@ core_status sim_hm_bsr_build(sim_hm *h, core_err *err)
 
 void sim_hm_bsr_free(sim_hm_bsr *m)
 {
-    free(m->row), free(m->col), free(m->diag), free(m->val);
+    free(m->row), free(m->col), free(m->diag), free(m->val), free(m->pk);
     memset(m, 0, sizeof *m);
+}
+
+void sim_hm_bsr_pack(sim_hm_bsr *m)
+{
+    for (size_t b = 0; b < m->nnz; b++) {
+        const float *v = m->val + SIM_HM_BLOCK * b;
+        float *p = m->pk + 9 * b;
+        for (int c = 0; c < 3; c++) p[3 * c] = v[4 * c], p[3 * c + 1] = v[4 * c + 1], p[3 * c + 2] = v[4 * c + 2];
+    }
 }
 
 /* Row i of A x: the sum of its blocks times x's 3-vectors, in two partial sums (even and odd
@@ -94,10 +107,10 @@ static inline sim_hm_v4 row_mul(const sim_hm_bsr *restrict m, uint32_t i, const 
     uint32_t b = m->row[i];
     const uint32_t e = m->row[i + 1];
     for (; b + 2 <= e; b += 2) {
-        s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, x + 3 * (size_t)m->col[b]);
-        s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), x + 3 * (size_t)m->col[b + 1]);
+        s0 += block_mul(m->pk + 9 * (size_t)b, x + 3 * (size_t)m->col[b]);
+        s1 += block_mul(m->pk + 9 * (size_t)(b + 1), x + 3 * (size_t)m->col[b + 1]);
     }
-    if (b < e) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, x + 3 * (size_t)m->col[b]);
+    if (b < e) s0 += block_mul(m->pk + 9 * (size_t)b, x + 3 * (size_t)m->col[b]);
     return s0 + s1;
 }
 
@@ -115,11 +128,12 @@ void sim_hm_bsr_row_apply(const sim_hm_bsr *m, uint32_t i, const float *x, float
     y[0] = s[0], y[1] = s[1], y[2] = s[2];
 }
 
-/* The symmetric block p (xx yy zz xy xz yz) times a. */
+/* The symmetric block p (xx yy zz xy xz yz) times a, as its columns times a's lanes (the same
+ * sums in the same order per lane, in vector operations). */
 static inline sim_hm_v4 sym_mul(const float *p, sim_hm_v4 a)
 {
-    return (sim_hm_v4){ p[0] * a[0] + p[3] * a[1] + p[4] * a[2], p[3] * a[0] + p[1] * a[1] + p[5] * a[2],
-                        p[4] * a[0] + p[5] * a[1] + p[2] * a[2], 0.0f };
+    const sim_hm_v4 c0 = { p[0], p[3], p[4], 0.0f }, c1 = { p[3], p[1], p[5], 0.0f }, c2 = { p[4], p[5], p[2], 0.0f };
+    return (c0 * a[0] + c1 * a[1]) + c2 * a[2];
 }
 
 static inline void store3(float *y, sim_hm_v4 a) { y[0] = a[0], y[1] = a[1], y[2] = a[2]; }
@@ -135,10 +149,10 @@ void sim_hm_bsr_lower_solve(const sim_hm_bsr *m, const float *dinv, const uint8_
         sim_hm_v4 s0 = { 0 }, s1 = { 0 };
         uint32_t b = m->row[i];
         for (; b + 2 <= m->diag[i]; b += 2) {
-            s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
-            s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
+            s0 += block_mul(m->pk + 9 * (size_t)b, t + 3 * (size_t)m->col[b]);
+            s1 += block_mul(m->pk + 9 * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
         }
-        if (b < m->diag[i]) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
+        if (b < m->diag[i]) s0 += block_mul(m->pk + 9 * (size_t)b, t + 3 * (size_t)m->col[b]);
         const float *ri = r + 3 * (size_t)i;
         store3(ti, sym_mul(dinv + 6 * (size_t)i, (sim_hm_v4){ ri[0], ri[1], ri[2], 0.0f } - (s0 + s1)));
     }
@@ -153,10 +167,10 @@ void sim_hm_bsr_upper_solve(const sim_hm_bsr *m, const float *dinv, const uint8_
         if (!fixed[i]) {
             uint32_t b = m->diag[i] + 1;
             for (; b + 2 <= m->row[i + 1]; b += 2) {
-                s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
-                s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
+                s0 += block_mul(m->pk + 9 * (size_t)b, t + 3 * (size_t)m->col[b]);
+                s1 += block_mul(m->pk + 9 * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
             }
-            if (b < m->row[i + 1]) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
+            if (b < m->row[i + 1]) s0 += block_mul(m->pk + 9 * (size_t)b, t + 3 * (size_t)m->col[b]);
             s0 += s1;
             const float *ri = r + 3 * (size_t)i;
             store3(ti, sym_mul(dinv + 6 * (size_t)i, (sim_hm_v4){ ri[0], ri[1], ri[2], 0.0f } - s0));
@@ -172,6 +186,6 @@ void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const floa
     for (uint32_t i = 0; i < m->n; i++) {
         float *yi = y + 3 * (size_t)i;
         if (fixed[i]) yi[0] = yi[1] = yi[2] = 0.0f;
-        else store3(yi, block_mul(m->val + SIM_HM_BLOCK * (size_t)m->diag[i], x + 3 * (size_t)i));
+        else store3(yi, block_mul(m->pk + 9 * (size_t)m->diag[i], x + 3 * (size_t)i));
     }
 }

@@ -208,6 +208,7 @@ void sim_hm_forces(sim_hm *h, const float accel[3], float dt)
         p[0] = d[0], p[1] = d[5], p[2] = d[10], p[3] = d[4], p[4] = d[8], p[5] = d[9];
         invert_block(p);
     }
+    sim_hm_bsr_pack(&h->bsr);
 }
 
 /* Block b's column c times a 3-vector: B(:, c) . a is (B^T a)_c. */
@@ -291,4 +292,5 @@ void sim_hm_filter_sliding(sim_hm *h)
         p[0] = d[0], p[1] = d[5], p[2] = d[10], p[3] = d[4], p[4] = d[8], p[5] = d[9];
         invert_block(p);
     }
+    sim_hm_bsr_pack(&h->bsr);
 }

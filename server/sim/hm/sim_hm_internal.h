@@ -97,7 +97,10 @@ typedef struct sim_hm_bsr {
     uint32_t *row;     /* n + 1: each row's first block */
     uint32_t *col;     /* nnz: the blocks' columns */
     uint32_t *diag;    /* n: each row's diagonal block */
-    float *val;        /* SIM_HM_BLOCK nnz, 16-byte aligned */
+    float *val;        /* SIM_HM_BLOCK nnz, 16-byte aligned: where the blocks are assembled */
+    float *pk;         /* 9 nnz + 3: the same blocks packed (element (r, c) at 9 b + 3 c + r; sim_hm_bsr_pack),
+                        * which the products and sweeps read: a quarter less to stream per CG iteration
+                        * (1.4 MB against 1.9 at 2,304 vertices: within a 2 MB L2) */
 } sim_hm_bsr;
 
 typedef struct sim_hm {
@@ -188,6 +191,10 @@ void sim_hm_filter_sliding(sim_hm *h);
 core_status sim_hm_bsr_build(sim_hm *h, core_err *err);
 /* Frees what sim_hm_bsr_build made. */
 void sim_hm_bsr_free(sim_hm_bsr *m);
+
+/* Copies m's assembled blocks (val) to its packed ones (pk), which the products and sweeps below
+ * read: call it once val is final (sim_hm_forces, sim_hm_filter_sliding do). */
+void sim_hm_bsr_pack(sim_hm_bsr *m);
 
 /* y = A x with the blocks sim_hm_forces assembled in m (the CG's product); x and y do not overlap. */
 void sim_hm_bsr_apply(const sim_hm_bsr *m, const float *x, float *y);
