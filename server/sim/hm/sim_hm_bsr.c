@@ -11,8 +11,8 @@ static int cmp_u64(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
-/* The packed block at v (column-major, 9 floats) times the 3-vector at x; the result's 4th lane
- * is meaningless (each column is read as 4 floats, the next one's first with it: pk's padding
+/* The block at v (SIM_HM_BLOCK floats) times the 3-vector at x; the result's 4th lane is
+ * meaningless (each column is read as 4 floats, the next one's first with it: val's padding
  * covers the last block's). */
 static inline sim_hm_v4 block_mul(const float *restrict v, const float *restrict x)
 {
@@ -62,9 +62,8 @@ core_status sim_hm_bsr_build(sim_hm *h, core_err *err)
         if (u == 0 || k[u - 1] != k[i]) k[u++] = k[i];
     m->n = h->n, m->nnz = (uint32_t)u;
     m->col = malloc(u * sizeof *m->col);
-    m->val = aligned_alloc(16, SIM_HM_BLOCK * u * sizeof *m->val);
-    m->pk = calloc(9 * u + 3, sizeof *m->pk);
-    if (!m->col || !m->val || !m->pk) {
+    m->val = calloc(SIM_HM_BLOCK * u + 3, sizeof *m->val);
+    if (!m->col || !m->val) {
         free(k);
         return core_fail(err, CORE_ENOMEM, "out of memory for the hair-mesh system's blocks");
     }
@@ -86,17 +85,8 @@ core_status sim_hm_bsr_build(sim_hm *h, core_err *err)
 
 void sim_hm_bsr_free(sim_hm_bsr *m)
 {
-    free(m->row), free(m->col), free(m->diag), free(m->val), free(m->pk);
+    free(m->row), free(m->col), free(m->diag), free(m->val);
     memset(m, 0, sizeof *m);
-}
-
-void sim_hm_bsr_pack(sim_hm_bsr *m)
-{
-    for (size_t b = 0; b < m->nnz; b++) {
-        const float *v = m->val + SIM_HM_BLOCK * b;
-        float *p = m->pk + 9 * b;
-        for (int c = 0; c < 3; c++) p[3 * c] = v[4 * c], p[3 * c + 1] = v[4 * c + 1], p[3 * c + 2] = v[4 * c + 2];
-    }
 }
 
 /* Row i of A x: the sum of its blocks times x's 3-vectors, in two partial sums (even and odd
@@ -107,10 +97,10 @@ static inline sim_hm_v4 row_mul(const sim_hm_bsr *restrict m, uint32_t i, const 
     uint32_t b = m->row[i];
     const uint32_t e = m->row[i + 1];
     for (; b + 2 <= e; b += 2) {
-        s0 += block_mul(m->pk + 9 * (size_t)b, x + 3 * (size_t)m->col[b]);
-        s1 += block_mul(m->pk + 9 * (size_t)(b + 1), x + 3 * (size_t)m->col[b + 1]);
+        s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, x + 3 * (size_t)m->col[b]);
+        s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), x + 3 * (size_t)m->col[b + 1]);
     }
-    if (b < e) s0 += block_mul(m->pk + 9 * (size_t)b, x + 3 * (size_t)m->col[b]);
+    if (b < e) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, x + 3 * (size_t)m->col[b]);
     return s0 + s1;
 }
 
@@ -149,10 +139,10 @@ void sim_hm_bsr_lower_solve(const sim_hm_bsr *m, const float *dinv, const uint8_
         sim_hm_v4 s0 = { 0 }, s1 = { 0 };
         uint32_t b = m->row[i];
         for (; b + 2 <= m->diag[i]; b += 2) {
-            s0 += block_mul(m->pk + 9 * (size_t)b, t + 3 * (size_t)m->col[b]);
-            s1 += block_mul(m->pk + 9 * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
+            s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
+            s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
         }
-        if (b < m->diag[i]) s0 += block_mul(m->pk + 9 * (size_t)b, t + 3 * (size_t)m->col[b]);
+        if (b < m->diag[i]) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
         const float *ri = r + 3 * (size_t)i;
         store3(ti, sym_mul(dinv + 6 * (size_t)i, (sim_hm_v4){ ri[0], ri[1], ri[2], 0.0f } - (s0 + s1)));
     }
@@ -167,10 +157,10 @@ void sim_hm_bsr_upper_solve(const sim_hm_bsr *m, const float *dinv, const uint8_
         if (!fixed[i]) {
             uint32_t b = m->diag[i] + 1;
             for (; b + 2 <= m->row[i + 1]; b += 2) {
-                s0 += block_mul(m->pk + 9 * (size_t)b, t + 3 * (size_t)m->col[b]);
-                s1 += block_mul(m->pk + 9 * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
+                s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
+                s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
             }
-            if (b < m->row[i + 1]) s0 += block_mul(m->pk + 9 * (size_t)b, t + 3 * (size_t)m->col[b]);
+            if (b < m->row[i + 1]) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
             s0 += s1;
             const float *ri = r + 3 * (size_t)i;
             store3(ti, sym_mul(dinv + 6 * (size_t)i, (sim_hm_v4){ ri[0], ri[1], ri[2], 0.0f } - s0));
@@ -186,6 +176,6 @@ void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const floa
     for (uint32_t i = 0; i < m->n; i++) {
         float *yi = y + 3 * (size_t)i;
         if (fixed[i]) yi[0] = yi[1] = yi[2] = 0.0f;
-        else store3(yi, block_mul(m->pk + 9 * (size_t)m->diag[i], x + 3 * (size_t)i));
+        else store3(yi, block_mul(m->val + SIM_HM_BLOCK * (size_t)m->diag[i], x + 3 * (size_t)i));
     }
 }

@@ -48,10 +48,8 @@ static void condition(sim_hm *h, uint32_t r, float C, float k, float kd, float d
     for (int j = 0; j < 4; j++) gv4[j] = (sim_hm_v4){ g[3 * j], g[3 * j + 1], g[3 * j + 2], 0.0f };
     for (int k4 = 0; k4 < 4; k4++) {
         const float w0 = w * g[3 * k4], w1 = w * g[3 * k4 + 1], w2 = w * g[3 * k4 + 2];
-        for (int j = 0; j < 4; j++) {
-            sim_hm_v4 *col = (sim_hm_v4 *)(h->bsr.val + SIM_HM_BLOCK * (size_t)at[4 * j + k4]);
-            col[0] += w0 * gv4[j], col[1] += w1 * gv4[j], col[2] += w2 * gv4[j];
-        }
+        for (int j = 0; j < 4; j++)
+            sim_hm_block_add(h->bsr.val + SIM_HM_BLOCK * (size_t)at[4 * j + k4], w0 * gv4[j], w1 * gv4[j], w2 * gv4[j]);
     }
 }
 
@@ -96,13 +94,14 @@ static void triangle(sim_hm *h, uint32_t t, const float C[3], const float g[3][9
         for (int j = 0; j < 3; j++) gv[q][j] = (sim_hm_v4){ g[q][3 * j], g[q][3 * j + 1], g[q][3 * j + 2], 0.0f };
     for (int kk = 0; kk < 3; kk++)
         for (int j = 0; j < 3; j++) {
-            sim_hm_v4 *col = (sim_hm_v4 *)(h->bsr.val + SIM_HM_BLOCK * (size_t)at[4 * j + kk]);
             const float d = bu * cu[j] * cu[kk] + bv * cv[j] * cv[kk];
+            sim_hm_v4 col[3];
             for (int c = 0; c < 3; c++) {
                 sim_hm_v4 e = { 0.0f, 0.0f, 0.0f, 0.0f };
                 e[c] = d;
-                col[c] += e + (w[0] * gv[0][kk][c]) * gv[0][j] + (w[1] * gv[1][kk][c]) * gv[1][j] + (w[2] * gv[2][kk][c]) * gv[2][j];
+                col[c] = e + (w[0] * gv[0][kk][c]) * gv[0][j] + (w[1] * gv[1][kk][c]) * gv[1][j] + (w[2] * gv[2][kk][c]) * gv[2][j];
             }
+            sim_hm_block_add(h->bsr.val + SIM_HM_BLOCK * (size_t)at[4 * j + kk], col[0], col[1], col[2]);
         }
 }
 
@@ -180,7 +179,7 @@ static void dampers(sim_hm *h, float dt)
         }
         float *da = val + SIM_HM_BLOCK * (size_t)h->bsr.diag[a], *db = val + SIM_HM_BLOCK * (size_t)h->bsr.diag[b];
         float *ab = val + SIM_HM_BLOCK * (size_t)d->at[2 * i], *ba = val + SIM_HM_BLOCK * (size_t)d->at[2 * i + 1];
-        for (int k = 0; k < 3; k++) da[5 * k] += c, db[5 * k] += c, ab[5 * k] -= c, ba[5 * k] -= c;
+        for (int k = 0; k < 3; k++) da[4 * k] += c, db[4 * k] += c, ab[4 * k] -= c, ba[4 * k] -= c;
     }
 }
 
@@ -197,7 +196,7 @@ void sim_hm_forces(sim_hm *h, const float accel[3], float dt)
         float *r = h->rhs + 3 * (size_t)i, *d = h->bsr.val + SIM_HM_BLOCK * (size_t)h->bsr.diag[i];
         const float *v = h->v + 3 * (size_t)i, *z = h->z + 3 * (size_t)i;
         for (int k = 0; k < 3; k++) r[k] = v[k] + dt * (accel[k] + swing * z[k]);
-        d[0] = d[5] = d[10] = h->diag;
+        d[0] = d[4] = d[8] = h->diag;
     }
     cloth(h, dt);
     volumes(h, dt);
@@ -205,14 +204,13 @@ void sim_hm_forces(sim_hm *h, const float accel[3], float dt)
     for (uint32_t i = 0; i < h->n; i++) {
         const float *d = h->bsr.val + SIM_HM_BLOCK * (size_t)h->bsr.diag[i];
         float *p = h->pinv + 6 * (size_t)i;
-        p[0] = d[0], p[1] = d[5], p[2] = d[10], p[3] = d[4], p[4] = d[8], p[5] = d[9];
+        p[0] = d[0], p[1] = d[4], p[2] = d[8], p[3] = d[3], p[4] = d[6], p[5] = d[7];
         invert_block(p);
     }
-    sim_hm_bsr_pack(&h->bsr);
 }
 
 /* Block b's column c times a 3-vector: B(:, c) . a is (B^T a)_c. */
-static float col_dot(const float *b, int c, const float n[3]) { return b[4 * c] * n[0] + b[4 * c + 1] * n[1] + b[4 * c + 2] * n[2]; }
+static float col_dot(const float *b, int c, const float n[3]) { return b[3 * c] * n[0] + b[3 * c + 1] * n[1] + b[3 * c + 2] * n[2]; }
 
 /* b = (I - n n^T) b when left, b (I - n n^T) otherwise (SIM_HM_BLOCK layout). */
 static void block_filter(float *b, const float n[3], bool left)
@@ -220,14 +218,14 @@ static void block_filter(float *b, const float n[3], bool left)
     if (left) {
         for (int c = 0; c < 3; c++) {
             const float t = col_dot(b, c, n);
-            for (int r = 0; r < 3; r++) b[4 * c + r] -= n[r] * t;
+            for (int r = 0; r < 3; r++) b[3 * c + r] -= n[r] * t;
         }
         return;
     }
     float bn[3];
-    for (int r = 0; r < 3; r++) bn[r] = b[r] * n[0] + b[4 + r] * n[1] + b[8 + r] * n[2];
+    for (int r = 0; r < 3; r++) bn[r] = b[r] * n[0] + b[3 + r] * n[1] + b[6 + r] * n[2];
     for (int c = 0; c < 3; c++)
-        for (int r = 0; r < 3; r++) b[4 * c + r] -= bn[r] * n[c];
+        for (int r = 0; r < 3; r++) b[3 * c + r] -= bn[r] * n[c];
 }
 
 /* The block (j, i) of m (the transposed position of (i, j)), found in row j's ascending columns. */
@@ -279,7 +277,7 @@ void sim_hm_filter_sliding(sim_hm *h)
             if (j == i) {
                 block_filter(val + SIM_HM_BLOCK * (size_t)k, n, false);
                 for (int c = 0; c < 3; c++)
-                    for (int r = 0; r < 3; r++) val[SIM_HM_BLOCK * (size_t)k + 4 * c + r] += n[r] * n[c];
+                    for (int r = 0; r < 3; r++) val[SIM_HM_BLOCK * (size_t)k + 3 * c + r] += n[r] * n[c];
             } else if (!h->fixed[j]) {
                 block_filter(val + SIM_HM_BLOCK * (size_t)block_at(m, j, i), n, false);
             }
@@ -289,8 +287,7 @@ void sim_hm_filter_sliding(sim_hm *h)
         if (h->stick[i] != SIM_HM_SLIDING) continue;
         const float *d = val + SIM_HM_BLOCK * (size_t)m->diag[i];
         float *p = h->pinv + 6 * (size_t)i;
-        p[0] = d[0], p[1] = d[5], p[2] = d[10], p[3] = d[4], p[4] = d[8], p[5] = d[9];
+        p[0] = d[0], p[1] = d[4], p[2] = d[8], p[3] = d[3], p[4] = d[6], p[5] = d[7];
         invert_block(p);
     }
-    sim_hm_bsr_pack(&h->bsr);
 }

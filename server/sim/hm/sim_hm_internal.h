@@ -3,6 +3,7 @@
 #define SIM_HM_SIM_HM_INTERNAL_H
 
 #include <stdint.h>
+#include <string.h>
 
 #include "../sim_step.h"
 #include "sim_hm.h"
@@ -83,11 +84,26 @@ typedef enum sim_hm_contact {
     SIM_HM_SLIDING = 2  /* only its velocity along the normal is held (sim_hm_filter_sliding) */
 } sim_hm_contact;
 
-/* Floats per block of the system's matrix: 3 columns of 4 (the 4th is 0), element (r, c) at 4 c + r. */
-#define SIM_HM_BLOCK 12
+/* Floats per block of the system's matrix: 3 columns of 3, element (r, c) at 3 c + r (packed: a
+ * quarter less to stream per CG iteration than columns of 4, 1.4 MB at 2,304 vertices, within a
+ * core's 2 MB L2). */
+#define SIM_HM_BLOCK 9
 
-/* 4 floats as one value (GCC/Clang vector extensions, may alias float): a column of a block. */
+/* 4 floats as one value (GCC/Clang vector extensions, may alias float): a block's column read with
+ * the next float (which the lane 3 of a product then carries and nobody reads). */
 typedef float sim_hm_v4 __attribute__((vector_size(16), may_alias));
+
+/* Adds the columns c0, c1, c2 (lanes 0-2) to the block at b in two 4-float and one scalar
+ * additions (each element's addition as a column's would be). */
+static inline void sim_hm_block_add(float *b, sim_hm_v4 c0, sim_hm_v4 c1, sim_hm_v4 c2)
+{
+    sim_hm_v4 lo, hi;
+    memcpy(&lo, b, sizeof lo), memcpy(&hi, b + 4, sizeof hi);
+    lo += (sim_hm_v4){ c0[0], c0[1], c0[2], c1[0] };
+    hi += (sim_hm_v4){ c1[1], c1[2], c2[0], c2[1] };
+    memcpy(b, &lo, sizeof lo), memcpy(b + 4, &hi, sizeof hi);
+    b[8] += c2[2];
+}
 
 /* The implicit system A as a block-sparse matrix: 3x3 blocks (SIM_HM_BLOCK floats) in rows of
  * ascending columns over the vertex pairs that a condition row joins (pattern fixed at create,
@@ -97,10 +113,7 @@ typedef struct sim_hm_bsr {
     uint32_t *row;     /* n + 1: each row's first block */
     uint32_t *col;     /* nnz: the blocks' columns */
     uint32_t *diag;    /* n: each row's diagonal block */
-    float *val;        /* SIM_HM_BLOCK nnz, 16-byte aligned: where the blocks are assembled */
-    float *pk;         /* 9 nnz + 3: the same blocks packed (element (r, c) at 9 b + 3 c + r; sim_hm_bsr_pack),
-                        * which the products and sweeps read: a quarter less to stream per CG iteration
-                        * (1.4 MB against 1.9 at 2,304 vertices: within a 2 MB L2) */
+    float *val;        /* SIM_HM_BLOCK nnz + 3 (the last column's read of 4 floats) */
 } sim_hm_bsr;
 
 typedef struct sim_hm {
@@ -191,10 +204,6 @@ void sim_hm_filter_sliding(sim_hm *h);
 core_status sim_hm_bsr_build(sim_hm *h, core_err *err);
 /* Frees what sim_hm_bsr_build made. */
 void sim_hm_bsr_free(sim_hm_bsr *m);
-
-/* Copies m's assembled blocks (val) to its packed ones (pk), which the products and sweeps below
- * read: call it once val is final (sim_hm_forces, sim_hm_filter_sliding do). */
-void sim_hm_bsr_pack(sim_hm_bsr *m);
 
 /* y = A x with the blocks sim_hm_forces assembled in m (the CG's product); x and y do not overlap. */
 void sim_hm_bsr_apply(const sim_hm_bsr *m, const float *x, float *y);
