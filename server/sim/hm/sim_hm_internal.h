@@ -208,6 +208,9 @@ void sim_hm_bsr_free(sim_hm_bsr *m);
 /* y = A x with the blocks sim_hm_forces assembled in m (the CG's product); x and y do not overlap. */
 void sim_hm_bsr_apply(const sim_hm_bsr *m, const float *x, float *y);
 
+/* y[v] = A x[v] for 3 vectors in one pass over the blocks (each as sim_hm_bsr_apply). */
+void sim_hm_bsr_apply3(const sim_hm_bsr *m, const float *const x[3], float *const y[3]);
+
 /* y = row i of A x (3 floats). */
 void sim_hm_bsr_row_apply(const sim_hm_bsr *m, uint32_t i, const float *x, float y[3]);
 
@@ -220,6 +223,9 @@ void sim_hm_bsr_lower_solve(const sim_hm_bsr *m, const float *dinv, const uint8_
 void sim_hm_bsr_upper_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t,
                             float *u);
 void sim_hm_bsr_diag_apply(const sim_hm_bsr *m, const uint8_t *fixed, const float *x, float *y);
+/* The forward sweep of sim_hm_bsr_lower_solve on 3 vectors in place (t[v] = (D + L)^-1 t[v]) in
+ * one pass over the blocks, each vector's result the same as alone. */
+void sim_hm_bsr_lower_solve3(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, float *const t[3]);
 
 /* Solves A vn = rhs by modified CG: rows with fixed[i] keep vn_i = z_i; starts from vn = z (the
  * others: moving with the head) or from h->v plus the last solve's change h->dvp (which it then
