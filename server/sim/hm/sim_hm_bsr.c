@@ -11,11 +11,14 @@ static int cmp_u64(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
-/* The block at v (column-major, SIM_HM_BLOCK floats, 16-byte aligned) times the 3-vector at x. */
+/* The block at v (SIM_HM_BLOCK floats) times the 3-vector at x; the result's 4th lane is
+ * meaningless (each column is read as 4 floats, the next one's first with it: val's padding
+ * covers the last block's). */
 static inline sim_hm_v4 block_mul(const float *restrict v, const float *restrict x)
 {
-    const sim_hm_v4 *c = (const sim_hm_v4 *)v;
-    return (c[0] * x[0] + c[1] * x[1]) + c[2] * x[2];
+    sim_hm_v4 c0, c1, c2;
+    memcpy(&c0, v, sizeof c0), memcpy(&c1, v + 3, sizeof c1), memcpy(&c2, v + 6, sizeof c2);
+    return (c0 * x[0] + c1 * x[1]) + c2 * x[2];
 }
 
 static uint64_t key(uint32_t r, uint32_t c) { return ((uint64_t)r << 32) | c; }
@@ -59,7 +62,7 @@ core_status sim_hm_bsr_build(sim_hm *h, core_err *err)
         if (u == 0 || k[u - 1] != k[i]) k[u++] = k[i];
     m->n = h->n, m->nnz = (uint32_t)u;
     m->col = malloc(u * sizeof *m->col);
-    m->val = aligned_alloc(16, SIM_HM_BLOCK * u * sizeof *m->val);
+    m->val = calloc(SIM_HM_BLOCK * u + 3, sizeof *m->val);
     if (!m->col || !m->val) {
         free(k);
         return core_fail(err, CORE_ENOMEM, "out of memory for the hair-mesh system's blocks");
@@ -86,62 +89,83 @@ void sim_hm_bsr_free(sim_hm_bsr *m)
     memset(m, 0, sizeof *m);
 }
 
-/* Row i of A x: the sum of its blocks times x's 3-vectors, in two partial sums (even and odd
- * blocks) so the additions of a row do not wait on each other. */
-static inline sim_hm_v4 row_mul(const sim_hm_bsr *restrict m, uint32_t i, const float *restrict x)
+/* The most vectors one pass takes (sim_hm_bsr_apply3, sim_hm_bsr_lower_solve3). */
+#define NV_MAX 3
+
+/* For each of the nv vectors x[v], the sum of blocks b .. e - 1 (one row's) times x[v]'s
+ * 3-vectors, in two partial sums (even and odd blocks) so the additions do not wait on each
+ * other: out[v]. Several vectors in one pass read each block once and interleave their chains
+ * (each vector's sums the same as alone). */
+static inline void rows_mul(const sim_hm_bsr *m, uint32_t b, uint32_t e, int nv, const float *const *x, sim_hm_v4 *out)
 {
-    sim_hm_v4 s0 = { 0 }, s1 = { 0 };
-    uint32_t b = m->row[i];
-    const uint32_t e = m->row[i + 1];
+    sim_hm_v4 s0[NV_MAX] = { { 0 } }, s1[NV_MAX] = { { 0 } };
     for (; b + 2 <= e; b += 2) {
-        s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, x + 3 * (size_t)m->col[b]);
-        s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), x + 3 * (size_t)m->col[b + 1]);
+        const float *v0 = m->val + SIM_HM_BLOCK * (size_t)b, *v1 = v0 + SIM_HM_BLOCK;
+        const size_t c0 = 3 * (size_t)m->col[b], c1 = 3 * (size_t)m->col[b + 1];
+        for (int v = 0; v < nv; v++) s0[v] += block_mul(v0, x[v] + c0), s1[v] += block_mul(v1, x[v] + c1);
     }
-    if (b < e) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, x + 3 * (size_t)m->col[b]);
-    return s0 + s1;
-}
-
-void sim_hm_bsr_apply(const sim_hm_bsr *restrict m, const float *restrict x, float *restrict y)
-{
-    for (uint32_t i = 0; i < m->n; i++) {
-        const sim_hm_v4 s = row_mul(m, i, x);
-        y[3 * i] = s[0], y[3 * i + 1] = s[1], y[3 * i + 2] = s[2];
-    }
-}
-
-void sim_hm_bsr_row_apply(const sim_hm_bsr *m, uint32_t i, const float *x, float y[3])
-{
-    const sim_hm_v4 s = row_mul(m, i, x);
-    y[0] = s[0], y[1] = s[1], y[2] = s[2];
-}
-
-/* The symmetric block p (xx yy zz xy xz yz) times a. */
-static inline sim_hm_v4 sym_mul(const float *p, sim_hm_v4 a)
-{
-    return (sim_hm_v4){ p[0] * a[0] + p[3] * a[1] + p[4] * a[2], p[3] * a[0] + p[1] * a[1] + p[5] * a[2],
-                        p[4] * a[0] + p[5] * a[1] + p[2] * a[2], 0.0f };
+    if (b < e)
+        for (int v = 0; v < nv; v++) s0[v] += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, x[v] + 3 * (size_t)m->col[b]);
+    for (int v = 0; v < nv; v++) out[v] = s0[v] + s1[v];
 }
 
 static inline void store3(float *y, sim_hm_v4 a) { y[0] = a[0], y[1] = a[1], y[2] = a[2]; }
 
-void sim_hm_bsr_lower_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t)
+/* y[v] = A x[v] for nv vectors in one pass. */
+static inline void apply_n(const sim_hm_bsr *m, int nv, const float *const *x, float *const *y)
 {
     for (uint32_t i = 0; i < m->n; i++) {
-        float *ti = t + 3 * (size_t)i;
+        sim_hm_v4 s[NV_MAX];
+        rows_mul(m, m->row[i], m->row[i + 1], nv, x, s);
+        for (int v = 0; v < nv; v++) store3(y[v] + 3 * (size_t)i, s[v]);
+    }
+}
+
+void sim_hm_bsr_apply(const sim_hm_bsr *m, const float *x, float *y) { apply_n(m, 1, &x, &y); }
+
+void sim_hm_bsr_apply3(const sim_hm_bsr *m, const float *const x[3], float *const y[3]) { apply_n(m, 3, x, y); }
+
+void sim_hm_bsr_row_apply(const sim_hm_bsr *m, uint32_t i, const float *x, float y[3])
+{
+    sim_hm_v4 s;
+    rows_mul(m, m->row[i], m->row[i + 1], 1, &x, &s);
+    store3(y, s);
+}
+
+/* The symmetric block p (xx yy zz xy xz yz) times a, as its columns times a's lanes (the same
+ * sums in the same order per lane, in vector operations). */
+static inline sim_hm_v4 sym_mul(const float *p, sim_hm_v4 a)
+{
+    const sim_hm_v4 c0 = { p[0], p[3], p[4], 0.0f }, c1 = { p[3], p[1], p[5], 0.0f }, c2 = { p[4], p[5], p[2], 0.0f };
+    return (c0 * a[0] + c1 * a[1]) + c2 * a[2];
+}
+
+/* The forward sweep t[v] = (D + L)^-1 r[v] for nv vectors in one pass (t[v] may be r[v]). */
+static inline void lower_n(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, int nv, const float *const *r,
+                           float *const *t)
+{
+    for (uint32_t i = 0; i < m->n; i++) {
         if (fixed[i]) {
-            ti[0] = ti[1] = ti[2] = 0.0f;
+            for (int v = 0; v < nv; v++) store3(t[v] + 3 * (size_t)i, (sim_hm_v4){ 0 });
             continue;
         }
-        sim_hm_v4 s0 = { 0 }, s1 = { 0 };
-        uint32_t b = m->row[i];
-        for (; b + 2 <= m->diag[i]; b += 2) {
-            s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
-            s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
+        sim_hm_v4 s[NV_MAX];
+        rows_mul(m, m->row[i], m->diag[i], nv, (const float *const *)t, s);
+        for (int v = 0; v < nv; v++) {
+            const float *ri = r[v] + 3 * (size_t)i;
+            store3(t[v] + 3 * (size_t)i, sym_mul(dinv + 6 * (size_t)i, (sim_hm_v4){ ri[0], ri[1], ri[2], 0.0f } - s[v]));
         }
-        if (b < m->diag[i]) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
-        const float *ri = r + 3 * (size_t)i;
-        store3(ti, sym_mul(dinv + 6 * (size_t)i, (sim_hm_v4){ ri[0], ri[1], ri[2], 0.0f } - (s0 + s1)));
     }
+}
+
+void sim_hm_bsr_lower_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t)
+{
+    lower_n(m, dinv, fixed, 1, &r, &t);
+}
+
+void sim_hm_bsr_lower_solve3(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, float *const t[3])
+{
+    lower_n(m, dinv, fixed, 3, (const float *const *)t, t);
 }
 
 void sim_hm_bsr_upper_solve(const sim_hm_bsr *m, const float *dinv, const uint8_t *fixed, const float *r, float *t,
@@ -149,21 +173,15 @@ void sim_hm_bsr_upper_solve(const sim_hm_bsr *m, const float *dinv, const uint8_
 {
     for (uint32_t i = m->n; i-- > 0;) {
         float *ti = t + 3 * (size_t)i;
-        sim_hm_v4 s0 = { 0 }, s1 = { 0 };
+        sim_hm_v4 s = { 0 };
         if (!fixed[i]) {
-            uint32_t b = m->diag[i] + 1;
-            for (; b + 2 <= m->row[i + 1]; b += 2) {
-                s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
-                s1 += block_mul(m->val + SIM_HM_BLOCK * (size_t)(b + 1), t + 3 * (size_t)m->col[b + 1]);
-            }
-            if (b < m->row[i + 1]) s0 += block_mul(m->val + SIM_HM_BLOCK * (size_t)b, t + 3 * (size_t)m->col[b]);
-            s0 += s1;
+            rows_mul(m, m->diag[i] + 1, m->row[i + 1], 1, (const float *const *)&t, &s);
             const float *ri = r + 3 * (size_t)i;
-            store3(ti, sym_mul(dinv + 6 * (size_t)i, (sim_hm_v4){ ri[0], ri[1], ri[2], 0.0f } - s0));
+            store3(ti, sym_mul(dinv + 6 * (size_t)i, (sim_hm_v4){ ri[0], ri[1], ri[2], 0.0f } - s));
         } else {
             ti[0] = ti[1] = ti[2] = 0.0f;
         }
-        if (u) store3(u + 3 * (size_t)i, s0);
+        if (u) store3(u + 3 * (size_t)i, s);
     }
 }
 

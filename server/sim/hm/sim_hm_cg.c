@@ -89,18 +89,6 @@ static void sys_diag(const sim_hm *h, const float *x, float *y) { sim_hm_bsr_dia
 
 static const split_ops sys_ops = { sys_lower, sys_upper, sys_diag };
 
-/* The free rows' preconditioned residual of A vn = rhs at x (fixed rows at z): r = (D + L)^-1 of
- * it, out = D r; returns their dot product. Uses h->q. */
-static double residual_at(sim_hm *h, const float *x, float *r, float *out)
-{
-    const size_t n3 = 3 * (size_t)h->n;
-    sim_hm_bsr_apply(&h->bsr, x, h->q);
-    for (size_t i = 0; i < n3; i++) r[i] = h->rhs[i] - h->q[i];
-    filter(h, r);
-    sys_lower(h, r, r);
-    return d_norm(h, &sys_ops, r, out);
-}
-
 int sim_hm_cg(sim_hm *h)
 {
     const size_t n3 = 3 * (size_t)h->n;
@@ -110,7 +98,6 @@ int sim_hm_cg(sim_hm *h)
      * head is then calm and that residual tiny (31 iterations a solve at 2,304 vertices against
      * 13, 3.75-4.0 ms a frame against main's 2.8-3.0) */
     for (size_t j = 0; j < n3; j++) h->xh[j] = h->fixed[j / 3] ? h->z[j] : 0.0f;
-    const double stop = residual_at(h, h->xh, h->r, h->w) * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
     /* vn = the cold start z (moving with the head); s = v plus the last solve's change, less z, on
      * the free rows (the warm start is cold + s) */
     for (size_t j = 0; j < n3; j++) {
@@ -124,18 +111,25 @@ int sim_hm_cg(sim_hm *h)
         const float sn = si[0] * n[0] + si[1] * n[1] + si[2] * n[2];
         for (int c = 0; c < 3; c++) si[c] -= sn * n[c];
     }
-    const double cold = residual_at(h, h->vn, h->r, h->w);
-    sim_hm_bsr_apply(&h->bsr, h->s, h->q);
-    filter(h, h->q);
-    sys_lower(h, h->q, h->q);
-    for (size_t i = 0; i < n3; i++) h->q[i] = h->r[i] - h->q[i];
-    double delta = d_norm(h, &sys_ops, h->q, h->c);
+    /* in one pass over the blocks each: r = rhs - A xh (the stop's), w = rhs - A z (the cold
+     * start's) and q = A s on the free rows, then each swept by (D + L)^-1 */
+    const float *const in[3] = { h->xh, h->vn, h->s };
+    float *const out[3] = { h->r, h->w, h->q };
+    sim_hm_bsr_apply3(&h->bsr, in, out);
+    for (size_t i = 0; i < n3; i++) h->r[i] = h->rhs[i] - h->r[i], h->w[i] = h->rhs[i] - h->w[i];
+    filter(h, h->r), filter(h, h->w), filter(h, h->q);
+    sim_hm_bsr_lower_solve3(&h->bsr, h->pinv, h->fixed, out);
+    const double stop = d_norm(h, &sys_ops, h->r, h->c) * (double)h->p.hm.cg_tolerance * (double)h->p.hm.cg_tolerance;
+    const double cold = d_norm(h, &sys_ops, h->w, h->c);
+    for (size_t i = 0; i < n3; i++) h->q[i] = h->w[i] - h->q[i];
+    double delta = d_norm(h, &sys_ops, h->q, h->xh);
     if (delta < cold) { /* the warm start is nearer: vn = cold + s, r' = its residual */
         for (size_t i = 0; i < n3; i++) h->vn[i] += h->s[i];
         memcpy(h->r, h->q, n3 * sizeof *h->r);
+        memcpy(h->c, h->xh, n3 * sizeof *h->c);
     } else {
         delta = cold;
-        memcpy(h->c, h->w, n3 * sizeof *h->c);
+        memcpy(h->r, h->w, n3 * sizeof *h->r);
     }
     const int it = split_cg(h, &sys_ops, delta, stop, h->vn);
     for (size_t j = 0; j < n3; j++) h->dvp[j] = h->vn[j] - h->v[j];

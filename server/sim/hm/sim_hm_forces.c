@@ -25,11 +25,13 @@ static void invert_block(float *p)
 /* Row r's condition C with gradient g (its vertices', sim_hm_rows), stiffness k and damping kd
  * (per unit mass, already scaled to the condition): the elastic force -k C g and the damper
  * -kd g (g . (v - z)) on the velocity less the head's rigid motion go to the right side as
- * dt (-k C + kd g . z) g (the damper's g . v part is A's: w = dt kd + dt^2 k). */
+ * dt (-k C + kd g . z) g (the damper's g . v part is A's: w = dt kd + dt^2 k); and A's blocks
+ * w g_j g_k^T (column c of (j, k) = (w g_k[c]) g_j), assembled at once (the same order per block
+ * as a separate pass, one visit of the row's data). */
 static void condition(sim_hm *h, uint32_t r, float C, float k, float kd, float dt)
 {
     sim_hm_rows *rw = &h->rows;
-    const uint32_t *id = rw->v + 4 * (size_t)r;
+    const uint32_t *id = rw->v + 4 * (size_t)r, *at = rw->at + 16 * (size_t)r;
     const float *g = rw->g + 12 * (size_t)r;
     float gz = 0.0f;
     for (int j = 0; j < rw->nv[r]; j++) {
@@ -41,7 +43,66 @@ static void condition(sim_hm *h, uint32_t r, float C, float k, float kd, float d
         float *rj = h->rhs + 3 * (size_t)id[j];
         rj[0] += s * g[3 * j], rj[1] += s * g[3 * j + 1], rj[2] += s * g[3 * j + 2];
     }
-    rw->w[r] = dt * kd + dt * dt * k;
+    const float w = rw->w[r] = dt * kd + dt * dt * k;
+    sim_hm_v4 gv4[4];
+    for (int j = 0; j < 4; j++) gv4[j] = (sim_hm_v4){ g[3 * j], g[3 * j + 1], g[3 * j + 2], 0.0f };
+    for (int k4 = 0; k4 < 4; k4++) {
+        const float w0 = w * g[3 * k4], w1 = w * g[3 * k4 + 1], w2 = w * g[3 * k4 + 2];
+        for (int j = 0; j < 4; j++)
+            sim_hm_block_add(h->bsr.val + SIM_HM_BLOCK * (size_t)at[4 * j + k4], w0 * gv4[j], w1 * gv4[j], w2 * gv4[j]);
+    }
+}
+
+/* Triangle t's 3 rows (stretch along u, along v, shear: rows 3 t + c) with condition values C and
+ * gradients g (9 each), their stiffnesses and dampings scaled as cloth says: as condition for each (the right side's
+ * terms in row order per vertex), then the stretched sides' second derivative under tension
+ * (BW98: a cu_i cu_j (I - w w^T) / |w|, SPD under tension; its -b g g^T / a^2 part goes into the
+ * rows' weights, b_u and b_v kept in tri_b) and the 9 blocks sum_c w_c g_c,j g_c,k^T +
+ * (b_u cu_j cu_k + b_v cv_j cv_k) I. */
+static void triangle(sim_hm *h, uint32_t t, const float C[3], const float g[3][9], float dt)
+{
+    sim_hm_cloth *cl = &h->cloth;
+    const float ks = h->p.hm.stretch_stiffness, kh = h->p.hm.shear_stiffness, kdp = h->p.hm.damping;
+    const float *sc = cl->tri_s + 3 * (size_t)t;
+    const float k[3] = { ks * sc[0], ks * sc[1], kh * sc[2] }, kd[3] = { kdp * sc[0], kdp * sc[1], kdp * sc[2] };
+    sim_hm_rows *rw = &h->rows;
+    const uint32_t r = 3 * t, *id = rw->v + 4 * (size_t)r, *at = rw->at + 16 * (size_t)r;
+    float *w = rw->w + r, s[3];
+    for (int c = 0; c < 3; c++) memcpy(rw->g + 12 * (size_t)(r + c), g[c], sizeof g[c]); /* the 4th vertex's 3 unused */
+    const float *z[3] = { h->z + 3 * (size_t)id[0], h->z + 3 * (size_t)id[1], h->z + 3 * (size_t)id[2] };
+    for (int c = 0; c < 3; c++) {
+        float gz = 0.0f;
+        for (int j = 0; j < 3; j++) gz += g[c][3 * j] * z[j][0] + g[c][3 * j + 1] * z[j][1] + g[c][3 * j + 2] * z[j][2];
+        s[c] = dt * (kd[c] * gz - k[c] * C[c]);
+        w[c] = dt * kd[c] + dt * dt * k[c];
+    }
+    for (int j = 0; j < 3; j++) {
+        float *rj = h->rhs + 3 * (size_t)id[j];
+        for (int c = 0; c < 3; c++) rj[0] += s[c] * g[c][3 * j], rj[1] += s[c] * g[c][3 * j + 1], rj[2] += s[c] * g[c][3 * j + 2];
+    }
+    const float a = cl->tri_a[t], inv_a = 1.0f / a;
+    for (int c = 0; c < 2; c++) {
+        const float len = C[c] * inv_a + 1.0f, b = C[c] > 0.0f ? dt * dt * ks * sc[c] * C[c] * a / len : 0.0f;
+        cl->tri_b[2 * t + c] = b;
+        w[c] -= b * inv_a * inv_a;
+    }
+    const float bu = cl->tri_b[2 * t], bv = cl->tri_b[2 * t + 1];
+    float cu[3], cv[3];
+    sim_hm_bw_coefficients(cl->tri_c + 4 * (size_t)t, cu, cv);
+    sim_hm_v4 gv[3][3];
+    for (int q = 0; q < 3; q++)
+        for (int j = 0; j < 3; j++) gv[q][j] = (sim_hm_v4){ g[q][3 * j], g[q][3 * j + 1], g[q][3 * j + 2], 0.0f };
+    for (int kk = 0; kk < 3; kk++)
+        for (int j = 0; j < 3; j++) {
+            const float d = bu * cu[j] * cu[kk] + bv * cv[j] * cv[kk];
+            sim_hm_v4 col[3];
+            for (int c = 0; c < 3; c++) {
+                sim_hm_v4 e = { 0.0f, 0.0f, 0.0f, 0.0f };
+                e[c] = d;
+                col[c] = e + (w[0] * gv[0][kk][c]) * gv[0][j] + (w[1] * gv[1][kk][c]) * gv[1][j] + (w[2] * gv[2][kk][c]) * gv[2][j];
+            }
+            sim_hm_block_add(h->bsr.val + SIM_HM_BLOCK * (size_t)at[4 * j + kk], col[0], col[1], col[2]);
+        }
 }
 
 /* The triangles' stretch and shear (BW98 eq. 10-11) and the bends (eq. 12, C = theta - theta0).
@@ -53,25 +114,14 @@ static void cloth(sim_hm *h, float dt)
 {
     sim_hm_cloth *cl = &h->cloth;
     sim_hm_rows *rw = &h->rows;
-    const float ks = h->p.hm.stretch_stiffness, kh = h->p.hm.shear_stiffness, kb = h->p.hm.bend_stiffness;
-    const float kd = h->p.hm.damping;
+    const float kb = h->p.hm.bend_stiffness, kd = h->p.hm.damping;
     const float *x = h->x;
     for (uint32_t t = 0; t < cl->ntri; t++) {
-        const uint32_t r = 3 * t, *id = rw->v + 4 * (size_t)r;
+        const uint32_t *id = rw->v + 4 * (size_t)(3 * t);
         float C[3], g[3][9];
         sim_hm_bw_stretch_shear(x + 3 * (size_t)id[0], x + 3 * (size_t)id[1], x + 3 * (size_t)id[2], cl->tri_c + 4 * (size_t)t,
                                 cl->tri_a[t], C, g);
-        const float a = cl->tri_a[t], inv_a = 1.0f / a, k[3] = { ks, ks, kh };
-        const float *sc = cl->tri_s + 3 * (size_t)t;
-        for (int c = 0; c < 3; c++) {
-            memcpy(rw->g + 12 * (size_t)(r + c), g[c], sizeof g[c]);
-            condition(h, r + c, C[c], k[c] * sc[c], kd * sc[c], dt);
-        }
-        for (int c = 0; c < 2; c++) { /* a stretched side's d2C/dx2 = a cu_i cu_j (I - w w^T) / |w| (SPD under tension) */
-            const float len = C[c] * inv_a + 1.0f, s = C[c] > 0.0f ? dt * dt * ks * sc[c] * C[c] * a / len : 0.0f;
-            cl->tri_b[2 * t + c] = s;
-            rw->w[r + c] -= s * inv_a * inv_a;
-        }
+        triangle(h, t, C, g, dt);
     }
     for (uint32_t b = 0; b < cl->nbend; b++) {
         const uint32_t r = rw->bend0 + b, *id = rw->v + 4 * (size_t)r;
@@ -129,48 +179,7 @@ static void dampers(sim_hm *h, float dt)
         }
         float *da = val + SIM_HM_BLOCK * (size_t)h->bsr.diag[a], *db = val + SIM_HM_BLOCK * (size_t)h->bsr.diag[b];
         float *ab = val + SIM_HM_BLOCK * (size_t)d->at[2 * i], *ba = val + SIM_HM_BLOCK * (size_t)d->at[2 * i + 1];
-        for (int k = 0; k < 3; k++) da[5 * k] += c, db[5 * k] += c, ab[5 * k] -= c, ba[5 * k] -= c;
-    }
-}
-
-/* Every row's blocks w g_j g_k^T (column c of (j, k) = (w g_k[c]) g_j) and the triangles'
- * (b_u cu_j cu_k + b_v cv_j cv_k) I. */
-static void assemble(sim_hm *h)
-{
-    const sim_hm_rows *rw = &h->rows;
-    const sim_hm_cloth *cl = &h->cloth;
-    for (uint32_t t = 0; t < cl->ntri; t++) { /* a triangle's 3 rows and its tension term in one pass */
-        const float bu = cl->tri_b[2 * t], bv = cl->tri_b[2 * t + 1];
-        float cu[3], cv[3];
-        sim_hm_bw_coefficients(cl->tri_c + 4 * (size_t)t, cu, cv);
-        const uint32_t r = 3 * t, *at = rw->at + 16 * (size_t)r;
-        const float *g = rw->g + 12 * (size_t)r, *w = rw->w + r;
-        sim_hm_v4 gv[3][3];
-        for (int q = 0; q < 3; q++)
-            for (int j = 0; j < 3; j++) gv[q][j] = (sim_hm_v4){ g[12 * q + 3 * j], g[12 * q + 3 * j + 1], g[12 * q + 3 * j + 2], 0.0f };
-        for (int k = 0; k < 3; k++)
-            for (int j = 0; j < 3; j++) {
-                sim_hm_v4 *col = (sim_hm_v4 *)(h->bsr.val + SIM_HM_BLOCK * (size_t)at[4 * j + k]);
-                const float d = bu * cu[j] * cu[k] + bv * cv[j] * cv[k];
-                for (int c = 0; c < 3; c++) {
-                    sim_hm_v4 e = { 0.0f, 0.0f, 0.0f, 0.0f };
-                    e[c] = d;
-                    col[c] += e + (w[0] * gv[0][k][c]) * gv[0][j] + (w[1] * gv[1][k][c]) * gv[1][j] + (w[2] * gv[2][k][c]) * gv[2][j];
-                }
-            }
-    }
-    for (uint32_t r = rw->bend0; r < rw->n; r++) {
-        const float *g = rw->g + 12 * (size_t)r, w = rw->w[r];
-        const uint32_t *at = rw->at + 16 * (size_t)r;
-        sim_hm_v4 gv4[4];
-        for (int j = 0; j < 4; j++) gv4[j] = (sim_hm_v4){ g[3 * j], g[3 * j + 1], g[3 * j + 2], 0.0f };
-        for (int k = 0; k < 4; k++) {
-            const float w0 = w * g[3 * k], w1 = w * g[3 * k + 1], w2 = w * g[3 * k + 2];
-            for (int j = 0; j < 4; j++) {
-                sim_hm_v4 *col = (sim_hm_v4 *)(h->bsr.val + SIM_HM_BLOCK * (size_t)at[4 * j + k]);
-                col[0] += w0 * gv4[j], col[1] += w1 * gv4[j], col[2] += w2 * gv4[j];
-            }
-        }
+        for (int k = 0; k < 3; k++) da[4 * k] += c, db[4 * k] += c, ab[4 * k] -= c, ba[4 * k] -= c;
     }
 }
 
@@ -187,22 +196,21 @@ void sim_hm_forces(sim_hm *h, const float accel[3], float dt)
         float *r = h->rhs + 3 * (size_t)i, *d = h->bsr.val + SIM_HM_BLOCK * (size_t)h->bsr.diag[i];
         const float *v = h->v + 3 * (size_t)i, *z = h->z + 3 * (size_t)i;
         for (int k = 0; k < 3; k++) r[k] = v[k] + dt * (accel[k] + swing * z[k]);
-        d[0] = d[5] = d[10] = h->diag;
+        d[0] = d[4] = d[8] = h->diag;
     }
     cloth(h, dt);
     volumes(h, dt);
-    assemble(h);
     dampers(h, dt);
     for (uint32_t i = 0; i < h->n; i++) {
         const float *d = h->bsr.val + SIM_HM_BLOCK * (size_t)h->bsr.diag[i];
         float *p = h->pinv + 6 * (size_t)i;
-        p[0] = d[0], p[1] = d[5], p[2] = d[10], p[3] = d[4], p[4] = d[8], p[5] = d[9];
+        p[0] = d[0], p[1] = d[4], p[2] = d[8], p[3] = d[3], p[4] = d[6], p[5] = d[7];
         invert_block(p);
     }
 }
 
 /* Block b's column c times a 3-vector: B(:, c) . a is (B^T a)_c. */
-static float col_dot(const float *b, int c, const float n[3]) { return b[4 * c] * n[0] + b[4 * c + 1] * n[1] + b[4 * c + 2] * n[2]; }
+static float col_dot(const float *b, int c, const float n[3]) { return b[3 * c] * n[0] + b[3 * c + 1] * n[1] + b[3 * c + 2] * n[2]; }
 
 /* b = (I - n n^T) b when left, b (I - n n^T) otherwise (SIM_HM_BLOCK layout). */
 static void block_filter(float *b, const float n[3], bool left)
@@ -210,14 +218,14 @@ static void block_filter(float *b, const float n[3], bool left)
     if (left) {
         for (int c = 0; c < 3; c++) {
             const float t = col_dot(b, c, n);
-            for (int r = 0; r < 3; r++) b[4 * c + r] -= n[r] * t;
+            for (int r = 0; r < 3; r++) b[3 * c + r] -= n[r] * t;
         }
         return;
     }
     float bn[3];
-    for (int r = 0; r < 3; r++) bn[r] = b[r] * n[0] + b[4 + r] * n[1] + b[8 + r] * n[2];
+    for (int r = 0; r < 3; r++) bn[r] = b[r] * n[0] + b[3 + r] * n[1] + b[6 + r] * n[2];
     for (int c = 0; c < 3; c++)
-        for (int r = 0; r < 3; r++) b[4 * c + r] -= bn[r] * n[c];
+        for (int r = 0; r < 3; r++) b[3 * c + r] -= bn[r] * n[c];
 }
 
 /* The block (j, i) of m (the transposed position of (i, j)), found in row j's ascending columns. */
@@ -269,7 +277,7 @@ void sim_hm_filter_sliding(sim_hm *h)
             if (j == i) {
                 block_filter(val + SIM_HM_BLOCK * (size_t)k, n, false);
                 for (int c = 0; c < 3; c++)
-                    for (int r = 0; r < 3; r++) val[SIM_HM_BLOCK * (size_t)k + 4 * c + r] += n[r] * n[c];
+                    for (int r = 0; r < 3; r++) val[SIM_HM_BLOCK * (size_t)k + 3 * c + r] += n[r] * n[c];
             } else if (!h->fixed[j]) {
                 block_filter(val + SIM_HM_BLOCK * (size_t)block_at(m, j, i), n, false);
             }
@@ -279,7 +287,7 @@ void sim_hm_filter_sliding(sim_hm *h)
         if (h->stick[i] != SIM_HM_SLIDING) continue;
         const float *d = val + SIM_HM_BLOCK * (size_t)m->diag[i];
         float *p = h->pinv + 6 * (size_t)i;
-        p[0] = d[0], p[1] = d[5], p[2] = d[10], p[3] = d[4], p[4] = d[8], p[5] = d[9];
+        p[0] = d[0], p[1] = d[4], p[2] = d[8], p[3] = d[3], p[4] = d[6], p[5] = d[7];
         invert_block(p);
     }
 }
