@@ -36,6 +36,12 @@ typedef struct sim_cpu_sph {
                                 particles' offsets from their carried build positions */
     uint32_t *hist;          /* nthreads x cells: counts, then scatter cursors */
     size_t tsum[257];        /* per-thread partial sums of the prefix scan */
+    size_t tocc[257];        /* per-thread counts of occupied buckets in the prefix scan */
+    size_t occupied;         /* buckets holding particles at the last search */
+    uint64_t pass_no;        /* SPH passes completed (not the rest pass) */
+    uint64_t search_pass;    /* pass_no at the last search */
+    uint64_t beyond_pass;    /* pass_no at which an offset first passed half the skin since the last
+                                search (UINT64_MAX: none has; see lists_hold) */
     /* grid of the current pass: cells of cell_size from origin, hashed into ncells buckets */
     float origin[3], cell_size, inv_cell;
     uint32_t dims[3];

@@ -16,19 +16,28 @@
  * (1 + SPH_SKIN) h, and they are kept while no pair outside a list can have come within h (the
  * kernels are zero beyond h), unless its list was full. Offsets are measured from where the
  * head's rigid motion since the build carried each particle's build position; a pair's distance
- * has changed by at most the difference of its two offsets. On an unfolded grid (every cell its
- * own bucket) the lists are kept while every offset is below SPH_REACH h and the offsets of any
- * two particles in the same or neighbouring cells differ by at most SPH_SKIN h (lists_hold):
- * hair that swings together keeps its lists. Otherwise, while every offset is below SPH_SKIN h / 2.
- * 0.4 rather than 0.2: with SPH
- * evaluated every second step (sim_step_sph_clock) hair moves twice as far between searches, and
- * under shake and headbang the lists were rebuilt at most evaluations (SPH 8.6 -> 6.7 ms a step
- * under headbang on the default scene; 0.6 gained nothing more). */
+ * has changed by at most the difference of its two offsets. They are kept while every offset is
+ * below SPH_SKIN h / 2; past that, on an unfolded grid (every cell its own bucket), while every
+ * offset is below SPH_REACH h and the offsets of any two particles in the same or neighbouring
+ * cells differ by at most SPH_SKIN h (lists_hold): hair that swings together keeps its lists.
+ * 0.4 rather than 0.2: with SPH evaluated every second step (sim_step_sph_clock) hair moves twice
+ * as far between searches, and under shake and headbang the lists were rebuilt at most
+ * evaluations (SPH 8.6 -> 6.7 ms a step under headbang on the default scene; 0.6 gained nothing
+ * more). */
 #define SPH_SKIN 0.4f
 /* Cells are 2 (1 + SPH_SKIN) h wide, so two particles two cells apart were more than that apart
  * at the build: while no offset exceeds (2 (1 + SPH_SKIN) - 1) h / 2 = 0.9 h they have not come
  * within h, and only the cells around each one need the relative check. 1% below, for rounding. */
 #define SPH_REACH (0.99f * (1.0f + 2.0f * SPH_SKIN) / 2.0f)
+/* A search costs about this times the mean occupancy of the occupied cells as much as a kept
+ * pass's boxes and relative check (box_job, cells_check_job): 25 ms against 2.95 at 15,000 x 23,
+ * 4.3 particles a cell; 98 against 5.9 at 16,384 x 64 under shake, 10.7 a cell (2 threads). */
+#define SPH_CHECK_WORTH 1.75
+
+/* Floats of a cell's record in dbox: the low and high corners of its particles' offsets, the
+ * largest squared offset, and padding to 32 bytes. */
+#define SPH_BOX 8
+
 /* Pairs of particles the relative check of kept lists may look at one by one, per particle (see
  * cells_check_job): a search measures each particle against every slot of its 2 x 2 x 2 cells
  * (85 at 16,384 x 64), so looking at up to 16 n pairs costs a fraction of the search it spares. */
@@ -55,6 +64,8 @@ typedef struct sph_ctx {
                                position: (SPH_REACH h)^2 on an unfolded grid, (SPH_SKIN h / 2)^2
                                otherwise; a particle farther voids the lists */
     atomic_bool strayed;    /* the regather pass found a particle that strayed (the others stop) */
+    float half2;            /* (SPH_SKIN h / 2)^2: while no offset is longer, the lists hold */
+    atomic_bool beyond;     /* the regather pass found an offset longer than that */
     atomic_long look_budget; /* pairs cells_pair_close may still look at in this pass */
     float bmin[256][3], bmax[256][3];
 } sph_ctx;
@@ -118,7 +129,7 @@ static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, 
     }
     if (s->unfolded && s->dbox_cap < cells) {
         free(s->dbox);
-        s->dbox = sim_mem_alloc(cells * 6 * sizeof *s->dbox, false);
+        s->dbox = sim_mem_alloc(cells * SPH_BOX * sizeof *s->dbox, false);
         s->dbox_cap = cells;
         if (!s->dbox) {
             sim_cpu_sph_free(s);
@@ -196,10 +207,11 @@ static void scan_fill_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
     sim_cpu_sph *s = &ctx->c->sph;
-    size_t b, e, run = 0;
+    size_t b, e, run = 0, occupied = 0;
     for (int t = 0; t < tid; t++) run += s->tsum[t];
     sim_pool_range(s->ncells, tid, nt, 64, &b, &e);
     for (size_t k = b; k < e; k++) {
+        const size_t was = run;
         s->cell_start[k] = (uint32_t)run;
         for (int t = 0; t < nt; t++) {
             uint32_t *h = s->hist + (size_t)t * s->ncells + k;
@@ -207,7 +219,9 @@ static void scan_fill_job(void *vctx, int tid, int nt)
             *h = (uint32_t)run;
             run += cnt;
         }
+        occupied += run != was;
     }
+    s->tocc[tid] = occupied;
     if (tid == nt - 1) s->cell_start[s->ncells] = (uint32_t)run;
 }
 
@@ -954,51 +968,67 @@ static bool tips_strayed(const sph_ctx *ctx)
     return false;
 }
 
-/* Kept lists: refreshes the sorted copies from the current state (same slot order), cell by cell
- * of this worker's range of buckets, and sets ctx->strayed when a particle's offset from its
- * carried build position is longer than ctx->stray2 allows (or not finite). On an unfolded grid
- * it also stores each cell's box of offsets (dbox) for cells_check_job. Once one has strayed the
- * lists are rebuilt and gathered anew, so every part stops after its next SPH_STRAY_BLOCK slots. */
+/* Kept lists: refreshes the sorted copies from the current state (same slot order) and sets
+ * ctx->strayed when a particle's offset from its carried build position is longer than
+ * ctx->stray2 allows (or not finite), ctx->beyond when one is longer than ctx->half2. Once one has
+ * strayed the lists are rebuilt and gathered anew, so every part stops at its next block of
+ * SPH_STRAY_BLOCK slots. */
 static void regather_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
     sim_cpu *c = ctx->c;
     sim_cpu_sph *s = &c->sph;
     size_t b, e;
-    sim_pool_range(s->ncells, tid, nt, 1, &b, &e);
-    const size_t end = s->cell_start[e];
-    size_t looked = s->cell_start[b];
-    bool strayed = false;
-    for (size_t bucket = b; bucket < e; bucket++) {
-        const uint32_t first = s->cell_start[bucket], last = s->cell_start[bucket + 1];
-        if (first == last) continue;
-        if (first - looked >= SPH_STRAY_BLOCK) {
-            looked = first;
+    sim_pool_range(c->n, tid, nt, 64, &b, &e);
+    bool strayed = false, beyond = false;
+    for (size_t slot = b; slot < e; slot++) {
+        if ((slot - b) % SPH_STRAY_BLOCK == 0) {
             if (strayed) atomic_store_explicit(&ctx->strayed, true, memory_order_relaxed);
             if (strayed || atomic_load_explicit(&ctx->strayed, memory_order_relaxed)) return;
         }
-        float lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
+        prefetch_unsorted(s, slot, e, ctx->pos, 3, 0);
+        prefetch_unsorted(s, slot, e, ctx->prev, 3, 0);
+        const uint32_t i = s->order[slot];
+        const float x = ctx->pos[0][i], y = ctx->pos[1][i], z = ctx->pos[2][i];
+        s->sp[4 * slot] = x, s->sp[4 * slot + 1] = y, s->sp[4 * slot + 2] = z;
+        s->sv[4 * slot] = motion(ctx, 0, i), s->sv[4 * slot + 1] = motion(ctx, 1, i), s->sv[4 * slot + 2] = motion(ctx, 2, i);
+        float d[3];
+        strayed |= offset_from(ctx, x, y, z, s->sx[slot], s->sy[slot], s->sz[slot], d);
+        beyond |= !((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2] <= ctx->half2);
+    }
+    if (strayed) atomic_store_explicit(&ctx->strayed, true, memory_order_relaxed);
+    if (beyond) atomic_store_explicit(&ctx->beyond, true, memory_order_relaxed);
+}
+
+/* On an unfolded grid, after regather_job: each occupied cell's box of its particles' offsets from
+ * their carried build positions and the largest squared offset (dbox), for the cells of this
+ * worker's range of buckets. */
+static void box_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu_sph *s = &ctx->c->sph;
+    const size_t cells = (size_t)s->dims[0] * s->dims[1] * s->dims[2];
+    size_t b, e;
+    sim_pool_range(cells, tid, nt, 1, &b, &e);
+    for (size_t bucket = b; bucket < e; bucket++) {
+        const uint32_t first = s->cell_start[bucket], last = s->cell_start[bucket + 1];
+        if (first == last) continue;
+        float lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY }, far2 = 0.0f;
         for (uint32_t slot = first; slot < last; slot++) {
-            prefetch_unsorted(s, slot, end, ctx->pos, 3, 0);
-            prefetch_unsorted(s, slot, end, ctx->prev, 3, 0);
-            const uint32_t i = s->order[slot];
-            const float x = ctx->pos[0][i], y = ctx->pos[1][i], z = ctx->pos[2][i];
-            s->sp[4 * slot] = x, s->sp[4 * slot + 1] = y, s->sp[4 * slot + 2] = z;
-            s->sv[4 * slot] = motion(ctx, 0, i), s->sv[4 * slot + 1] = motion(ctx, 1, i),
-            s->sv[4 * slot + 2] = motion(ctx, 2, i);
             float d[3];
-            strayed |= offset_from(ctx, x, y, z, s->sx[slot], s->sy[slot], s->sz[slot], d);
+            offset_from(ctx, s->sp[4 * slot], s->sp[4 * slot + 1], s->sp[4 * slot + 2], s->sx[slot], s->sy[slot],
+                        s->sz[slot], d);
             for (int k = 0; k < 3; k++) {
                 lo[k] = d[k] < lo[k] ? d[k] : lo[k];
                 hi[k] = d[k] > hi[k] ? d[k] : hi[k];
             }
+            const float d2 = (d[0] * d[0] + d[1] * d[1]) + d[2] * d[2];
+            far2 = d2 > far2 ? d2 : far2;
         }
-        if (s->unfolded) {
-            float *box = s->dbox + 6 * bucket;
-            box[0] = lo[0], box[1] = lo[1], box[2] = lo[2], box[3] = hi[0], box[4] = hi[1], box[5] = hi[2];
-        }
+        float *box = s->dbox + SPH_BOX * bucket;
+        box[0] = lo[0], box[1] = lo[1], box[2] = lo[2], box[3] = hi[0], box[4] = hi[1], box[5] = hi[2];
+        box[6] = far2;
     }
-    if (strayed) atomic_store_explicit(&ctx->strayed, true, memory_order_relaxed);
 }
 
 /* True when a particle of bucket a and one of bucket b (of other strands; each pair once when a
@@ -1026,12 +1056,14 @@ static bool cells_pair_close(sph_ctx *ctx, size_t a, size_t b)
     return false;
 }
 
-/* The relative check of kept lists on an unfolded grid, for the cells of this worker's range of
- * buckets: sets ctx->strayed when a pair outside the lists may have come within h. Where the
- * offsets of the particles of two neighbouring cells (or of one cell) differ by at most SPH_SKIN h
- * (dbox), none has; where they may differ by more (a few cells of tangled hair), their pairs are
- * looked at one by one (cells_pair_close), up to SPH_LOOK_BUDGET n pairs in all. Each pair of
- * neighbouring cells is looked at once, from the cell with the lower index. */
+/* The relative check of kept lists on an unfolded grid, after box_job, for the cells of this
+ * worker's range of buckets: sets ctx->strayed when a pair outside the lists may have come within
+ * h. Two particles whose offsets are both within SPH_SKIN h / 2 are within SPH_SKIN h of each
+ * other, so only a cell with a longer offset (a hot cell) is looked at, with each of its
+ * neighbours and itself. Where the offsets of the particles of two neighbouring cells (or of one
+ * cell) differ by at most SPH_SKIN h (dbox), no pair has come within h; where they may differ by
+ * more (a few cells of tangled hair), their pairs are looked at one by one (cells_pair_close), up
+ * to SPH_LOOK_BUDGET n pairs in all. Two hot cells are looked at once, from the lower index. */
 static void cells_check_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
@@ -1039,25 +1071,24 @@ static void cells_check_job(void *vctx, int tid, int nt)
     const sim_cpu_sph *s = &c->sph;
     const float skin = SPH_SKIN * c->step.sph_h, lim2 = skin * skin;
     const size_t cells = (size_t)s->dims[0] * s->dims[1] * s->dims[2];
-    int64_t off[14];
+    int64_t off[27];
     int noff = 0;
     for (int64_t dz = -1; dz <= 1; dz++)
         for (int64_t dy = -1; dy <= 1; dy++)
-            for (int64_t dx = -1; dx <= 1; dx++) {
-                const int64_t o = (dz * (int64_t)s->dims[1] + dy) * (int64_t)s->dims[0] + dx;
-                if (o >= 0) off[noff++] = o; /* the cell itself and the 13 after it */
-            }
+            for (int64_t dx = -1; dx <= 1; dx++) off[noff++] = (dz * (int64_t)s->dims[1] + dy) * (int64_t)s->dims[0] + dx;
     size_t b, e;
     sim_pool_range(cells, tid, nt, 1, &b, &e);
     for (size_t bucket = b; bucket < e; bucket++) {
         if (s->cell_start[bucket] == s->cell_start[bucket + 1]) continue;
-        if (((bucket - b) & 1023) == 0 && atomic_load_explicit(&ctx->strayed, memory_order_relaxed)) return;
-        const float *A = s->dbox + 6 * bucket;
+        const float *A = s->dbox + SPH_BOX * bucket;
+        if (!(A[6] > ctx->half2)) continue; /* a cool cell */
+        if (atomic_load_explicit(&ctx->strayed, memory_order_relaxed)) return;
         for (int k = 0; k < noff; k++) {
             /* cells at the grid's edge (a non-finite particle's, clamped to 0) may reach past it */
             const int64_t nbk = (int64_t)bucket + off[k];
-            if (nbk >= (int64_t)cells || s->cell_start[nbk] == s->cell_start[nbk + 1]) continue;
-            const float *B = s->dbox + 6 * (size_t)nbk;
+            if (nbk < 0 || nbk >= (int64_t)cells || s->cell_start[nbk] == s->cell_start[nbk + 1]) continue;
+            const float *B = s->dbox + SPH_BOX * (size_t)nbk;
+            if (nbk < (int64_t)bucket && B[6] > ctx->half2) continue; /* two hot cells: looked at from nbk */
             float w2 = 0.0f;
             for (int a = 0; a < 3; a++) {
                 const float u = A[3 + a] - B[a], v = B[3 + a] - A[a], w = u > v ? u : v;
@@ -1133,16 +1164,29 @@ static void head_motion(core_xform a, core_xform b, float out[12])
 static bool lists_hold(sph_ctx *ctx, core_xform frame)
 {
     sim_cpu *c = ctx->c;
-    const float bound = (c->sph.unfolded ? SPH_REACH : 0.5f * SPH_SKIN) * c->step.sph_h;
+    const float half = 0.5f * SPH_SKIN * c->step.sph_h, bound = c->sph.unfolded ? SPH_REACH * c->step.sph_h : half;
     head_motion(c->sph.build_head, frame, ctx->carry);
     ctx->stray2 = bound * bound;
+    ctx->half2 = half * half;
     if (tips_strayed(ctx)) return false;
     atomic_init(&ctx->strayed, false);
+    atomic_init(&ctx->beyond, false);
     sim_pool_run_parts(&c->pool, regather_job, ctx, SPH_PARTS);
-    if (c->sph.unfolded && !atomic_load_explicit(&ctx->strayed, memory_order_relaxed)) {
-        atomic_init(&ctx->look_budget, (long)(SPH_LOOK_BUDGET * c->n));
-        sim_pool_run_parts(&c->pool, cells_check_job, ctx, SPH_PARTS);
-    }
+    if (atomic_load_explicit(&ctx->strayed, memory_order_relaxed)) return false;
+    if (!atomic_load_explicit(&ctx->beyond, memory_order_relaxed)) return true; /* within half the skin */
+    /* Past half the skin: the relative check each pass from now on, or a search that lets the
+     * passes after it go unchecked. The check while it has cost less than a search: while fewer
+     * passes than SPH_CHECK_WORTH x the cells' mean occupancy took the hair from the search to here,
+     * and as many have run the check since. Counted in passes, so a pass taken again after an
+     * abandoned one decides the same. */
+    sim_cpu_sph *s = &c->sph;
+    if (s->beyond_pass == UINT64_MAX) s->beyond_pass = s->pass_no;
+    const double worth = SPH_CHECK_WORTH * (double)c->n / (double)(s->occupied ? s->occupied : 1);
+    if ((double)(s->beyond_pass - s->search_pass) >= worth || (double)(s->pass_no - s->beyond_pass) >= worth)
+        return false;
+    sim_pool_run_parts(&c->pool, box_job, ctx, SPH_PARTS);
+    atomic_init(&ctx->look_budget, (long)(SPH_LOOK_BUDGET * c->n));
+    sim_pool_run_parts(&c->pool, cells_check_job, ctx, SPH_PARTS);
     return !atomic_load_explicit(&ctx->strayed, memory_order_relaxed);
 }
 
@@ -1178,6 +1222,8 @@ static core_status rebuild_lists(sph_ctx *ctx, core_err *err)
     sim_pool_run(&c->pool, count_job, ctx);
     sim_pool_run(&c->pool, scan_sum_job, ctx);
     sim_pool_run(&c->pool, scan_fill_job, ctx);
+    s->occupied = 0;
+    for (int t = 0; t < nt; t++) s->occupied += s->tocc[t];
     sim_pool_run(&c->pool, scatter_job, ctx);
     sim_pool_run_parts(&c->pool, gather_job, ctx, SPH_PARTS);
     sim_pool_run_parts(&c->pool, search_job, ctx, SPH_PARTS);
@@ -1196,15 +1242,13 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const prev[
     sph_ctx ctx = { .c = c, .pos = pos, .prev = prev, .inv_since = inv_since, .dt = dt, .pressure = out_mean_rho == NULL };
     sim_cpu_sph *s = &c->sph;
     const bool rebuild = !(s->lists_valid && prev && lists_hold(&ctx, frame));
-    if (out_mean_rho == NULL) {
-        c->stats.sph_passes++;
-        c->stats.sph_searches += rebuild;
-    }
     if (rebuild) {
         core_status st = rebuild_lists(&ctx, err);
         if (st != CORE_OK) return st;
         s->build_head = frame;
         s->lists_valid = out_mean_rho == NULL; /* lists of the rest pose are not reused */
+        s->search_pass = s->pass_no;
+        s->beyond_pass = UINT64_MAX;
     }
     if (sph_cancelled(c, cancellable)) return core_fail(err, CORE_ECANCELED, "step abandoned on request");
     if (!rebuild) sim_pool_run_parts(&c->pool, density_job, &ctx, SPH_PARTS); /* a rebuild's search set them */
@@ -1216,5 +1260,8 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const prev[
     }
     if (sph_cancelled(c, cancellable)) return core_fail(err, CORE_ECANCELED, "step abandoned on request");
     sim_pool_run_parts(&c->pool, force_job, &ctx, SPH_PARTS);
+    s->pass_no++; /* counted once complete, so an abandoned pass taken again counts once */
+    c->stats.sph_passes++;
+    c->stats.sph_searches += rebuild;
     return CORE_OK;
 }
