@@ -32,8 +32,9 @@ typedef struct sim_cpu_sph {
                                 the skin radius at the last build (those beyond h add nothing) */
     uint8_t *nnbr;           /* per sorted slot: entries of its nbr row */
     uint32_t *cell_start;    /* buckets + 1: first sorted slot of each bucket */
-    float *dbox;             /* per bucket (unfolded grids): the low and high corners of its
-                                particles' offsets from their carried build positions */
+    float *dbox;             /* per grid cell of an unfolded grid (its bucket), SPH_BOX floats: the
+                                low and high corners of its particles' offsets from their carried
+                                build positions and the largest squared one (sim_cpu_sph.c) */
     uint32_t *hist;          /* nthreads x cells: counts, then scatter cursors */
     size_t tsum[257];        /* per-thread partial sums of the prefix scan */
     size_t tocc[257];        /* per-thread counts of occupied buckets in the prefix scan */
@@ -46,7 +47,7 @@ typedef struct sim_cpu_sph {
     float origin[3], cell_size, inv_cell;
     uint32_t dims[3];
     size_t ncells;
-    size_t dbox_cap;         /* buckets dbox holds */
+    size_t dbox_cap;         /* grid cells dbox holds */
 } sim_cpu_sph;
 
 typedef struct sim_cpu {

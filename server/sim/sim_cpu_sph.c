@@ -127,13 +127,14 @@ static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, 
             return core_fail(err, CORE_ENOMEM, "out of memory for an SPH grid of %zu cells", cells);
         }
     }
-    if (s->unfolded && s->dbox_cap < cells) {
+    const size_t grid = (size_t)s->dims[0] * s->dims[1] * s->dims[2]; /* <= cells when unfolded */
+    if (s->unfolded && s->dbox_cap < grid) {
         free(s->dbox);
-        s->dbox = sim_mem_alloc(cells * SPH_BOX * sizeof *s->dbox, false);
-        s->dbox_cap = cells;
+        s->dbox = sim_mem_alloc(grid * SPH_BOX * sizeof *s->dbox, false);
+        s->dbox_cap = grid;
         if (!s->dbox) {
             sim_cpu_sph_free(s);
-            return core_fail(err, CORE_ENOMEM, "out of memory for the offsets of an SPH grid of %zu cells", cells);
+            return core_fail(err, CORE_ENOMEM, "out of memory for the offsets of an SPH grid of %zu cells", grid);
         }
     }
     return CORE_OK;
