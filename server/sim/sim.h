@@ -112,6 +112,9 @@ typedef struct sim_stats {
                                  over every substep since create or reset (0 on the other solvers) */
     double pbd_stretch_mean;  /* PBD: its mean over every segment and substep since create or reset
                                  (each strand's sum over a substep capped at SIM_PBD_STRETCH_CAP) */
+    uint64_t sph_passes;      /* CPU backend: SPH evaluations of this solver since create or reset */
+    uint64_t sph_searches;    /* CPU backend: those among them that searched the neighbours anew
+                                 (the others kept the lists of the last search, see sim_cpu_sph.c) */
 } sim_stats;
 
 /* Asked by a backend between the stages of a step (sim_set_cancel): true abandons the step. */

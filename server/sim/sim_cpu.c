@@ -33,6 +33,8 @@ static void cpu_reset(void *self)
     c->stats.steps = 0;
     c->stats.sim_time = 0.0;
     c->stats.nan_resets = 0;
+    c->stats.sph_passes = 0;
+    c->stats.sph_searches = 0;
 }
 
 static void cpu_destroy(void *self)

@@ -18,6 +18,9 @@ typedef struct sim_cpu_sph {
     bool lists_valid;        /* order/nbr describe the particles as of the last build, at
                                 build_head (kept while no particle strays, see sim_cpu_sph.c) */
     bool portable;           /* use the portable scalar kernels even where AVX2 ones exist */
+    bool unfolded;           /* the last build's grid has no more cells than buckets: bucket =
+                                the cell's linear index, so a cell's neighbours are found by
+                                offsets (the kept lists' relative check, see sim_cpu_sph.c) */
     core_xform build_head;   /* the head the particles moved with when the lists were built */
     uint32_t *cell;          /* hash bucket of each particle, original order */
     uint32_t *order;         /* sorted slot -> original particle index */
@@ -29,12 +32,22 @@ typedef struct sim_cpu_sph {
                                 the skin radius at the last build (those beyond h add nothing) */
     uint8_t *nnbr;           /* per sorted slot: entries of its nbr row */
     uint32_t *cell_start;    /* buckets + 1: first sorted slot of each bucket */
+    float *dbox;             /* per grid cell of an unfolded grid (its bucket), SPH_BOX floats: the
+                                low and high corners of its particles' offsets from their carried
+                                build positions and the largest squared one (sim_cpu_sph.c) */
     uint32_t *hist;          /* nthreads x cells: counts, then scatter cursors */
     size_t tsum[257];        /* per-thread partial sums of the prefix scan */
+    size_t tocc[257];        /* per-thread counts of occupied buckets in the prefix scan */
+    size_t occupied;         /* buckets holding particles at the last search */
+    uint64_t pass_no;        /* SPH passes completed (not the rest pass) */
+    uint64_t search_pass;    /* pass_no at the last search */
+    uint64_t beyond_pass;    /* pass_no at which an offset first passed half the skin since the last
+                                search (UINT64_MAX: none has; see lists_hold) */
     /* grid of the current pass: cells of cell_size from origin, hashed into ncells buckets */
     float origin[3], cell_size, inv_cell;
     uint32_t dims[3];
     size_t ncells;
+    size_t dbox_cap;         /* grid cells dbox holds */
 } sim_cpu_sph;
 
 typedef struct sim_cpu {

@@ -13,13 +13,36 @@
 /* Candidates within the skin radius kept per particle before the nearest are selected. */
 #define SPH_MAX_CANDIDATES 1024
 /* Verlet skin, in units of h: the lists hold the neighbour_cap nearest particles within
- * (1 + SPH_SKIN) h and are kept while every particle stays within SPH_SKIN h / 2 of where the
- * head's rigid motion since the build carried it: then no pair outside a list has come within
- * h (the kernels are zero beyond h), unless its list was full. 0.4 rather than 0.2: with SPH
- * evaluated every second step (sim_step_sph_clock) hair moves twice as far between searches, and
- * under shake and headbang the lists were rebuilt at most evaluations (SPH 8.6 -> 6.7 ms a step
- * under headbang on the default scene; 0.6 gained nothing more). */
+ * (1 + SPH_SKIN) h, and they are kept while no pair outside a list can have come within h (the
+ * kernels are zero beyond h), unless its list was full. Offsets are measured from where the
+ * head's rigid motion since the build carried each particle's build position; a pair's distance
+ * has changed by at most the difference of its two offsets. They are kept while every offset is
+ * below SPH_SKIN h / 2; past that, on an unfolded grid (every cell its own bucket), while every
+ * offset is below SPH_REACH h and the offsets of any two particles in the same or neighbouring
+ * cells differ by at most SPH_SKIN h (lists_hold): hair that swings together keeps its lists.
+ * 0.4 rather than 0.2: with SPH evaluated every second step (sim_step_sph_clock) hair moves twice
+ * as far between searches, and under shake and headbang the lists were rebuilt at most
+ * evaluations (SPH 8.6 -> 6.7 ms a step under headbang on the default scene; 0.6 gained nothing
+ * more). */
 #define SPH_SKIN 0.4f
+/* Cells are 2 (1 + SPH_SKIN) h wide, so two particles two cells apart were more than that apart
+ * at the build: while no offset exceeds (2 (1 + SPH_SKIN) - 1) h / 2 = 0.9 h they have not come
+ * within h, and only the cells around each one need the relative check. 1% below, for rounding. */
+#define SPH_REACH (0.99f * (1.0f + 2.0f * SPH_SKIN) / 2.0f)
+/* A search costs about this times the mean occupancy of the occupied cells as much as a kept
+ * pass's boxes and relative check (box_job, cells_check_job): 25 ms against 2.95 at 15,000 x 23,
+ * 4.3 particles a cell; 98 against 5.9 at 16,384 x 64 under shake, 10.7 a cell (2 threads). */
+#define SPH_CHECK_WORTH 1.75
+
+/* Floats of a cell's record in dbox: the low and high corners of its particles' offsets, the
+ * largest squared offset, and padding to 32 bytes. */
+#define SPH_BOX 8
+
+/* Pairs of particles the relative check of kept lists may look at one by one, per particle (see
+ * cells_check_job): a search measures each particle against every slot of its 2 x 2 x 2 cells
+ * (85 at 16,384 x 64), so looking at up to 16 n pairs costs a fraction of the search it spares. */
+#define SPH_LOOK_BUDGET 16
+
 /* Elements of padding after the sorted SoA arrays and scan buffers (two AVX2 vectors). */
 #define SPH_PAD 16
 /* Shares of the per-particle and per-cell passes, taken by whichever worker is free. */
@@ -37,9 +60,13 @@ typedef struct sph_ctx {
     float dt;
     bool pressure;          /* the selection pass also sets the pressure (not in the rest pass) */
     float carry[12];        /* rows (m0 m1 m2 t): the head's rigid motion since the lists' build */
-    float stray2;           /* (SPH_SKIN h / 2)^2: a particle farther than this from its carried
-                               build position voids the lists */
+    float stray2;           /* the squared bound on a particle's offset from its carried build
+                               position: (SPH_REACH h)^2 on an unfolded grid, (SPH_SKIN h / 2)^2
+                               otherwise; a particle farther voids the lists */
     atomic_bool strayed;    /* the regather pass found a particle that strayed (the others stop) */
+    float half2;            /* (SPH_SKIN h / 2)^2: while no offset is longer, the lists hold */
+    atomic_bool beyond;     /* the regather pass found an offset longer than that */
+    atomic_long look_budget; /* pairs cells_pair_close may still look at in this pass */
     float bmin[256][3], bmax[256][3];
 } sph_ctx;
 
@@ -58,6 +85,7 @@ void sim_cpu_sph_free(sim_cpu_sph *s)
     free(s->nnbr);
     free(s->cell_start);
     free(s->hist);
+    free(s->dbox);
     const bool portable = s->portable;
     memset(s, 0, sizeof *s);
     s->portable = portable;
@@ -97,6 +125,16 @@ static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, 
         if (!s->cell_start || !s->hist) {
             sim_cpu_sph_free(s);
             return core_fail(err, CORE_ENOMEM, "out of memory for an SPH grid of %zu cells", cells);
+        }
+    }
+    const size_t grid = (size_t)s->dims[0] * s->dims[1] * s->dims[2]; /* <= cells when unfolded */
+    if (s->unfolded && s->dbox_cap < grid) {
+        free(s->dbox);
+        s->dbox = sim_mem_alloc(grid * SPH_BOX * sizeof *s->dbox, false);
+        s->dbox_cap = grid;
+        if (!s->dbox) {
+            sim_cpu_sph_free(s);
+            return core_fail(err, CORE_ENOMEM, "out of memory for the offsets of an SPH grid of %zu cells", grid);
         }
     }
     return CORE_OK;
@@ -170,10 +208,11 @@ static void scan_fill_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
     sim_cpu_sph *s = &ctx->c->sph;
-    size_t b, e, run = 0;
+    size_t b, e, run = 0, occupied = 0;
     for (int t = 0; t < tid; t++) run += s->tsum[t];
     sim_pool_range(s->ncells, tid, nt, 64, &b, &e);
     for (size_t k = b; k < e; k++) {
+        const size_t was = run;
         s->cell_start[k] = (uint32_t)run;
         for (int t = 0; t < nt; t++) {
             uint32_t *h = s->hist + (size_t)t * s->ncells + k;
@@ -181,7 +220,9 @@ static void scan_fill_job(void *vctx, int tid, int nt)
             *h = (uint32_t)run;
             run += cnt;
         }
+        occupied += run != was;
     }
+    s->tocc[tid] = occupied;
     if (tid == nt - 1) s->cell_start[s->ncells] = (uint32_t)run;
 }
 
@@ -900,19 +941,20 @@ static void gather_job(void *vctx, int tid, int nt)
     }
 }
 
-/* True when the particle at (x, y, z) is farther than the skin allows from its build position
- * (bx, by, bz) carried by the head's motion m since the build, or not finite. */
-static inline bool strayed_from(const sph_ctx *ctx, float x, float y, float z, float bx, float by, float bz)
+/* The offset d of the particle at (x, y, z) from its build position (bx, by, bz) carried by the
+ * head's motion since the build; returns true when it is longer than ctx->stray2 allows, or not
+ * finite. */
+static inline bool offset_from(const sph_ctx *ctx, float x, float y, float z, float bx, float by, float bz, float d[3])
 {
     const float *m = ctx->carry;
-    const float dx = x - (m[0] * bx + m[1] * by + m[2] * bz + m[3]);
-    const float dy = y - (m[4] * bx + m[5] * by + m[6] * bz + m[7]);
-    const float dz = z - (m[8] * bx + m[9] * by + m[10] * bz + m[11]);
-    return !((dx * dx + dy * dy) + dz * dz <= ctx->stray2);
+    d[0] = x - (m[0] * bx + m[1] * by + m[2] * bz + m[3]);
+    d[1] = y - (m[4] * bx + m[5] * by + m[6] * bz + m[7]);
+    d[2] = z - (m[8] * bx + m[9] * by + m[10] * bz + m[11]);
+    return !((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2] <= ctx->stray2);
 }
 
 /* True when a strand's tip (the last level, which the head's motion swings the farthest) has
- * strayed (strayed_from): a look at ns particles that spares the regather pass a rebuild's
+ * strayed (offset_from): a look at ns particles that spares the regather pass a rebuild's
  * lists would throw away. Its verdict implies regather_job's, so the lists are the same. */
 static bool tips_strayed(const sph_ctx *ctx)
 {
@@ -920,16 +962,18 @@ static bool tips_strayed(const sph_ctx *ctx)
     const sim_cpu_sph *s = &c->sph;
     for (size_t i = c->n - c->ns; i < c->n; i++) {
         const uint32_t slot = s->slot_of[i];
-        if (strayed_from(ctx, ctx->pos[0][i], ctx->pos[1][i], ctx->pos[2][i], s->sx[slot], s->sy[slot], s->sz[slot]))
+        float d[3];
+        if (offset_from(ctx, ctx->pos[0][i], ctx->pos[1][i], ctx->pos[2][i], s->sx[slot], s->sy[slot], s->sz[slot], d))
             return true;
     }
     return false;
 }
 
 /* Kept lists: refreshes the sorted copies from the current state (same slot order) and sets
- * ctx->strayed when a particle is farther than the skin allows from its build position carried
- * by the head's motion (or not finite). Once one has strayed the lists are rebuilt and gathered
- * anew, so every part stops at its next block of SPH_STRAY_BLOCK slots. */
+ * ctx->strayed when a particle's offset from its carried build position is longer than
+ * ctx->stray2 allows (or not finite), ctx->beyond when one is longer than ctx->half2. Once one has
+ * strayed the lists are rebuilt and gathered anew, so every part stops at its next block of
+ * SPH_STRAY_BLOCK slots. */
 static void regather_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
@@ -937,7 +981,7 @@ static void regather_job(void *vctx, int tid, int nt)
     sim_cpu_sph *s = &c->sph;
     size_t b, e;
     sim_pool_range(c->n, tid, nt, 64, &b, &e);
-    bool strayed = false;
+    bool strayed = false, beyond = false;
     for (size_t slot = b; slot < e; slot++) {
         if ((slot - b) % SPH_STRAY_BLOCK == 0) {
             if (strayed) atomic_store_explicit(&ctx->strayed, true, memory_order_relaxed);
@@ -949,9 +993,114 @@ static void regather_job(void *vctx, int tid, int nt)
         const float x = ctx->pos[0][i], y = ctx->pos[1][i], z = ctx->pos[2][i];
         s->sp[4 * slot] = x, s->sp[4 * slot + 1] = y, s->sp[4 * slot + 2] = z;
         s->sv[4 * slot] = motion(ctx, 0, i), s->sv[4 * slot + 1] = motion(ctx, 1, i), s->sv[4 * slot + 2] = motion(ctx, 2, i);
-        strayed |= strayed_from(ctx, x, y, z, s->sx[slot], s->sy[slot], s->sz[slot]);
+        float d[3];
+        strayed |= offset_from(ctx, x, y, z, s->sx[slot], s->sy[slot], s->sz[slot], d);
+        beyond |= !((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2] <= ctx->half2);
     }
     if (strayed) atomic_store_explicit(&ctx->strayed, true, memory_order_relaxed);
+    if (beyond) atomic_store_explicit(&ctx->beyond, true, memory_order_relaxed);
+}
+
+/* On an unfolded grid, after regather_job: each occupied cell's box of its particles' offsets from
+ * their carried build positions and the largest squared offset (dbox), for the cells of this
+ * worker's range of buckets. */
+static void box_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu_sph *s = &ctx->c->sph;
+    const size_t cells = (size_t)s->dims[0] * s->dims[1] * s->dims[2];
+    size_t b, e;
+    sim_pool_range(cells, tid, nt, 1, &b, &e);
+    for (size_t bucket = b; bucket < e; bucket++) {
+        const uint32_t first = s->cell_start[bucket], last = s->cell_start[bucket + 1];
+        if (first == last) continue;
+        float lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY }, far2 = 0.0f;
+        for (uint32_t slot = first; slot < last; slot++) {
+            float d[3];
+            offset_from(ctx, s->sp[4 * slot], s->sp[4 * slot + 1], s->sp[4 * slot + 2], s->sx[slot], s->sy[slot],
+                        s->sz[slot], d);
+            for (int k = 0; k < 3; k++) {
+                lo[k] = d[k] < lo[k] ? d[k] : lo[k];
+                hi[k] = d[k] > hi[k] ? d[k] : hi[k];
+            }
+            const float d2 = (d[0] * d[0] + d[1] * d[1]) + d[2] * d[2];
+            far2 = d2 > far2 ? d2 : far2;
+        }
+        float *box = s->dbox + SPH_BOX * bucket;
+        box[0] = lo[0], box[1] = lo[1], box[2] = lo[2], box[3] = hi[0], box[4] = hi[1], box[5] = hi[2];
+        box[6] = far2;
+    }
+}
+
+/* True when a particle of bucket a and one of bucket b (of other strands; each pair once when a
+ * == b) that were farther apart than the skin radius at the build (so neither is in the other's
+ * list, SPH_SKIN) are within h now (with a margin for the kernels' rounding). Counts the pairs
+ * down from ctx->look_budget; true when it runs out. */
+static bool cells_pair_close(sph_ctx *ctx, size_t a, size_t b)
+{
+    const sim_cpu *c = ctx->c;
+    const sim_cpu_sph *s = &c->sph;
+    const float hs = c->step.sph_h * (1.0f + SPH_SKIN), hs2 = hs * hs;
+    const float near2 = c->step.sph_h * c->step.sph_h * 1.0001f;
+    const uint32_t a0 = s->cell_start[a], a1 = s->cell_start[a + 1], b1 = s->cell_start[b + 1];
+    const long pairs = (long)(a1 - a0) * (long)(b1 - s->cell_start[b]);
+    if (atomic_fetch_sub_explicit(&ctx->look_budget, pairs, memory_order_relaxed) < pairs) return true;
+    for (uint32_t i = a0; i < a1; i++) {
+        for (uint32_t j = a == b ? i + 1 : s->cell_start[b]; j < b1; j++) {
+            const float bx = s->sx[j] - s->sx[i], by = s->sy[j] - s->sy[i], bz = s->sz[j] - s->sz[i];
+            const float dx = s->sp[4 * j] - s->sp[4 * i], dy = s->sp[4 * j + 1] - s->sp[4 * i + 1],
+                        dz = s->sp[4 * j + 2] - s->sp[4 * i + 2];
+            const bool was_far = !((bx * bx + by * by) + bz * bz < hs2), near = (dx * dx + dy * dy) + dz * dz < near2;
+            if (was_far && near && s->strand[i] != s->strand[j]) return true;
+        }
+    }
+    return false;
+}
+
+/* The relative check of kept lists on an unfolded grid, after box_job, for the cells of this
+ * worker's range of buckets: sets ctx->strayed when a pair outside the lists may have come within
+ * h. Two particles whose offsets are both within SPH_SKIN h / 2 are within SPH_SKIN h of each
+ * other, so only a cell with a longer offset (a hot cell) is looked at, with each of its
+ * neighbours and itself. Where the offsets of the particles of two neighbouring cells (or of one
+ * cell) differ by at most SPH_SKIN h (dbox), no pair has come within h; where they may differ by
+ * more (a few cells of tangled hair), their pairs are looked at one by one (cells_pair_close), up
+ * to SPH_LOOK_BUDGET n pairs in all. Two hot cells are looked at once, from the lower index. */
+static void cells_check_job(void *vctx, int tid, int nt)
+{
+    sph_ctx *ctx = vctx;
+    sim_cpu *c = ctx->c;
+    const sim_cpu_sph *s = &c->sph;
+    const float skin = SPH_SKIN * c->step.sph_h, lim2 = skin * skin;
+    const size_t cells = (size_t)s->dims[0] * s->dims[1] * s->dims[2];
+    int64_t off[27];
+    int noff = 0;
+    for (int64_t dz = -1; dz <= 1; dz++)
+        for (int64_t dy = -1; dy <= 1; dy++)
+            for (int64_t dx = -1; dx <= 1; dx++) off[noff++] = (dz * (int64_t)s->dims[1] + dy) * (int64_t)s->dims[0] + dx;
+    size_t b, e;
+    sim_pool_range(cells, tid, nt, 1, &b, &e);
+    for (size_t bucket = b; bucket < e; bucket++) {
+        if (s->cell_start[bucket] == s->cell_start[bucket + 1]) continue;
+        const float *A = s->dbox + SPH_BOX * bucket;
+        if (!(A[6] > ctx->half2)) continue; /* a cool cell */
+        if (atomic_load_explicit(&ctx->strayed, memory_order_relaxed)) return;
+        for (int k = 0; k < noff; k++) {
+            /* cells at the grid's edge (a non-finite particle's, clamped to 0) may reach past it */
+            const int64_t nbk = (int64_t)bucket + off[k];
+            if (nbk < 0 || nbk >= (int64_t)cells || s->cell_start[nbk] == s->cell_start[nbk + 1]) continue;
+            const float *B = s->dbox + SPH_BOX * (size_t)nbk;
+            if (nbk < (int64_t)bucket && B[6] > ctx->half2) continue; /* two hot cells: looked at from nbk */
+            float w2 = 0.0f;
+            for (int a = 0; a < 3; a++) {
+                const float u = A[3 + a] - B[a], v = B[3 + a] - A[a], w = u > v ? u : v;
+                w2 += w * w;
+            }
+            if (!(w2 <= lim2) && cells_pair_close(ctx, bucket, (size_t)nbk)) {
+                atomic_store_explicit(&ctx->strayed, true, memory_order_relaxed);
+                return;
+            }
+        }
+    }
 }
 
 /* Density over the listed neighbours at their current distances (those beyond h add 0) for
@@ -1009,18 +1158,36 @@ static void head_motion(core_xform a, core_xform b, float out[12])
     }
 }
 
-/* True when the skin lists of the last build still hold every pair within h: no particle has
- * strayed from its build position carried by the head's motion since (frame: the head now).
- * Refreshes the sorted copies when they do. */
+/* True when the skin lists of the last build still hold every pair within h (see SPH_SKIN): no
+ * particle has strayed from its build position carried by the head's motion since (frame: the
+ * head now), nor, on an unfolded grid, from those of the particles around it. Refreshes the
+ * sorted copies when they do. */
 static bool lists_hold(sph_ctx *ctx, core_xform frame)
 {
     sim_cpu *c = ctx->c;
-    const float half_skin = 0.5f * SPH_SKIN * c->step.sph_h;
+    const float half = 0.5f * SPH_SKIN * c->step.sph_h, bound = c->sph.unfolded ? SPH_REACH * c->step.sph_h : half;
     head_motion(c->sph.build_head, frame, ctx->carry);
-    ctx->stray2 = half_skin * half_skin;
+    ctx->stray2 = bound * bound;
+    ctx->half2 = half * half;
     if (tips_strayed(ctx)) return false;
     atomic_init(&ctx->strayed, false);
+    atomic_init(&ctx->beyond, false);
     sim_pool_run_parts(&c->pool, regather_job, ctx, SPH_PARTS);
+    if (atomic_load_explicit(&ctx->strayed, memory_order_relaxed)) return false;
+    if (!atomic_load_explicit(&ctx->beyond, memory_order_relaxed)) return true; /* within half the skin */
+    /* Past half the skin: the relative check each pass from now on, or a search that lets the
+     * passes after it go unchecked. The check while it has cost less than a search: while fewer
+     * passes than SPH_CHECK_WORTH x the cells' mean occupancy took the hair from the search to here,
+     * and as many have run the check since. Counted in passes, so a pass taken again after an
+     * abandoned one decides the same. */
+    sim_cpu_sph *s = &c->sph;
+    if (s->beyond_pass == UINT64_MAX) s->beyond_pass = s->pass_no;
+    const double worth = SPH_CHECK_WORTH * (double)c->n / (double)(s->occupied ? s->occupied : 1);
+    if ((double)(s->beyond_pass - s->search_pass) >= worth || (double)(s->pass_no - s->beyond_pass) >= worth)
+        return false;
+    sim_pool_run_parts(&c->pool, box_job, ctx, SPH_PARTS);
+    atomic_init(&ctx->look_budget, (long)(SPH_LOOK_BUDGET * c->n));
+    sim_pool_run_parts(&c->pool, cells_check_job, ctx, SPH_PARTS);
     return !atomic_load_explicit(&ctx->strayed, memory_order_relaxed);
 }
 
@@ -1050,11 +1217,14 @@ static core_status rebuild_lists(sph_ctx *ctx, core_err *err)
         double cells = floor((double)(hi[k] - s->origin[k]) * s->inv_cell) + 2.0;
         s->dims[k] = cells < 1048576.0 ? (uint32_t)cells : 1048576u;
     }
+    s->unfolded = (double)s->dims[0] * s->dims[1] * (double)s->dims[2] <= (double)s->ncells;
     core_status st = sph_reserve(s, c->n, c->params.neighbor_cap, s->ncells, nt, err);
     if (st != CORE_OK) return st;
     sim_pool_run(&c->pool, count_job, ctx);
     sim_pool_run(&c->pool, scan_sum_job, ctx);
     sim_pool_run(&c->pool, scan_fill_job, ctx);
+    s->occupied = 0;
+    for (int t = 0; t < nt; t++) s->occupied += s->tocc[t];
     sim_pool_run(&c->pool, scatter_job, ctx);
     sim_pool_run_parts(&c->pool, gather_job, ctx, SPH_PARTS);
     sim_pool_run_parts(&c->pool, search_job, ctx, SPH_PARTS);
@@ -1078,6 +1248,8 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const prev[
         if (st != CORE_OK) return st;
         s->build_head = frame;
         s->lists_valid = out_mean_rho == NULL; /* lists of the rest pose are not reused */
+        s->search_pass = s->pass_no;
+        s->beyond_pass = UINT64_MAX;
     }
     if (sph_cancelled(c, cancellable)) return core_fail(err, CORE_ECANCELED, "step abandoned on request");
     if (!rebuild) sim_pool_run_parts(&c->pool, density_job, &ctx, SPH_PARTS); /* a rebuild's search set them */
@@ -1089,5 +1261,8 @@ core_status sim_cpu_sph_pass(sim_cpu *c, float *const pos[3], float *const prev[
     }
     if (sph_cancelled(c, cancellable)) return core_fail(err, CORE_ECANCELED, "step abandoned on request");
     sim_pool_run_parts(&c->pool, force_job, &ctx, SPH_PARTS);
+    s->pass_no++; /* counted once complete, so an abandoned pass taken again counts once */
+    c->stats.sph_passes++;
+    c->stats.sph_searches += rebuild;
     return CORE_OK;
 }

@@ -52,7 +52,8 @@ static void usage(void)
          "--substeps N sets the solver substeps (default 1, the paper's; the daemon's default is 4).\n"
          "--animate runs each case once per head-motion preset (none, nod, shake, circle, headbang,\n"
          "sway: the daemon's presets, from the start of the preset) instead of the default slow turn,\n"
-         "and prints each one's steps/s. The daemon's default\n"
+         "and prints each one's steps/s. C rows with SPH say how many of the timed steps' SPH passes\n"
+         "searched the neighbours anew (\"searched S/P\"; the others kept the last lists). The daemon's default\n"
          "scene in real time: --case 4096x32 --features dftl+shape+sph --substeps 4\n"
          "--animate none,nod,shake,circle,headbang,sway (60 steps/s = real time).");
 }
@@ -106,6 +107,7 @@ static int measure(const core_groom *g, int feat, sim_backend_kind backend, cons
     }
     for (int i = 0; i < 3; i++) sim_step(&s, &err); /* warm up (first SPH pass computes rest density) */
     sim_get_stats(&s, &r->stats);                   /* waits for queued GPU work */
+    const uint64_t passes0 = r->stats.sph_passes, searches0 = r->stats.sph_searches;
     unsigned long long t0 = core_now_ns();
     for (int i = 0; i < steps; i++) {
         core_xform h = core_xform_identity();
@@ -122,6 +124,8 @@ static int measure(const core_groom *g, int feat, sim_backend_kind backend, cons
     }
     sim_get_stats(&s, &r->stats); /* the GPU has finished every step when this returns */
     double sec = (double)(core_now_ns() - t0) * 1e-9;
+    r->stats.sph_passes -= passes0; /* the timed steps' */
+    r->stats.sph_searches -= searches0;
     size_t n = (size_t)g->nstrands * g->nverts;
     r->sps = steps / sec;
     r->ns_pp = sec * 1e9 / ((double)steps * (double)n);
@@ -143,6 +147,9 @@ static void print_result(const core_groom *g, int feat, const bench_opts *o, con
                o->preset >= 0 ? app_preset_names[o->preset] : "turn");
         if (vs_cpu > 0.0) printf(",\"vs_cpu\":%.3f", vs_cpu);
         if (vs_dftl > 0.0) printf(",\"vs_dftl\":%.3f", vs_dftl);
+        if (r->stats.sph_passes > 0)
+            printf(",\"sph_passes\":%llu,\"sph_searches\":%llu", (unsigned long long)r->stats.sph_passes,
+                   (unsigned long long)r->stats.sph_searches);
         if (r->stats.nstages > 0) {
             printf(",\"stage_ms\":{");
             for (int k = 0; k < r->stats.nstages; k++)
@@ -157,6 +164,9 @@ static void print_result(const core_groom *g, int feat, const bench_opts *o, con
         if (vs_cpu > 0.0) printf("  %.2fx cpu", vs_cpu);
         if (vs_dftl > 0.0) printf("  %.3fx dftl", vs_dftl);
         if (o->preset >= 0) printf("  [%s]", app_preset_names[o->preset]);
+        if (r->stats.sph_passes > 0)
+            printf("  searched %llu/%llu", (unsigned long long)r->stats.sph_searches,
+                   (unsigned long long)r->stats.sph_passes);
         printf("\n");
         if (strcmp(r->backend, "vulkan") == 0 && r->stats.nstages > 0) {
             printf("%31s", "gpu ms:");
