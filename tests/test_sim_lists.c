@@ -114,7 +114,7 @@ static void test_kept_when_moving_together(void **state)
     make(&f, 0.0f);
     sim_cpu *c = f.c;
     pass(&f);
-    assert_true(c->sph.unfolded);
+    assert_true(sim_cpu_sph_unfolded(&c->sph));
     assert_false(pass(&f)); /* nothing moved */
     const float h = c->step.sph_h;
     for (size_t i = 0; i < c->n; i++) c->x[0][i] += 0.3f * h, c->x[1][i] -= 0.4f * h;
@@ -154,7 +154,7 @@ static void test_search_when_a_pair_comes_near(void **state)
     const float h = c->step.sph_h;
     c->sph.lists_valid = false;
     pass(&f); /* searched at these positions */
-    assert_true(c->sph.unfolded);
+    assert_true(sim_cpu_sph_unfolded(&c->sph));
     const size_t i = (NV / 2) * (size_t)NS + NS / 2;
     const size_t j = other_between(c, i, 1.45f, 1.55f);
     assert_true(j != SIZE_MAX);
@@ -185,7 +185,7 @@ static void test_folded_grid_bounds_each_offset(void **state)
     make(&f, 0.001f); /* the smallest h taken */
     sim_cpu *c = f.c;
     pass(&f);
-    assert_false(c->sph.unfolded);
+    assert_false(sim_cpu_sph_unfolded(&c->sph));
     assert_false(pass(&f));
     const float h = c->step.sph_h;
     for (size_t i = 0; i < c->n; i++) c->x[0][i] += 0.1f * h;

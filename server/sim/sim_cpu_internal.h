@@ -18,9 +18,6 @@ typedef struct sim_cpu_sph {
     bool lists_valid;        /* order/nbr describe the particles as of the last build, at
                                 build_head (kept while no particle strays, see sim_cpu_sph.c) */
     bool portable;           /* use the portable scalar kernels even where AVX2 ones exist */
-    bool unfolded;           /* the last build's grid has no more cells than buckets: bucket =
-                                the cell's linear index, so a cell's neighbours are found by
-                                offsets (the kept lists' relative check, see sim_cpu_sph.c) */
     core_xform build_head;   /* the head the particles moved with when the lists were built */
     uint32_t *cell;          /* hash bucket of each particle, original order */
     uint32_t *order;         /* sorted slot -> original particle index */
@@ -49,6 +46,17 @@ typedef struct sim_cpu_sph {
     size_t ncells;
     size_t dbox_cap;         /* grid cells dbox holds */
 } sim_cpu_sph;
+
+/* The cells of the last build's SPH grid: dims[0] x dims[1] x dims[2]. */
+static inline size_t sim_cpu_sph_grid_cells(const sim_cpu_sph *s)
+{
+    return (size_t)s->dims[0] * s->dims[1] * s->dims[2];
+}
+
+/* True when the last build's grid has no more cells than buckets: bucket = the cell's linear
+ * index, so a cell's neighbours are found by offsets (the kept lists' relative check, see
+ * sim_cpu_sph.c). */
+static inline bool sim_cpu_sph_unfolded(const sim_cpu_sph *s) { return sim_cpu_sph_grid_cells(s) <= s->ncells; }
 
 typedef struct sim_cpu {
     uint32_t ns, nv;

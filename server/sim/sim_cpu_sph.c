@@ -127,8 +127,8 @@ static core_status sph_reserve(sim_cpu_sph *s, size_t n, int cap, size_t cells, 
             return core_fail(err, CORE_ENOMEM, "out of memory for an SPH grid of %zu cells", cells);
         }
     }
-    const size_t grid = (size_t)s->dims[0] * s->dims[1] * s->dims[2]; /* <= cells when unfolded */
-    if (s->unfolded && s->dbox_cap < grid) {
+    const size_t grid = sim_cpu_sph_grid_cells(s); /* <= cells when unfolded */
+    if (sim_cpu_sph_unfolded(s) && s->dbox_cap < grid) {
         free(s->dbox);
         s->dbox = sim_mem_alloc(grid * SPH_BOX * sizeof *s->dbox, false);
         s->dbox_cap = grid;
@@ -1003,14 +1003,15 @@ static void regather_job(void *vctx, int tid, int nt)
 
 /* On an unfolded grid, after regather_job: each occupied cell's box of its particles' offsets from
  * their carried build positions and the largest squared offset (dbox), for the cells of this
- * worker's range of buckets. */
+ * worker's range of buckets. The offsets are measured again here, from the refreshed sorted
+ * copies in cell order, rather than kept by the regather pass, which goes in slot parts that
+ * split cells and runs at every kept pass, while this runs only past half the skin. */
 static void box_job(void *vctx, int tid, int nt)
 {
     sph_ctx *ctx = vctx;
     sim_cpu_sph *s = &ctx->c->sph;
-    const size_t cells = (size_t)s->dims[0] * s->dims[1] * s->dims[2];
     size_t b, e;
-    sim_pool_range(cells, tid, nt, 1, &b, &e);
+    sim_pool_range(sim_cpu_sph_grid_cells(s), tid, nt, 1, &b, &e);
     for (size_t bucket = b; bucket < e; bucket++) {
         const uint32_t first = s->cell_start[bucket], last = s->cell_start[bucket + 1];
         if (first == last) continue;
@@ -1071,7 +1072,7 @@ static void cells_check_job(void *vctx, int tid, int nt)
     sim_cpu *c = ctx->c;
     const sim_cpu_sph *s = &c->sph;
     const float skin = SPH_SKIN * c->step.sph_h, lim2 = skin * skin;
-    const size_t cells = (size_t)s->dims[0] * s->dims[1] * s->dims[2];
+    const size_t cells = sim_cpu_sph_grid_cells(s);
     int64_t off[27];
     int noff = 0;
     for (int64_t dz = -1; dz <= 1; dz++)
@@ -1165,7 +1166,8 @@ static void head_motion(core_xform a, core_xform b, float out[12])
 static bool lists_hold(sph_ctx *ctx, core_xform frame)
 {
     sim_cpu *c = ctx->c;
-    const float half = 0.5f * SPH_SKIN * c->step.sph_h, bound = c->sph.unfolded ? SPH_REACH * c->step.sph_h : half;
+    const float half = 0.5f * SPH_SKIN * c->step.sph_h;
+    const float bound = sim_cpu_sph_unfolded(&c->sph) ? SPH_REACH * c->step.sph_h : half;
     head_motion(c->sph.build_head, frame, ctx->carry);
     ctx->stray2 = bound * bound;
     ctx->half2 = half * half;
@@ -1217,7 +1219,6 @@ static core_status rebuild_lists(sph_ctx *ctx, core_err *err)
         double cells = floor((double)(hi[k] - s->origin[k]) * s->inv_cell) + 2.0;
         s->dims[k] = cells < 1048576.0 ? (uint32_t)cells : 1048576u;
     }
-    s->unfolded = (double)s->dims[0] * s->dims[1] * (double)s->dims[2] <= (double)s->ncells;
     core_status st = sph_reserve(s, c->n, c->params.neighbor_cap, s->ncells, nt, err);
     if (st != CORE_OK) return st;
     sim_pool_run(&c->pool, count_job, ctx);
